@@ -1,0 +1,132 @@
+"""One exception tree for optik, rooted at :class:`OptikError` (a ``ValueError``).
+
+Every error keeps the data it is about as attributes, so callers can react to it
+without parsing the message.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+
+class OptikError(ValueError):
+    """Base class of every error raised by optik."""
+
+
+class ShapeError(OptikError):
+    """An array argument has the wrong shape."""
+
+    def __init__(self, name: str, expected: str, got: tuple[int, ...]) -> None:
+        self.name = name
+        self.expected = expected
+        self.got = tuple(got)
+        super().__init__(f"{name}: expected shape {expected}, got {self.got}")
+
+
+class NonFiniteError(OptikError):
+    """An array argument holds NaN or infinity where finite values are required."""
+
+    def __init__(self, name: str, index: tuple[int, ...] | None = None) -> None:
+        self.name = name
+        self.index = index
+        where = f" at index {index}" if index is not None else ""
+        super().__init__(f"{name}: values must be finite, found NaN or inf{where}")
+
+
+class InvalidRotationError(OptikError):
+    """A 3x3 block is not a proper rotation (orthonormal with det +1)."""
+
+    def __init__(self, name: str, orthogonality_error: float, determinant: float) -> None:
+        self.name = name
+        self.orthogonality_error = orthogonality_error
+        self.determinant = determinant
+        super().__init__(
+            f"{name}: not a rotation matrix (max |R^T R - I| = {orthogonality_error:.3g}, "
+            f"det = {determinant:.6g}; need <= 1e-6 and det = +1)"
+        )
+
+
+class ModelError(OptikError):
+    """A robot description is inconsistent (joint types, parameters, limits)."""
+
+
+class InvalidLimitsError(ModelError):
+    """A joint's lower limit exceeds its upper limit, or a limit is NaN."""
+
+    def __init__(self, joint: str, lower: float, upper: float, reason: str = "") -> None:
+        self.joint = joint
+        self.lower = lower
+        self.upper = upper
+        detail = reason or "lower > upper"
+        super().__init__(f"joint {joint!r}: invalid limits [{lower}, {upper}] ({detail})")
+
+
+class URDFError(ModelError):
+    """A URDF document cannot be turned into a serial chain."""
+
+
+class JointLimitError(OptikError):
+    """A joint value lies outside its limits."""
+
+    def __init__(self, joint: str, value: float, lower: float, upper: float) -> None:
+        self.joint = joint
+        self.value = value
+        self.lower = lower
+        self.upper = upper
+        super().__init__(
+            f"joint {joint!r}: value {value:.6g} outside its limits [{lower:.6g}, {upper:.6g}]"
+        )
+
+
+class ProblemFileError(OptikError):
+    """A problem file is malformed; the message names the file, the table and the field."""
+
+    def __init__(self, path: str, table: str, field: str, message: str) -> None:
+        self.path = path
+        self.table = table
+        self.field = field
+        self.detail = message
+        location = f"[{table}]" if table else "(top level)"
+        field_part = f" field {field!r}" if field else ""
+        super().__init__(f"{path}: {location}{field_part}: {message}")
+
+
+class SingularMatrixError(OptikError):
+    """A matrix is rank deficient (or numerically so) for the requested inverse."""
+
+    def __init__(self, condition_number: float, message: str = "") -> None:
+        self.condition_number = condition_number
+        text = message or "matrix is singular or too ill-conditioned"
+        super().__init__(f"{text} (condition number {condition_number:.3g})")
+
+
+class NoSolutionError(OptikError):
+    """A program has no feasible point; ``program`` holds it for inspection."""
+
+    def __init__(self, message: str, program: Any = None) -> None:
+        self.program = program
+        super().__init__(message)
+
+
+class UnknownSolverError(OptikError):
+    """A solver name is not registered or its backend is not installed."""
+
+    def __init__(self, name: str, available: Sequence[str], hint: str = "") -> None:
+        self.name = name
+        self.available = list(available)
+        extra = f" {hint}" if hint else ""
+        super().__init__(f"unknown solver {name!r}; installed: {', '.join(self.available)}.{extra}")
+
+
+class SolverError(OptikError):
+    """A backend raised while solving; its message is kept."""
+
+    def __init__(self, solver: str, message: str) -> None:
+        self.solver = solver
+        self.backend_message = message
+        super().__init__(f"solver {solver!r} failed: {message}")
+
+
+class AnalyticIKError(OptikError):
+    """A robot has no closed-form family, or the family does not fit the robot."""

@@ -1,0 +1,96 @@
+"""Joint limits: role defaults and validation.
+
+Limits are float arrays aligned with ``q`` (rad for revolute joints, m for prismatic),
+``-inf``/``+inf`` only for continuous revolute joints.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from optik._checks import FloatArray
+from optik.errors import InvalidLimitsError, ModelError
+
+ROLE_LIMITS_RAD: dict[str, tuple[float, float]] = {
+    "arm": (-math.radians(135.0), math.radians(135.0)),
+    "wrist": (-math.radians(90.0), math.radians(90.0)),
+    "spindle": (-math.pi, math.pi),
+}
+"""Default limits by joint role: arm 270° range, wrist 180°, drilling spindle 360°."""
+
+LIMIT_TOLERANCE = 1e-12
+"""Slack (rad or m) allowed on a bound when deciding whether ``q`` is inside the limits."""
+
+
+def resolve_limits(
+    joint: str,
+    kind: str,
+    role: str | None,
+    lower: float | None,
+    upper: float | None,
+    continuous: bool = False,
+) -> tuple[float, float]:
+    """Return validated ``(lower, upper)`` for one joint in SI units.
+
+    Args:
+        joint: joint name, for messages.
+        kind: ``"revolute"`` or ``"prismatic"``.
+        role: ``"arm"``, ``"wrist"``, ``"spindle"`` or ``None``; supplies defaults.
+        lower: stated lower limit, or ``None``.
+        upper: stated upper limit, or ``None``.
+        continuous: an unbounded revolute joint (both limits infinite).
+
+    Raises:
+        ModelError: unknown role, a prismatic joint without limits, a joint with neither
+            limits nor role, or a continuous prismatic joint.
+        InvalidLimitsError: NaN, lower > upper, or infinite limits on a bounded joint.
+    """
+    if role is not None and role not in ROLE_LIMITS_RAD:
+        raise ModelError(
+            f"joint {joint!r}: unknown role {role!r} (expected one of {sorted(ROLE_LIMITS_RAD)})"
+        )
+    if continuous:
+        if kind != "revolute":
+            raise ModelError(f"joint {joint!r}: only a revolute joint can be continuous")
+        if lower is not None or upper is not None:
+            raise ModelError(f"joint {joint!r}: a continuous joint takes no lower/upper limits")
+        return -math.inf, math.inf
+    if lower is None and upper is None:
+        if kind == "prismatic":
+            raise ModelError(f"joint {joint!r}: a prismatic joint must state its range")
+        if role is None:
+            raise ModelError(
+                f"joint {joint!r}: states neither limits nor a role (arm, wrist, spindle)"
+            )
+        return ROLE_LIMITS_RAD[role]
+    if lower is None or upper is None:
+        raise ModelError(f"joint {joint!r}: states only one of lower/upper")
+    lo, hi = float(lower), float(upper)
+    if math.isnan(lo) or math.isnan(hi):
+        raise InvalidLimitsError(joint, lo, hi, "NaN limit")
+    if lo > hi:
+        raise InvalidLimitsError(joint, lo, hi)
+    if (math.isinf(lo) or math.isinf(hi)) and (
+        kind != "revolute" or not (lo == -math.inf and hi == math.inf)
+    ):
+        raise InvalidLimitsError(
+            joint, lo, hi, "only a continuous revolute joint may have infinite limits"
+        )
+    return lo, hi
+
+
+def limit_violation(q: FloatArray, lower: FloatArray, upper: FloatArray) -> FloatArray | float:
+    """Largest distance (rad or m) by which ``q`` (or each row of a batch) leaves its limits."""
+    excess = np.maximum(np.maximum(lower - q, q - upper), 0.0)
+    out = np.max(excess, axis=-1) if excess.shape[-1] else np.zeros(excess.shape[:-1])
+    return float(out) if np.ndim(out) == 0 else out
+
+
+def within_limits(
+    q: FloatArray, lower: FloatArray, upper: FloatArray, tol: float = LIMIT_TOLERANCE
+) -> bool | FloatArray:
+    """Whether ``q`` (or each row of a batch) lies inside the limits, up to ``tol``."""
+    inside = np.all((q >= lower - tol) & (q <= upper + tol), axis=-1)
+    return bool(inside) if np.ndim(inside) == 0 else inside

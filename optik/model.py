@@ -1,0 +1,476 @@
+"""The robot model: a serial chain of revolute and prismatic joints.
+
+All constructors (:meth:`Robot.from_dh`, :meth:`Robot.from_mdh`, :meth:`Robot.from_urdf`)
+produce one internal form, the product
+``T_base_tool = K[0] M(t_1) K[1] ... M(t_n) K[n]`` evaluated by :mod:`optik._kernels`.
+
+The chain variables ``t`` are the joint coordinates ``q`` (what limits and solvers see)
+through a linear coupling ``t = C q``: the identity for ordinary arms, and passive
+joints that mimic an actuated one (``t_i = m q_j``), as in parallelogram-driven arms such
+as the DOBOT Magician, where the forearm keeps its angle to the horizontal.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+
+from optik import _kernels
+from optik._checks import FloatArray, as_float_array, check_finite, finite_array
+from optik.errors import ModelError, ShapeError
+from optik.limits import limit_violation, resolve_limits, within_limits
+from optik.spatial import as_pose, rot_x, rot_z, transform
+
+JointKind = Literal["revolute", "prismatic"]
+_KINDS = ("revolute", "prismatic")
+
+
+@dataclass(frozen=True)
+class Mimic:
+    """A passive joint driven by another: ``t = multiplier * q[joint]`` (plus its offset)."""
+
+    joint: str
+    multiplier: float = 1.0
+
+
+@dataclass(frozen=True)
+class DHJoint:
+    """One row of a (standard or modified) Denavit–Hartenberg table, SI units.
+
+    The joint variable adds to ``theta`` (revolute) or ``d`` (prismatic); the stated
+    value of that parameter is the constant offset at ``q = 0``.
+
+    Attributes:
+        a: link length (m).
+        alpha: link twist (rad).
+        d: link offset (m); the offset of a prismatic joint.
+        theta: joint angle (rad); the offset of a revolute joint.
+        kind: ``"revolute"`` or ``"prismatic"``.
+        name: joint name (default ``"j<i>"``, 1-based).
+        role: ``"arm"``, ``"wrist"``, ``"spindle"`` or ``None`` (default limits).
+        lower: lower limit (rad or m), ``None`` to use the role default.
+        upper: upper limit (rad or m), ``None`` to use the role default.
+        continuous: an unbounded revolute joint.
+        mimic: make this a passive joint driven by another joint.
+    """
+
+    a: float = 0.0
+    alpha: float = 0.0
+    d: float = 0.0
+    theta: float = 0.0
+    kind: JointKind = "revolute"
+    name: str | None = None
+    role: str | None = None
+    lower: float | None = None
+    upper: float | None = None
+    continuous: bool = False
+    mimic: Mimic | None = None
+
+
+@dataclass(frozen=True)
+class Joint:
+    """A joint coordinate of a :class:`Robot` (an entry of ``q``)."""
+
+    name: str
+    kind: JointKind
+    lower: float
+    upper: float
+    role: str | None = None
+
+
+@dataclass(frozen=True)
+class _ChainLink:
+    """A chain joint before assembly: constant ``before``, motion, link frame ``after``."""
+
+    name: str
+    kind: JointKind
+    before: FloatArray
+    after: FloatArray
+    offset: float
+    mimic: Mimic | None = None
+    role: str | None = None
+    lower: float | None = None
+    upper: float | None = None
+    continuous: bool = False
+
+
+def _tz(d: float) -> FloatArray:
+    return transform(translation=(0.0, 0.0, d))
+
+
+def _tx(a: float) -> FloatArray:
+    return transform(translation=(a, 0.0, 0.0))
+
+
+def _rz(t: float) -> FloatArray:
+    return transform(rot_z(t))
+
+
+def _rx(t: float) -> FloatArray:
+    return transform(rot_x(t))
+
+
+def _motion(kind: str, t: float) -> FloatArray:
+    return _tz(t) if kind == "prismatic" else _rz(t)
+
+
+def _as_dh_joint(row: Any, index: int) -> DHJoint:
+    if isinstance(row, DHJoint):
+        return row
+    if not isinstance(row, Mapping):
+        raise ModelError(f"DH row {index}: expected a mapping or DHJoint, got {type(row).__name__}")
+    allowed = set(DHJoint.__dataclass_fields__) | {"type"}
+    unknown = set(row) - allowed
+    if unknown:
+        raise ModelError(f"DH row {index}: unknown keys {sorted(unknown)}")
+    data = dict(row)
+    if "type" in data:
+        data["kind"] = data.pop("type")
+    mimic = data.get("mimic")
+    if isinstance(mimic, Mapping):
+        data["mimic"] = Mimic(**mimic)
+    for key in ("a", "alpha", "d", "theta"):
+        value = data.get(key, 0.0)
+        if not isinstance(value, int | float) or not math.isfinite(value):
+            raise ModelError(f"DH row {index}: {key} must be a finite number, got {value!r}")
+    return DHJoint(**data)
+
+
+def _check_kind(name: str, kind: str) -> None:
+    if kind not in _KINDS:
+        raise ModelError(f"joint {name!r}: unknown joint type {kind!r} (expected {_KINDS})")
+
+
+def _dh_links(rows: Sequence[Any], modified: bool) -> list[_ChainLink]:
+    links = []
+    for i, raw in enumerate(rows):
+        row = _as_dh_joint(raw, i)
+        name = row.name or f"j{i + 1}"
+        _check_kind(name, row.kind)
+        offset = row.d if row.kind == "prismatic" else row.theta
+        if modified:
+            # Craig: A_i = Rx(alpha_{i-1}) Tx(a_{i-1}) Rz(theta_i) Tz(d_i); the motion is
+            # about z_i after the fixed twist and length, so it comes last.
+            if row.kind == "prismatic":
+                before = _rx(row.alpha) @ _tx(row.a) @ _rz(row.theta)
+            else:
+                before = _rx(row.alpha) @ _tx(row.a) @ _tz(row.d)
+            after = np.eye(4)
+        else:
+            # Standard: A_i = Rz(theta_i) Tz(d_i) Tx(a_i) Rx(alpha_i); Rz and Tz commute,
+            # so the motion goes first and the rest is a constant link transform.
+            fixed = _tz(row.d) if row.kind == "revolute" else _rz(row.theta)
+            before = np.eye(4)
+            after = fixed @ _tx(row.a) @ _rx(row.alpha)
+        links.append(
+            _ChainLink(
+                name=name,
+                kind=row.kind,
+                before=before,
+                after=after,
+                offset=offset,
+                mimic=row.mimic,
+                role=row.role,
+                lower=row.lower,
+                upper=row.upper,
+                continuous=row.continuous,
+            )
+        )
+    return links
+
+
+class Robot:
+    """A serial robot arm: joints, limits and kinematics.
+
+    Attributes:
+        name: robot name.
+        joints: the joint coordinates, aligned with ``q``.
+        lower: lower limits (dof,), rad or m.
+        upper: upper limits (dof,), rad or m.
+        T_world_base: pose of the chain's frame 0 in the world (robot base) frame.
+        dh: the DH rows the robot was built from (``None`` for URDF), with ``convention``.
+        analytic: name of the closed-form IK family, if one is declared.
+    """
+
+    def __init__(
+        self,
+        links: Sequence[_ChainLink],
+        *,
+        name: str = "robot",
+        base: Any = None,
+        tool: Any = None,
+        dh: tuple[DHJoint, ...] | None = None,
+        convention: str = "dh",
+        analytic: str | None = None,
+    ) -> None:
+        if not links:
+            raise ModelError(f"robot {name!r}: a chain needs at least one joint")
+        T_base = np.eye(4) if base is None else as_pose("base", base)
+        T_tool = np.eye(4) if tool is None else as_pose("tool", tool)
+        names = [link.name for link in links]
+        if len(set(names)) != len(names):
+            raise ModelError(f"robot {name!r}: duplicate joint names in {names}")
+
+        actuated = [link for link in links if link.mimic is None]
+        index = {link.name: k for k, link in enumerate(actuated)}
+        coupling = np.zeros((len(links), len(actuated)))
+        joints = []
+        for link in actuated:
+            lo, hi = resolve_limits(
+                link.name, link.kind, link.role, link.lower, link.upper, link.continuous
+            )
+            joints.append(Joint(link.name, link.kind, lo, hi, link.role))
+        for i, link in enumerate(links):
+            if link.mimic is None:
+                coupling[i, index[link.name]] = 1.0
+                continue
+            if link.mimic.joint not in index:
+                raise ModelError(
+                    f"joint {link.name!r}: mimics {link.mimic.joint!r}, which is not an "
+                    f"actuated joint of {name!r} (actuated: {list(index)})"
+                )
+            if link.lower is not None or link.upper is not None:
+                raise ModelError(f"joint {link.name!r}: a mimic joint takes no limits")
+            coupling[i, index[link.mimic.joint]] = float(link.mimic.multiplier)
+
+        n = len(links)
+        K = np.empty((n + 1, 4, 4))
+        E = np.empty((n, 4, 4))
+        K[0] = T_base @ links[0].before @ _motion(links[0].kind, links[0].offset)
+        for i, link in enumerate(links):
+            nxt = (
+                links[i + 1].before @ _motion(links[i + 1].kind, links[i + 1].offset)
+                if i + 1 < n
+                else T_tool
+            )
+            K[i + 1] = link.after @ nxt
+            E[i] = link.after
+        self.name = name
+        self.joints: tuple[Joint, ...] = tuple(joints)
+        self.chain_names: tuple[str, ...] = tuple(names)
+        self.lower: FloatArray = np.array([j.lower for j in joints])
+        self.upper: FloatArray = np.array([j.upper for j in joints])
+        self.T_world_base = T_base
+        self.T_flange_tool = T_tool
+        self.dh = dh
+        self.convention = convention
+        self.analytic = analytic
+        self._K = np.ascontiguousarray(K)
+        self._E = np.ascontiguousarray(E)
+        self._prismatic = np.array([link.kind == "prismatic" for link in links])
+        self._coupling = coupling
+        self._identity_coupling = coupling.shape[0] == coupling.shape[1] and bool(
+            np.all(coupling == np.eye(n))
+        )
+        self._jac_buffer = np.empty((6, n))
+
+    # ------------------------------------------------------------------ constructors
+    @classmethod
+    def from_dh(
+        cls,
+        rows: Sequence[DHJoint | Mapping[str, Any]],
+        *,
+        limits: Any = None,
+        name: str = "robot",
+        base: Any = None,
+        tool: Any = None,
+        analytic: str | None = None,
+    ) -> Robot:
+        """Build from standard DH rows, ``A = Rz(theta) Tz(d) Tx(a) Rx(alpha)``.
+
+        Args:
+            rows: one :class:`DHJoint` (or mapping with its field names; ``type`` is
+                accepted for ``kind``) per joint, SI units and radians.
+            limits: optional ``(dof, 2)`` array of ``[lower, upper]`` overriding the rows.
+            name: robot name.
+            base: 4x4 pose of frame 0 in the world frame (default identity).
+            tool: 4x4 pose of the tool in the last link frame (default identity).
+            analytic: name of a closed-form IK family (see :mod:`optik.analytic`).
+        """
+        return cls._from_rows(rows, False, limits, name, base, tool, analytic)
+
+    @classmethod
+    def from_mdh(
+        cls,
+        rows: Sequence[DHJoint | Mapping[str, Any]],
+        *,
+        limits: Any = None,
+        name: str = "robot",
+        base: Any = None,
+        tool: Any = None,
+        analytic: str | None = None,
+    ) -> Robot:
+        """Build from modified (Craig) DH rows, ``A = Rx(alpha) Tx(a) Rz(theta) Tz(d)``.
+
+        Row ``i`` holds ``alpha_{i-1}, a_{i-1}, theta_i, d_i``. Arguments as in
+        :meth:`from_dh`.
+        """
+        return cls._from_rows(rows, True, limits, name, base, tool, analytic)
+
+    @classmethod
+    def _from_rows(
+        cls,
+        rows: Sequence[Any],
+        modified: bool,
+        limits: Any,
+        name: str,
+        base: Any,
+        tool: Any,
+        analytic: str | None,
+    ) -> Robot:
+        dh_rows = [_as_dh_joint(row, i) for i, row in enumerate(rows)]
+        if limits is not None:
+            actuated = [i for i, row in enumerate(dh_rows) if row.mimic is None]
+            lim = finite_or_inf_limits(limits, len(actuated))
+            for k, i in enumerate(actuated):
+                row = dh_rows[i]
+                dh_rows[i] = DHJoint(
+                    **{**row.__dict__, "lower": float(lim[k, 0]), "upper": float(lim[k, 1])}
+                )
+        links = _dh_links(dh_rows, modified)
+        return cls(
+            links,
+            name=name,
+            base=base,
+            tool=tool,
+            dh=tuple(dh_rows),
+            convention="mdh" if modified else "dh",
+            analytic=analytic,
+        )
+
+    @classmethod
+    def from_urdf(
+        cls,
+        source: str | Path,
+        base_link: str,
+        tip_link: str,
+        *,
+        name: str | None = None,
+        tool: Any = None,
+        analytic: str | None = None,
+    ) -> Robot:
+        """Build the chain between two links of a URDF file or string.
+
+        Fixed joints fold into the neighbouring transforms, ``continuous`` joints are
+        unbounded; mimic, floating and planar joints are rejected. See :mod:`optik.urdf`.
+        """
+        from optik.urdf import parse_urdf_chain
+
+        robot_name, links, T_last_tip = parse_urdf_chain(source, base_link, tip_link)
+        T_tip_tool = np.eye(4) if tool is None else as_pose("tool", tool)
+        return cls(
+            links,
+            name=name or robot_name,
+            tool=T_last_tip @ T_tip_tool,
+            dh=None,
+            convention="urdf",
+            analytic=analytic,
+        )
+
+    # ------------------------------------------------------------------ properties
+    @property
+    def dof(self) -> int:
+        """Number of joint coordinates (entries of ``q``)."""
+        return len(self.joints)
+
+    @property
+    def joint_names(self) -> tuple[str, ...]:
+        """Names of the joint coordinates, in ``q`` order."""
+        return tuple(j.name for j in self.joints)
+
+    @property
+    def coupling(self) -> FloatArray:
+        """``C`` with chain variables ``t = C q``, shape (chain joints, dof)."""
+        return self._coupling.copy()
+
+    @property
+    def mid_limits(self) -> FloatArray:
+        """Middle of each joint's range (0 for a continuous joint)."""
+        mid = 0.5 * (self.lower + self.upper)
+        return np.where(np.isfinite(mid), mid, 0.0)
+
+    def __repr__(self) -> str:
+        kinds = "".join("P" if j.kind == "prismatic" else "R" for j in self.joints)
+        return f"Robot(name={self.name!r}, dof={self.dof}, joints={kinds!r})"
+
+    # ------------------------------------------------------------------ kinematics
+    def check_q(self, q: Any, name: str = "q") -> FloatArray:
+        """Validate a configuration ``(dof,)`` or batch ``(N, dof)``; returns float64."""
+        return finite_array(name, q, (self.dof,), batch=True)
+
+    def _theta(self, q: FloatArray) -> FloatArray:
+        if self._identity_coupling:
+            return np.ascontiguousarray(q)
+        return np.ascontiguousarray(q @ self._coupling.T)
+
+    def fk(self, q: Any) -> FloatArray:
+        """Pose of the tool in the world frame: (4, 4), or (N, 4, 4) for q of shape (N, dof)."""
+        q = self.check_q(q)
+        theta = self._theta(q)
+        if q.ndim == 1:
+            out = np.empty((4, 4))
+            _kernels.fk_into(self._K, self._prismatic, theta, out)
+            return out
+        return _kernels.fk_batch(self._K, self._prismatic, theta)
+
+    def jacobian(self, q: Any) -> FloatArray:
+        """Geometric Jacobian (6, dof) in the world frame at the tool point; batched too.
+
+        Rows 0-2 map joint rates to the tool's linear velocity (m/s), rows 3-5 to its
+        angular velocity (rad/s).
+        """
+        return self.fk_jacobian(q)[1]
+
+    def fk_jacobian(self, q: Any) -> tuple[FloatArray, FloatArray]:
+        """Tool pose and Jacobian in one pass: ((4, 4), (6, dof)) or batched."""
+        q = self.check_q(q)
+        theta = self._theta(q)
+        if q.ndim == 1:
+            T = np.empty((4, 4))
+            J = np.empty((6, self._prismatic.shape[0]))
+            _kernels.fk_jacobian_into(self._K, self._prismatic, theta, T, J)
+        else:
+            T, J = _kernels.fk_jacobian_batch(self._K, self._prismatic, theta)
+        if not self._identity_coupling:
+            J = J @ self._coupling
+        return T, J
+
+    def frames(self, q: Any) -> FloatArray:
+        """Every frame, world-relative: frame 0, link frames 1..n, then the tool.
+
+        Returns:
+            ``(n + 2, 4, 4)`` for one configuration, where ``n`` counts chain joints
+            (``dof`` plus any mimic joints).
+        """
+        q = self.check_q(q)
+        if q.ndim != 1:
+            raise ShapeError("q", f"({self.dof},)", q.shape)
+        return _kernels.joint_frames(
+            self._K, self._prismatic, self._E, self.T_world_base, self._theta(q)
+        )
+
+    def limit_violation(self, q: Any) -> float | FloatArray:
+        """Largest excursion (rad or m) of ``q`` beyond its limits; 0 inside."""
+        return limit_violation(self.check_q(q), self.lower, self.upper)
+
+    def within_limits(self, q: Any, tol: float = 1e-12) -> bool | FloatArray:
+        """Whether ``q`` (or each row) respects the limits up to ``tol``."""
+        return within_limits(self.check_q(q), self.lower, self.upper, tol)
+
+
+def finite_or_inf_limits(limits: Any, dof: int) -> FloatArray:
+    """Validate a ``(dof, 2)`` limits array (infinities allowed, NaN rejected)."""
+    lim = as_float_array("limits", limits)
+    if lim.shape != (dof, 2):
+        raise ShapeError("limits", f"({dof}, 2)", lim.shape)
+    if np.any(np.isnan(lim)):
+        check_finite("limits", np.where(np.isinf(lim), 0.0, lim))
+    return lim
+
+
+__all__ = ["DHJoint", "Joint", "Mimic", "Robot"]

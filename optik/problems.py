@@ -1,0 +1,390 @@
+"""Problem files: robots and IK tasks as TOML data (format in docs/problems.md).
+
+:func:`load_problem` converts every length and angle to SI units once, validates every
+field, and raises :class:`~optik.errors.ProblemFileError` naming the file, the table and
+the field of the first problem it finds.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from optik._checks import FloatArray
+from optik.errors import OptikError, ProblemFileError
+from optik.model import DHJoint, Mimic, Robot
+from optik.spatial import rpy_to_matrix, transform
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover - exercised only on Python 3.10
+    import tomli as tomllib
+
+LENGTH_UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001}
+ANGLE_UNITS = {"rad": 1.0, "deg": math.pi / 180.0}
+CONVENTIONS = ("dh", "mdh", "urdf")
+DEFAULT_TOLERANCE = 1e-6
+
+
+def _problems_dir() -> Path:
+    """The built-in problems: packaged into the wheel, or the source tree's folder."""
+    packaged = Path(__file__).resolve().parent / "problems"
+    return packaged if packaged.is_dir() else Path(__file__).resolve().parent.parent / "problems"
+
+
+PROBLEMS_DIR = _problems_dir()
+
+
+@dataclass(frozen=True)
+class Target:
+    """A named IK target in SI units.
+
+    Attributes:
+        name: target name.
+        mode: ``"pose"`` (``pose`` is a full 4x4) or ``"position"`` (only its translation).
+        pose: 4x4 world pose; for position targets the rotation is the identity.
+        tolerance: accepted position error (m).
+        angle_tolerance: accepted orientation error (rad), pose targets only.
+    """
+
+    name: str
+    mode: str
+    pose: FloatArray
+    tolerance: float = DEFAULT_TOLERANCE
+    angle_tolerance: float = DEFAULT_TOLERANCE
+
+    @property
+    def position(self) -> FloatArray:
+        """Target position (3,), m."""
+        return self.pose[:3, 3].copy()
+
+
+@dataclass(frozen=True)
+class CartesianPath:
+    """A named sequence of waypoints (position-only or full poses), SI units."""
+
+    name: str
+    mode: str
+    poses: FloatArray  # (N, 4, 4)
+    tolerance: float = DEFAULT_TOLERANCE
+
+
+@dataclass(frozen=True)
+class Problem:
+    """A robot with its named targets and paths, as read from a problem file."""
+
+    name: str
+    robot: Robot
+    source: str
+    path: Path | None = None
+    description: str = ""
+    targets: dict[str, Target] = field(default_factory=dict)
+    paths: dict[str, CartesianPath] = field(default_factory=dict)
+
+
+class _Reader:
+    """Field access that reports the file, table and field of any error."""
+
+    def __init__(self, path: str) -> None:
+        self.path = path
+
+    def fail(self, table: str, name: str, message: str) -> ProblemFileError:
+        return ProblemFileError(self.path, table, name, message)
+
+    def table(self, data: Mapping[str, Any], table: str, name: str) -> Mapping[str, Any]:
+        value = data.get(name)
+        if not isinstance(value, Mapping):
+            raise self.fail(table, name, "missing or not a table")
+        return value
+
+    def string(
+        self, data: Mapping[str, Any], table: str, name: str, default: str | None = None
+    ) -> str:
+        value = data.get(name, default)
+        if not isinstance(value, str) or not value:
+            raise self.fail(table, name, f"expected a non-empty string, got {value!r}")
+        return value
+
+    def choice(
+        self, data: Mapping[str, Any], table: str, name: str, options: Any, default: str
+    ) -> str:
+        value = self.string(data, table, name, default)
+        if value not in options:
+            raise self.fail(table, name, f"{value!r} is not one of {sorted(options)}")
+        return value
+
+    def number(
+        self,
+        data: Mapping[str, Any],
+        table: str,
+        name: str,
+        default: float | None = None,
+        allow_inf: bool = False,
+    ) -> float:
+        value = data.get(name, default)
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise self.fail(table, name, f"expected a number, got {value!r}")
+        value = float(value)
+        if math.isnan(value) or (math.isinf(value) and not allow_inf):
+            raise self.fail(table, name, f"expected a finite number, got {value!r}")
+        return value
+
+    def vector(self, data: Mapping[str, Any], table: str, name: str, size: int) -> FloatArray:
+        value = data.get(name)
+        if not isinstance(value, list) or len(value) != size:
+            raise self.fail(table, name, f"expected a list of {size} numbers, got {value!r}")
+        out = np.empty(size)
+        for i, item in enumerate(value):
+            out[i] = self.number({f"{name}[{i}]": item}, table, f"{name}[{i}]")
+        return out
+
+    def check_keys(self, data: Mapping[str, Any], table: str, allowed: set[str]) -> None:
+        unknown = sorted(set(data) - allowed)
+        if unknown:
+            raise self.fail(table, unknown[0], f"unknown field (allowed: {sorted(allowed)})")
+
+
+_JOINT_KEYS = {
+    "name",
+    "type",
+    "role",
+    "a",
+    "alpha",
+    "d",
+    "theta",
+    "lower",
+    "upper",
+    "continuous",
+    "mimic",
+}
+_ROBOT_KEYS = {
+    "name",
+    "convention",
+    "length_unit",
+    "angle_unit",
+    "source",
+    "analytic",
+    "joints",
+    "base",
+    "tool",
+    "urdf",
+    "base_link",
+    "tip_link",
+    "description",
+}
+
+
+def _frame(reader: _Reader, data: Any, table: str, length: float, angle: float) -> FloatArray:
+    if not isinstance(data, Mapping):
+        raise reader.fail(table, "", "must be a table with translation and/or rpy")
+    reader.check_keys(data, table, {"translation", "rpy"})
+    p = reader.vector(data, table, "translation", 3) * length if "translation" in data else None
+    rpy = reader.vector(data, table, "rpy", 3) * angle if "rpy" in data else np.zeros(3)
+    return transform(rpy_to_matrix(*rpy), p)
+
+
+def _joint(
+    reader: _Reader, data: Any, index: int, length: float, angle: float, modified: bool
+) -> DHJoint:
+    table = f"robot.joints[{index}]"
+    if not isinstance(data, Mapping):
+        raise reader.fail(table, "", "each [[robot.joints]] entry must be a table")
+    reader.check_keys(data, table, _JOINT_KEYS)
+    name = reader.string(data, table, "name", f"j{index + 1}")
+    kind = reader.choice(data, table, "type", {"revolute", "prismatic"}, "revolute")
+    role = data.get("role")
+    if role is not None and role not in ("arm", "wrist", "spindle"):
+        raise reader.fail(table, "role", f"{role!r} is not one of arm, wrist, spindle")
+    limit_scale = length if kind == "prismatic" else angle
+    bounds: list[float | None] = []
+    for key in ("lower", "upper"):
+        if key in data:
+            bounds.append(reader.number(data, table, key, allow_inf=True) * limit_scale)
+        else:
+            bounds.append(None)
+    continuous = data.get("continuous", False)
+    if not isinstance(continuous, bool):
+        raise reader.fail(table, "continuous", f"expected true or false, got {continuous!r}")
+    mimic = None
+    if "mimic" in data:
+        m = data["mimic"]
+        if not isinstance(m, Mapping) or "joint" not in m:
+            raise reader.fail(table, "mimic", "expected { joint = <name>, multiplier = <x> }")
+        reader.check_keys(m, f"{table}.mimic", {"joint", "multiplier"})
+        mimic = Mimic(
+            reader.string(m, f"{table}.mimic", "joint"),
+            reader.number(m, f"{table}.mimic", "multiplier", 1.0),
+        )
+    del modified  # the row format is the same for both conventions
+    return DHJoint(
+        a=reader.number(data, table, "a", 0.0) * length,
+        alpha=reader.number(data, table, "alpha", 0.0) * angle,
+        d=reader.number(data, table, "d", 0.0) * length,
+        theta=reader.number(data, table, "theta", 0.0) * angle,
+        kind=kind,  # type: ignore[arg-type]
+        name=name,
+        role=role,
+        lower=bounds[0],
+        upper=bounds[1],
+        continuous=continuous,
+        mimic=mimic,
+    )
+
+
+def _robot(reader: _Reader, data: Mapping[str, Any], base_dir: Path) -> tuple[Robot, str]:
+    robot = reader.table(data, "", "robot")
+    reader.check_keys(robot, "robot", _ROBOT_KEYS)
+    name = reader.string(robot, "robot", "name")
+    convention = reader.choice(robot, "robot", "convention", CONVENTIONS, "dh")
+    length = LENGTH_UNITS[reader.choice(robot, "robot", "length_unit", LENGTH_UNITS, "m")]
+    angle = ANGLE_UNITS[reader.choice(robot, "robot", "angle_unit", ANGLE_UNITS, "rad")]
+    source = reader.string(robot, "robot", "source")
+    analytic = robot.get("analytic")
+    if analytic is not None and not isinstance(analytic, str):
+        raise reader.fail("robot", "analytic", f"expected a family name, got {analytic!r}")
+    base = _frame(reader, robot["base"], "robot.base", length, angle) if "base" in robot else None
+    tool = _frame(reader, robot["tool"], "robot.tool", length, angle) if "tool" in robot else None
+    try:
+        if convention == "urdf":
+            if "joints" in robot:
+                raise reader.fail("robot", "joints", "a urdf robot takes its joints from the file")
+            urdf = base_dir / reader.string(robot, "robot", "urdf")
+            if not urdf.is_file():
+                raise reader.fail("robot", "urdf", f"file not found: {urdf}")
+            model = Robot.from_urdf(
+                urdf,
+                reader.string(robot, "robot", "base_link"),
+                reader.string(robot, "robot", "tip_link"),
+                name=name,
+                tool=tool,
+                analytic=analytic,
+            )
+            if base is not None:
+                raise reader.fail("robot", "base", "not supported for urdf robots")
+            return model, source
+        joints = robot.get("joints")
+        if not isinstance(joints, list) or not joints:
+            raise reader.fail("robot", "joints", "expected one or more [[robot.joints]] tables")
+        rows = [
+            _joint(reader, j, i, length, angle, convention == "mdh") for i, j in enumerate(joints)
+        ]
+        build = Robot.from_mdh if convention == "mdh" else Robot.from_dh
+        return build(rows, name=name, base=base, tool=tool, analytic=analytic), source
+    except ProblemFileError:
+        raise
+    except OptikError as exc:
+        raise reader.fail("robot", "joints", str(exc)) from exc
+
+
+def _pose_from(
+    reader: _Reader, data: Mapping[str, Any], table: str, length: float, angle: float
+) -> tuple[str, FloatArray]:
+    position = reader.vector(data, table, "position", 3) * length
+    if "rpy" in data:
+        R = rpy_to_matrix(*(reader.vector(data, table, "rpy", 3) * angle))
+        return "pose", transform(R, position)
+    return "position", transform(None, position)
+
+
+def _targets(
+    reader: _Reader, data: Mapping[str, Any], length: float, angle: float
+) -> dict[str, Target]:
+    out: dict[str, Target] = {}
+    items = data.get("targets", [])
+    if not isinstance(items, list):
+        raise reader.fail("", "targets", "expected [[targets]] tables")
+    for i, item in enumerate(items):
+        table = f"targets[{i}]"
+        if not isinstance(item, Mapping):
+            raise reader.fail(table, "", "must be a table")
+        reader.check_keys(item, table, {"name", "position", "rpy", "tolerance", "angle_tolerance"})
+        name = reader.string(item, table, "name")
+        if name in out:
+            raise reader.fail(table, "name", f"duplicate target name {name!r}")
+        mode, pose = _pose_from(reader, item, table, length, angle)
+        tol = reader.number(item, table, "tolerance", DEFAULT_TOLERANCE / length) * length
+        atol = reader.number(item, table, "angle_tolerance", DEFAULT_TOLERANCE / angle) * angle
+        if tol <= 0 or atol <= 0:
+            raise reader.fail(table, "tolerance", "tolerances must be positive")
+        out[name] = Target(name, mode, pose, tol, atol)
+    return out
+
+
+def _paths(
+    reader: _Reader, data: Mapping[str, Any], length: float, angle: float
+) -> dict[str, CartesianPath]:
+    out: dict[str, CartesianPath] = {}
+    items = data.get("paths", [])
+    if not isinstance(items, list):
+        raise reader.fail("", "paths", "expected [[paths]] tables")
+    for i, item in enumerate(items):
+        table = f"paths[{i}]"
+        if not isinstance(item, Mapping):
+            raise reader.fail(table, "", "must be a table")
+        reader.check_keys(item, table, {"name", "positions", "rpy", "tolerance"})
+        name = reader.string(item, table, "name")
+        points = item.get("positions")
+        if not isinstance(points, list) or not points:
+            raise reader.fail(table, "positions", "expected a non-empty list of [x, y, z]")
+        rpys = item.get("rpy")
+        if rpys is not None and (not isinstance(rpys, list) or len(rpys) != len(points)):
+            raise reader.fail(table, "rpy", "expected one [r, p, y] per position")
+        poses = np.empty((len(points), 4, 4))
+        for k, point in enumerate(points):
+            entry: dict[str, Any] = {"position": point}
+            if rpys is not None:
+                entry["rpy"] = rpys[k]
+            _, poses[k] = _pose_from(reader, entry, f"{table}.positions[{k}]", length, angle)
+        tol = reader.number(item, table, "tolerance", DEFAULT_TOLERANCE / length) * length
+        out[name] = CartesianPath(name, "pose" if rpys else "position", poses, tol)
+    return out
+
+
+def load_problem(path: str | Path) -> Problem:
+    """Read and validate a problem file; SI units throughout the result.
+
+    Args:
+        path: a ``.toml`` file, or the name of a built-in problem (e.g. ``"puma560"``).
+
+    Raises:
+        ProblemFileError: the file is missing, not TOML, or has a bad field; the message
+            names the file, the table and the field.
+    """
+    file = Path(path)
+    if not file.is_file() and file.suffix == "" and (PROBLEMS_DIR / f"{path}.toml").is_file():
+        file = PROBLEMS_DIR / f"{path}.toml"
+    reader = _Reader(str(file))
+    if not file.is_file():
+        raise reader.fail("", "", "file not found")
+    try:
+        data = tomllib.loads(file.read_text(encoding="utf-8"))
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise reader.fail("", "", f"not valid TOML: {exc}") from exc
+    reader.check_keys(data, "", {"robot", "targets", "paths", "description"})
+    robot, source = _robot(reader, data, file.parent)
+    robot_table = data["robot"]
+    length = LENGTH_UNITS[robot_table.get("length_unit", "m")]
+    angle = ANGLE_UNITS[robot_table.get("angle_unit", "rad")]
+    description = data.get("description", "")
+    if not isinstance(description, str):
+        raise reader.fail("", "description", "expected a string")
+    return Problem(
+        name=robot.name,
+        robot=robot,
+        source=source,
+        path=file,
+        description=description,
+        targets=_targets(reader, data, length, angle),
+        paths=_paths(reader, data, length, angle),
+    )
+
+
+def builtin_problems() -> list[Path]:
+    """Paths of the problem files shipped in ``problems/``, sorted by name."""
+    return sorted(PROBLEMS_DIR.glob("*.toml"))

@@ -1,0 +1,172 @@
+"""Kinematics-only URDF reading with the standard library.
+
+optik needs only joints, their origins, axes and limits from a URDF, so it parses the
+XML with :mod:`xml.etree.ElementTree` instead of depending on a full URDF stack (meshes,
+collision geometry, trimesh). ``yourdfpy`` is an optional extra for users who want the
+rest of the file; the tests compare both where it is installed.
+"""
+
+from __future__ import annotations
+
+import math
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import numpy as np
+
+from optik._checks import FloatArray
+from optik.errors import URDFError
+from optik.model import _ChainLink
+from optik.spatial import rpy_to_matrix, transform
+
+_MOVING = {"revolute": "revolute", "continuous": "revolute", "prismatic": "prismatic"}
+_REJECTED = {"floating", "planar"}
+
+
+def _floats(text: str | None, count: int, what: str, default: tuple[float, ...]) -> FloatArray:
+    if text is None:
+        return np.array(default, dtype=float)
+    try:
+        values = [float(v) for v in text.split()]
+    except ValueError as exc:
+        raise URDFError(f"{what}: cannot read numbers from {text!r}") from exc
+    if len(values) != count or not all(math.isfinite(v) for v in values):
+        raise URDFError(f"{what}: expected {count} finite numbers, got {text!r}")
+    return np.array(values)
+
+
+def _origin(joint: ET.Element, jname: str) -> FloatArray:
+    element = joint.find("origin")
+    if element is None:
+        return np.eye(4)
+    xyz = _floats(element.get("xyz"), 3, f"joint {jname!r} origin xyz", (0.0, 0.0, 0.0))
+    rpy = _floats(element.get("rpy"), 3, f"joint {jname!r} origin rpy", (0.0, 0.0, 0.0))
+    return transform(rpy_to_matrix(*rpy), xyz)
+
+
+def _align_z(axis: FloatArray) -> FloatArray:
+    """A 4x4 rotation taking the z axis onto the unit vector ``axis``."""
+    z = np.array([0.0, 0.0, 1.0])
+    c = float(z @ axis)
+    if c > 1.0 - 1e-12:
+        return np.eye(4)
+    if c < -1.0 + 1e-12:
+        return transform(np.diag([1.0, -1.0, -1.0]))
+    v = np.cross(z, axis)
+    s = float(np.linalg.norm(v))
+    k = v / s
+    K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+    R = np.eye(3) + s * K + (1.0 - c) * K @ K
+    return transform(R)
+
+
+def _read_root(source: str | Path) -> ET.Element:
+    text: str
+    if isinstance(source, Path) or (isinstance(source, str) and "<" not in source):
+        path = Path(source)
+        if not path.is_file():
+            raise URDFError(f"URDF file not found: {path}")
+        text = path.read_text(encoding="utf-8")
+    else:
+        text = source
+    try:
+        root = ET.fromstring(text)
+    except ET.ParseError as exc:
+        raise URDFError(f"URDF is not well-formed XML: {exc}") from exc
+    if root.tag != "robot":
+        raise URDFError(f"URDF root element is <{root.tag}>, expected <robot>")
+    return root
+
+
+def parse_urdf_chain(
+    source: str | Path, base_link: str, tip_link: str
+) -> tuple[str, list[_ChainLink], FloatArray]:
+    """Read the serial chain from ``base_link`` to ``tip_link``.
+
+    Returns:
+        The robot's name, the chain joints (fixed joints folded into the constant
+        transform before the next moving joint), and the fixed 4x4 transform from the
+        last moving joint's child link to ``tip_link``. Each moving joint's axis is
+        aligned with z by a constant rotation before it and its inverse after it.
+
+    Raises:
+        URDFError: unreadable file, unknown links, no path between the links, a mimic,
+            floating or planar joint on the path, a zero axis, or missing limits.
+    """
+    root = _read_root(source)
+    links = {el.get("name") for el in root.findall("link")}
+    for link in (base_link, tip_link):
+        if link not in links:
+            raise URDFError(f"link {link!r} not in the URDF (links: {sorted(map(str, links))})")
+    by_child: dict[str, ET.Element] = {}
+    for joint in root.findall("joint"):
+        child = joint.find("child")
+        if child is None or child.get("link") is None:
+            raise URDFError(f"joint {joint.get('name')!r} has no <child link=...>")
+        by_child[str(child.get("link"))] = joint
+
+    path: list[ET.Element] = []
+    link = tip_link
+    while link != base_link:
+        found = by_child.get(link)
+        if found is None:
+            raise URDFError(f"no kinematic path from {base_link!r} to {tip_link!r}")
+        joint = found
+        path.append(joint)
+        parent = joint.find("parent")
+        if parent is None or parent.get("link") is None:
+            raise URDFError(f"joint {joint.get('name')!r} has no <parent link=...>")
+        link = str(parent.get("link"))
+    path.reverse()
+
+    chain: list[_ChainLink] = []
+    pending = np.eye(4)  # fixed transforms since the last moving joint
+    for joint in path:
+        jname = str(joint.get("name"))
+        jtype = str(joint.get("type"))
+        if jtype in _REJECTED:
+            raise URDFError(f"joint {jname!r}: {jtype} joints are not supported in a chain")
+        if joint.find("mimic") is not None:
+            raise URDFError(f"joint {jname!r}: mimic joints are not supported in URDF input")
+        origin = _origin(joint, jname)
+        if jtype == "fixed":
+            pending = pending @ origin
+            continue
+        if jtype not in _MOVING:
+            raise URDFError(f"joint {jname!r}: unknown joint type {jtype!r}")
+        axis_el = joint.find("axis")
+        axis = _floats(
+            axis_el.get("xyz") if axis_el is not None else None,
+            3,
+            f"joint {jname!r} axis",
+            (1.0, 0.0, 0.0),
+        )
+        norm = float(np.linalg.norm(axis))
+        if norm < 1e-12:
+            raise URDFError(f"joint {jname!r}: axis is zero")
+        align = _align_z(axis / norm)
+        lower = upper = None
+        continuous = jtype == "continuous"
+        if not continuous:
+            limit = joint.find("limit")
+            if limit is None or limit.get("lower") is None or limit.get("upper") is None:
+                raise URDFError(f"joint {jname!r}: a {jtype} joint needs <limit lower upper>")
+            lower = float(_floats(limit.get("lower"), 1, f"joint {jname!r} lower", (0.0,))[0])
+            upper = float(_floats(limit.get("upper"), 1, f"joint {jname!r} upper", (0.0,))[0])
+        before = pending @ origin @ align
+        chain.append(
+            _ChainLink(
+                name=jname,
+                kind=_MOVING[jtype],  # type: ignore[arg-type]
+                before=before,
+                after=align.T.copy(),
+                offset=0.0,
+                lower=lower,
+                upper=upper,
+                continuous=continuous,
+            )
+        )
+        pending = np.eye(4)
+    if not chain:
+        raise URDFError(f"no moving joint between {base_link!r} and {tip_link!r}")
+    return str(root.get("name") or "robot"), chain, pending
