@@ -1,0 +1,101 @@
+"""The contract of a closed-form IK family and the registry of families."""
+
+from __future__ import annotations
+
+import math
+from abc import ABC, abstractmethod
+import numpy as np
+
+from optik._checks import FloatArray
+from optik.model import DHJoint, Robot
+from optik.trig import solve_trig
+
+SINGULAR_EPS = 1e-12
+"""Below this magnitude a coefficient pair of the trig equation counts as zero."""
+
+
+class AnalyticFamily(ABC):
+    """A closed-form IK solver for one kinematic structure.
+
+    Subclasses state which robots they fit and return raw candidate branches; the caller
+    (:func:`optik.analytic.analytic_ik`) wraps angles into the limits, verifies every
+    branch by forward kinematics and filters by the limits.
+    """
+
+    name: str = ""
+    modes: tuple[str, ...] = ("pose",)
+
+    @abstractmethod
+    def fits(self, robot: Robot) -> bool:
+        """Whether this family's closed form applies to ``robot``."""
+
+    @abstractmethod
+    def candidates(self, robot: Robot, T_0_target: FloatArray, mode: str, q_ref: FloatArray) -> list[FloatArray]:
+        """Raw joint vectors (dof,) reaching ``T_0_target`` in the chain's frame 0.
+
+        Args:
+            robot: the robot (fits this family).
+            T_0_target: target pose of the flange (tool removed) in frame 0 (base
+                removed), 4x4; in position mode only its translation is meaningful.
+            mode: ``"pose"`` or ``"position"``.
+            q_ref: reference configuration, used for joints left free at singularities.
+        """
+
+
+FAMILIES: dict[str, AnalyticFamily] = {}
+
+
+def register(family_cls: type[AnalyticFamily]) -> type[AnalyticFamily]:
+    """Class decorator adding a family to the registry under its ``name``."""
+    instance = family_cls()
+    FAMILIES[instance.name] = instance
+    return family_cls
+
+
+def angles(a: float, b: float, c: float, free: float) -> tuple[float, ...]:
+    """Solutions of ``a cos t + b sin t = c``; ``(free,)`` when the equation is ``0 = 0``.
+
+    ``a = b = 0`` arises at singular configurations (a shoulder over the base, a wrist
+    aligned): the joint is then free when ``c = 0`` and the caller's reference is used.
+    """
+    scale = max(abs(a), abs(b), abs(c), 1.0)
+    if abs(a) <= SINGULAR_EPS * scale and abs(b) <= SINGULAR_EPS * scale:
+        return (free,) if abs(c) <= 1e-9 * scale else ()
+    return tuple(solve_trig(a, b, c))
+
+
+def dh_rows(robot: Robot) -> tuple[DHJoint, ...]:
+    """The robot's DH rows, or an empty tuple for robots not built from DH."""
+    return robot.dh or ()
+
+
+def is_right_angle(alpha: float) -> int:
+    """``+1``/``-1`` when ``alpha`` is +-90 degrees, else 0."""
+    if abs(alpha - math.pi / 2) < 1e-12:
+        return 1
+    if abs(alpha + math.pi / 2) < 1e-12:
+        return -1
+    return 0
+
+
+def dh_matrix(row: DHJoint, q: float) -> FloatArray:
+    """Standard DH A-matrix of ``row`` at joint value ``q`` (offset included)."""
+    theta = row.theta + (q if row.kind == "revolute" else 0.0)
+    d = row.d + (q if row.kind == "prismatic" else 0.0)
+    ct, st = math.cos(theta), math.sin(theta)
+    ca, sa = math.cos(row.alpha), math.sin(row.alpha)
+    return np.array(
+        [
+            [ct, -st * ca, st * sa, row.a * ct],
+            [st, ct * ca, -ct * sa, row.a * st],
+            [0.0, sa, ca, d],
+            [0.0, 0.0, 0.0, 1.0],
+        ]
+    )
+
+
+def wrap_to_pi(angle: float) -> float:
+    """``angle`` wrapped into (-pi, pi]."""
+    wrapped = math.remainder(angle, 2.0 * math.pi)
+    return math.pi if wrapped == -math.pi else wrapped
+
