@@ -1,8 +1,38 @@
-"""optik: optimization-based inverse kinematics for robot arms."""
+"""optik: optimization-based inverse kinematics for robot arms.
 
+IK written as least-norm and least-squares programs with hard joint limits, checked
+against closed forms, with analytic IK as the warm start.
+"""
+
+from optik.analytic import analytic_ik
 from optik.errors import OptikError
+from optik.ik import IKBatchResult, IKResult, solve_ik, solve_ik_batch
+from optik.linalg import generalized_inverse, least_squares, min_norm
 from optik.model import DHJoint, Joint, Mimic, Robot
+from optik.problems import Problem, Target, load_problem
+from optik.solvers import available_solvers
+from optik.trig import solve_trig
 
 __version__ = "0.1.0"
 
-__all__ = ["DHJoint", "Joint", "Mimic", "OptikError", "Robot", "__version__"]
+__all__ = [
+    "DHJoint",
+    "IKBatchResult",
+    "IKResult",
+    "Joint",
+    "Mimic",
+    "OptikError",
+    "Problem",
+    "Robot",
+    "Target",
+    "__version__",
+    "analytic_ik",
+    "available_solvers",
+    "generalized_inverse",
+    "least_squares",
+    "load_problem",
+    "min_norm",
+    "solve_ik",
+    "solve_ik_batch",
+    "solve_trig",
+]

@@ -72,37 +72,74 @@ def fk_batch(K: np.ndarray, prismatic: np.ndarray, theta: np.ndarray) -> np.ndar
 
 
 @_jit
-def fk_jacobian_into(
+def fk_jacobian_work(
     K: np.ndarray,
     prismatic: np.ndarray,
     theta: np.ndarray,
     T_out: np.ndarray,
     J_out: np.ndarray,
+    work: np.ndarray,
 ) -> None:
     """Tool pose (4, 4) and geometric Jacobian (6, n) of the chain, base frame.
 
     Column ``i`` of the Jacobian uses the joint's axis ``z_i`` and origin ``o_i`` before
     its motion (the motion is about that same axis, so before or after is equal):
-    revolute ``[z_i x (p - o_i); z_i]``, prismatic ``[z_i; 0]``.
+    revolute ``[z_i x (p - o_i); z_i]``, prismatic ``[z_i; 0]``. ``work`` is scratch
+    space of shape ``(n, 3)`` for the joint origins, so solvers can call this without
+    allocating. The running transform lives in scalars: this is every solver's inner loop.
     """
     n = prismatic.shape[0]
-    axes = np.empty((n, 3))
-    origins = np.empty((n, 3))
-    T = K[0].copy()
+    a00, a01, a02, a03 = K[0, 0, 0], K[0, 0, 1], K[0, 0, 2], K[0, 0, 3]
+    a10, a11, a12, a13 = K[0, 1, 0], K[0, 1, 1], K[0, 1, 2], K[0, 1, 3]
+    a20, a21, a22, a23 = K[0, 2, 0], K[0, 2, 1], K[0, 2, 2], K[0, 2, 3]
     for i in range(n):
-        for r in range(3):
-            axes[i, r] = T[r, 2]
-            origins[i, r] = T[r, 3]
-        _apply_motion(T, prismatic[i], theta[i])
-        _right_multiply(T, K[i + 1], T_out)
-        T[:, :] = T_out
-    px = T_out[0, 3]
-    py = T_out[1, 3]
-    pz = T_out[2, 3]
+        J_out[3, i] = a02
+        J_out[4, i] = a12
+        J_out[5, i] = a22
+        work[i, 0] = a03
+        work[i, 1] = a13
+        work[i, 2] = a23
+        t = theta[i]
+        if prismatic[i]:
+            a03 += t * a02
+            a13 += t * a12
+            a23 += t * a22
+        else:
+            c = np.cos(t)
+            s = np.sin(t)
+            a00, a01 = c * a00 + s * a01, c * a01 - s * a00
+            a10, a11 = c * a10 + s * a11, c * a11 - s * a10
+            a20, a21 = c * a20 + s * a21, c * a21 - s * a20
+        k = K[i + 1]
+        k00, k01, k02, k03 = k[0, 0], k[0, 1], k[0, 2], k[0, 3]
+        k10, k11, k12, k13 = k[1, 0], k[1, 1], k[1, 2], k[1, 3]
+        k20, k21, k22, k23 = k[2, 0], k[2, 1], k[2, 2], k[2, 3]
+        a00, a01, a02, a03 = (
+            a00 * k00 + a01 * k10 + a02 * k20,
+            a00 * k01 + a01 * k11 + a02 * k21,
+            a00 * k02 + a01 * k12 + a02 * k22,
+            a00 * k03 + a01 * k13 + a02 * k23 + a03,
+        )
+        a10, a11, a12, a13 = (
+            a10 * k00 + a11 * k10 + a12 * k20,
+            a10 * k01 + a11 * k11 + a12 * k21,
+            a10 * k02 + a11 * k12 + a12 * k22,
+            a10 * k03 + a11 * k13 + a12 * k23 + a13,
+        )
+        a20, a21, a22, a23 = (
+            a20 * k00 + a21 * k10 + a22 * k20,
+            a20 * k01 + a21 * k11 + a22 * k21,
+            a20 * k02 + a21 * k12 + a22 * k22,
+            a20 * k03 + a21 * k13 + a22 * k23 + a23,
+        )
+    T_out[0, 0], T_out[0, 1], T_out[0, 2], T_out[0, 3] = a00, a01, a02, a03
+    T_out[1, 0], T_out[1, 1], T_out[1, 2], T_out[1, 3] = a10, a11, a12, a13
+    T_out[2, 0], T_out[2, 1], T_out[2, 2], T_out[2, 3] = a20, a21, a22, a23
+    T_out[3, 0], T_out[3, 1], T_out[3, 2], T_out[3, 3] = 0.0, 0.0, 0.0, 1.0
     for i in range(n):
-        zx = axes[i, 0]
-        zy = axes[i, 1]
-        zz = axes[i, 2]
+        zx = J_out[3, i]
+        zy = J_out[4, i]
+        zz = J_out[5, i]
         if prismatic[i]:
             J_out[0, i] = zx
             J_out[1, i] = zy
@@ -111,15 +148,25 @@ def fk_jacobian_into(
             J_out[4, i] = 0.0
             J_out[5, i] = 0.0
         else:
-            dx = px - origins[i, 0]
-            dy = py - origins[i, 1]
-            dz = pz - origins[i, 2]
+            dx = a03 - work[i, 0]
+            dy = a13 - work[i, 1]
+            dz = a23 - work[i, 2]
             J_out[0, i] = zy * dz - zz * dy
             J_out[1, i] = zz * dx - zx * dz
             J_out[2, i] = zx * dy - zy * dx
-            J_out[3, i] = zx
-            J_out[4, i] = zy
-            J_out[5, i] = zz
+
+
+@_jit
+def fk_jacobian_into(
+    K: np.ndarray,
+    prismatic: np.ndarray,
+    theta: np.ndarray,
+    T_out: np.ndarray,
+    J_out: np.ndarray,
+) -> None:
+    """Tool pose (4, 4) and geometric Jacobian (6, n) into the given arrays."""
+    work = np.empty((prismatic.shape[0], 3))
+    fk_jacobian_work(K, prismatic, theta, T_out, J_out, work)
 
 
 @_jit
@@ -131,8 +178,9 @@ def fk_jacobian_batch(
     n = prismatic.shape[0]
     T_out = np.empty((N, 4, 4))
     J_out = np.empty((N, 6, n))
+    work = np.empty((n, 3))
     for k in range(N):
-        fk_jacobian_into(K, prismatic, theta[k], T_out[k], J_out[k])
+        fk_jacobian_work(K, prismatic, theta[k], T_out[k], J_out[k], work)
     return T_out, J_out
 
 

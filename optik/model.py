@@ -267,7 +267,7 @@ class Robot:
         self._identity_coupling = coupling.shape[0] == coupling.shape[1] and bool(
             np.all(coupling == np.eye(n))
         )
-        self._jac_buffer = np.empty((6, n))
+        self._cache: dict[str, object] = {}
 
     # ------------------------------------------------------------------ constructors
     @classmethod

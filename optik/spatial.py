@@ -7,12 +7,15 @@ radians. Functions accept a leading batch axis where stated.
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
 
 from optik._checks import FloatArray, as_float_array, check_finite
 from optik.errors import InvalidRotationError, ShapeError
+
+_LAST_ROW = np.array([0.0, 0.0, 0.0, 1.0])
 
 ROTATION_TOLERANCE = 1e-6
 """Largest accepted ``max |R^T R - I|`` for a user-supplied rotation."""
@@ -128,14 +131,32 @@ def rotation_error_vector(R_current: FloatArray, R_target: FloatArray) -> FloatA
     return log_so3(R_target @ R_current.T)
 
 
+def _rotation_defects(R: FloatArray) -> tuple[float, float]:
+    """``max |R^T R - I|`` and the determinant farthest from 1, over a 3x3 or a batch."""
+    if R.ndim == 2:
+        # Plain floats: for one 3x3, numpy's per-call overhead dominates the arithmetic.
+        (a, b, c), (d, e, f), (g, h, i) = R.tolist()
+        err = max(
+            abs(a * a + d * d + g * g - 1.0),
+            abs(b * b + e * e + h * h - 1.0),
+            abs(c * c + f * f + i * i - 1.0),
+            abs(a * b + d * e + g * h),
+            abs(a * c + d * f + g * i),
+            abs(b * c + e * f + h * i),
+        )
+        return err, a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)
+    gram = np.swapaxes(R, -1, -2) @ R - np.eye(3)
+    det = np.linalg.det(R).reshape(-1)
+    return float(np.abs(gram).max()), float(det[np.argmax(np.abs(det - 1.0))])
+
+
 def check_rotation(name: str, R: FloatArray, tol: float = ROTATION_TOLERANCE) -> None:
     """Raise :class:`InvalidRotationError` unless ``R`` (3x3 or batch) is a proper rotation."""
-    gram = np.swapaxes(R, -1, -2) @ R
-    err = float(np.max(np.abs(gram - np.eye(3)))) if R.size else 0.0
-    det = np.linalg.det(R)
-    worst_det = float(np.atleast_1d(det)[np.argmax(np.abs(np.atleast_1d(det) - 1.0))])
-    if err > tol or abs(worst_det - 1.0) > 10 * tol:
-        raise InvalidRotationError(name, err, worst_det)
+    if R.size == 0:
+        return
+    err, det = _rotation_defects(R)
+    if err > tol or abs(det - 1.0) > 10 * tol:
+        raise InvalidRotationError(name, err, det)
 
 
 def as_pose(name: str, value: Any, batch: bool = False) -> FloatArray:
@@ -144,15 +165,35 @@ def as_pose(name: str, value: Any, batch: bool = False) -> FloatArray:
     if not (T.shape == (4, 4) or (batch and T.ndim == 3 and T.shape[1:] == (4, 4))):
         raise ShapeError(name, "(4, 4)" + (" or (N, 4, 4)" if batch else ""), T.shape)
     check_finite(name, T)
-    bottom = T[..., 3, :]
-    if not np.allclose(bottom, [0.0, 0.0, 0.0, 1.0], atol=1e-9):
+    bottom = T[3] if T.ndim == 2 else T[:, 3]
+    if float(np.abs(bottom - _LAST_ROW).max()) > 1e-9:
         raise ShapeError(name, "a homogeneous transform with last row (0, 0, 0, 1)", T.shape)
     check_rotation(name, T[..., :3, :3])
     return T
 
 
+def as_target(value: Any, mode: str) -> FloatArray:
+    """Validate an IK target as a 4x4 pose.
+
+    ``mode="pose"`` needs a proper 4x4 transform; ``mode="position"`` takes a 3-vector, or
+    a 4x4 whose translation is used (its rotation is then replaced by the identity).
+    """
+    if mode == "pose":
+        return as_pose("target", value)
+    array = as_float_array("target", value)
+    if array.shape == (4, 4):
+        return transform(None, as_pose("target", array)[:3, 3])
+    if array.shape != (3,):
+        raise ShapeError("target", "(3,) or (4, 4) in position mode", array.shape)
+    return transform(None, check_finite("target", array))
+
+
 def pose_error(T: FloatArray, T_target: FloatArray) -> tuple[float, float]:
     """Position error ``||p - p*||`` (m) and orientation error ``angle(R*^T R)`` (rad)."""
-    position = float(np.linalg.norm(T[:3, 3] - T_target[:3, 3]))
-    orientation = float(rotation_angle(T_target[:3, :3].T @ T[:3, :3]))
-    return position, orientation
+    d = T[:3, 3] - T_target[:3, 3]
+    position = math.sqrt(float(d @ d))
+    R = T_target[:3, :3].T @ T[:3, :3]
+    sx, sy, sz = R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]
+    s = 0.5 * math.sqrt(sx * sx + sy * sy + sz * sz)
+    c = 0.5 * (R[0, 0] + R[1, 1] + R[2, 2] - 1.0)
+    return position, math.atan2(s, c)

@@ -8,16 +8,16 @@ problem file or the ``analytic=`` argument of its constructor), or
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
-from optik._checks import FloatArray, finite_array
+from optik._checks import FloatArray
 from optik.analytic import dobot, planar_2r, spherical_rrp, spherical_wrist, ur  # noqa: F401
-from optik.analytic._base import FAMILIES, AnalyticFamily, wrap_to_pi
+from optik.analytic._base import FAMILIES, AnalyticFamily
 from optik.errors import AnalyticIKError
 from optik.model import Robot
-from optik.spatial import as_pose, invert_transform, pose_error, transform
+from optik.spatial import as_target, invert_transform, rotation_angle
 
 VERIFY_TOLERANCE = 1e-9
 """Largest position (m) and orientation (rad) error of a returned branch."""
@@ -42,53 +42,46 @@ def family_of(robot: Robot) -> AnalyticFamily | None:
         AnalyticIKError: the declared family is unknown or does not fit the robot.
     """
     if robot.analytic is None:
-        return detect_family(robot)
+        if "family" not in robot._cache:
+            robot._cache["family"] = detect_family(robot)
+        return cast("AnalyticFamily | None", robot._cache["family"])
     family = FAMILIES.get(robot.analytic)
     if family is None:
         raise AnalyticIKError(
             f"robot {robot.name!r}: unknown analytic family {robot.analytic!r} "
             f"(registered: {sorted(FAMILIES)})"
         )
-    if not family.fits(robot):
+    if robot._cache.get("declared_fits") is None:
+        robot._cache["declared_fits"] = family.fits(robot)
+    if not robot._cache["declared_fits"]:
         raise AnalyticIKError(
             f"robot {robot.name!r}: its joint structure does not fit family {family.name!r}"
         )
     return family
 
 
-def _target_pose(target: Any, mode: str) -> FloatArray:
-    if mode == "pose":
-        return as_pose("target", target)
-    array = np.asarray(target, dtype=float) if not isinstance(target, np.ndarray) else target
-    if np.shape(array) == (4, 4):
-        return transform(None, as_pose("target", array)[:3, 3])
-    return transform(None, finite_array("target", array, (3,)))
-
-
-def wrap_into_limits(q: FloatArray, robot: Robot, q_ref: FloatArray) -> FloatArray:
+def wrap_into_limits(Q: FloatArray, robot: Robot, q_ref: FloatArray) -> FloatArray:
     """Shift revolute angles by multiples of 2 pi into the limits, nearest ``q_ref``.
 
-    A joint whose range spans more than 2 pi has several representatives: the one nearest
-    ``q_ref`` is kept. An angle with no representative inside stays nearest ``q_ref``.
+    ``Q`` is (k, dof). A joint whose range spans more than 2 pi has several
+    representatives: the one nearest ``q_ref`` is kept. An angle with no representative
+    inside its limits stays at the representative nearest ``q_ref``.
     """
-    out = q.copy()
     two_pi = 2.0 * math.pi
-    for i, joint in enumerate(robot.joints):
-        if joint.kind != "revolute":
-            continue
-        base = q_ref[i] + wrap_to_pi(q[i] - q_ref[i])
-        lo, hi = joint.lower, joint.upper
-        if not math.isfinite(lo):
-            out[i] = base
-            continue
-        k_min = math.ceil((lo - base) / two_pi - 1e-12)
-        k_max = math.floor((hi - base) / two_pi + 1e-12)
-        if k_min > k_max:
-            out[i] = base
-            continue
-        options = base + two_pi * np.arange(k_min, k_max + 1)
-        out[i] = float(options[np.argmin(np.abs(options - q_ref[i]))])
-    return out
+    revolute = np.array([j.kind == "revolute" for j in robot.joints])
+    base = q_ref + np.remainder(Q - q_ref + math.pi, two_pi) - math.pi
+    lower = np.where(np.isfinite(robot.lower), robot.lower, -np.inf)
+    upper = np.where(np.isfinite(robot.upper), robot.upper, np.inf)
+    # Representatives base + 2 pi k inside [lower, upper]: k in [k_min, k_max].
+    with np.errstate(invalid="ignore"):
+        k_min = np.ceil((lower - base) / two_pi - 1e-12)
+        k_max = np.floor((upper - base) / two_pi + 1e-12)
+        k_near = np.round((q_ref - base) / two_pi)
+    k = np.where(np.isfinite(k_min), np.maximum(k_near, k_min), k_near)
+    k = np.where(np.isfinite(k_max), np.minimum(k, k_max), k)
+    k = np.where(k_min > k_max, 0.0, k)
+    k = np.where(np.isfinite(k), k, 0.0)
+    return np.where(revolute, base + two_pi * k, Q)
 
 
 def analytic_ik(
@@ -126,10 +119,8 @@ def analytic_ik(
     if family is None:
         raise AnalyticIKError(f"robot {robot.name!r} has no closed-form IK family")
     if mode not in family.modes:
-        raise AnalyticIKError(
-            f"family {family.name!r} solves mode(s) {family.modes}, not {mode!r}"
-        )
-    T_target = _target_pose(target, mode)
+        raise AnalyticIKError(f"family {family.name!r} solves mode(s) {family.modes}, not {mode!r}")
+    T_target = as_target(target, mode)
     sort = q_ref is not None
     ref = robot.mid_limits if q_ref is None else robot.check_q(q_ref, "q_ref")
     if ref.ndim != 1:
@@ -141,18 +132,23 @@ def analytic_ik(
     T_0_flange = (
         invert_transform(robot.T_world_base) @ T_target @ invert_transform(robot.T_flange_tool)
     )
+    raw = family.candidates(robot, T_0_flange, mode, ref)
+    if not raw:
+        return []
+    Q = np.array(raw, dtype=float)
+    Q = wrap_into_limits(Q[np.all(np.isfinite(Q), axis=1)], robot, ref)
+    if within_limits:
+        Q = Q[np.asarray(robot.within_limits(Q), dtype=bool).reshape(-1)]
+    if len(Q) == 0:
+        return []
+    T = robot.fk(Q)
+    good = np.linalg.norm(T[:, :3, 3] - T_target[:3, 3], axis=1) <= VERIFY_TOLERANCE
+    if mode == "pose":
+        R_rel = np.swapaxes(T[:, :3, :3], 1, 2) @ T_target[:3, :3]
+        angle = np.asarray(rotation_angle(R_rel), dtype=float).reshape(-1)
+        good &= angle <= VERIFY_TOLERANCE
     branches: list[FloatArray] = []
-    for raw in family.candidates(robot, T_0_flange, mode, ref):
-        if not np.all(np.isfinite(raw)):
-            continue
-        q = wrap_into_limits(raw, robot, ref)
-        if within_limits and not robot.within_limits(q):
-            continue
-        position_error, orientation_error = pose_error(robot.fk(q), T_target)
-        if position_error > VERIFY_TOLERANCE:
-            continue
-        if mode == "pose" and orientation_error > VERIFY_TOLERANCE:
-            continue
+    for q in Q[good]:
         if any(np.max(np.abs(q - other)) < _DUPLICATE for other in branches):
             continue
         branches.append(q)

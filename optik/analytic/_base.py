@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
+
 import numpy as np
 
 from optik._checks import FloatArray
@@ -30,7 +31,9 @@ class AnalyticFamily(ABC):
         """Whether this family's closed form applies to ``robot``."""
 
     @abstractmethod
-    def candidates(self, robot: Robot, T_0_target: FloatArray, mode: str, q_ref: FloatArray) -> list[FloatArray]:
+    def candidates(
+        self, robot: Robot, T_0_target: FloatArray, mode: str, q_ref: FloatArray
+    ) -> list[FloatArray]:
         """Raw joint vectors (dof,) reaching ``T_0_target`` in the chain's frame 0.
 
         Args:
@@ -98,4 +101,3 @@ def wrap_to_pi(angle: float) -> float:
     """``angle`` wrapped into (-pi, pi]."""
     wrapped = math.remainder(angle, 2.0 * math.pi)
     return math.pi if wrapped == -math.pi else wrapped
-

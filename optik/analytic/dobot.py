@@ -59,7 +59,17 @@ class Dobot(AnalyticFamily):
                 source = {"J2": names[1], "J3": names[3]}[of]
                 if row.mimic is None or row.mimic.joint != source or row.mimic.multiplier != mult:
                     return False
-        other = [rows[0].a, rows[1].d, rows[2].a, rows[2].d, rows[3].d, rows[4].a, rows[4].d, rows[5].a, rows[5].d]
+        other = [
+            rows[0].a,
+            rows[1].d,
+            rows[2].a,
+            rows[2].d,
+            rows[3].d,
+            rows[4].a,
+            rows[4].d,
+            rows[5].a,
+            rows[5].d,
+        ]
         return all(abs(v) < 1e-12 for v in other)
 
     def candidates(

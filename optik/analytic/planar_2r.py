@@ -3,7 +3,8 @@
 With link lengths ``a1, a2`` and the target ``(x, y)`` in the arm's plane,
 ``x^2 + y^2 = a1^2 + a2^2 + 2 a1 a2 cos q2`` is the trig equation
 ``(2 a1 a2) cos q2 + 0 sin q2 = x^2 + y^2 - a1^2 - a2^2`` (two elbow branches), and
-``q1 = atan2(y, x) - atan2(a2 sin q2, a1 + a2 cos q2)``.
+``q1 = atan2(y, x) - atan2(a2 sin q2, a1 + a2 cos q2)`` (free, kept at its reference,
+when ``a1 = a2`` and the arm folds onto the base).
 """
 
 from __future__ import annotations
@@ -43,6 +44,10 @@ class Planar2R(AnalyticFamily):
         a1, a2 = r1.a, r2.a
         out = []
         for t2 in angles(2.0 * a1 * a2, 0.0, x * x + y * y - a1 * a1 - a2 * a2, float(q_ref[1])):
-            t1 = math.atan2(y, x) - math.atan2(a2 * math.sin(t2), a1 + a2 * math.cos(t2))
+            if math.hypot(x, y) <= 1e-12 * max(a1, a2, 1.0):
+                # Folded onto the base axis (a1 = a2): every shoulder angle works.
+                t1 = r1.theta + float(q_ref[0])
+            else:
+                t1 = math.atan2(y, x) - math.atan2(a2 * math.sin(t2), a1 + a2 * math.cos(t2))
             out.append(np.array([t1 - r1.theta, t2 - r2.theta]))
         return out

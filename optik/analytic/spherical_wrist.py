@@ -11,9 +11,9 @@ Stanford arm and the jumbo drill).
    (``-s1 Wx + c1 Wy = -sin(alpha1) h``, where ``h`` is the arm's constant offset along
    joint 2's axis), then the planar distance gives ``q3`` (RRR, a trig equation) or the
    stroke (RRP, a square root), then ``q2`` by one atan2 difference.
-3. Wrist joints from ``R_36 = R_03^T R``: ``cos q5`` from one entry, ``q4`` and ``q6`` by
-   atan2 of a row and a column; at ``sin q5 = 0`` only ``q4 + q6`` is defined and ``q4``
-   takes its reference value.
+3. Wrist joints from ``R_36 = R_03^T R``: ``cos q5`` from one entry, ``q4`` by atan2 of a
+   column, ``q6`` by atan2 of the residual rotation ``(A4 A5)^T R_36``; at ``sin q5 = 0``
+   only ``q4 + q6`` is defined and ``q4`` takes its reference value.
 
 Up to 2 x 2 x 2 = 8 branches.
 """
@@ -118,7 +118,10 @@ def wrist_solutions(
     for sign in (1.0, -1.0):
         t5 = math.atan2(sign * s5_mag, c5)
         t4 = math.atan2(sa5 * sign * float(M[1, 2]), sa5 * sign * float(M[0, 2]))
-        t6 = math.atan2(-sa4 * sign * float(M[2, 1]), sa4 * sign * float(M[2, 0]))
+        # q6 from the residual rotation given q4 and q5, not from M's row alone: near the
+        # singularity q4 carries an error of eps / sin(q5), and this q6 absorbs it exactly.
+        N = (rot_z(t4) @ rot_x(r4.alpha) @ rot_z(t5) @ rot_x(r5.alpha)).T @ M
+        t6 = math.atan2(float(N[1, 0]), float(N[0, 0]))
         out.append(np.array([t4 - r4.theta, t5 - r5.theta, t6 - r6.theta]))
     return out
 
@@ -156,7 +159,9 @@ class SphericalWrist(AnalyticFamily):
         W = T_0_target[:3, 3] - rows[5].d * (R @ np.array([0.0, math.sin(a6), math.cos(a6)]))
         out = []
         for arm in _arm_solutions(rows, W, q_ref):
-            T_03 = dh_matrix(rows[0], arm[0]) @ dh_matrix(rows[1], arm[1]) @ dh_matrix(rows[2], arm[2])
+            T_03 = (
+                dh_matrix(rows[0], arm[0]) @ dh_matrix(rows[1], arm[1]) @ dh_matrix(rows[2], arm[2])
+            )
             for wrist in wrist_solutions(rows, T_03[:3, :3].T @ R, q_ref):
                 out.append(np.concatenate([arm, wrist]))
         return out

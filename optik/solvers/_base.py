@@ -1,0 +1,152 @@
+"""The solver contract and the one registry of solver names.
+
+A backend family adds itself in one place: a subclass of :class:`IKSolver` decorated
+with :func:`register` (or :func:`register_many` for a family of names such as
+``qp:<backend>``). Names are looked up before any backend runs, so a bug inside a
+backend is never reported as "solver not found".
+"""
+
+from __future__ import annotations
+
+import time
+from abc import ABC, abstractmethod
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from optik._checks import FloatArray
+from optik.errors import UnknownSolverError
+from optik.model import Robot
+from optik.spatial import log_so3
+
+
+@dataclass(frozen=True)
+class IKQuery:
+    """One IK query, validated, in SI units.
+
+    Attributes:
+        robot: the robot.
+        target: 4x4 world pose of the tool; in position mode only its translation counts.
+        mode: ``"pose"`` or ``"position"``.
+        tol: position (m) and orientation (rad) tolerance of success.
+    """
+
+    robot: Robot
+    target: FloatArray
+    mode: str
+    tol: float
+
+    def error_vector(self, T: FloatArray) -> FloatArray:
+        """Task-space error towards the target: (3,) or (6,) = [p* - p; log(R* R^T)]."""
+        dp = self.target[:3, 3] - T[:3, 3]
+        if self.mode == "position":
+            return dp
+        return np.concatenate([dp, log_so3(self.target[:3, :3] @ T[:3, :3].T)])
+
+    def task_rows(self, J: FloatArray) -> FloatArray:
+        """The Jacobian rows this mode constrains: linear only, or all six."""
+        return J[:3] if self.mode == "position" else J
+
+
+@dataclass
+class SolverOutput:
+    """What a backend reports; optik verifies it independently afterwards.
+
+    Attributes:
+        q: final joint vector (dof,).
+        iterations: iterations used.
+        converged: the backend's own claim of convergence (kept for the "claims" check).
+        message: backend status text, kept in the result.
+        failed: the backend raised or returned no solution.
+    """
+
+    q: FloatArray
+    iterations: int
+    converged: bool
+    message: str = ""
+    failed: bool = False
+
+
+class IKSolver(ABC):
+    """A numeric IK method: refines ``q0`` towards the query's target inside the limits.
+
+    Subclasses set ``name`` and implement :meth:`solve`; :meth:`is_available` says whether
+    the backend imports on this machine.
+    """
+
+    name: str = ""
+    kind: str = "iterative"
+    default_max_iter: int = 100
+
+    @classmethod
+    def is_available(cls) -> bool:
+        """Whether the backend can run here (its imports succeed)."""
+        return True
+
+    @abstractmethod
+    def solve(self, query: IKQuery, q0: FloatArray, max_iter: int, deadline: float) -> SolverOutput:
+        """Refine ``q0``; stop at convergence, ``max_iter``, or when ``now() > deadline``."""
+
+
+@dataclass(frozen=True)
+class _Entry:
+    factory: Callable[[], IKSolver]
+    available: Callable[[], bool]
+    install_hint: str
+
+
+_REGISTRY: dict[str, _Entry] = {}
+_INSTANCES: dict[str, IKSolver] = {}
+
+
+def register_solver(
+    name: str,
+    factory: Callable[[], IKSolver],
+    available: Callable[[], bool],
+    install_hint: str = "",
+) -> None:
+    """Add a solver name to the registry (the one place a backend is added)."""
+    _REGISTRY[name] = _Entry(factory, available, install_hint)
+
+
+def register(cls: type[IKSolver]) -> type[IKSolver]:
+    """Class decorator: register ``cls`` under ``cls.name``."""
+    register_solver(cls.name, cls, cls.is_available)
+    return cls
+
+
+def available_solvers() -> list[str]:
+    """Registered solver names whose backend imports on this machine, sorted."""
+    return sorted(name for name, entry in _REGISTRY.items() if entry.available())
+
+
+def registered_solvers() -> list[str]:
+    """Every registered solver name, installed or not."""
+    return sorted(_REGISTRY)
+
+
+def get_solver(name: str) -> IKSolver:
+    """The solver registered as ``name`` (one shared instance per name).
+
+    Raises:
+        UnknownSolverError: unknown name, or a known backend that is not installed; the
+            message lists the installed solvers.
+    """
+    entry = _REGISTRY.get(name)
+    if entry is None:
+        raise UnknownSolverError(name, ["auto", *available_solvers()])
+    if not entry.available():
+        raise UnknownSolverError(
+            name,
+            ["auto", *available_solvers()],
+            entry.install_hint or "Its backend is not installed.",
+        )
+    if name not in _INSTANCES:
+        _INSTANCES[name] = entry.factory()
+    return _INSTANCES[name]
+
+
+def now() -> float:
+    """Monotonic time in seconds (``time.perf_counter``)."""
+    return time.perf_counter()

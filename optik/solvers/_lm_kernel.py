@@ -1,0 +1,357 @@
+"""Compiled damped-least-squares (Levenberg–Marquardt) IK with box limits.
+
+Each iteration solves ``(J^T J + lambda I) dq = J^T e`` for the task error ``e`` (position,
+and the rotation vector ``log(R* R^T)`` in pose mode), projects ``q + dq`` onto the joint
+limits (a clamp: the box is the feasible set, so this is a projected step), and accepts
+it only if the error norm decreases; otherwise the damping grows (Marquardt's rule).
+The damping follows Sugihara's choice ``lambda = E + w`` with ``E = e^T e / 2``, which is
+large far from the target (gradient-like steps) and vanishes near it (Gauss–Newton
+steps, quadratic convergence).
+
+FK and the Jacobian come from :mod:`optik._kernels`, the same code as ``Robot.fk``.
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+from optik._kernels import fk_jacobian_work
+
+_jit = nb.njit(cache=True, nogil=True, error_model="numpy")
+
+
+@_jit
+def _log_rotation(R: np.ndarray, out: np.ndarray) -> None:
+    """Rotation vector of the 3x3 rotation ``R`` into ``out`` (3,), stable near 0 and pi."""
+    vx = 0.5 * (R[2, 1] - R[1, 2])
+    vy = 0.5 * (R[0, 2] - R[2, 0])
+    vz = 0.5 * (R[1, 0] - R[0, 1])
+    s = np.sqrt(vx * vx + vy * vy + vz * vz)
+    c = 0.5 * (R[0, 0] + R[1, 1] + R[2, 2] - 1.0)
+    theta = np.arctan2(s, c)
+    if theta < 1e-6:
+        k = 1.0 + theta * theta / 6.0
+        out[0] = vx * k
+        out[1] = vy * k
+        out[2] = vz * k
+        return
+    if theta < np.pi - 1e-3:
+        k = theta / s
+        out[0] = vx * k
+        out[1] = vy * k
+        out[2] = vz * k
+        return
+    # Near pi the skew part vanishes; the axis comes from the symmetric part.
+    best = 0
+    for i in range(1, 3):
+        if R[i, i] > R[best, best]:
+            best = i
+    for i in range(3):
+        out[i] = 0.5 * (R[i, best] + R[best, i])
+    out[best] = R[best, best] - c
+    norm = np.sqrt(out[0] ** 2 + out[1] ** 2 + out[2] ** 2)
+    if norm <= 0.0:
+        norm = 1.0
+    sign = 1.0 if out[0] * vx + out[1] * vy + out[2] * vz >= 0.0 else -1.0
+    k = sign * theta / norm
+    for i in range(3):
+        out[i] *= k
+
+
+@_jit
+def task_error(
+    T: np.ndarray, target: np.ndarray, pose: bool, e: np.ndarray, M: np.ndarray
+) -> tuple[float, float]:
+    """Fill ``e`` with ``[p* - p; log(R* R^T)]`` (or the position part); return both norms.
+
+    ``M`` is 3x4 scratch space (the relative rotation and the rotation vector).
+    """
+    for r in range(3):
+        e[r] = target[r, 3] - T[r, 3]
+    position = np.sqrt(e[0] ** 2 + e[1] ** 2 + e[2] ** 2)
+    if not pose:
+        return position, 0.0
+    for r in range(3):
+        for c in range(3):
+            M[r, c] = target[r, 0] * T[c, 0] + target[r, 1] * T[c, 1] + target[r, 2] * T[c, 2]
+    w = M[:, 3]
+    _log_rotation(M[:, :3], w)
+    e[3] = w[0]
+    e[4] = w[1]
+    e[5] = w[2]
+    return position, np.sqrt(w[0] ** 2 + w[1] ** 2 + w[2] ** 2)
+
+
+@_jit
+def _cholesky_solve(A: np.ndarray, b: np.ndarray, x: np.ndarray, L: np.ndarray) -> bool:
+    """Solve SPD ``A x = b`` by Cholesky (``L`` is n x (n + 1) scratch); False if not SPD."""
+    n = A.shape[0]
+    y = L[:, n]
+    for i in range(n):
+        for j in range(i + 1):
+            s = A[i, j]
+            for k in range(j):
+                s -= L[i, k] * L[j, k]
+            if i == j:
+                if s <= 0.0:
+                    return False
+                L[i, i] = np.sqrt(s)
+            else:
+                L[i, j] = s / L[j, j]
+    for i in range(n):
+        s = b[i]
+        for k in range(i):
+            s -= L[i, k] * y[k]
+        y[i] = s / L[i, i]
+    for i in range(n - 1, -1, -1):
+        s = y[i]
+        for k in range(i + 1, n):
+            s -= L[k, i] * x[k]
+        x[i] = s / L[i, i]
+    return True
+
+
+@_jit
+def _evaluate(
+    K: np.ndarray,
+    prismatic: np.ndarray,
+    C: np.ndarray,
+    identity: bool,
+    q: np.ndarray,
+    target: np.ndarray,
+    pose: bool,
+    T: np.ndarray,
+    Jc: np.ndarray,
+    J: np.ndarray,
+    e: np.ndarray,
+    work: np.ndarray,
+    M: np.ndarray,
+) -> tuple[float, float]:
+    """FK, Jacobian (in q) and task error at ``q``; returns (position, orientation) errors."""
+    if identity:
+        fk_jacobian_work(K, prismatic, q, T, J, work)
+    else:
+        theta = C @ q
+        fk_jacobian_work(K, prismatic, theta, T, Jc, work)
+        J[:, :] = Jc @ C
+    return task_error(T, target, pose, e, M)
+
+
+@_jit
+def lm_solve(
+    K: np.ndarray,
+    prismatic: np.ndarray,
+    C: np.ndarray,
+    identity: bool,
+    lower: np.ndarray,
+    upper: np.ndarray,
+    target: np.ndarray,
+    pose: bool,
+    q0: np.ndarray,
+    tol: float,
+    max_iter: int,
+    w_bias: float,
+) -> tuple[np.ndarray, int, bool, float, float]:
+    """Projected Levenberg–Marquardt from ``q0``.
+
+    Returns:
+        ``(q, iterations, converged, position_error, orientation_error)``; ``converged``
+        means both errors are at most ``tol`` (m, rad) with ``q`` inside the limits.
+    """
+    n_chain = prismatic.shape[0]
+    dof = q0.shape[0]
+    m = 6 if pose else 3
+    q = q0.copy()
+    for i in range(dof):
+        q[i] = min(max(q[i], lower[i]), upper[i])
+    T = np.empty((4, 4))
+    Jc = np.empty((6, n_chain))
+    J = np.empty((6, dof))
+    e = np.empty(6)
+    work = np.empty((n_chain, 3))
+    M = np.empty((3, 4))
+    L = np.empty((dof, dof + 1))
+    pos, rot = _evaluate(K, prismatic, C, identity, q, target, pose, T, Jc, J, e, work, M)
+    E = 0.0
+    for r in range(m):
+        E += e[r] * e[r]
+    A = np.empty((dof, dof))
+    g = np.empty(dof)
+    dq = np.empty(dof)
+    q_new = np.empty(dof)
+    T_new = np.empty((4, 4))
+    J_new = np.empty((6, dof))
+    e_new = np.empty(6)
+    scale = 1.0
+    it = 0
+    checkpoint = E
+    while it < max_iter:
+        # Restarting beats crawling: give up when 8 iterations did not halve the error.
+        if it > 0 and it % 8 == 0:
+            if 0.5 * checkpoint < E:
+                break
+            checkpoint = E
+        if pos <= tol and rot <= tol:
+            return q, it, True, pos, rot
+        it += 1
+        lam = scale * (0.5 * E + w_bias)
+        for a in range(dof):
+            s = 0.0
+            for r in range(m):
+                s += J[r, a] * e[r]
+            g[a] = s
+            for b in range(a + 1):
+                s = 0.0
+                for r in range(m):
+                    s += J[r, a] * J[r, b]
+                A[a, b] = s
+                A[b, a] = s
+            A[a, a] += lam
+        if not _cholesky_solve(A, g, dq, L):
+            scale *= 10.0
+            continue
+        for i in range(dof):
+            q_new[i] = min(max(q[i] + dq[i], lower[i]), upper[i])
+        pos_n, rot_n = _evaluate(
+            K, prismatic, C, identity, q_new, target, pose, T_new, Jc, J_new, e_new, work, M
+        )
+        E_new = 0.0
+        for r in range(m):
+            E_new += e_new[r] * e_new[r]
+        if E_new < E:
+            q[:] = q_new
+            T[:, :] = T_new
+            J[:, :] = J_new
+            e[:] = e_new
+            E = E_new
+            pos = pos_n
+            rot = rot_n
+            scale = max(scale * 0.5, 1e-3)
+        else:
+            scale *= 4.0
+            if scale > 1e12:
+                break
+    return q, it, pos <= tol and rot <= tol, pos, rot
+
+
+@_jit
+def _uniform_in_limits(lower: np.ndarray, upper: np.ndarray, out: np.ndarray) -> None:
+    for i in range(lower.shape[0]):
+        lo = lower[i] if np.isfinite(lower[i]) else -np.pi
+        hi = upper[i] if np.isfinite(upper[i]) else np.pi
+        out[i] = lo + (hi - lo) * np.random.random()  # noqa: NPY002 (numba: legacy API only)
+
+
+@_jit
+def lm_solve_restarts(
+    K: np.ndarray,
+    prismatic: np.ndarray,
+    C: np.ndarray,
+    identity: bool,
+    lower: np.ndarray,
+    upper: np.ndarray,
+    target: np.ndarray,
+    pose: bool,
+    q0: np.ndarray,
+    tol: float,
+    max_iter: int,
+    w_bias: float,
+    restarts: int,
+    seed: int,
+) -> tuple[np.ndarray, int, int, bool, float, float]:
+    """:func:`lm_solve` from ``q0``, then from seeded uniform restarts inside the limits.
+
+    Returns:
+        ``(q, total_iterations, restarts_used, converged, position_error,
+        orientation_error)`` of the first converged attempt, else of the best one.
+    """
+    np.random.seed(seed)  # noqa: NPY002 (numba: per-thread legacy generator)
+    best_q, it, ok, pos, rot = lm_solve(
+        K, prismatic, C, identity, lower, upper, target, pose, q0, tol, max_iter, w_bias
+    )
+    total = it
+    best_err = pos + rot
+    start = np.empty(q0.shape[0])
+    used = 0
+    while not ok and used < restarts:
+        used += 1
+        _uniform_in_limits(lower, upper, start)
+        q, it, ok, pos, rot = lm_solve(
+            K, prismatic, C, identity, lower, upper, target, pose, start, tol, max_iter, w_bias
+        )
+        total += it
+        if ok or pos + rot < best_err:
+            best_q = q
+            best_err = pos + rot
+    pos_b, rot_b = pos, rot
+    if not ok:
+        n = prismatic.shape[0]
+        pos_b, rot_b = _evaluate(
+            K,
+            prismatic,
+            C,
+            identity,
+            best_q,
+            target,
+            pose,
+            np.empty((4, 4)),
+            np.empty((6, n)),
+            np.empty((6, q0.shape[0])),
+            np.empty(6),
+            np.empty((n, 3)),
+            np.empty((3, 4)),
+        )
+    return best_q, total, used, ok, pos_b, rot_b
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy", parallel=True)
+def lm_solve_batch(
+    K: np.ndarray,
+    prismatic: np.ndarray,
+    C: np.ndarray,
+    identity: bool,
+    lower: np.ndarray,
+    upper: np.ndarray,
+    targets: np.ndarray,
+    pose: bool,
+    q0: np.ndarray,
+    tol: float,
+    max_iter: int,
+    w_bias: float,
+    restarts: int,
+    seed: int,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`lm_solve_restarts` for every target (N, 4, 4) in parallel threads.
+
+    Target ``k`` uses the random stream ``seed + k``, so results do not depend on the
+    number of threads. Returns ``(q (N, dof), iterations (N,), restarts (N,), ok (N,))``.
+    """
+    N = targets.shape[0]
+    dof = q0.shape[0]
+    Q = np.empty((N, dof))
+    iters = np.empty(N, dtype=np.int64)
+    used = np.empty(N, dtype=np.int64)
+    ok = np.empty(N, dtype=np.bool_)
+    for k in nb.prange(N):
+        q, it, u, good, _, _ = lm_solve_restarts(
+            K,
+            prismatic,
+            C,
+            identity,
+            lower,
+            upper,
+            targets[k],
+            pose,
+            q0,
+            tol,
+            max_iter,
+            w_bias,
+            restarts,
+            seed + k,
+        )
+        Q[k] = q
+        iters[k] = it
+        used[k] = u
+        ok[k] = good
+    return Q, iters, used, ok

@@ -1,0 +1,151 @@
+"""Jacobian iterations: pseudoinverse, transpose, and damped least squares.
+
+All three respect the joint limits by projection: after each step, ``q`` is clamped to
+``[lower, upper]`` (the box is convex, so the clamp is the Euclidean projection).
+"""
+
+from __future__ import annotations
+
+from abc import abstractmethod
+
+import numpy as np
+
+from optik._checks import FloatArray
+from optik.solvers._base import IKQuery, IKSolver, SolverOutput, now, register
+from optik.solvers._lm_kernel import lm_solve, lm_solve_restarts
+
+
+def _errors(query: IKQuery, e: FloatArray) -> tuple[float, float]:
+    position = float(np.linalg.norm(e[:3]))
+    orientation = float(np.linalg.norm(e[3:])) if e.shape[0] > 3 else 0.0
+    return position, orientation
+
+
+class _JacobianIteration(IKSolver):
+    """Shared loop: ``q <- clip(q + step(J, e))`` until both errors are within ``tol``."""
+
+    default_max_iter = 1000
+
+    def __init__(self, step: float = 1.0) -> None:
+        self.step = float(step)
+
+    @abstractmethod
+    def direction(self, J: FloatArray, e: FloatArray) -> FloatArray:
+        """The joint step (dof,) for task Jacobian rows ``J`` and task error ``e``."""
+
+    def solve(self, query: IKQuery, q0: FloatArray, max_iter: int, deadline: float) -> SolverOutput:
+        """Iterate the Jacobian update from ``q0`` (see the class docstring)."""
+        robot = query.robot
+        q = np.clip(q0, robot.lower, robot.upper)
+        for it in range(max_iter + 1):
+            T, J = robot.fk_jacobian(q)
+            e = query.error_vector(T)
+            position, orientation = _errors(query, e)
+            if position <= query.tol and orientation <= query.tol:
+                return SolverOutput(q, it, True, "converged")
+            if it == max_iter:
+                return SolverOutput(q, it, False, "max_iter")
+            if now() > deadline:
+                return SolverOutput(q, it, False, "timeout")
+            dq = self.direction(query.task_rows(J), e)
+            if not np.all(np.isfinite(dq)):
+                return SolverOutput(q, it, False, "non-finite step", failed=True)
+            q = np.clip(q + self.step * dq, robot.lower, robot.upper)
+        return SolverOutput(q, max_iter, False, "max_iter")  # pragma: no cover
+
+
+@register
+class PinvSolver(_JacobianIteration):
+    """Pseudoinverse iteration (seed 003 Algorithm 1, seed 001 §5).
+
+    ``dq = step * J^+ e`` with ``J^+`` the Moore–Penrose pseudoinverse (SVD, as in seed
+    001), which also handles rank-deficient task Jacobians (e.g. a planar arm's zero rows).
+    """
+
+    name = "pinv"
+
+    def direction(self, J: FloatArray, e: FloatArray) -> FloatArray:
+        """``J^+ e``."""
+        return np.linalg.pinv(J, rcond=1e-10) @ e
+
+
+@register
+class TransposeSolver(_JacobianIteration):
+    """Jacobian-transpose iteration (seed 001 §6).
+
+    ``dq = alpha J^T e`` with the step ``alpha = <e, J J^T e> / ||J J^T e||^2``, the
+    minimiser of ``||e - alpha J J^T e||`` along the transpose direction.
+    """
+
+    name = "transpose"
+
+    def direction(self, J: FloatArray, e: FloatArray) -> FloatArray:
+        """``alpha J^T e`` with the optimal scalar step."""
+        g = J.T @ e
+        Jg = J @ g
+        denominator = float(Jg @ Jg)
+        if denominator == 0.0:
+            return np.zeros_like(g)
+        return (float(e @ Jg) / denominator) * g
+
+
+@register
+class DLSSolver(IKSolver):
+    """Damped least squares (Levenberg–Marquardt) with adaptive damping, compiled.
+
+    Each iteration solves ``min ||J dq - e||^2 + lambda ||dq||^2``, i.e.
+    ``(J^T J + lambda I) dq = J^T e`` with ``lambda = s (e^T e / 2 + w)`` (Sugihara's
+    damping, with the scale ``s`` adapted by Marquardt's accept/reject rule), then projects
+    ``q + dq`` onto the joint limits. See :mod:`optik.solvers._lm_kernel`.
+    """
+
+    name = "dls"
+    default_max_iter = 100
+    w_bias = 1e-3
+
+    def solve(self, query: IKQuery, q0: FloatArray, max_iter: int, deadline: float) -> SolverOutput:
+        """Run the compiled projected LM from ``q0``."""
+        robot = query.robot
+        q, it, ok, _, _ = lm_solve(
+            robot._K,
+            robot._prismatic,
+            robot._coupling,
+            robot._identity_coupling,
+            robot.lower,
+            robot.upper,
+            query.target,
+            query.mode == "pose",
+            np.ascontiguousarray(q0, dtype=float),
+            float(query.tol),
+            int(max_iter),
+            self.w_bias,
+        )
+        return SolverOutput(q, int(it), bool(ok), "converged" if ok else "stalled or max_iter")
+
+    def solve_restarts(
+        self, query: IKQuery, q0: FloatArray, max_iter: int, restarts: int, seed: int
+    ) -> tuple[SolverOutput, int]:
+        """From ``q0``, then seeded uniform restarts, all inside the compiled kernel.
+
+        Returns the output of the first converged (else the best) attempt and the number
+        of restarts used.
+        """
+        robot = query.robot
+        q, it, used, ok, _, _ = lm_solve_restarts(
+            robot._K,
+            robot._prismatic,
+            robot._coupling,
+            robot._identity_coupling,
+            robot.lower,
+            robot.upper,
+            query.target,
+            query.mode == "pose",
+            np.ascontiguousarray(q0, dtype=float),
+            float(query.tol),
+            int(max_iter),
+            self.w_bias,
+            int(restarts),
+            int(seed),
+        )
+        message = "converged" if ok else "stalled or max_iter"
+        return SolverOutput(q, int(it), bool(ok), message), int(used)

@@ -1,0 +1,205 @@
+"""Closed-form IK: every family, property tests over random, singular and limit configurations."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from conftest import assert_close
+
+import optik
+from optik.analytic import FAMILIES, analytic_ik, detect_family, wrap_into_limits
+from optik.errors import AnalyticIKError, NonFiniteError, ShapeError
+from optik.model import Robot
+from optik.problems import load_problem
+
+CASES = [
+    ("planar_2r", "position"),
+    ("jumbo_spherical_arm", "position"),
+    ("jumbo_spherical_arm", "pose"),
+    ("dobot_magician", "position"),
+    ("dobot_magician", "pose"),
+    ("puma560", "pose"),
+    ("stanford_arm", "pose"),
+    ("jumbo_drill_6dof", "pose"),
+    ("ur5", "pose"),
+]
+N_RANDOM = 1000
+
+
+def _finite_limits(robot: Robot) -> tuple[np.ndarray, np.ndarray]:
+    lower = np.where(np.isfinite(robot.lower), robot.lower, -math.pi)
+    upper = np.where(np.isfinite(robot.upper), robot.upper, math.pi)
+    return lower, upper
+
+
+def _special_configurations(robot: Robot, rng: np.random.Generator) -> np.ndarray:
+    """Configurations at the limits and at the structure's singularities, on purpose."""
+    lower, upper = _finite_limits(robot)
+    out = []
+    for i in range(robot.dof):
+        for bound in (lower[i], upper[i]):
+            q = rng.uniform(lower, upper)
+            q[i] = bound
+            out.append(q)
+    singular_values = {
+        "puma560": [(4, 0.0), (2, -math.pi / 2), (2, math.atan2(0.0203, 0.4318) - math.pi / 2)],
+        "ur5": [(4, 0.0), (2, 0.0), (4, math.pi)],
+        "stanford_arm": [(4, 0.0)],
+        "jumbo_drill_6dof": [(4, 0.0)],
+        "jumbo_spherical_arm": [(1, 0.0)],
+        "planar_2r": [(1, 0.0)],
+        "dobot_magician": [(1, 0.0), (2, 0.0)],
+    }.get(robot.name, [])
+    for joint, value in singular_values:
+        for _ in range(20):
+            q = rng.uniform(lower, upper)
+            q[joint] = value + rng.choice([0.0, 1e-9, -1e-9, 1e-6])
+            out.append(np.clip(q, lower, upper))
+    return np.array(out)
+
+
+@pytest.mark.parametrize(("name", "mode"), CASES)
+def test_family_round_trip(name: str, mode: str, rng: np.random.Generator) -> None:
+    """The configuration that made the target is among the branches; every branch reaches it."""
+    robot = load_problem(name).robot
+    lower, upper = _finite_limits(robot)
+    random = rng.uniform(lower, upper, (N_RANDOM, robot.dof))
+    special = _special_configurations(robot, rng)
+    configs = np.vstack([random, special])
+    missing = 0
+    for k, q in enumerate(configs):
+        T = robot.fk(q)
+        target = T if mode == "pose" else T[:3, 3]
+        branches = analytic_ik(robot, target, mode=mode, q_ref=q)
+        assert branches, f"{name}: no branch for an in-limit configuration {q}"
+        for b in branches:
+            assert np.all(np.isfinite(b))
+            assert robot.within_limits(b)
+            T_b = robot.fk(b)
+            assert np.linalg.norm(T_b[:3, 3] - T[:3, 3]) <= 1e-9
+            if mode == "pose":
+                assert optik.spatial.pose_error(T_b, T)[1] <= 1e-9
+        compare = slice(0, 3) if (name == "dobot_magician" and mode == "position") else slice(None)
+        # Within 1e-6 of a singularity two branches merge into a double root between them,
+        # so the original is recovered only to about the distance from the singularity.
+        tolerance = 1e-6 if k < N_RANDOM else 1e-5
+        if np.max(np.abs(branches[0][compare] - q[compare])) > tolerance:
+            missing += 1
+    assert missing == 0, (
+        f"{name}/{mode}: original configuration not the nearest branch {missing} times"
+    )
+
+
+@pytest.mark.parametrize(
+    ("name", "expected"),
+    [("puma560", 8), ("ur5", 8), ("stanford_arm", 8), ("jumbo_spherical_arm", 4), ("planar_2r", 2)],
+)
+def test_branch_count_without_limits(name: str, expected: int, rng: np.random.Generator) -> None:
+    robot = load_problem(name).robot
+    mode = "pose" if robot.dof == 6 else "position"
+    lower, upper = _finite_limits(robot)
+    counts = []
+    for _ in range(50):
+        T = robot.fk(rng.uniform(lower, upper))
+        counts.append(
+            len(
+                analytic_ik(
+                    robot, T if mode == "pose" else T[:3, 3], mode=mode, within_limits=False
+                )
+            )
+        )
+    assert max(counts) == expected
+    assert np.median(counts) == expected
+
+
+def test_branches_sorted_by_distance_to_reference(rng: np.random.Generator) -> None:
+    robot = load_problem("puma560").robot
+    q = rng.uniform(robot.lower, robot.upper)
+    ref = rng.uniform(robot.lower, robot.upper)
+    branches = analytic_ik(robot, robot.fk(q), q_ref=ref)
+    distances = [np.linalg.norm(b - ref) for b in branches]
+    assert distances == sorted(distances)
+    assert len(branches) >= 2
+
+
+def test_unreachable_target_gives_empty_list() -> None:
+    for name in ("puma560", "ur5", "stanford_arm"):
+        robot = load_problem(name).robot
+        T = np.eye(4)
+        T[:3, 3] = [10.0, 0.0, 0.0]
+        assert analytic_ik(robot, T) == []
+    robot = load_problem("planar_2r").robot
+    assert analytic_ik(robot, [3.0, 0.0, 0.0], mode="position") == []
+    assert analytic_ik(robot, [1.0, 1.0, 0.5], mode="position") == []  # out of the plane
+
+
+def test_outside_limits_branches_are_dropped_unless_asked() -> None:
+    robot = load_problem("jumbo_spherical_arm").robot
+    # Stroke 7 m: reachable geometrically, but the prismatic joint stops at 6 m.
+    q = np.array([0.3, 0.5, 7.0])
+    p = robot.fk(q)[:3, 3]
+    assert analytic_ik(robot, p, mode="position") == []
+    loose = analytic_ik(robot, p, mode="position", within_limits=False, q_ref=q)
+    assert_close(loose[0], q, atol=1e-9)
+
+
+def test_wrap_into_limits_picks_representative_nearest_reference() -> None:
+    robot = load_problem("ur5").robot  # +-360 deg: two representatives for most angles
+    Q = np.array([[0.5, -0.5, 1.0, 3.0, -3.0, 0.0]])
+    ref = np.array([0.5 - 2 * math.pi, -0.5, 1.0 - 2 * math.pi, 3.0 + 2 * math.pi, -3.0, 6.0])
+    wrapped = wrap_into_limits(Q, robot, ref)[0]
+    expected = [0.5 - 2 * math.pi, -0.5, 1.0 - 2 * math.pi, 3.0, -3.0, 2 * math.pi]
+    assert_close(wrapped, expected, atol=1e-12)  # 3 + 2 pi would exceed the 2 pi limit
+    puma = load_problem("puma560").robot  # j2 in [-45, 225] deg: -100 deg lives at 260 (outside)
+    wrapped = wrap_into_limits(
+        np.array([[0.0, math.radians(200) - 2 * math.pi, 0, 0, 0, 0]]), puma, puma.mid_limits
+    )
+    assert_close(wrapped[0, 1], math.radians(200), atol=1e-12)
+
+
+def test_spherical_rrp_pose_uses_corrected_first_angle(rng: np.random.Generator) -> None:
+    """Seed 000 eq. 36 prints q1 = atan2(-Ax, -Ay); the A-matrix product gives atan2(Ax, -Ay)."""
+    robot = load_problem("jumbo_spherical_arm").robot
+    wrong = 0
+    for _ in range(100):
+        q = rng.uniform(*_finite_limits(robot))
+        R = robot.fk(q)[:3, :3]
+        printed = math.atan2(-R[0, 2], -R[1, 2])
+        corrected = math.atan2(R[0, 2], -R[1, 2])
+        assert abs(math.remainder(corrected - q[0], 2 * math.pi)) < 1e-9
+        wrong += abs(math.remainder(printed - q[0], 2 * math.pi)) > 1e-6
+    assert wrong >= 95  # wrong except where sin(q1) = 0
+
+
+def test_family_detection_and_errors() -> None:
+    puma = load_problem("puma560").robot
+    assert detect_family(puma) is FAMILIES["spherical_wrist"]
+    assert detect_family(load_problem("ur5").robot) is FAMILIES["ur"]
+    panda = load_problem("panda").robot
+    assert detect_family(panda) is None
+    with pytest.raises(AnalyticIKError, match="no closed-form"):
+        analytic_ik(panda, panda.fk(panda.mid_limits))
+    with pytest.raises(AnalyticIKError, match="solves mode"):
+        analytic_ik(puma, [0.3, 0.2, 0.5], mode="position")
+    wrong = Robot.from_dh([{"a": 1.0, "role": "arm"}, {"a": 1.0, "role": "arm"}], analytic="ur")
+    with pytest.raises(AnalyticIKError, match="does not fit"):
+        analytic_ik(wrong, [1.0, 1.0, 0.0], mode="position")
+    unknown = Robot.from_dh([{"a": 1.0, "role": "arm"}], analytic="nope")
+    with pytest.raises(AnalyticIKError, match="unknown analytic family"):
+        analytic_ik(unknown, [1.0, 0.0, 0.0], mode="position")
+
+
+def test_bad_targets_raise_optik_errors() -> None:
+    puma = load_problem("puma560").robot
+    bad = np.eye(4)
+    bad[0, 3] = np.nan
+    with pytest.raises(NonFiniteError):
+        analytic_ik(puma, bad)
+    with pytest.raises(ShapeError):
+        analytic_ik(puma, np.eye(3))
+    skewed = np.eye(4)
+    skewed[0, 1] = 0.1
+    with pytest.raises(optik.errors.InvalidRotationError):
+        analytic_ik(puma, skewed)

@@ -1,0 +1,209 @@
+"""solve_ik / solve_ik_batch: verified success rates, statuses, warm starts, bad input."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import optik
+from optik.errors import (
+    InvalidRotationError,
+    JointLimitError,
+    NonFiniteError,
+    OptikError,
+    ShapeError,
+    UnknownSolverError,
+)
+from optik.problems import load_problem
+from optik.solvers import IKSolver, register_solver
+from optik.spatial import pose_error
+
+SIX_AND_SEVEN_DOF = ["puma560", "ur5", "panda", "stanford_arm", "jumbo_drill_6dof"]
+
+
+def _random_in_limits(robot: optik.Robot, rng: np.random.Generator, n: int) -> np.ndarray:
+    lower = np.where(np.isfinite(robot.lower), robot.lower, -math.pi)
+    upper = np.where(np.isfinite(robot.upper), robot.upper, math.pi)
+    return rng.uniform(lower, upper, (n, robot.dof))
+
+
+def _verify(robot: optik.Robot, q: np.ndarray, T: np.ndarray, tol: float) -> bool:
+    """Independent check: FK error and limits, recomputed here."""
+    position, orientation = pose_error(robot.fk(q), T)
+    inside = bool(np.all(q >= robot.lower - 1e-12) and np.all(q <= robot.upper + 1e-12))
+    return position <= tol and orientation <= tol and inside
+
+
+@pytest.mark.parametrize("name", SIX_AND_SEVEN_DOF)
+def test_success_rate_on_random_reachable_poses(name: str, rng: np.random.Generator) -> None:
+    robot = load_problem(name).robot
+    Q = _random_in_limits(robot, rng, 500)
+    successes = 0
+    for q in Q:
+        T = robot.fk(q)
+        result = optik.solve_ik(robot, T, tol=1e-6)
+        if result.success:
+            assert _verify(robot, result.q, T, 1e-6), "reported success does not verify"
+            assert result.status == "converged"
+            successes += 1
+        else:
+            assert result.status in optik.ik.STATUSES
+    assert successes / len(Q) >= 0.999
+
+
+@pytest.mark.parametrize("solver", ["dls", "pinv"])
+def test_numeric_solvers_without_warm_start(solver: str, rng: np.random.Generator) -> None:
+    robot = load_problem("puma560").robot
+    for q in _random_in_limits(robot, rng, 20):
+        T = robot.fk(q)
+        result = optik.solve_ik(
+            robot, T, solver=solver, warm_start="q0", q0=q * 0.9 + 0.1 * robot.mid_limits
+        )
+        assert result.success and _verify(robot, result.q, T, 1e-6)
+        assert result.solver == solver
+        assert result.backend_converged is True
+
+
+def test_auto_uses_closed_form_when_available(rng: np.random.Generator) -> None:
+    robot = load_problem("ur5").robot
+    q = _random_in_limits(robot, rng, 1)[0]
+    result = optik.solve_ik(robot, robot.fk(q), q0=q)
+    assert result.solver == "analytic" and result.iterations == 0
+    assert np.max(np.abs(result.q - q)) < 1e-8
+
+
+def test_explicit_solver_refines_analytic_branch(rng: np.random.Generator) -> None:
+    robot = load_problem("puma560").robot
+    q = _random_in_limits(robot, rng, 1)[0]
+    T = robot.fk(q)
+    result = optik.solve_ik(robot, T, solver="transpose", q0=q)
+    assert result.success and result.solver == "transpose"
+    assert result.iterations == 0  # the branch is already exact
+
+
+def test_unreachable_and_outside_limits_statuses() -> None:
+    puma = load_problem("puma560").robot
+    far = np.eye(4)
+    far[:3, 3] = [3.0, 0.0, 0.0]
+    result = optik.solve_ik(puma, far)
+    assert not result.success and result.status == "unreachable"
+    arm = load_problem("jumbo_spherical_arm").robot
+    p = arm.fk(np.array([0.2, 0.4, 7.0]))[:3, 3]  # needs a 7 m stroke; the boom stops at 6 m
+    result = optik.solve_ik(arm, p, mode="position")
+    assert result.status == "outside_limits" and not result.success
+    assert result.limit_violation == pytest.approx(1.0, abs=1e-9)
+
+
+def test_numeric_failure_statuses() -> None:
+    panda = load_problem("panda").robot
+    far = np.eye(4)
+    far[:3, 3] = [5.0, 0.0, 0.0]
+    result = optik.solve_ik(panda, far, restarts=3)
+    assert not result.success and result.status == "max_iter"
+    assert result.restarts == 3
+    result = optik.solve_ik(panda, far, timeout_s=0.02, solver="pinv", max_iter=50)
+    assert not result.success and result.status == "timeout"
+    assert result.time_s < 1.0
+
+
+class _Exploding(IKSolver):
+    name = "test:exploding"
+
+    def solve(self, query, q0, max_iter, deadline):  # type: ignore[no-untyped-def]
+        raise RuntimeError("backend crashed")
+
+
+def test_backend_exception_becomes_solver_failed() -> None:
+    register_solver("test:exploding", _Exploding, lambda: True)
+    panda = load_problem("panda").robot
+    result = optik.solve_ik(panda, panda.fk(panda.mid_limits + 0.1), solver="test:exploding")
+    assert result.status == "solver_failed" and not result.success
+    assert "backend crashed" in result.message
+
+
+def test_deterministic_for_a_seed(rng: np.random.Generator) -> None:
+    panda = load_problem("panda").robot
+    T = panda.fk(_random_in_limits(panda, rng, 1)[0])
+    a = optik.solve_ik(panda, T, seed=3)
+    b = optik.solve_ik(panda, T, seed=3)
+    assert np.array_equal(a.q, b.q) and a.iterations == b.iterations
+
+
+def test_position_mode(rng: np.random.Generator) -> None:
+    panda = load_problem("panda").robot
+    for q in _random_in_limits(panda, rng, 20):
+        p = panda.fk(q)[:3, 3]
+        result = optik.solve_ik(panda, p, mode="position")
+        assert result.success and np.linalg.norm(panda.fk(result.q)[:3, 3] - p) <= 1e-6
+        assert result.orientation_error == 0.0
+
+
+def test_batch_matches_independent_verification(rng: np.random.Generator) -> None:
+    panda = load_problem("panda").robot
+    Q = _random_in_limits(panda, rng, 300)
+    T = panda.fk(Q)
+    batch = optik.solve_ik_batch(panda, T)
+    assert batch.success.mean() >= 0.999
+    for k in range(len(Q)):
+        assert bool(batch.success[k]) == _verify(panda, batch.q[k], T[k], 1e-6)
+    again = optik.solve_ik_batch(panda, T)
+    assert np.array_equal(batch.q, again.q)  # thread-count independent and seeded
+
+
+def test_bad_input_raises_optik_errors() -> None:
+    puma = load_problem("puma560").robot
+    T = puma.fk(puma.mid_limits)
+    nan_target = T.copy()
+    nan_target[0, 3] = np.nan
+    with pytest.raises(NonFiniteError):
+        optik.solve_ik(puma, nan_target)
+    skew = T.copy()
+    skew[:3, :3] *= 1.01
+    with pytest.raises(InvalidRotationError):
+        optik.solve_ik(puma, skew)
+    with pytest.raises(ShapeError):
+        optik.solve_ik(puma, T[:3])
+    with pytest.raises(ShapeError):
+        optik.solve_ik(puma, np.ones(4), mode="position")
+    outside = puma.mid_limits.copy()
+    outside[1] = puma.upper[1] + 0.1
+    with pytest.raises(JointLimitError) as info:
+        optik.solve_ik(puma, T, q0=outside)
+    assert info.value.joint == "j2"
+    with pytest.raises(UnknownSolverError) as unknown:
+        optik.solve_ik(puma, T, solver="nonsense")
+    assert "dls" in str(unknown.value) and "installed" in str(unknown.value)
+    with pytest.raises(OptikError, match="tol"):
+        optik.solve_ik(puma, T, tol=0.0)
+    with pytest.raises(OptikError, match="mode"):
+        optik.solve_ik(puma, T, mode="orientation")
+    with pytest.raises(OptikError, match="warm_start"):
+        optik.solve_ik(puma, T, warm_start="magic")
+    with pytest.raises(TypeError):
+        optik.solve_ik(puma, T, "pose")  # type: ignore[misc]  # keyword-only
+
+
+def test_seed003_two_link_example() -> None:
+    """Seed 003: pinv with step 0.001 from (0.5, 0.5) reaches (1.2, 1.3) within 0.01."""
+    problem = load_problem("planar_2r")
+    robot = problem.robot
+    target = problem.targets["seed003"]
+    solver = optik.solvers.iterative.PinvSolver(step=0.001)
+    query = optik.solvers.IKQuery(robot, target.pose, "position", target.tolerance)
+    out = solver.solve(query, np.array([0.5, 0.5]), 100_000, math.inf)
+    assert out.converged
+    p = robot.fk(out.q)[:3, 3]
+    assert np.linalg.norm(p - target.position) <= 0.01
+    assert 1000 < out.iterations < 5000  # small steps: hundreds of thousandths of the way
+    precise = optik.solve_ik(
+        robot,
+        target.position,
+        mode="position",
+        solver="dls",
+        tol=1e-9,
+        warm_start="q0",
+        q0=[0.5, 0.5],
+    )
+    assert precise.success and precise.position_error <= 1e-9
