@@ -12,6 +12,7 @@ as the DOBOT Magician, where the forearm keeps its angle to the horizontal.
 
 from __future__ import annotations
 
+import copy
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -22,7 +23,7 @@ import numpy as np
 
 from optik import _kernels
 from optik._checks import FloatArray, as_float_array, check_finite, finite_array
-from optik.errors import ModelError, ShapeError
+from optik.errors import InvalidLimitsError, ModelError, ShapeError
 from optik.limits import limit_violation, resolve_limits, within_limits
 from optik.spatial import as_pose, rot_x, rot_z, transform
 
@@ -453,6 +454,47 @@ class Robot:
         return _kernels.joint_frames(
             self._K, self._prismatic, self._E, self.T_world_base, self._theta(q)
         )
+
+    def with_limits(self, lower: Any, upper: Any) -> Robot:
+        """A copy of this robot with other joint limits (dof,) each; kinematics shared.
+
+        Raises:
+            InvalidLimitsError: NaN, or ``lower > upper`` for some joint.
+            ShapeError: wrong shapes.
+        """
+        lo = as_float_array("lower", lower)
+        hi = as_float_array("upper", upper)
+        for name, arr in (("lower", lo), ("upper", hi)):
+            if arr.shape != (self.dof,):
+                raise ShapeError(name, f"({self.dof},)", arr.shape)
+        joints = []
+        for joint, a, b in zip(self.joints, lo, hi, strict=True):
+            if math.isnan(a) or math.isnan(b) or a > b:
+                raise InvalidLimitsError(joint.name, float(a), float(b))
+            joints.append(Joint(joint.name, joint.kind, float(a), float(b), joint.role))
+        clone = copy.copy(self)
+        clone.joints = tuple(joints)
+        clone.lower = lo.copy()
+        clone.upper = hi.copy()
+        clone._cache = {}
+        return clone
+
+    @property
+    def reach_bound(self) -> float:
+        """An upper bound (m) on the tool's distance from the world origin.
+
+        The sum of the lengths of every constant translation in the chain plus the
+        largest stroke of each prismatic joint: no configuration reaches farther.
+        """
+        links = float(np.sum(np.linalg.norm(self._K[:, :3, 3], axis=1)))
+        strokes = 0.0
+        for i, prismatic in enumerate(self._prismatic):
+            if prismatic:
+                column = self._coupling[i]
+                strokes += float(
+                    np.sum(np.abs(column) * np.maximum(np.abs(self.lower), np.abs(self.upper)))
+                )
+        return links + strokes
 
     def limit_violation(self, q: Any) -> float | FloatArray:
         """Largest excursion (rad or m) of ``q`` beyond its limits; 0 inside."""

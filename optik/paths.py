@@ -1,0 +1,223 @@
+"""Cartesian paths: sampled primitives (line, arc, circle) and path files.
+
+A path is an array of world poses ``(N, 4, 4)`` (m); position-only paths carry identity
+rotations and are planned in ``mode="position"``. Orientation between two poses is
+interpolated by slerp (constant angular rate about one axis).
+
+File formats (see docs/planning.md):
+
+- CSV: a header line, then one waypoint per line: ``x,y,z`` (position only) or
+  ``x,y,z,roll,pitch,yaw`` (rad, the URDF ``rpy`` convention); lengths in m.
+- NPZ: an array ``poses`` (N, 4, 4), or ``positions`` (N, 3).
+- TOML: ``positions = [[x, y, z], ...]`` and optionally ``rpy = [[r, p, y], ...]``, with
+  optional ``length_unit`` / ``angle_unit`` as in problem files.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from optik._checks import FloatArray, finite_array
+from optik.errors import OptikError, ShapeError
+from optik.spatial import as_pose, exp_so3, log_so3, rpy_to_matrix, transform
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover - exercised only on Python 3.10
+    import tomli as tomllib
+
+
+class PathFileError(OptikError):
+    """A path file cannot be read; the message names the file and the problem."""
+
+
+def _samples(length: float, step: float) -> int:
+    if not (math.isfinite(step) and step > 0):
+        raise OptikError(f"step must be positive and finite, got {step!r}")
+    return max(math.ceil(length / step - 1e-9), 1) + 1
+
+
+def slerp(R0: FloatArray, R1: FloatArray, s: FloatArray) -> FloatArray:
+    """Rotations (len(s), 3, 3) from ``R0`` (s = 0) to ``R1`` (s = 1) at constant rate."""
+    omega = log_so3(R0.T @ R1)
+    return np.array([R0 @ exp_so3(float(t) * omega) for t in s])
+
+
+def line(start: Any, end: Any, step: float) -> FloatArray:
+    """Poses along the segment from ``start`` to ``end`` (4x4 each), at most ``step`` m apart.
+
+    Orientation is slerped; the number of samples is ``ceil(length / step) + 1`` (at least
+    2), both ends included. For a pure rotation (zero length) ``step`` applies in radians.
+    """
+    T0 = as_pose("start", start)
+    T1 = as_pose("end", end)
+    length = float(np.linalg.norm(T1[:3, 3] - T0[:3, 3]))
+    angle = float(np.linalg.norm(log_so3(T0[:3, :3].T @ T1[:3, :3])))
+    s = np.linspace(0.0, 1.0, _samples(max(length, angle if length == 0 else 0.0), step))
+    poses = np.empty((len(s), 4, 4))
+    poses[:] = np.eye(4)
+    poses[:, :3, 3] = T0[:3, 3] + s[:, None] * (T1[:3, 3] - T0[:3, 3])
+    poses[:, :3, :3] = slerp(T0[:3, :3], T1[:3, :3], s)
+    return poses
+
+
+def arc(start: Any, end: Any, center: Any, step: float, *, long_way: bool = False) -> FloatArray:
+    """Poses along the circular arc from ``start`` to ``end`` about ``center`` (3,), m.
+
+    Both ends must lie at the same distance from ``center`` (to 1e-9 relative); the arc
+    is the shorter one unless ``long_way``. Orientation is slerped along the arc.
+    """
+    T0 = as_pose("start", start)
+    T1 = as_pose("end", end)
+    c = finite_array("center", center, (3,))
+    u, v = T0[:3, 3] - c, T1[:3, 3] - c
+    radius = float(np.linalg.norm(u))
+    if radius == 0.0 or abs(float(np.linalg.norm(v)) - radius) > 1e-9 * max(radius, 1.0):
+        raise OptikError("arc: start and end must be at the same non-zero distance from center")
+    normal = np.cross(u, v)
+    sweep = math.atan2(float(np.linalg.norm(normal)), float(u @ v))
+    if float(np.linalg.norm(normal)) < 1e-12 * radius * radius:
+        raise OptikError("arc: start, end and center are collinear; use circle() with a normal")
+    axis = normal / np.linalg.norm(normal)
+    if long_way:
+        sweep, axis = 2 * math.pi - sweep, -axis
+    return _sweep(T0, T1, c, axis, sweep, step)
+
+
+def circle(start: Any, center: Any, normal: Any, step: float) -> FloatArray:
+    """Poses around the full circle through ``start`` about ``center``, turning about ``normal``.
+
+    The orientation turns with the circle (the start rotation carried about ``normal``);
+    the last sample coincides with the first.
+    """
+    T0 = as_pose("start", start)
+    c = finite_array("center", center, (3,))
+    n = finite_array("normal", normal, (3,))
+    norm = float(np.linalg.norm(n))
+    if norm == 0.0:
+        raise OptikError("circle: normal must be non-zero")
+    axis = n / norm
+    T1 = T0.copy()
+    return _sweep(T0, T1, c, axis, 2 * math.pi, step, carry_rotation=True)
+
+
+def _sweep(
+    T0: FloatArray,
+    T1: FloatArray,
+    center: FloatArray,
+    axis: FloatArray,
+    sweep: float,
+    step: float,
+    carry_rotation: bool = False,
+) -> FloatArray:
+    u = T0[:3, 3] - center
+    radius = float(np.linalg.norm(u - axis * float(axis @ u)))
+    s = np.linspace(0.0, 1.0, _samples(radius * sweep, step))
+    rotations = slerp(T0[:3, :3], T1[:3, :3], s)
+    poses = np.empty((len(s), 4, 4))
+    for k, t in enumerate(s):
+        R_turn = exp_so3(axis * sweep * float(t))
+        poses[k] = transform(
+            R_turn @ T0[:3, :3] if carry_rotation else rotations[k], center + R_turn @ u
+        )
+    return poses
+
+
+def _positions_to_poses(positions: FloatArray, rpy: FloatArray | None) -> FloatArray:
+    poses = np.broadcast_to(np.eye(4), (len(positions), 4, 4)).copy()
+    poses[:, :3, 3] = positions
+    if rpy is not None:
+        for k, (r, p, y) in enumerate(rpy):
+            poses[k, :3, :3] = rpy_to_matrix(r, p, y)
+    return poses
+
+
+def read_path(path: str | Path) -> tuple[FloatArray, str]:
+    """Read a path file (CSV, NPZ or TOML); returns ``(poses (N, 4, 4), mode)``.
+
+    ``mode`` is ``"pose"`` when the file gives orientations, else ``"position"``.
+
+    Raises:
+        PathFileError: missing file, unknown extension, or malformed content (the message
+            names the file and the line or key).
+    """
+    file = Path(path)
+    if not file.is_file():
+        raise PathFileError(f"{file}: file not found")
+    suffix = file.suffix.lower()
+    try:
+        if suffix == ".csv":
+            return _read_csv(file)
+        if suffix == ".npz":
+            return _read_npz(file)
+        if suffix == ".toml":
+            return _read_toml(file)
+    except (ShapeError, ValueError) as exc:
+        if isinstance(exc, PathFileError):
+            raise
+        raise PathFileError(f"{file}: {exc}") from exc
+    raise PathFileError(f"{file}: unknown path format {suffix!r} (expected .csv, .npz, .toml)")
+
+
+def _read_csv(file: Path) -> tuple[FloatArray, str]:
+    with file.open(newline="", encoding="utf-8") as handle:
+        rows = [row for row in csv.reader(handle) if row and not row[0].startswith("#")]
+    if len(rows) < 2:
+        raise PathFileError(f"{file}: expected a header line and at least one waypoint")
+    width = len(rows[0])
+    if width not in (3, 6):
+        raise PathFileError(
+            f"{file}: header must have 3 (x,y,z) or 6 (x,y,z,roll,pitch,yaw) columns"
+        )
+    values = np.empty((len(rows) - 1, width))
+    for k, row in enumerate(rows[1:], start=2):
+        if len(row) != width:
+            raise PathFileError(f"{file}: line {k}: expected {width} values, got {len(row)}")
+        try:
+            values[k - 2] = [float(v) for v in row]
+        except ValueError as exc:
+            raise PathFileError(f"{file}: line {k}: {exc}") from exc
+    if not np.all(np.isfinite(values)):
+        raise PathFileError(f"{file}: NaN or infinite value")
+    rpy = values[:, 3:6] if width == 6 else None
+    return _positions_to_poses(values[:, :3], rpy), "pose" if width == 6 else "position"
+
+
+def _read_npz(file: Path) -> tuple[FloatArray, str]:
+    with np.load(file) as data:
+        if "poses" in data:
+            return as_pose("poses", data["poses"], batch=True).copy(), "pose"
+        if "positions" in data:
+            positions = finite_array("positions", data["positions"], (3,), batch=True)
+            return _positions_to_poses(np.atleast_2d(positions), None), "position"
+    raise PathFileError(f"{file}: expected an array named 'poses' (N, 4, 4) or 'positions' (N, 3)")
+
+
+def _read_toml(file: Path) -> tuple[FloatArray, str]:
+    from optik.problems import ANGLE_UNITS, LENGTH_UNITS
+
+    try:
+        data = tomllib.loads(file.read_text(encoding="utf-8"))
+    except tomllib.TOMLDecodeError as exc:
+        raise PathFileError(f"{file}: not valid TOML: {exc}") from exc
+    length = LENGTH_UNITS.get(data.get("length_unit", "m"))
+    angle = ANGLE_UNITS.get(data.get("angle_unit", "rad"))
+    if length is None or angle is None:
+        raise PathFileError(f"{file}: unknown length_unit or angle_unit")
+    if "positions" not in data:
+        raise PathFileError(f"{file}: missing 'positions'")
+    positions = finite_array("positions", data["positions"], (3,), batch=True) * length
+    rpy = None
+    if "rpy" in data:
+        rpy = finite_array("rpy", data["rpy"], (3,), batch=True) * angle
+        if len(rpy) != len(positions):
+            raise PathFileError(f"{file}: 'rpy' needs one entry per position")
+    return _positions_to_poses(
+        np.atleast_2d(positions), rpy
+    ), "pose" if rpy is not None else "position"

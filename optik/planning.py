@@ -1,0 +1,487 @@
+"""Limit-aware preprocessing of Cartesian paths: a continuous joint path, or exact flags.
+
+:func:`plan_path` collects, at every waypoint, every candidate configuration inside the
+limits (all closed-form branches when the robot has a family; otherwise numeric solutions
+seeded from the previous waypoint's candidates and from seeded restarts), then chooses one
+candidate per waypoint by dynamic programming over the whole sequence: it minimises the
+number of steps whose largest single-joint motion exceeds ``max_joint_step`` (branch
+switches), then the total joint motion. A branch switch therefore happens only where no
+continuous path exists, and it is flagged. Every input waypoint appears in the output.
+
+:func:`reachability` answers, for many points at once, whether the robot reaches them
+inside its limits.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import tempfile
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from optik._checks import FloatArray, as_float_array
+from optik.analytic import analytic_ik, family_of, wrap_into_limits
+from optik.errors import OptikError, ShapeError
+from optik.ik import solve_ik, solve_ik_batch
+from optik.model import Robot
+from optik.spatial import as_pose
+
+PLAN_STATUSES = ("ok", "unreachable", "outside_limits", "near_singular", "discontinuity")
+_SWITCH_PENALTY = 1e6
+_DUPLICATE = 1e-7
+
+
+@dataclass
+class PathPlan:
+    """A joint path for a Cartesian path, with a status for every waypoint.
+
+    Attributes:
+        poses: (N, 4, 4) input waypoints (world frame, m).
+        mode: ``"pose"`` or ``"position"``.
+        q: (N, dof) chosen configurations; NaN rows where unsolved.
+        status: N entries from :data:`PLAN_STATUSES`.
+        limit_margin: (N, dof) distance of each joint to its nearer limit (rad or m).
+        manipulability: (N,) ``sqrt(det(J J^T))`` of the task rows (NaN where unsolved).
+        step: (N,) largest single-joint step from the previous solved waypoint (NaN for the
+            first of a stretch and where unsolved).
+        candidates: (N,) number of candidate configurations found at each waypoint.
+        max_joint_step: the bound on a continuous step (rad or m).
+        greedy: whether the choice was greedy (nearest to the previous) instead of optimal.
+    """
+
+    poses: FloatArray
+    mode: str
+    q: FloatArray
+    status: list[str]
+    limit_margin: FloatArray
+    manipulability: FloatArray
+    step: FloatArray
+    candidates: np.ndarray
+    max_joint_step: float
+    greedy: bool = False
+    joint_names: tuple[str, ...] = field(default_factory=tuple)
+
+    @property
+    def solved(self) -> np.ndarray:
+        """(N,) mask of waypoints with a configuration."""
+        return ~np.isnan(self.q[:, 0])
+
+    @property
+    def largest_step(self) -> float:
+        """Largest single-joint step along the plan (rad or m); 0 for one waypoint."""
+        finite = self.step[np.isfinite(self.step)]
+        return float(finite.max()) if finite.size else 0.0
+
+    def summary(self) -> dict[str, Any]:
+        """Counts per status, waypoints solved and the largest step."""
+        counts = {s: self.status.count(s) for s in PLAN_STATUSES}
+        return {
+            "waypoints": len(self.status),
+            "solved": int(self.solved.sum()),
+            "flagged": len(self.status) - counts["ok"],
+            "largest_step": self.largest_step,
+            "max_joint_step": self.max_joint_step,
+            **counts,
+        }
+
+    def save(self, path: str | Path) -> Path:
+        """Write the plan as ``.csv``, ``.npz`` or ``.json`` (whole or not at all)."""
+        target = Path(path)
+        suffix = target.suffix.lower()
+        if suffix == ".npz":
+            return _atomic_write(target, self._write_npz, binary=True)
+        if suffix == ".csv":
+            return _atomic_write(target, self._write_csv)
+        if suffix == ".json":
+            return _atomic_write(target, self._write_json)
+        raise OptikError(f"{target}: unknown plan format {suffix!r} (expected .csv, .npz, .json)")
+
+    def _write_npz(self, handle: Any) -> None:
+        np.savez(
+            handle,
+            poses=self.poses,
+            q=self.q,
+            status=np.array(self.status),
+            limit_margin=self.limit_margin,
+            manipulability=self.manipulability,
+            step=self.step,
+            candidates=self.candidates,
+        )
+
+    def _write_csv(self, handle: Any) -> None:
+        names = self.joint_names or tuple(f"q{i}" for i in range(self.q.shape[1]))
+        header = ["index", "status", "x", "y", "z", *names, "step", "manipulability"]
+        handle.write(",".join(header) + "\n")
+        for k in range(len(self.status)):
+            cells = [str(k), self.status[k], *(f"{v:.9g}" for v in self.poses[k, :3, 3])]
+            cells += [f"{v:.12g}" for v in self.q[k]]
+            cells += [f"{self.step[k]:.9g}", f"{self.manipulability[k]:.9g}"]
+            handle.write(",".join(cells) + "\n")
+
+    def _write_json(self, handle: Any) -> None:
+        def clean(a: FloatArray) -> Any:
+            return (
+                [None if not math.isfinite(v) else v for v in a.tolist()]
+                if a.ndim == 1
+                else [clean(row) for row in a]
+            )
+
+        json.dump(
+            {
+                "summary": self.summary(),
+                "mode": self.mode,
+                "joint_names": list(self.joint_names),
+                "status": self.status,
+                "q": clean(self.q),
+                "step": clean(self.step),
+                "manipulability": clean(self.manipulability),
+                "positions": self.poses[:, :3, 3].tolist(),
+            },
+            handle,
+            indent=1,
+        )
+
+    def plot(self, path: str | Path, robot: Robot | None = None) -> Path:
+        """Joint trajectories with limit bands and flagged waypoints, saved as an image."""
+        from optik.plots import plot_plan
+
+        return plot_plan(self, Path(path), robot)
+
+
+def _atomic_write(target: Path, writer: Callable[[Any], None], binary: bool = False) -> Path:
+    """Write through a temporary file in the same folder, then rename over ``target``."""
+    target.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", dir=target.parent)
+    try:
+        with os.fdopen(fd, "wb" if binary else "w", encoding=None if binary else "utf-8") as handle:
+            writer(handle)
+        os.replace(tmp, target)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return target
+
+
+def _as_path(path: Any, mode: str | None) -> tuple[FloatArray, str]:
+    array = as_float_array("path", path)
+    if array.ndim == 2 and array.shape[1] == 3:
+        poses = np.broadcast_to(np.eye(4), (len(array), 4, 4)).copy()
+        poses[:, :3, 3] = array
+        if not np.all(np.isfinite(array)):
+            raise OptikError("path: positions must be finite")
+        return poses, mode or "position"
+    if array.ndim == 3 and array.shape[1:] == (4, 4):
+        return as_pose("path", array, batch=True), mode or "pose"
+    raise ShapeError("path", "(N, 3) positions or (N, 4, 4) poses", array.shape)
+
+
+def _dedupe(rows: list[FloatArray], limit: int) -> list[FloatArray]:
+    out: list[FloatArray] = []
+    for q in rows:
+        if all(np.max(np.abs(q - other)) > _DUPLICATE for other in out):
+            out.append(q)
+        if len(out) >= limit:
+            break
+    return out
+
+
+class _CandidateFinder:
+    """Candidate configurations at one waypoint, inside the (margin-shrunk) limits."""
+
+    def __init__(
+        self, robot: Robot, work: Robot, mode: str, tol: float, restarts: int, seed: int, limit: int
+    ) -> None:
+        self.robot, self.work, self.mode, self.tol = robot, work, mode, tol
+        self.restarts, self.seed, self.limit = restarts, seed, limit
+        family = family_of(robot)
+        self.analytic = family is not None and mode in family.modes
+
+    def find(self, T: FloatArray, seeds: list[FloatArray], k: int) -> list[FloatArray]:
+        target = T if self.mode == "pose" else T[:3, 3]
+        if self.analytic:
+            branches = analytic_ik(self.work, target, self.mode)
+            if not branches:
+                return []
+            # Joints with more than 2 pi of range have several representatives of each
+            # branch: also take those nearest every previous candidate, for continuity.
+            B = np.array(branches)
+            rows: list[FloatArray] = list(B)
+            for ref in seeds:
+                rows.extend(wrap_into_limits(B, self.work, ref))
+            return _dedupe(rows, self.limit)
+        rows = []
+        for q0 in seeds:
+            result = solve_ik(
+                self.work,
+                target,
+                mode=self.mode,
+                solver="dls",
+                q0=q0,
+                warm_start="q0",
+                tol=self.tol,
+                restarts=0,
+            )
+            if result.success:
+                rows.append(result.q)
+        if not rows or self.restarts > 0:
+            result = solve_ik(
+                self.work,
+                target,
+                mode=self.mode,
+                solver="dls",
+                warm_start="q0",
+                tol=self.tol,
+                restarts=self.restarts if rows else max(self.restarts, 20),
+                seed=self.seed + k,
+            )
+            if result.success:
+                rows.append(result.q)
+        return _dedupe(rows, self.limit)
+
+    def why_unsolved(self, T: FloatArray) -> str:
+        """``"outside_limits"`` if reachable with the limits lifted, else ``"unreachable"``."""
+        target = T if self.mode == "pose" else T[:3, 3]
+        if float(np.linalg.norm(T[:3, 3])) > self.robot.reach_bound:
+            return "unreachable"
+        if self.analytic:
+            loose = analytic_ik(self.robot, target, self.mode, within_limits=False)
+            return "outside_limits" if loose else "unreachable"
+        inside = solve_ik(
+            self.robot, target, mode=self.mode, solver="dls", tol=self.tol, restarts=20
+        )
+        if inside.success:
+            return "outside_limits"  # reachable inside the limits, not inside the margin
+        prismatic = np.array([j.kind == "prismatic" for j in self.robot.joints])
+        free = self.robot.with_limits(
+            np.where(prismatic, self.robot.lower, -2 * math.pi),
+            np.where(prismatic, self.robot.upper, 2 * math.pi),
+        )
+        lifted = solve_ik(free, target, mode=self.mode, solver="dls", tol=self.tol, restarts=20)
+        return "outside_limits" if lifted.success else "unreachable"
+
+
+def _choose(
+    layers: list[list[FloatArray]], max_step: float, greedy: bool, start: FloatArray | None
+) -> list[int]:
+    """Index of the chosen candidate per layer (-1 for empty layers)."""
+    choice = [-1] * len(layers)
+    if greedy:
+        anchor = start
+        for k, layer in enumerate(layers):
+            if not layer:
+                anchor = None
+                continue
+            if anchor is None:
+                choice[k] = 0
+            else:
+                choice[k] = int(np.argmin([np.max(np.abs(q - anchor)) for q in layer]))
+            anchor = layer[choice[k]]
+        return choice
+    # Dynamic programming over each stretch of solved waypoints.
+    k = 0
+    n = len(layers)
+    while k < n:
+        if not layers[k]:
+            k += 1
+            continue
+        end = k
+        while end < n and layers[end]:
+            end += 1
+        stretch = [np.array(layers[i]) for i in range(k, end)]
+        cost = np.zeros(len(stretch[0]))
+        if start is not None and k == 0:
+            cost = np.linalg.norm(stretch[0] - start, axis=1)
+        back: list[np.ndarray] = []
+        for i in range(1, len(stretch)):
+            diff = stretch[i][None, :, :] - stretch[i - 1][:, None, :]
+            linf = np.max(np.abs(diff), axis=2)
+            step_cost = np.linalg.norm(diff, axis=2) + np.where(
+                linf > max_step, _SWITCH_PENALTY, 0.0
+            )
+            total = cost[:, None] + step_cost
+            back.append(np.argmin(total, axis=0))
+            cost = total[back[-1], np.arange(total.shape[1])]
+        j = int(np.argmin(cost))
+        for i in range(len(stretch) - 1, -1, -1):
+            choice[k + i] = j
+            if i > 0:
+                j = int(back[i - 1][j])
+        k = end
+    return choice
+
+
+def plan_path(
+    robot: Robot,
+    path: Any,
+    *,
+    max_joint_step: float = 0.1,
+    limit_margin: float = 0.0,
+    mode: str | None = None,
+    q_start: Any = None,
+    tol: float = 1e-6,
+    restarts: int = 2,
+    seed: int = 0,
+    singular_threshold: float = 1e-3,
+    max_candidates: int = 16,
+    greedy: bool = False,
+) -> PathPlan:
+    """Turn a Cartesian path into a continuous joint path inside the limits.
+
+    Args:
+        robot: the robot.
+        path: (N, 4, 4) world poses, or (N, 3) positions (m).
+        max_joint_step: largest single-joint motion (rad or m) between consecutive
+            waypoints that counts as continuous; a larger step is a flagged discontinuity.
+        limit_margin: keep every joint this far (rad or m) inside its finite limits.
+        mode: ``"pose"`` or ``"position"`` (default: from the shape of ``path``).
+        q_start: current configuration: the first waypoint's choice is the nearest to it.
+        tol: IK tolerance (m, rad).
+        restarts: numeric restarts per waypoint (robots without a closed form).
+        seed: seed of the restarts.
+        singular_threshold: smallest singular value of the task Jacobian (m or rad per
+            rad) below which a waypoint is flagged ``near_singular``.
+        max_candidates: candidates kept per waypoint.
+        greedy: choose, at each waypoint, the candidate nearest the previous choice (no
+            look-ahead): the naive baseline the optimal plan is compared with.
+
+    Returns:
+        A :class:`PathPlan` with one row and one status per input waypoint.
+    """
+    poses, mode = _as_path(path, mode)
+    if mode not in ("pose", "position"):
+        raise OptikError(f"mode must be 'pose' or 'position', got {mode!r}")
+    if not (max_joint_step > 0 and math.isfinite(max_joint_step)):
+        raise OptikError(f"max_joint_step must be positive and finite, got {max_joint_step!r}")
+    if not (limit_margin >= 0 and math.isfinite(limit_margin)):
+        raise OptikError(f"limit_margin must be >= 0, got {limit_margin!r}")
+    finite = np.isfinite(robot.lower)
+    lower = np.where(finite, robot.lower + limit_margin, robot.lower)
+    upper = np.where(finite, robot.upper - limit_margin, robot.upper)
+    if np.any(lower > upper):
+        raise OptikError(f"limit_margin {limit_margin} leaves no range for some joint")
+    work = robot.with_limits(lower, upper)
+    start = None if q_start is None else work.check_q(q_start, "q_start")
+    finder = _CandidateFinder(robot, work, mode, tol, restarts, seed, max_candidates)
+
+    n = len(poses)
+    layers: list[list[FloatArray]] = []
+    seeds: list[FloatArray] = [start] if start is not None else []
+    for k in range(n):
+        layer = finder.find(poses[k], seeds, k)
+        layers.append(layer)
+        seeds = layer if layer else ([start] if start is not None else [])
+    choice = _choose(layers, max_joint_step, greedy, start)
+
+    dof = robot.dof
+    Q = np.full((n, dof), np.nan)
+    status = ["ok"] * n
+    steps = np.full(n, np.nan)
+    manip = np.full(n, np.nan)
+    previous: FloatArray | None = None
+    for k in range(n):
+        if choice[k] < 0:
+            status[k] = finder.why_unsolved(poses[k])
+            previous = None
+            continue
+        q = layers[k][choice[k]]
+        Q[k] = q
+        J = robot.jacobian(q)
+        rows = J[:3] if mode == "position" else J
+        singular_values = np.linalg.svd(rows, compute_uv=False)
+        manip[k] = float(np.prod(singular_values[: min(rows.shape)]))
+        if previous is not None:
+            steps[k] = float(np.max(np.abs(q - previous)))
+        if previous is not None and steps[k] > max_joint_step:
+            status[k] = "discontinuity"
+        elif singular_values[min(rows.shape) - 1] < singular_threshold:
+            status[k] = "near_singular"
+        previous = q
+    margin = np.minimum(Q - robot.lower, robot.upper - Q)
+    return PathPlan(
+        poses=poses,
+        mode=mode,
+        q=Q,
+        status=status,
+        limit_margin=margin,
+        manipulability=manip,
+        step=steps,
+        candidates=np.array([len(layer) for layer in layers]),
+        max_joint_step=float(max_joint_step),
+        greedy=greedy,
+        joint_names=robot.joint_names,
+    )
+
+
+@dataclass
+class Reachability:
+    """Which sampled points the robot reaches inside its limits.
+
+    Attributes:
+        points: (N, 3) world positions (m).
+        reachable: (N,) reached inside the limits (verified by FK).
+        proven_unreachable: (N,) beyond the robot's reach bound (no configuration gets there).
+        q: (N, dof) a configuration for each reachable point (NaN elsewhere).
+    """
+
+    points: FloatArray
+    reachable: np.ndarray
+    proven_unreachable: np.ndarray
+    q: FloatArray
+
+    def plot_slice(self, path: str | Path, axis: str = "z", value: float | None = None) -> Path:
+        """Scatter of the points near a plane ``axis = value`` coloured by reachability."""
+        from optik.plots import plot_reachability
+
+        return plot_reachability(self, Path(path), axis, value)
+
+
+def reachability(
+    robot: Robot,
+    points: Any,
+    *,
+    orientation: Any = None,
+    tol: float = 1e-6,
+    restarts: int = 3,
+    seed: int = 0,
+) -> Reachability:
+    """Batched reachability of workspace points inside the joint limits.
+
+    Points beyond :attr:`Robot.reach_bound` are rejected without solving (proven
+    unreachable); the rest are solved in one compiled, multi-threaded batch (position IK,
+    or full pose with the given ``orientation``, a 3x3 rotation shared by all points), each
+    answer verified by FK. A point the numeric search misses within ``restarts`` is
+    reported unreachable without proof: raise ``restarts`` to search harder.
+    """
+    P = as_float_array("points", points)
+    if P.ndim != 2 or P.shape[1] != 3:
+        raise ShapeError("points", "(N, 3)", P.shape)
+    if not np.all(np.isfinite(P)):
+        raise OptikError("points: values must be finite")
+    far = np.linalg.norm(P, axis=1) > robot.reach_bound
+    Q = np.full((len(P), robot.dof), np.nan)
+    reachable = np.zeros(len(P), dtype=bool)
+    candidates = np.flatnonzero(~far)
+    if candidates.size:
+        if orientation is None:
+            result = solve_ik_batch(
+                robot, P[candidates], mode="position", tol=tol, restarts=restarts, seed=seed
+            )
+        else:
+            R = as_float_array("orientation", orientation)
+            if R.shape != (3, 3):
+                raise ShapeError("orientation", "(3, 3)", R.shape)
+            poses = np.broadcast_to(np.eye(4), (candidates.size, 4, 4)).copy()
+            poses[:, :3, :3] = R
+            poses[:, :3, 3] = P[candidates]
+            result = solve_ik_batch(
+                robot, poses, mode="pose", tol=tol, restarts=restarts, seed=seed
+            )
+        reachable[candidates] = result.success
+        Q[candidates[result.success]] = result.q[result.success]
+    return Reachability(P, reachable, far, Q)

@@ -1,0 +1,159 @@
+"""Figures (matplotlib, the ``report`` extra): joint paths, reachability slices.
+
+Every function writes one image file and returns its path; the figure is closed.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from optik.errors import OptikError
+
+if TYPE_CHECKING:
+    from optik.model import Robot
+    from optik.planning import PathPlan, Reachability
+
+_FLAG_STYLE = {
+    "discontinuity": ("tab:red", "x", "discontinuity"),
+    "near_singular": ("tab:orange", "^", "near singular"),
+    "outside_limits": ("tab:purple", "s", "outside limits"),
+    "unreachable": ("black", "o", "unreachable"),
+}
+
+
+def pyplot() -> Any:
+    """The pyplot module with a non-interactive backend, or a clear error."""
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError as exc:  # pragma: no cover - matplotlib is in the test extra
+        raise OptikError("plots need matplotlib: pip install 'optik[report]'") from exc
+    return plt
+
+
+def plot_plan(plan: PathPlan, path: Path, robot: Robot | None = None) -> Path:
+    """One panel per joint: the planned value, its limits (bands) and flagged waypoints."""
+    plt = pyplot()
+    dof = plan.q.shape[1]
+    cols = 2 if dof > 3 else 1
+    rows = math.ceil(dof / cols)
+    fig, axes = plt.subplots(
+        rows, cols, figsize=(6.5 * cols, 2.1 * rows), sharex=True, squeeze=False
+    )
+    index = np.arange(len(plan.status))
+    names = plan.joint_names or tuple(f"q{i + 1}" for i in range(dof))
+    for j in range(rows * cols):
+        ax = axes[j // cols][j % cols]
+        if j >= dof:
+            ax.axis("off")
+            continue
+        prismatic = robot is not None and robot.joints[j].kind == "prismatic"
+        scale = 1.0 if prismatic else 180.0 / math.pi
+        unit = "m" if prismatic else "deg"
+        ax.plot(index, plan.q[:, j] * scale, color="tab:blue", lw=1.4, label="planned")
+        if robot is not None:
+            lo, hi = robot.lower[j] * scale, robot.upper[j] * scale
+            if math.isfinite(lo):
+                span = hi - lo
+                ax.axhspan(lo - 0.15 * span, lo, color="tab:red", alpha=0.12, lw=0)
+                ax.axhspan(hi, hi + 0.15 * span, color="tab:red", alpha=0.12, lw=0)
+                ax.axhline(lo, color="tab:red", lw=0.8)
+                ax.axhline(hi, color="tab:red", lw=0.8)
+        solved = ~np.isnan(plan.q[:, j])
+        for status, (colour, marker, label) in _FLAG_STYLE.items():
+            flagged = np.array([s == status for s in plan.status])
+            on_path = flagged & solved
+            if on_path.any():
+                ax.scatter(
+                    index[on_path],
+                    plan.q[on_path, j] * scale,
+                    c=colour,
+                    marker=marker,
+                    s=24,
+                    label=label,
+                    zorder=3,
+                )
+            off_path = flagged & ~solved
+            if off_path.any():
+                # Unsolved waypoints have no joint value: mark them along the panel's foot.
+                ax.scatter(
+                    index[off_path],
+                    np.full(off_path.sum(), 0.04),
+                    c=colour,
+                    marker=marker,
+                    s=18,
+                    label=label,
+                    zorder=3,
+                    transform=ax.get_xaxis_transform(),
+                    clip_on=False,
+                )
+        ax.set_ylabel(f"{names[j]} ({unit})")
+        ax.grid(True, alpha=0.3)
+    for ax in axes[-1]:
+        ax.set_xlabel("waypoint")
+    handles, labels = axes[0][0].get_legend_handles_labels()
+    if robot is not None:
+        from matplotlib.patches import Patch
+
+        handles.append(Patch(color="tab:red", alpha=0.3))
+        labels.append("outside joint limits")
+    summary = plan.summary()
+    fig.suptitle(
+        f"Joint path: {summary['solved']}/{summary['waypoints']} waypoints solved, "
+        f"largest step {summary['largest_step']:.3g} (bound {plan.max_joint_step:g})",
+        y=0.99,
+        fontsize=11,
+    )
+    fig.legend(
+        handles,
+        labels,
+        loc="upper center",
+        bbox_to_anchor=(0.5, 0.955),
+        ncol=min(len(labels), 5),
+        frameon=False,
+        fontsize=9,
+    )
+    fig.tight_layout(rect=(0, 0, 1, 0.9))
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def plot_reachability(
+    result: Reachability, path: Path, axis: str = "z", value: float | None = None
+) -> Path:
+    """Points within a thin slab around the plane ``axis = value``, reachable or not."""
+    plt = pyplot()
+    k = "xyz".index(axis) if axis in ("x", "y", "z") else -1
+    if k < 0:
+        raise OptikError(f"axis must be 'x', 'y' or 'z', got {axis!r}")
+    P = result.points
+    level = float(np.median(P[:, k])) if value is None else float(value)
+    spread = float(np.ptp(P[:, k])) if len(P) else 0.0
+    slab = np.abs(P[:, k] - level) <= max(0.02 * spread, 1e-9)
+    a, b = [i for i in range(3) if i != k]
+    fig, ax = plt.subplots(figsize=(5.5, 5.0))
+    for mask, colour, label in (
+        (slab & result.reachable, "tab:green", "reachable inside limits"),
+        (slab & ~result.reachable & ~result.proven_unreachable, "tab:gray", "not reached"),
+        (slab & result.proven_unreachable, "black", "beyond reach (proven)"),
+    ):
+        ax.scatter(P[mask, a], P[mask, b], s=6, c=colour, label=label)
+    ax.set_xlabel(f"{'xyz'[a]} (m)")
+    ax.set_ylabel(f"{'xyz'[b]} (m)")
+    ax.set_aspect("equal")
+    ax.grid(True, alpha=0.3)
+    ax.legend(loc="upper right", fontsize=8)
+    ax.set_title(f"Reachability, slice {axis} = {level:.3g} m")
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path

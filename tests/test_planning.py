@@ -1,0 +1,173 @@
+"""plan_path and reachability: continuity, flags, verification, files."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from optik.errors import OptikError, ShapeError
+from optik.paths import PathFileError, arc, circle, line, read_path
+from optik.planning import PLAN_STATUSES, plan_path, reachability
+from optik.problems import load_problem
+from optik.spatial import pose_error, transform
+
+# A Puma 560 line (found by search) on which the nearest-branch choice jumps.
+PUMA_Q0 = np.array([-0.333, 3.713, -1.5713, 0.1582, 0.4196, 4.597])
+PUMA_Q1 = np.array([-0.7299, 3.927, -1.5419, 1.3596, 0.5327, 4.2171])
+
+
+def _verify_plan(robot, plan, tol=1e-6) -> None:  # type: ignore[no-untyped-def]
+    assert len(plan.status) == len(plan.poses) == len(plan.q)
+    assert all(s in PLAN_STATUSES for s in plan.status)
+    for k in np.flatnonzero(plan.solved):
+        position, orientation = pose_error(robot.fk(plan.q[k]), plan.poses[k])
+        assert position <= tol
+        if plan.mode == "pose":
+            assert orientation <= tol
+        assert np.all(plan.q[k] >= robot.lower - 1e-12) and np.all(plan.q[k] <= robot.upper + 1e-12)
+
+
+def test_plan_avoids_the_branch_jump_of_the_greedy_choice() -> None:
+    robot = load_problem("puma560").robot
+    poses = line(robot.fk(PUMA_Q0), robot.fk(PUMA_Q1), 0.01)
+    greedy = plan_path(robot, poses, max_joint_step=0.2, greedy=True, q_start=PUMA_Q0)
+    plan = plan_path(robot, poses, max_joint_step=0.2, q_start=PUMA_Q0)
+    _verify_plan(robot, plan)
+    _verify_plan(robot, greedy)
+    assert plan.largest_step <= 0.2 < greedy.largest_step
+    assert "discontinuity" in greedy.status and "discontinuity" not in plan.status
+    assert greedy.largest_step / plan.largest_step > 3.0  # measured: 0.67 vs 0.18 rad
+    assert plan.summary()["solved"] == len(poses)
+
+
+def test_unreachable_stretch_is_flagged_and_nothing_is_dropped() -> None:
+    robot = load_problem("puma560").robot
+    q = np.array([0.2, 0.5, -0.8, 0.1, 0.6, 0.3])
+    start = robot.fk(q)
+    far = start.copy()
+    far[:3, 3] = start[:3, 3] + np.array([2.5, 0.0, 0.0])
+    poses = np.concatenate([line(start, far, 0.05), line(far, start, 0.05)])
+    plan = plan_path(robot, poses, max_joint_step=0.3)
+    _verify_plan(robot, plan)
+    assert len(plan.status) == len(poses)
+    unreachable = np.array([s == "unreachable" for s in plan.status])
+    assert unreachable.any() and plan.solved.any()
+    assert np.all(unreachable == ~plan.solved)
+    distance = np.linalg.norm(poses[:, :3, 3], axis=1)
+    assert np.all(distance[unreachable] > distance[~unreachable].max() - 1e-9)
+
+
+def test_outside_default_limits_is_flagged_not_solved() -> None:
+    """The boom swings +-135 deg (arm default, 270 deg range): 170 deg is out of reach.
+
+    With the full pose the spherical arm has one branch, so nothing else can stand in.
+    """
+    robot = load_problem("jumbo_spherical_arm").robot
+    angles = np.radians(np.linspace(120.0, 170.0, 11))
+    q = np.stack([angles, np.full(11, 0.4), np.full(11, 4.0)], axis=1)
+    poses = robot.fk(q)
+    plan = plan_path(robot, poses, max_joint_step=0.2)
+    _verify_plan(robot, plan)
+    beyond = q[:, 0] > math.radians(135.0) + 1e-9
+    assert all(plan.status[k] == "outside_limits" for k in np.flatnonzero(beyond))
+    assert all(plan.status[k] in ("ok", "near_singular") for k in np.flatnonzero(~beyond))
+
+
+def test_numeric_robot_plan_and_margin(rng: np.random.Generator) -> None:
+    robot = load_problem("panda").robot
+    q0 = robot.mid_limits
+    T0 = robot.fk(q0)
+    T1 = T0.copy()
+    T1[:3, 3] += [0.1, 0.15, -0.1]
+    poses = line(T0, T1, 0.01)
+    plan = plan_path(robot, poses, max_joint_step=0.1, limit_margin=0.05, q_start=q0)
+    _verify_plan(robot, plan)
+    assert all(s == "ok" for s in plan.status)
+    assert np.nanmin(plan.limit_margin) >= 0.05 - 1e-9
+    assert plan.largest_step <= 0.1
+
+
+def test_plan_files_round_trip(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    robot = load_problem("ur5").robot
+    q = np.array([0.3, -1.2, 1.4, -0.4, 1.2, 0.2])
+    T0 = robot.fk(q)
+    T1 = T0 @ transform(None, [0.05, 0.1, 0.0])
+    plan = plan_path(robot, line(T0, T1, 0.02), q_start=q)
+    plan.save(tmp_path / "plan.npz")
+    plan.save(tmp_path / "plan.csv")
+    plan.save(tmp_path / "plan.json")
+    with np.load(tmp_path / "plan.npz") as data:
+        assert np.array_equal(data["q"], plan.q)
+        assert list(data["status"]) == plan.status
+    rows = (tmp_path / "plan.csv").read_text().strip().splitlines()
+    assert len(rows) == len(plan.status) + 1 and rows[0].startswith("index,status")
+    loaded = json.loads((tmp_path / "plan.json").read_text())
+    assert loaded["summary"]["waypoints"] == len(plan.status)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["plan.csv", "plan.json", "plan.npz"]
+    with pytest.raises(OptikError, match="unknown plan format"):
+        plan.save(tmp_path / "plan.xlsx")
+
+
+def test_path_primitives_and_files(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    T0 = transform(None, [1.0, 0.0, 0.5])
+    T1 = transform(None, [0.0, 1.0, 0.5])
+    poses = arc(T0, T1, [0.0, 0.0, 0.5], 0.01)
+    radii = np.linalg.norm(poses[:, :3, 3] - [0.0, 0.0, 0.5], axis=1)
+    assert np.allclose(radii, 1.0, atol=1e-12) and len(poses) == math.ceil(math.pi / 2 / 0.01) + 1
+    full = circle(T0, [0.0, 0.0, 0.5], [0.0, 0.0, 1.0], 0.05)
+    assert np.allclose(full[0, :3, 3], full[-1, :3, 3], atol=1e-12)
+    straight = line(T0, T1, 0.1)
+    steps = np.linalg.norm(np.diff(straight[:, :3, 3], axis=0), axis=1)
+    assert np.all(steps <= 0.1 + 1e-12) and np.allclose(steps, steps[0])
+    (tmp_path / "p.csv").write_text("x,y,z\n0.1,0.2,0.3\n0.2,0.2,0.3\n")
+    read, mode = read_path(tmp_path / "p.csv")
+    assert mode == "position" and read.shape == (2, 4, 4) and read[1, 0, 3] == 0.2
+    (tmp_path / "bad.csv").write_text("x,y,z\n0.1,0.2\n")
+    with pytest.raises(PathFileError, match="line 2"):
+        read_path(tmp_path / "bad.csv")
+    (tmp_path / "p.toml").write_text('length_unit = "mm"\npositions = [[100, 0, 0]]\n')
+    assert read_path(tmp_path / "p.toml")[0][0, 0, 3] == pytest.approx(0.1)
+    np.savez(tmp_path / "p.npz", poses=straight)
+    assert read_path(tmp_path / "p.npz")[1] == "pose"
+    with pytest.raises(PathFileError, match="not found"):
+        read_path(tmp_path / "missing.csv")
+
+
+def test_reachability_batch(rng: np.random.Generator) -> None:
+    robot = load_problem("panda").robot
+    inside = robot.fk(rng.uniform(robot.lower, robot.upper, (200, 7)))[:, :3, 3]
+    far = rng.normal(size=(50, 3))
+    far = 3.0 * far / np.linalg.norm(far, axis=1, keepdims=True)
+    result = reachability(robot, np.vstack([inside, far]))
+    assert result.reachable[:200].mean() >= 0.99
+    assert not result.reachable[200:].any() and result.proven_unreachable[200:].all()
+    for k in np.flatnonzero(result.reachable):
+        assert np.linalg.norm(robot.fk(result.q[k])[:3, 3] - result.points[k]) <= 1e-6
+
+
+def test_bad_plan_input() -> None:
+    robot = load_problem("puma560").robot
+    with pytest.raises(ShapeError):
+        plan_path(robot, np.zeros((3, 2)))
+    with pytest.raises(OptikError, match="max_joint_step"):
+        plan_path(robot, np.zeros((3, 3)), max_joint_step=0.0)
+    with pytest.raises(OptikError, match="limit_margin"):
+        plan_path(robot, np.zeros((3, 3)), limit_margin=10.0)
+    with pytest.raises(ShapeError):
+        reachability(robot, np.zeros(3))
+
+
+def test_plots_render(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    robot = load_problem("puma560").robot
+    poses = line(robot.fk(PUMA_Q0), robot.fk(PUMA_Q1), 0.02)
+    plan = plan_path(robot, poses, max_joint_step=0.2)
+    out = plan.plot(tmp_path / "plan.png", robot)
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and out.stat().st_size > 20_000
+    result = reachability(robot, np.array([[0.5, 0.1, 0.6], [0.3, -0.2, 0.9], [5.0, 0.0, 0.0]]))
+    out = result.plot_slice(tmp_path / "slice.png", "z")
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    with pytest.raises(OptikError, match="axis"):
+        result.plot_slice(tmp_path / "bad.png", "w")
