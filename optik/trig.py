@@ -1,0 +1,249 @@
+"""The trigonometric equation ``a cos t + b sin t = c`` solved with ``atan2`` only.
+
+Seed 000 (section III.B, eq. 19-22) reduces every joint angle of its analytic inverse
+kinematics to this one equation. Writing ``a = r cos(phi)``, ``b = r sin(phi)`` with
+``r = hypot(a, b)`` and ``phi = atan2(b, a)`` gives ``r cos(t - phi) = c``, so::
+
+    t = atan2(b, a) +/- atan2(sqrt(r^2 - c^2), c)        (eq. 20, verified as printed)
+
+which exists when ``c^2 <= r^2`` (eq. 19). No step divides, and ``atan2`` never meets an
+undefined quotient: this is the point of the seed's method. ``c = 0`` gives eq. 22,
+``t = atan2(b, a) +/- pi/2``.
+
+Tolerance (``tol``, default :data:`TRIG_TOL` = 1e-12), with ``r^2 = a^2 + b^2``:
+
+* degenerate coefficients, ``r^2 <= tol``: the equation no longer depends on ``t``.
+  If also ``c^2 <= tol`` every angle solves it (a free joint, e.g. a shoulder whose wrist
+  centre lies on its axis) and the caller's ``free_value`` is returned, wrapped; else
+  there is no solution;
+* otherwise, with ``delta = c^2 - r^2`` and ``scale = max(r^2, 1)``:
+  ``delta > tol * scale``: no solution; ``|delta| <= tol * scale``: one (double, tangent)
+  root ``atan2(b, a) + atan2(0, c)``; ``delta < -tol * scale``: two roots.
+
+The floor 1 in ``scale`` makes the tolerance absolute for coefficients below 1: inputs
+are taken to be in SI units (metres), whose rounding errors are absolute at that scale.
+Every returned angle then satisfies the equation to a residual
+``|a cos t + b sin t - c| <= 2 sqrt(tol) max(1, r)`` (the tangent and degenerate cases;
+the two-root case is accurate to a few ulps of ``r + |c|``). Pass ``tol=0`` for exact
+tests.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Final
+
+import numpy as np
+
+from optik._checks import FloatArray, as_float_array, check_finite
+from optik.errors import NonFiniteError, OptikError, ShapeError
+
+__all__ = ["TRIG_TOL", "solve_trig", "solve_trig_batch", "solve_trig_zero", "wrap_angle"]
+
+#: Default tolerance of :func:`solve_trig`, on ``c^2 - r^2`` relative to ``max(r^2, 1)``.
+TRIG_TOL: Final[float] = 1e-12
+
+_TWO_PI: Final[float] = 2.0 * math.pi
+
+
+def wrap_angle(t: float) -> float:
+    """Wrap an angle (rad) into ``(-pi, pi]``.
+
+    Args:
+        t: finite angle in radians.
+
+    Returns:
+        ``t + 2 pi k`` in ``(-pi, pi]`` for the integer ``k`` that puts it there.
+    """
+    # fmod is exact, and so is the one correction (Sterbenz: |w| and 2 pi within a factor
+    # 2); the same steps as the vectorized form, so both agree to the last bit.
+    w = math.fmod(t, _TWO_PI)  # in (-2 pi, 2 pi)
+    if w > math.pi:
+        return w - _TWO_PI
+    if w <= -math.pi:
+        return w + _TWO_PI
+    return w
+
+
+def _scalar(name: str, value: Any) -> float:
+    """``value`` as a finite Python float, or an optik error."""
+    array = as_float_array(name, value)
+    if array.shape != ():
+        raise ShapeError(name, "() (a scalar)", array.shape)
+    x = float(array)
+    if not math.isfinite(x):
+        raise NonFiniteError(name)
+    return x
+
+
+def _check_tol(tol: float) -> float:
+    value = float(tol)
+    if not (value >= 0.0) or not math.isfinite(value):  # also rejects NaN
+        raise OptikError(f"tol must be finite and >= 0, got {tol!r}")
+    return value
+
+
+def _classify(a: float, b: float, c: float, tol: float) -> tuple[str, float]:
+    """Return the case and ``sqrt(r^2 - c^2)`` (0 unless two roots).
+
+    Cases: ``"free"`` (every t), ``"none"``, ``"one"`` (tangent), ``"two"``. The
+    difference ``r^2 - c^2`` is formed as ``(r - |c|)(r + |c|)``, without the
+    cancellation of ``a^2 + b^2 - c^2`` near tangency, and relative to ``r^2`` when
+    ``r >= 1`` so that it cannot overflow.
+    """
+    r = math.hypot(a, b)
+    if r * r <= tol:
+        return ("free" if c * c <= tol else "none"), 0.0
+    ac = abs(c)
+    if r >= 1.0:
+        rho = ac / r
+        gap = (1.0 - rho) * (1.0 + rho)  # (r^2 - c^2) / r^2 = -delta / scale
+        root = r * math.sqrt(gap) if gap > 0.0 else 0.0
+    else:
+        gap = (r - ac) * (r + ac)  # r^2 - c^2 = -delta / scale (scale = 1)
+        root = math.sqrt(gap) if gap > 0.0 else 0.0
+    if gap < -tol:
+        return "none", 0.0
+    if gap <= tol:
+        return "one", 0.0
+    return "two", root
+
+
+def solve_trig(
+    a: float, b: float, c: float, *, free_value: float = 0.0, tol: float = TRIG_TOL
+) -> tuple[float, ...]:
+    """Solve ``a cos t + b sin t = c`` for the angle ``t`` (rad), with ``atan2`` only.
+
+    ``t = atan2(b, a) +/- atan2(sqrt(a^2 + b^2 - c^2), c)`` (seed 000, eq. 20); see the
+    module docstring for the tolerance rules.
+
+    Args:
+        a: coefficient of ``cos t`` (finite).
+        b: coefficient of ``sin t`` (finite).
+        c: right-hand side (finite), in the units of ``a`` and ``b``.
+        free_value: the angle (rad) returned when ``a = b = c = 0`` (within ``tol``),
+            where every angle solves the equation: a robotics caller passes its reference
+            value (current or mid-range joint angle) to stay there.
+        tol: tolerance of the tangent and degenerate tests (>= 0; 0 for exact tests).
+
+    Returns:
+        ``()`` when there is no solution (``c^2 > a^2 + b^2``, or ``a = b = 0 != c``);
+        one angle for a tangent (double) root or the free case; otherwise two distinct
+        angles. Angles are in ``(-pi, pi]``, in ascending order.
+
+    Raises:
+        ShapeError: an argument is not a scalar.
+        NonFiniteError: an argument is NaN or infinite.
+        OptikError: ``tol`` is negative or not finite.
+    """
+    a_f, b_f, c_f = _scalar("a", a), _scalar("b", b), _scalar("c", c)
+    free = _scalar("free_value", free_value)
+    case, root = _classify(a_f, b_f, c_f, _check_tol(tol))
+    if case == "none":
+        return ()
+    if case == "free":
+        return (wrap_angle(free),)
+    phi = math.atan2(b_f, a_f)
+    psi = math.atan2(root, c_f)  # in [0, pi]; 0 or pi in the tangent case
+    if case == "one":
+        return (wrap_angle(phi + psi),)
+    t1, t2 = wrap_angle(phi + psi), wrap_angle(phi - psi)
+    return (t1, t2) if t1 < t2 else (t2, t1)
+
+
+def solve_trig_zero(
+    a: float, b: float, *, free_value: float = 0.0, tol: float = TRIG_TOL
+) -> tuple[float, ...]:
+    """Solve ``a cos t + b sin t = 0`` (seed 000, eq. 21-22): ``t = atan2(b, a) +/- pi/2``.
+
+    The special case ``c = 0`` of :func:`solve_trig`: two angles ``pi`` apart when
+    ``a^2 + b^2 > tol``, otherwise ``(free_value,)`` (every angle solves it).
+
+    Args:
+        a: coefficient of ``cos t``.
+        b: coefficient of ``sin t``.
+        free_value: the angle (rad) returned when ``a = b = 0`` (within ``tol``).
+        tol: tolerance of the degenerate test.
+
+    Returns:
+        Two angles in ``(-pi, pi]`` in ascending order, or ``(free_value,)`` wrapped.
+
+    Raises:
+        ShapeError: an argument is not a scalar.
+        NonFiniteError: an argument is NaN or infinite.
+        OptikError: ``tol`` is negative or not finite.
+    """
+    return solve_trig(a, b, 0.0, free_value=free_value, tol=tol)
+
+
+def solve_trig_batch(
+    a: Any, b: Any, c: Any, *, free_value: Any = 0.0, tol: float = TRIG_TOL
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Vectorized :func:`solve_trig`: the two branches ``t+`` and ``t-`` of eq. 20.
+
+    ``a``, ``b``, ``c`` and ``free_value`` broadcast together. Branches keep their sign
+    (``t+ = atan2(b, a) + atan2(sqrt(r^2 - c^2), c)``, ``t- = ... - ...``) rather than
+    being sorted, so an IK caller can follow one branch along a path. The decisions (no
+    root, tangent, free) are exactly those of :func:`solve_trig`.
+
+    Args:
+        a: coefficients of ``cos t``, array-like (finite).
+        b: coefficients of ``sin t``, array-like (finite).
+        c: right-hand sides, array-like (finite).
+        free_value: angle(s) returned in both branches where every angle solves it.
+        tol: tolerance of the tangent and degenerate tests (>= 0).
+
+    Returns:
+        ``(t_plus, t_minus, valid)`` of the broadcast shape: angles in ``(-pi, pi]``
+        (``t_plus == t_minus`` for a tangent root or a free joint) and a boolean mask;
+        where ``valid`` is False (no solution) both angles are 0, never NaN.
+
+    Raises:
+        ShapeError: the arguments do not broadcast together.
+        NonFiniteError: an argument holds NaN or infinity.
+        OptikError: ``tol`` is negative or not finite.
+    """
+    arrays = [
+        check_finite(name, as_float_array(name, value))
+        for name, value in (("a", a), ("b", b), ("c", c), ("free_value", free_value))
+    ]
+    try:
+        a_arr, b_arr, c_arr, f_arr = np.broadcast_arrays(*arrays)
+    except ValueError as exc:
+        shapes = " and ".join(str(x.shape) for x in arrays)
+        raise ShapeError("a, b, c", f"shapes that broadcast together, not {shapes}", ()) from exc
+    tol = _check_tol(tol)
+
+    # The same arithmetic as _classify, elementwise (squares of huge entries overflow to
+    # inf harmlessly: they only feed comparisons that then come out right).
+    with np.errstate(over="ignore", invalid="ignore"):
+        r = np.hypot(a_arr, b_arr)
+        ac = np.abs(c_arr)
+        big = r >= 1.0
+        rho = ac / np.where(big, r, 1.0)
+        gap = np.where(big, (1.0 - rho) * (1.0 + rho), (r - ac) * (r + ac))
+        root = np.where(big, r, 1.0) * np.sqrt(np.maximum(gap, 0.0))
+        degenerate = r * r <= tol
+        free = degenerate & (c_arr * c_arr <= tol)
+    two = ~degenerate & (gap > tol)
+    valid = free | (~degenerate & (gap >= -tol))
+
+    phi = np.arctan2(b_arr, a_arr)
+    psi = np.arctan2(np.where(two, root, 0.0), c_arr)  # 0 or pi at a tangent root
+    t_plus = _wrap_array(phi + psi)
+    # A tangent root is phi + psi alone, as in solve_trig (phi - pi and phi + pi would
+    # wrap to values an ulp apart).
+    t_minus = np.where(two, _wrap_array(phi - psi), t_plus)
+    free_wrapped = _wrap_array(f_arr)
+    t_plus = np.where(free, free_wrapped, np.where(valid, t_plus, 0.0))
+    t_minus = np.where(free, free_wrapped, np.where(valid, t_minus, 0.0))
+    return t_plus, t_minus, valid
+
+
+def _wrap_array(t: FloatArray) -> FloatArray:
+    """Elementwise :func:`wrap_angle` (the same exact steps)."""
+    w = np.fmod(t, _TWO_PI)
+    wrapped: FloatArray = np.where(
+        w > math.pi, w - _TWO_PI, np.where(w <= -math.pi, w + _TWO_PI, w)
+    )
+    return wrapped
