@@ -9,6 +9,7 @@ from optik.errors import OptikError
 from optik.ik import IKBatchResult, IKResult, solve_ik, solve_ik_batch
 from optik.linalg import generalized_inverse, least_squares, min_norm
 from optik.model import DHJoint, Joint, Mimic, Robot
+from optik.planning import PathPlan, Reachability, plan_path, reachability
 from optik.problems import Problem, Target, load_problem
 from optik.solvers import available_solvers
 from optik.trig import solve_trig
@@ -22,7 +23,9 @@ __all__ = [
     "Joint",
     "Mimic",
     "OptikError",
+    "PathPlan",
     "Problem",
+    "Reachability",
     "Robot",
     "Target",
     "__version__",
@@ -32,6 +35,8 @@ __all__ = [
     "least_squares",
     "load_problem",
     "min_norm",
+    "plan_path",
+    "reachability",
     "solve_ik",
     "solve_ik_batch",
     "solve_trig",
