@@ -157,3 +157,49 @@ def plot_reachability(
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path
+
+
+def plot_planar_trajectory(
+    robot: Robot, trajectory: np.ndarray, target: np.ndarray, path: Path, every: int | None = None
+) -> Path:
+    """A planar arm's IK trajectory, as in seed 003's figure.
+
+    Args:
+        robot: a planar arm (joint frames in the xy plane).
+        trajectory: (K, dof) joint vectors visited by the iteration.
+        target: (3,) or (2,) target position, m.
+        path: image file to write.
+        every: draw the arm every ``every`` iterations (default: about 12 drawings).
+    """
+    plt = pyplot()
+    K = len(trajectory)
+    step = every or max(K // 12, 1)
+    fig, ax = plt.subplots(figsize=(5.5, 5.5))
+    for k in range(0, K, step):
+        points = robot.frames(trajectory[k])[:, :2, 3]
+        ax.plot(points[:, 0], points[:, 1], "--", color="gray", alpha=0.35, lw=1)
+    tip = np.array([robot.fk(q)[:2, 3] for q in trajectory[:: max(step // 10, 1)]])
+    ax.plot(tip[:, 0], tip[:, 1], color="tab:orange", lw=1.2, label="tool path")
+    final = robot.frames(trajectory[-1])[:, :2, 3]
+    colours = ["tab:blue", "tab:green", "tab:purple", "tab:brown"]
+    for i in range(len(final) - 2):
+        ax.plot(
+            final[i : i + 2, 0],
+            final[i : i + 2, 1],
+            "o-",
+            color=colours[i % 4],
+            lw=2.5,
+            label=f"link {i + 1} (final)",
+        )
+    ax.plot(target[0], target[1], "rx", markersize=11, mew=2, label="target")
+    ax.set_aspect("equal")
+    ax.grid(True, alpha=0.3)
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.set_title(f"IK trajectory: {K - 1} iterations, arm drawn every {step}")
+    ax.legend(loc="lower right", fontsize=8)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
