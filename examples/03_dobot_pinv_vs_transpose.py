@@ -38,9 +38,8 @@ def main() -> dict[str, dict[str, int]]:
             q = out.q
     print(f"{'part':<8}{'pinv':>6}{'transpose':>11}   chapter (pinv / transpose)")
     for part, (pinv, transpose) in CHAPTER_TABLE_2.items():
-        print(
-            f"{part:<8}{counts[part]['pinv']:>6}{counts[part]['transpose']:>11}   {pinv} / {transpose}"
-        )
+        ours = counts[part]
+        print(f"{part:<8}{ours['pinv']:>6}{ours['transpose']:>11}   {pinv} / {transpose}")
     holds = all(c["pinv"] <= c["transpose"] for c in counts.values())
     print(f"the chapter's finding (pinv needs fewer iterations) holds: {holds}")
     return counts

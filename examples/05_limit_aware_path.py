@@ -28,9 +28,7 @@ def main(out_dir: str | Path = ".") -> dict[str, float]:
     greedy.plot(out / "puma_line_greedy.png", robot)
     print(f"optimal plan: {plan.summary()}")
     print(f"greedy plan:  {greedy.summary()}")
-    print(
-        f"largest step: {plan.largest_step:.3f} rad (plan) vs {greedy.largest_step:.3f} rad (greedy)"
-    )
+    print(f"largest step: {plan.largest_step:.3f} rad (plan), {greedy.largest_step:.3f} (greedy)")
     return {"plan_step": plan.largest_step, "greedy_step": greedy.largest_step}
 
 
