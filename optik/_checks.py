@@ -22,7 +22,7 @@ def as_float_array(name: str, value: Any) -> FloatArray:
 
 def check_finite(name: str, array: FloatArray) -> FloatArray:
     """Raise :class:`NonFiniteError` naming the first NaN/inf entry of ``array``."""
-    if not np.all(np.isfinite(array)):
+    if not np.isfinite(array).all():
         bad = np.argwhere(~np.isfinite(array))[0]
         raise NonFiniteError(name, tuple(int(i) for i in bad))
     return array

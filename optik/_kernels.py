@@ -50,15 +50,66 @@ def _right_multiply(T: np.ndarray, K: np.ndarray, out: np.ndarray) -> None:
     out[3, 3] = 1.0
 
 
+@nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _chain_step(
+    a: tuple[float, float, float, float, float, float, float, float, float, float, float, float],
+    prismatic: bool,
+    t: float,
+    k: np.ndarray,
+) -> tuple[float, float, float, float, float, float, float, float, float, float, float, float]:
+    """One link of the chain on the top 3x4 rows held in scalars: ``T @ M(t) @ k``.
+
+    Scalars instead of a 4x4 array: this is every solver's inner loop, and it runs about
+    twice as fast without the array traffic.
+    """
+    a00, a01, a02, a03, a10, a11, a12, a13, a20, a21, a22, a23 = a
+    if prismatic:
+        a03 += t * a02
+        a13 += t * a12
+        a23 += t * a22
+    else:
+        c = np.cos(t)
+        s = np.sin(t)
+        a00, a01 = c * a00 + s * a01, c * a01 - s * a00
+        a10, a11 = c * a10 + s * a11, c * a11 - s * a10
+        a20, a21 = c * a20 + s * a21, c * a21 - s * a20
+    return (
+        a00 * k[0, 0] + a01 * k[1, 0] + a02 * k[2, 0],
+        a00 * k[0, 1] + a01 * k[1, 1] + a02 * k[2, 1],
+        a00 * k[0, 2] + a01 * k[1, 2] + a02 * k[2, 2],
+        a00 * k[0, 3] + a01 * k[1, 3] + a02 * k[2, 3] + a03,
+        a10 * k[0, 0] + a11 * k[1, 0] + a12 * k[2, 0],
+        a10 * k[0, 1] + a11 * k[1, 1] + a12 * k[2, 1],
+        a10 * k[0, 2] + a11 * k[1, 2] + a12 * k[2, 2],
+        a10 * k[0, 3] + a11 * k[1, 3] + a12 * k[2, 3] + a13,
+        a20 * k[0, 0] + a21 * k[1, 0] + a22 * k[2, 0],
+        a20 * k[0, 1] + a21 * k[1, 1] + a22 * k[2, 1],
+        a20 * k[0, 2] + a21 * k[1, 2] + a22 * k[2, 2],
+        a20 * k[0, 3] + a21 * k[1, 3] + a22 * k[2, 3] + a23,
+    )
+
+
 @_jit
 def fk_into(K: np.ndarray, prismatic: np.ndarray, theta: np.ndarray, out: np.ndarray) -> None:
-    """Forward kinematics of one chain configuration ``theta`` (n,) into ``out`` (4, 4)."""
+    """Forward kinematics of one chain configuration ``theta`` (n,) into ``out`` (4, 4).
+
+    The running transform lives in scalars (see :func:`fk_jacobian_work`).
+    """
     n = prismatic.shape[0]
-    T = K[0].copy()
+    a00, a01, a02, a03 = K[0, 0, 0], K[0, 0, 1], K[0, 0, 2], K[0, 0, 3]
+    a10, a11, a12, a13 = K[0, 1, 0], K[0, 1, 1], K[0, 1, 2], K[0, 1, 3]
+    a20, a21, a22, a23 = K[0, 2, 0], K[0, 2, 1], K[0, 2, 2], K[0, 2, 3]
     for i in range(n):
-        _apply_motion(T, prismatic[i], theta[i])
-        _right_multiply(T, K[i + 1], out)
-        T[:, :] = out
+        a00, a01, a02, a03, a10, a11, a12, a13, a20, a21, a22, a23 = _chain_step(
+            (a00, a01, a02, a03, a10, a11, a12, a13, a20, a21, a22, a23),
+            prismatic[i],
+            theta[i],
+            K[i + 1],
+        )
+    out[0, 0], out[0, 1], out[0, 2], out[0, 3] = a00, a01, a02, a03
+    out[1, 0], out[1, 1], out[1, 2], out[1, 3] = a10, a11, a12, a13
+    out[2, 0], out[2, 1], out[2, 2], out[2, 3] = a20, a21, a22, a23
+    out[3, 0], out[3, 1], out[3, 2], out[3, 3] = 0.0, 0.0, 0.0, 1.0
 
 
 @_jit
@@ -99,38 +150,11 @@ def fk_jacobian_work(
         work[i, 0] = a03
         work[i, 1] = a13
         work[i, 2] = a23
-        t = theta[i]
-        if prismatic[i]:
-            a03 += t * a02
-            a13 += t * a12
-            a23 += t * a22
-        else:
-            c = np.cos(t)
-            s = np.sin(t)
-            a00, a01 = c * a00 + s * a01, c * a01 - s * a00
-            a10, a11 = c * a10 + s * a11, c * a11 - s * a10
-            a20, a21 = c * a20 + s * a21, c * a21 - s * a20
-        k = K[i + 1]
-        k00, k01, k02, k03 = k[0, 0], k[0, 1], k[0, 2], k[0, 3]
-        k10, k11, k12, k13 = k[1, 0], k[1, 1], k[1, 2], k[1, 3]
-        k20, k21, k22, k23 = k[2, 0], k[2, 1], k[2, 2], k[2, 3]
-        a00, a01, a02, a03 = (
-            a00 * k00 + a01 * k10 + a02 * k20,
-            a00 * k01 + a01 * k11 + a02 * k21,
-            a00 * k02 + a01 * k12 + a02 * k22,
-            a00 * k03 + a01 * k13 + a02 * k23 + a03,
-        )
-        a10, a11, a12, a13 = (
-            a10 * k00 + a11 * k10 + a12 * k20,
-            a10 * k01 + a11 * k11 + a12 * k21,
-            a10 * k02 + a11 * k12 + a12 * k22,
-            a10 * k03 + a11 * k13 + a12 * k23 + a13,
-        )
-        a20, a21, a22, a23 = (
-            a20 * k00 + a21 * k10 + a22 * k20,
-            a20 * k01 + a21 * k11 + a22 * k21,
-            a20 * k02 + a21 * k12 + a22 * k22,
-            a20 * k03 + a21 * k13 + a22 * k23 + a23,
+        a00, a01, a02, a03, a10, a11, a12, a13, a20, a21, a22, a23 = _chain_step(
+            (a00, a01, a02, a03, a10, a11, a12, a13, a20, a21, a22, a23),
+            prismatic[i],
+            theta[i],
+            K[i + 1],
         )
     T_out[0, 0], T_out[0, 1], T_out[0, 2], T_out[0, 3] = a00, a01, a02, a03
     T_out[1, 0], T_out[1, 1], T_out[1, 2], T_out[1, 3] = a10, a11, a12, a13

@@ -54,7 +54,7 @@ class ModelError(OptikError):
 class InvalidLimitsError(ModelError):
     """A joint's lower limit exceeds its upper limit, or a limit is NaN."""
 
-    def __init__(self, joint: str, lower: float, upper: float, reason: str = "") -> None:
+    def __init__(self, joint: str, lower: Any, upper: Any, reason: str = "") -> None:
         self.joint = joint
         self.lower = lower
         self.upper = upper

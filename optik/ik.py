@@ -5,8 +5,10 @@ branches inside the limits (nearest ``q0`` first) are the starting points; with
 ``solver="auto"`` the nearest branch *is* the answer (it is exact, verified by FK). An
 empty set of branches is a proof: the result says ``"unreachable"``, or
 ``"outside_limits"`` when branches exist only outside the limits. Without a family,
-the solver starts from ``q0`` (default: mid-limits), then from deterministic seeded
-restarts drawn uniformly inside the limits, until ``restarts`` or ``timeout_s`` runs out.
+the solver starts from ``q0`` when given, then from the entries of a seeded table of
+configurations whose poses are nearest the target (:mod:`optik.solvers._seeds`), then from
+deterministic seeded draws uniform inside the limits, until ``restarts`` or
+``timeout_s`` runs out.
 
 ``success`` is always computed here, from forward kinematics and the limits, never
 copied from a backend.
@@ -28,6 +30,7 @@ from optik.model import Robot
 from optik.solvers import get_solver
 from optik.solvers._base import IKQuery, IKSolver, SolverOutput, now
 from optik.solvers._lm_kernel import lm_solve_batch
+from optik.solvers._seeds import nearest_seeds, seed_table
 from optik.solvers.iterative import DLSSolver
 from optik.spatial import as_pose, as_target, pose_error, rotation_angle
 
@@ -36,7 +39,10 @@ AUTO_NUMERIC_SOLVER = "dls"
 tolerance in ``benchmarks/bench_ik.py`` (compiled damped least squares)."""
 
 DEFAULT_RESTARTS = 100
-"""Restarts after ``q0`` when neither ``restarts`` nor ``timeout_s`` is given."""
+"""Restarts after the first attempt when neither ``restarts`` nor ``timeout_s`` is given."""
+
+TABLE_STARTS = 4
+"""Starts taken from the seed table (nearest poses first) before uniform random draws."""
 
 STATUSES = ("converged", "unreachable", "outside_limits", "max_iter", "timeout", "solver_failed")
 
@@ -174,7 +180,8 @@ def solve_ik(
             form when the robot has one, else :data:`AUTO_NUMERIC_SOLVER`).
         q0: initial guess (dof,) inside the limits (outside raises
             :class:`~optik.errors.JointLimitError`; it is not clipped silently). Default:
-            mid-limits.
+            none: numeric solvers start from the seed table's nearest entry, and
+            closed-form branches are ordered by their distance to mid-limits.
         warm_start: ``"analytic"`` (closed-form branches as starting points when a family
             exists) or ``"q0"`` (ignore the closed form).
         tol: position (m) and orientation (rad) tolerance of success.
@@ -243,13 +250,13 @@ def solve_ik(
     iterations_per_attempt = max_iter if max_iter is not None else numeric.default_max_iter
     budget = restarts if restarts is not None else (DEFAULT_RESTARTS if timeout_s is None else -1)
     rng = np.random.default_rng(seed)
-    if not starts:
+    if not starts and q0 is not None:
         starts = [q_start]
 
-    if isinstance(numeric, DLSSolver) and len(starts) == 1 and budget >= 0 and math.isinf(deadline):
+    if isinstance(numeric, DLSSolver) and len(starts) <= 1 and budget >= 0 and math.isinf(deadline):
         # The whole restart loop runs compiled; the answer is verified below all the same.
         output, used = numeric.solve_restarts(
-            query, starts[0], iterations_per_attempt, budget, seed
+            query, starts[0] if starts else None, iterations_per_attempt, budget, seed
         )
         return _result(
             robot,
@@ -270,13 +277,16 @@ def solve_ik(
     attempts = 0
     timed_out = False
     all_failed = True
+    table = nearest_seeds(robot, T_target, mode, TABLE_STARTS)
     while True:
+        if budget >= 0 and attempts > budget:
+            break
         if attempts < len(starts):
             start = starts[attempts]
-        elif budget < 0 or attempts - 1 < budget:
-            start = _random_start(robot, rng)
+        elif attempts - len(starts) < len(table):
+            start = table[attempts - len(starts)]
         else:
-            break
+            start = _random_start(robot, rng)
         if attempts > 0 and now() > deadline:
             timed_out = True
             break
@@ -360,8 +370,9 @@ def solve_ik_batch(
 ) -> IKBatchResult:
     """Solve many targets with the compiled damped least squares, in parallel threads.
 
-    Every target starts from ``q0`` (default mid-limits) and then from seeded restarts
-    (target ``k`` uses seed ``seed + k``, so results do not depend on the thread count).
+    Every target starts from ``q0`` when given, then from the seed table's entries nearest
+    it and seeded uniform draws (target ``k`` uses seed ``seed + k``, so results do not
+    depend on the thread count).
 
     Args:
         robot: the robot.
@@ -388,6 +399,7 @@ def solve_ik_batch(
     else:
         raise ShapeError("targets", "(N, 4, 4) (or (N, 3) in position mode)", array.shape)
     q_start = _check_q0(robot, q0)
+    table_q, table_features = seed_table(robot)
     Q, iterations, used, _ = lm_solve_batch(
         robot._K,
         robot._prismatic,
@@ -398,6 +410,9 @@ def solve_ik_batch(
         np.ascontiguousarray(poses),
         mode == "pose",
         q_start,
+        q0 is not None,
+        table_q,
+        table_features,
         float(tol),
         int(max_iter),
         1e-3,

@@ -67,7 +67,10 @@ def resolve_limits(
         return ROLE_LIMITS_RAD[role]
     if lower is None or upper is None:
         raise ModelError(f"joint {joint!r}: states only one of lower/upper")
-    lo, hi = float(lower), float(upper)
+    try:
+        lo, hi = float(lower), float(upper)
+    except (TypeError, ValueError) as exc:
+        raise InvalidLimitsError(joint, lower, upper, "limits must be numbers") from exc
     if math.isnan(lo) or math.isnan(hi):
         raise InvalidLimitsError(joint, lo, hi, "NaN limit")
     if lo > hi:

@@ -120,6 +120,17 @@ def _motion(kind: str, t: float) -> FloatArray:
     return _tz(t) if kind == "prismatic" else _rz(t)
 
 
+def _finite_multiplier(name: str, mimic: Mimic) -> float:
+    value = mimic.multiplier
+    try:
+        number = math.nan if isinstance(value, bool) else float(value)
+    except (TypeError, ValueError):
+        number = math.nan
+    if not math.isfinite(number):
+        raise ModelError(f"joint {name!r}: mimic multiplier must be a finite number, got {value!r}")
+    return number
+
+
 def _as_dh_joint(row: Any, index: int) -> DHJoint:
     if isinstance(row, DHJoint):
         return row
@@ -237,7 +248,7 @@ class Robot:
                 )
             if link.lower is not None or link.upper is not None:
                 raise ModelError(f"joint {link.name!r}: a mimic joint takes no limits")
-            coupling[i, index[link.mimic.joint]] = float(link.mimic.multiplier)
+            coupling[i, index[link.mimic.joint]] = _finite_multiplier(link.name, link.mimic)
 
         n = len(links)
         K = np.empty((n + 1, 4, 4))
@@ -392,7 +403,8 @@ class Robot:
     @property
     def mid_limits(self) -> FloatArray:
         """Middle of each joint's range (0 for a continuous joint)."""
-        mid = 0.5 * (self.lower + self.upper)
+        with np.errstate(invalid="ignore"):  # -inf + inf for continuous joints
+            mid = 0.5 * (self.lower + self.upper)
         return np.where(np.isfinite(mid), mid, 0.0)
 
     def __repr__(self) -> str:

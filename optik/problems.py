@@ -257,14 +257,14 @@ def _robot(reader: _Reader, data: Mapping[str, Any], base_dir: Path) -> tuple[Ro
             urdf = base_dir / reader.string(robot, "robot", "urdf")
             if not urdf.is_file():
                 raise reader.fail("robot", "urdf", f"file not found: {urdf}")
-            model = Robot.from_urdf(
-                urdf,
-                reader.string(robot, "robot", "base_link"),
-                reader.string(robot, "robot", "tip_link"),
-                name=name,
-                tool=tool,
-                analytic=analytic,
-            )
+            base_link = reader.string(robot, "robot", "base_link")
+            tip_link = reader.string(robot, "robot", "tip_link")
+            try:
+                model = Robot.from_urdf(
+                    urdf, base_link, tip_link, name=name, tool=tool, analytic=analytic
+                )
+            except OptikError as exc:
+                raise reader.fail("robot", "urdf", str(exc)) from exc
             if base is not None:
                 raise reader.fail("robot", "base", "not supported for urdf robots")
             return model, source
@@ -329,6 +329,8 @@ def _paths(
             raise reader.fail(table, "", "must be a table")
         reader.check_keys(item, table, {"name", "positions", "rpy", "tolerance"})
         name = reader.string(item, table, "name")
+        if name in out:
+            raise reader.fail(table, "name", f"duplicate path name {name!r}")
         points = item.get("positions")
         if not isinstance(points, list) or not points:
             raise reader.fail(table, "positions", "expected a non-empty list of [x, y, z]")
@@ -342,6 +344,8 @@ def _paths(
                 entry["rpy"] = rpys[k]
             _, poses[k] = _pose_from(reader, entry, f"{table}.positions[{k}]", length, angle)
         tol = reader.number(item, table, "tolerance", DEFAULT_TOLERANCE / length) * length
+        if tol <= 0:
+            raise reader.fail(table, "tolerance", "tolerances must be positive")
         out[name] = CartesianPath(name, "pose" if rpys else "position", poses, tol)
     return out
 

@@ -211,6 +211,20 @@ def lm_solve(
         if not _cholesky_solve(A, g, dq, L):
             scale *= 10.0
             continue
+        # Joints resting on a bound whose step points outward would be clamped back: fix
+        # them (drop their columns) and re-solve for the others, so the step still helps.
+        blocked = False
+        for i in range(dof):
+            if (q[i] <= lower[i] and dq[i] < 0.0) or (q[i] >= upper[i] and dq[i] > 0.0):
+                blocked = True
+                for b in range(dof):
+                    A[i, b] = 0.0
+                    A[b, i] = 0.0
+                A[i, i] = 1.0
+                g[i] = 0.0
+        if blocked and not _cholesky_solve(A, g, dq, L):
+            scale *= 10.0
+            continue
         for i in range(dof):
             q_new[i] = min(max(q[i] + dq[i], lower[i]), upper[i])
         pos_n, rot_n = _evaluate(
@@ -244,6 +258,49 @@ def _uniform_in_limits(lower: np.ndarray, upper: np.ndarray, out: np.ndarray) ->
 
 
 @_jit
+def _seed_distances(features: np.ndarray, target: np.ndarray, pose: bool) -> np.ndarray:
+    """Squared distance of each table entry's pose features (M, 12) to the target's.
+
+    Features are the position and, scaled by ``sqrt(ROTATION_WEIGHT)``, the rotation
+    matrix (see :func:`optik.solvers._seeds.pose_features`), so the distance is
+    ``||p_i - p*||^2 + w ||R_i - R*||_F^2``; position mode uses the first three only.
+    """
+    M = features.shape[0]
+    width = 12 if pose else 3
+    f = np.empty(12)
+    for r in range(3):
+        f[r] = target[r, 3]
+        for c in range(3):
+            f[3 + 3 * r + c] = SQRT_ROTATION_WEIGHT * target[r, c]
+    out = np.empty(M)
+    for i in range(M):
+        d = 0.0
+        for j in range(width):
+            x = features[i, j] - f[j]
+            d += x * x
+        out[i] = d
+    return out
+
+
+SQRT_ROTATION_WEIGHT = 0.05**0.5
+"""``||R_i - R*||_F^2 = 4 (1 - cos a)`` weighs 0.05 m^2: 0.3 m counts like about 1 rad."""
+
+
+@_jit
+def _pop_nearest(distances: np.ndarray) -> int:
+    """Index of the smallest remaining distance, then marked as used (-1 when none left)."""
+    best = -1
+    value = np.inf
+    for i in range(distances.shape[0]):
+        if distances[i] < value:
+            value = distances[i]
+            best = i
+    if best >= 0:
+        distances[best] = np.inf
+    return best
+
+
+@_jit
 def lm_solve_restarts(
     K: np.ndarray,
     prismatic: np.ndarray,
@@ -254,55 +311,55 @@ def lm_solve_restarts(
     target: np.ndarray,
     pose: bool,
     q0: np.ndarray,
+    use_q0: bool,
+    table_q: np.ndarray,
+    table_features: np.ndarray,
     tol: float,
     max_iter: int,
     w_bias: float,
     restarts: int,
     seed: int,
 ) -> tuple[np.ndarray, int, int, bool, float, float]:
-    """:func:`lm_solve` from ``q0``, then from seeded uniform restarts inside the limits.
+    """:func:`lm_solve` from a sequence of starts until one converges.
+
+    The starts: ``q0`` (when ``use_q0``), then the configurations of a seed table
+    (``table_q`` (M, dof) with their pose features (M, 12)) nearest the target, then
+    table entries and seeded uniform draws inside the limits in turn. Nearby starts
+    converge in a few Gauss–Newton steps; the uniform draws keep the search global.
 
     Returns:
         ``(q, total_iterations, restarts_used, converged, position_error,
         orientation_error)`` of the first converged attempt, else of the best one.
     """
     np.random.seed(seed)  # noqa: NPY002 (numba: per-thread legacy generator)
-    best_q, it, ok, pos, rot = lm_solve(
-        K, prismatic, C, identity, lower, upper, target, pose, q0, tol, max_iter, w_bias
-    )
-    total = it
-    best_err = pos + rot
-    start = np.empty(q0.shape[0])
-    used = 0
-    while not ok and used < restarts:
-        used += 1
-        _uniform_in_limits(lower, upper, start)
+    dof = lower.shape[0]
+    distances = _seed_distances(table_features, target, pose)
+    start = np.empty(dof)
+    best_q = q0.copy()
+    best_err = np.inf
+    best_pos = np.inf
+    best_rot = np.inf
+    total = 0
+    attempt = 0
+    while attempt <= restarts:
+        table_turn = attempt < 4 or attempt % 2 == 0
+        index = _pop_nearest(distances) if table_turn and not (use_q0 and attempt == 0) else -1
+        if use_q0 and attempt == 0:
+            start[:] = q0
+        elif index >= 0:
+            start[:] = table_q[index]
+        else:
+            _uniform_in_limits(lower, upper, start)
         q, it, ok, pos, rot = lm_solve(
             K, prismatic, C, identity, lower, upper, target, pose, start, tol, max_iter, w_bias
         )
         total += it
         if ok or pos + rot < best_err:
-            best_q = q
-            best_err = pos + rot
-    pos_b, rot_b = pos, rot
-    if not ok:
-        n = prismatic.shape[0]
-        pos_b, rot_b = _evaluate(
-            K,
-            prismatic,
-            C,
-            identity,
-            best_q,
-            target,
-            pose,
-            np.empty((4, 4)),
-            np.empty((6, n)),
-            np.empty((6, q0.shape[0])),
-            np.empty(6),
-            np.empty((n, 3)),
-            np.empty((3, 4)),
-        )
-    return best_q, total, used, ok, pos_b, rot_b
+            best_q, best_err, best_pos, best_rot = q, pos + rot, pos, rot
+        if ok:
+            return best_q, total, attempt, True, best_pos, best_rot
+        attempt += 1
+    return best_q, total, restarts, False, best_pos, best_rot
 
 
 @nb.njit(cache=True, nogil=True, error_model="numpy", parallel=True)
@@ -316,6 +373,9 @@ def lm_solve_batch(
     targets: np.ndarray,
     pose: bool,
     q0: np.ndarray,
+    use_q0: bool,
+    table_q: np.ndarray,
+    table_features: np.ndarray,
     tol: float,
     max_iter: int,
     w_bias: float,
@@ -344,6 +404,9 @@ def lm_solve_batch(
             targets[k],
             pose,
             q0,
+            use_q0,
+            table_q,
+            table_features,
             tol,
             max_iter,
             w_bias,

@@ -13,6 +13,7 @@ import numpy as np
 from optik._checks import FloatArray
 from optik.solvers._base import IKQuery, IKSolver, SolverOutput, now, register
 from optik.solvers._lm_kernel import lm_solve, lm_solve_restarts
+from optik.solvers._seeds import seed_table
 
 
 def _errors(query: IKQuery, e: FloatArray) -> tuple[float, float]:
@@ -123,14 +124,17 @@ class DLSSolver(IKSolver):
         return SolverOutput(q, int(it), bool(ok), "converged" if ok else "stalled or max_iter")
 
     def solve_restarts(
-        self, query: IKQuery, q0: FloatArray, max_iter: int, restarts: int, seed: int
+        self, query: IKQuery, q0: FloatArray | None, max_iter: int, restarts: int, seed: int
     ) -> tuple[SolverOutput, int]:
-        """From ``q0``, then seeded uniform restarts, all inside the compiled kernel.
+        """Attempts from ``q0`` (if given), then the seed table's nearest entries and
+        seeded uniform draws, all inside the compiled kernel.
 
         Returns the output of the first converged (else the best) attempt and the number
         of restarts used.
         """
         robot = query.robot
+        table_q, table_features = seed_table(robot)
+        start = robot.mid_limits if q0 is None else q0
         q, it, used, ok, _, _ = lm_solve_restarts(
             robot._K,
             robot._prismatic,
@@ -140,7 +144,10 @@ class DLSSolver(IKSolver):
             robot.upper,
             query.target,
             query.mode == "pose",
-            np.ascontiguousarray(q0, dtype=float),
+            np.ascontiguousarray(start, dtype=float),
+            q0 is not None,
+            table_q,
+            table_features,
             float(query.tol),
             int(max_iter),
             self.w_bias,

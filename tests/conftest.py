@@ -1,0 +1,224 @@
+"""Shared test helpers: tolerances, problem robots, seeded randomness, hypothesis profile.
+
+Helpers are importable from test modules (``from conftest import assert_close``) and the
+common ones are also fixtures. Every random draw in the suite is seeded: ``rng`` is a
+fresh ``numpy.random.Generator`` per test, and hypothesis runs derandomized.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+import os
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, settings
+
+from optik.model import Robot
+from optik.problems import Problem, load_problem
+
+ROOT = Path(__file__).resolve().parent.parent
+PROBLEMS_DIR = ROOT / "problems"
+PROBLEM_FILES: tuple[Path, ...] = tuple(sorted(PROBLEMS_DIR.glob("*.toml")))
+PROBLEM_NAMES: tuple[str, ...] = tuple(p.stem for p in PROBLEM_FILES)
+SEED = 20240611
+
+settings.register_profile(
+    "optik",
+    derandomize=True,
+    deadline=None,
+    max_examples=40,
+    print_blob=True,
+    suppress_health_check=[HealthCheck.too_slow],
+)
+settings.register_profile("optik-long", parent=settings.get_profile("optik"), max_examples=1000)
+settings.load_profile(os.environ.get("OPTIK_HYPOTHESIS_PROFILE", "optik"))
+
+
+# ---------------------------------------------------------------------- tolerances
+def assert_close(
+    actual: Any,
+    expected: Any,
+    atol: float = 1e-12,
+    rtol: float = 0.0,
+    what: str = "",
+) -> None:
+    """Assert ``|actual - expected| <= atol + rtol |expected|`` elementwise.
+
+    Unlike ``numpy.allclose`` it fails on any NaN (in either argument, even where both
+    are NaN), on a shape mismatch, and reports the worst entry.
+    """
+    a = np.asarray(actual, dtype=float)
+    e = np.asarray(expected, dtype=float)
+    label = f"{what}: " if what else ""
+    assert a.shape == e.shape, f"{label}shape {a.shape} != expected {e.shape}"
+    assert not np.any(np.isnan(a)), f"{label}actual holds NaN:\n{a}"
+    assert not np.any(np.isnan(e)), f"{label}expected holds NaN:\n{e}"
+    if a.size == 0:
+        return
+    same_inf = np.isinf(a) & (a == e)
+    with np.errstate(invalid="ignore"):
+        err = np.where(same_inf, 0.0, np.abs(a - e))
+    bound = atol + rtol * np.abs(np.where(np.isinf(e), 0.0, e))
+    bad = err > bound
+    if np.any(bad):
+        k = np.unravel_index(int(np.argmax(np.where(bad, err - bound, -np.inf))), a.shape)
+        raise AssertionError(
+            f"{label}max violation at index {tuple(int(i) for i in k)}: actual {a[k]!r}, "
+            f"expected {e[k]!r}, |diff| {err[k]:.3e} > {bound[k]:.3e} "
+            f"(atol={atol:g}, rtol={rtol:g}); {int(bad.sum())} of {a.size} entries off"
+        )
+
+
+def assert_rigid(T: Any, atol: float = 1e-12, what: str = "") -> None:
+    """Assert ``T`` (4x4 or batch) is a proper rigid transform: R^T R = I, det 1, last row."""
+    T = np.asarray(T, dtype=float)
+    R = T[..., :3, :3]
+    gram = np.swapaxes(R, -1, -2) @ R
+    assert_close(gram, np.broadcast_to(np.eye(3), gram.shape), atol=atol, what=f"{what} R^T R")
+    assert_close(np.linalg.det(R), np.ones(R.shape[:-2]), atol=atol, what=f"{what} det R")
+    bottom = np.broadcast_to([0.0, 0.0, 0.0, 1.0], T[..., 3, :].shape)
+    assert_close(T[..., 3, :], bottom, atol=0.0, what=f"{what} last row")
+
+
+# ---------------------------------------------------------------------- problems
+@functools.cache
+def load(name: str) -> Problem:
+    """A built-in problem by file stem (parsed once per test session)."""
+    return load_problem(PROBLEMS_DIR / f"{name}.toml")
+
+
+def robot_of(name: str) -> Robot:
+    """The robot of a built-in problem by file stem."""
+    return load(name).robot
+
+
+def random_q(robot: Robot, rng: np.random.Generator, n: int | None = None) -> np.ndarray:
+    """Configurations inside the limits: uniform over a finite range, [-pi, pi] if unbounded.
+
+    Returns ``(dof,)`` when ``n`` is None, else ``(n, dof)``.
+    """
+    lo = np.where(np.isfinite(robot.lower), robot.lower, -math.pi)
+    hi = np.where(np.isfinite(robot.upper), robot.upper, math.pi)
+    shape = (robot.dof,) if n is None else (n, robot.dof)
+    return rng.uniform(lo, hi, size=shape)
+
+
+@pytest.fixture
+def rng() -> np.random.Generator:
+    """A seeded generator, fresh for each test (independent of test order)."""
+    return np.random.default_rng(SEED)
+
+
+@pytest.fixture(params=PROBLEM_NAMES)
+def problem_name(request: pytest.FixtureRequest) -> str:
+    """Every file in problems/, by stem."""
+    return str(request.param)
+
+
+@pytest.fixture
+def problem_robot(problem_name: str) -> Robot:
+    """The robot of every file in problems/ (parametrized)."""
+    return robot_of(problem_name)
+
+
+problem_robots = pytest.mark.parametrize("name", PROBLEM_NAMES)
+"""Decorator form: parametrize a test's ``name`` argument over every file in problems/."""
+
+
+# ---------------------------------------------------------------------- reference kinematics
+# Written out entry by entry from the textbook formulas, independent of optik's code.
+def dh_matrix(a: float, alpha: float, d: float, theta: float) -> np.ndarray:
+    """Standard DH ``A = Rz(theta) Tz(d) Tx(a) Rx(alpha)``, expanded."""
+    ct, st = math.cos(theta), math.sin(theta)
+    ca, sa = math.cos(alpha), math.sin(alpha)
+    return np.array(
+        [
+            [ct, -st * ca, st * sa, a * ct],
+            [st, ct * ca, -ct * sa, a * st],
+            [0.0, sa, ca, d],
+            [0.0, 0.0, 0.0, 1.0],
+        ]
+    )
+
+
+def mdh_matrix(alpha: float, a: float, theta: float, d: float) -> np.ndarray:
+    """Modified (Craig) DH ``A = Rx(alpha_{i-1}) Tx(a_{i-1}) Rz(theta_i) Tz(d_i)``, expanded."""
+    ct, st = math.cos(theta), math.sin(theta)
+    ca, sa = math.cos(alpha), math.sin(alpha)
+    return np.array(
+        [
+            [ct, -st, 0.0, a],
+            [st * ca, ct * ca, -sa, -sa * d],
+            [st * sa, ct * sa, ca, ca * d],
+            [0.0, 0.0, 0.0, 1.0],
+        ]
+    )
+
+
+def coupling_from_rows(robot: Robot) -> np.ndarray:
+    """``C`` (chain rows, dof) with ``t = C q``, read from the DH rows' ``mimic`` fields."""
+    assert robot.dh is not None
+    names = [row.name or f"j{i + 1}" for i, row in enumerate(robot.dh)]
+    actuated = [n for n, row in zip(names, robot.dh, strict=True) if row.mimic is None]
+    C = np.zeros((len(names), len(actuated)))
+    for i, row in enumerate(robot.dh):
+        if row.mimic is None:
+            C[i, actuated.index(names[i])] = 1.0
+        else:
+            C[i, actuated.index(row.mimic.joint)] = row.mimic.multiplier
+    return C
+
+
+def reference_frames(robot: Robot, q: Any) -> list[np.ndarray]:
+    """World frames from the DH rows: ``[T_world_base, base A_1, ..., base A_1..A_n, tool]``.
+
+    Uses the rows in ``robot.dh``, the convention in ``robot.convention``, chain variables
+    ``t = C q`` from the rows' mimic fields, and ``robot.T_world_base`` /
+    ``robot.T_flange_tool``.
+    """
+    assert robot.dh is not None, "reference_frames needs a DH robot"
+    t = coupling_from_rows(robot) @ np.asarray(q, dtype=float)
+    T = np.array(robot.T_world_base, dtype=float)
+    frames = [T]
+    for row, ti in zip(robot.dh, t, strict=True):
+        theta = row.theta + (ti if row.kind == "revolute" else 0.0)
+        d = row.d + (ti if row.kind == "prismatic" else 0.0)
+        if robot.convention == "mdh":
+            A = mdh_matrix(row.alpha, row.a, theta, d)
+        else:
+            assert robot.convention == "dh", robot.convention
+            A = dh_matrix(row.a, row.alpha, d, theta)
+        T = T @ A
+        frames.append(T)
+    frames.append(T @ robot.T_flange_tool)
+    return frames
+
+
+def reference_fk(robot: Robot, q: Any) -> np.ndarray:
+    """Tool pose in the world frame from the DH rows (see :func:`reference_frames`)."""
+    return reference_frames(robot, q)[-1]
+
+
+def vee_of(M: np.ndarray) -> np.ndarray:
+    """``(M21, M02, M10)``: the vector of a skew-symmetric 3x3 matrix."""
+    return np.array([M[2, 1], M[0, 2], M[1, 0]])
+
+
+def fd_jacobian(robot: Robot, q: np.ndarray, h: float = 1e-6) -> np.ndarray:
+    """Central finite differences of ``robot.fk``: linear rows from the position, angular
+    rows from ``vee((dR/dq) R^T)``, world frame."""
+    T0 = robot.fk(q)
+    J = np.empty((6, robot.dof))
+    for k in range(robot.dof):
+        dq = np.zeros(robot.dof)
+        dq[k] = h
+        Tp, Tm = robot.fk(q + dq), robot.fk(q - dq)
+        dT = (Tp - Tm) / (2.0 * h)
+        J[:3, k] = dT[:3, 3]
+        W = dT[:3, :3] @ T0[:3, :3].T
+        J[3:, k] = vee_of(0.5 * (W - W.T))
+    return J
