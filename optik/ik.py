@@ -29,7 +29,7 @@ from optik.limits import LIMIT_TOLERANCE
 from optik.model import Robot
 from optik.solvers import get_solver
 from optik.solvers._base import IKQuery, IKSolver, SolverOutput, now
-from optik.solvers._lm_kernel import lm_solve_batch
+from optik.solvers._lm_kernel import lm_solve_batch, lm_solve_batch_serial
 from optik.solvers._seeds import nearest_seeds, seed_table
 from optik.solvers.iterative import DLSSolver
 from optik.spatial import as_pose, as_target, pose_error, rotation_angle
@@ -40,6 +40,9 @@ tolerance in ``benchmarks/bench_ik.py`` (compiled damped least squares)."""
 
 DEFAULT_RESTARTS = 100
 """Restarts after the first attempt when neither ``restarts`` nor ``timeout_s`` is given."""
+
+PARALLEL_BATCH = 64
+"""Batches at least this large run in parallel threads; smaller ones on one thread."""
 
 TABLE_STARTS = 4
 """Starts taken from the seed table (nearest poses first) before uniform random draws."""
@@ -85,10 +88,13 @@ class IKResult:
 def _verify(
     robot: Robot, q: FloatArray, target: FloatArray, mode: str
 ) -> tuple[float, float, float]:
-    position, orientation = pose_error(robot.fk(q), target)
+    q = np.ascontiguousarray(q, dtype=float)
+    if not np.isfinite(q).all():
+        return math.inf, math.inf, math.inf
+    position, orientation = pose_error(robot._fk_unchecked(q), target)
     if mode == "position":
         orientation = 0.0
-    return position, orientation, float(robot.limit_violation(q))
+    return position, orientation, robot._violation_unchecked(q)
 
 
 def _is_success(position: float, orientation: float, violation: float, tol: float) -> bool:
@@ -277,16 +283,17 @@ def solve_ik(
     attempts = 0
     timed_out = False
     all_failed = True
-    table = nearest_seeds(robot, T_target, mode, TABLE_STARTS)
+    table: FloatArray | None = None
     while True:
         if budget >= 0 and attempts > budget:
             break
         if attempts < len(starts):
             start = starts[attempts]
-        elif attempts - len(starts) < len(table):
-            start = table[attempts - len(starts)]
         else:
-            start = _random_start(robot, rng)
+            if table is None:  # only when the given starts are exhausted
+                table = nearest_seeds(robot, T_target, mode, TABLE_STARTS)
+            k = attempts - len(starts)
+            start = table[k] if k < len(table) else _random_start(robot, rng)
         if attempts > 0 and now() > deadline:
             timed_out = True
             break
@@ -400,7 +407,8 @@ def solve_ik_batch(
         raise ShapeError("targets", "(N, 4, 4) (or (N, 3) in position mode)", array.shape)
     q_start = _check_q0(robot, q0)
     table_q, table_features = seed_table(robot)
-    Q, iterations, used, _ = lm_solve_batch(
+    kernel = lm_solve_batch if len(poses) >= PARALLEL_BATCH else lm_solve_batch_serial
+    Q, iterations, used, _ = kernel(
         robot._K,
         robot._prismatic,
         robot._coupling,

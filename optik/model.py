@@ -403,9 +403,11 @@ class Robot:
     @property
     def mid_limits(self) -> FloatArray:
         """Middle of each joint's range (0 for a continuous joint)."""
-        with np.errstate(invalid="ignore"):  # -inf + inf for continuous joints
-            mid = 0.5 * (self.lower + self.upper)
-        return np.where(np.isfinite(mid), mid, 0.0)
+        mid = [
+            0.5 * (lo + hi) if math.isfinite(lo) and math.isfinite(hi) else 0.0
+            for lo, hi in zip(self.lower.tolist(), self.upper.tolist(), strict=True)
+        ]
+        return np.array(mid)
 
     def __repr__(self) -> str:
         kinds = "".join("P" if j.kind == "prismatic" else "R" for j in self.joints)
@@ -507,6 +509,22 @@ class Robot:
                     np.sum(np.abs(column) * np.maximum(np.abs(self.lower), np.abs(self.upper)))
                 )
         return links + strokes
+
+    def _fk_unchecked(self, q: FloatArray) -> FloatArray:
+        """:meth:`fk` of one float64 configuration (dof,) without input validation.
+
+        For solvers' verification paths, where ``q`` comes from optik itself.
+        """
+        out = np.empty((4, 4))
+        _kernels.fk_into(self._K, self._prismatic, self._theta(q), out)
+        return out
+
+    def _violation_unchecked(self, q: FloatArray) -> float:
+        """:meth:`limit_violation` of one float64 configuration, without validation."""
+        worst = 0.0
+        for v, lo, hi in zip(q.tolist(), self.lower.tolist(), self.upper.tolist(), strict=True):
+            worst = max(worst, lo - v, v - hi)
+        return worst
 
     def limit_violation(self, q: Any) -> float | FloatArray:
         """Largest excursion (rad or m) of ``q`` beyond its limits; 0 inside."""

@@ -362,8 +362,7 @@ def lm_solve_restarts(
     return best_q, total, restarts, False, best_pos, best_rot
 
 
-@nb.njit(cache=True, nogil=True, error_model="numpy", parallel=True)
-def lm_solve_batch(
+def _solve_batch(
     K: np.ndarray,
     prismatic: np.ndarray,
     C: np.ndarray,
@@ -382,7 +381,7 @@ def lm_solve_batch(
     restarts: int,
     seed: int,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`lm_solve_restarts` for every target (N, 4, 4) in parallel threads.
+    """:func:`lm_solve_restarts` for every target (N, 4, 4).
 
     Target ``k`` uses the random stream ``seed + k``, so results do not depend on the
     number of threads. Returns ``(q (N, dof), iterations (N,), restarts (N,), ok (N,))``.
@@ -418,3 +417,10 @@ def lm_solve_batch(
         used[k] = u
         ok[k] = good
     return Q, iters, used, ok
+
+
+lm_solve_batch = nb.njit(cache=True, nogil=True, error_model="numpy", parallel=True)(_solve_batch)
+"""The batch over threads (``prange``): for large batches."""
+
+lm_solve_batch_serial = _jit(_solve_batch)
+"""The same loop on one thread: small batches, where starting threads costs more."""

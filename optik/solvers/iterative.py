@@ -64,6 +64,7 @@ class PinvSolver(_JacobianIteration):
     """
 
     name = "pinv"
+    default_max_iter = 100  # full Newton steps: converges in a few, or not at all
 
     def direction(self, J: FloatArray, e: FloatArray) -> FloatArray:
         """``J^+ e``."""
@@ -126,11 +127,10 @@ class DLSSolver(IKSolver):
     def solve_restarts(
         self, query: IKQuery, q0: FloatArray | None, max_iter: int, restarts: int, seed: int
     ) -> tuple[SolverOutput, int]:
-        """Attempts from ``q0`` (if given), then the seed table's nearest entries and
-        seeded uniform draws, all inside the compiled kernel.
+        """Attempts from ``q0``, the seed table's nearest entries, then uniform draws.
 
-        Returns the output of the first converged (else the best) attempt and the number
-        of restarts used.
+        All attempts run inside the compiled kernel. Returns the output of the first
+        converged (else the best) attempt and the number of restarts used.
         """
         robot = query.robot
         table_q, table_features = seed_table(robot)
