@@ -86,6 +86,7 @@ def test_urdf_sub_chain_and_tool(panda_urdf: Robot, rng: np.random.Generator) ->
 def test_panda_urdf_matches_yourdfpy(panda_urdf: Robot, rng: np.random.Generator) -> None:
     """The full URDF stack (``optik[urdf]``, also in the test extra) as a peer reference."""
     import yourdfpy
+
     model = yourdfpy.URDF.load(
         str(PANDA_URDF), build_scene_graph=True, load_meshes=False, load_collision_meshes=False
     )
