@@ -5,6 +5,7 @@ against closed forms, with analytic IK as the warm start.
 """
 
 from optik.analytic import analytic_ik
+from optik.diffik import diff_ik
 from optik.errors import OptikError
 from optik.ik import IKBatchResult, IKResult, solve_ik, solve_ik_batch
 from optik.linalg import generalized_inverse, least_squares, min_norm
@@ -31,6 +32,7 @@ __all__ = [
     "__version__",
     "analytic_ik",
     "available_solvers",
+    "diff_ik",
     "generalized_inverse",
     "least_squares",
     "load_problem",

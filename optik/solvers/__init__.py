@@ -6,7 +6,7 @@
 backend imports here.
 """
 
-from optik.solvers import iterative
+from optik.solvers import casadi_nlp, iterative, qp
 from optik.solvers._base import (
     IKQuery,
     IKSolver,
@@ -23,8 +23,10 @@ __all__ = [
     "IKSolver",
     "SolverOutput",
     "available_solvers",
+    "casadi_nlp",
     "get_solver",
     "iterative",
+    "qp",
     "register",
     "register_solver",
     "registered_solvers",

@@ -1,0 +1,246 @@
+"""Differential IK: the joint step for one time step of a commanded tool twist.
+
+:func:`diff_ik` builds the step program of :mod:`optik.programs.diff_qp`, hands it to a
+``qpsolvers`` backend or a CasADi conic plugin, and checks the answer itself before
+returning it: finite, inside the bounds, ``J dq = v`` for least norm, and the KKT
+conditions with multipliers fitted by optik. When the least-norm equality cannot hold, an
+LP (``scipy.optimize.linprog``, independent of the backend) proves it before
+:class:`~optik.errors.NoSolutionError` is raised; a backend that fails on a feasible
+program raises :class:`~optik.errors.SolverError` instead.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any, Final
+
+import numpy as np
+
+from optik._checks import FloatArray, finite_array
+from optik.errors import (
+    NonFiniteError,
+    NoSolutionError,
+    OptikError,
+    SolverError,
+    UnknownSolverError,
+)
+from optik.model import Robot
+from optik.programs.casadi_qp import casadi_conic_plugins, solve_conic
+from optik.programs.diff_qp import DiffIKProgram, Objective, QPSolution, build_program
+from optik.solvers.qp import installed_backends, qpsolvers_backends, solve_program
+
+__all__ = [
+    "FEASIBILITY_ATOL",
+    "FEASIBILITY_RTOL",
+    "KKT_RTOL",
+    "diff_ik",
+    "diff_ik_solvers",
+    "verify_step",
+]
+
+#: Relative tolerance (times ``||v||_inf``) on ``J dq = v`` and on the bounds.
+FEASIBILITY_RTOL: Final[float] = 1e-7
+#: Absolute floor of that tolerance (m, rad).
+FEASIBILITY_ATOL: Final[float] = 1e-12
+#: Relative tolerance on KKT stationarity (times the program's scale, see ``KKTReport``).
+KKT_RTOL: Final[float] = 1e-6
+
+
+def diff_ik_solvers() -> list[str]:
+    """Solver names :func:`diff_ik` accepts here: ``qp:<backend>`` and ``casadi:<plugin>``."""
+    return [f"qp:{b}" for b in installed_backends()] + [
+        f"casadi:{p}" for p in casadi_conic_plugins()
+    ]
+
+
+def _resolve(solver: str) -> tuple[str, str]:
+    """``("qp", backend)`` or ``("casadi", plugin)`` for a solver name, or raise."""
+    if not isinstance(solver, str):
+        raise UnknownSolverError(repr(solver), diff_ik_solvers())
+    if solver.startswith("casadi:"):
+        plugin = solver.split(":", 1)[1]
+        if plugin in casadi_conic_plugins():
+            return "casadi", plugin
+        raise UnknownSolverError(
+            solver, diff_ik_solvers(), "diff_ik takes a CasADi conic (QP) plugin here."
+        )
+    backend = solver.split(":", 1)[1] if solver.startswith("qp:") else solver
+    if backend in installed_backends():
+        return "qp", backend
+    if backend in qpsolvers_backends():
+        raise UnknownSolverError(
+            solver,
+            diff_ik_solvers(),
+            f"Its backend is not installed: `pip install qpsolvers[{backend}]`.",
+        )
+    raise UnknownSolverError(solver, diff_ik_solvers())
+
+
+def _tolerance(program: DiffIKProgram) -> float:
+    return FEASIBILITY_RTOL * float(np.max(np.abs(program.v), initial=0.0)) + FEASIBILITY_ATOL
+
+
+def verify_step(program: DiffIKProgram, solution: QPSolution) -> tuple[FloatArray | None, str]:
+    """Check a backend's answer independently; return ``(dq, "")`` or ``(None, reason)``.
+
+    The point must be finite; within :data:`FEASIBILITY_RTOL` ``||v||_inf`` (plus
+    :data:`FEASIBILITY_ATOL`) of the bounds, after which it is clipped onto them; satisfy
+    ``J dq = v`` to the same tolerance (least norm); and satisfy KKT stationarity with
+    sign-constrained multipliers fitted by optik to :data:`KKT_RTOL` times the program's
+    scale. The backend's own claim (``solution.found``) is not needed: a point that
+    passes every check is accepted.
+    """
+    x = solution.x
+    if x is None:
+        return None, f"no point returned ({solution.status})"
+    if x.shape != (program.dof,) or not np.all(np.isfinite(x)):
+        return None, f"non-finite point returned ({solution.status})"
+    tol = _tolerance(program)
+    violation = program.bound_violation(x)
+    if violation > tol:
+        return None, f"bounds violated by {violation:.3g} ({solution.status})"
+    dq = program.clip(x)
+    if program.objective == "least_norm":
+        residual = float(np.max(np.abs(program.task_residual(dq)), initial=0.0))
+        if residual > tol:
+            return None, f"|J dq - v| = {residual:.3g} > {tol:.3g} ({solution.status})"
+    kkt = program.kkt(dq, active_tol=tol)
+    if kkt.stationarity > KKT_RTOL * kkt.scale + FEASIBILITY_ATOL:
+        return None, (
+            f"not optimal: KKT stationarity residual {kkt.stationarity:.3g} "
+            f"(scale {kkt.scale:.3g}) ({solution.status})"
+        )
+    return dq, ""
+
+
+def _inconsistent(program: DiffIKProgram) -> NoSolutionError:
+    return NoSolutionError(
+        "no step exists: the bounds on dq are inconsistent (q lies outside its limits by "
+        "more than the velocity limits allow in one step)",
+        program,
+    )
+
+
+def _no_solution(program: DiffIKProgram, backend: str) -> NoSolutionError | None:
+    """A :class:`NoSolutionError` when the least-norm equality provably cannot hold."""
+    if not program.bounds_consistent:
+        return _inconsistent(program)
+    if program.objective != "least_norm":
+        return None
+    gap = program.min_task_violation()
+    tol = _tolerance(program)
+    if gap <= tol:
+        return None
+    free, *_ = np.linalg.lstsq(program.J, program.v, rcond=None)
+    unbounded_gap = float(np.max(np.abs(program.J @ free - program.v)))
+    if unbounded_gap > tol:
+        why = (
+            "the twist is outside the range of J at q even without limits "
+            f"(best |J dq - v|_inf = {unbounded_gap:.3g}: a singularity or too few joints)"
+        )
+    else:
+        why = (
+            "the joint (or velocity) limits block it: the best |J dq - v|_inf inside the "
+            f"bounds is {gap:.3g}"
+        )
+    return NoSolutionError(
+        f"least-norm step infeasible ({backend}): J dq = twist*dt cannot hold; {why}. "
+        "Use objective='least_squares' for the closest bounded step.",
+        program,
+    )
+
+
+def diff_ik(
+    robot: Robot,
+    q: Any,
+    twist: Any,
+    *,
+    dt: float,
+    objective: Objective = "least_norm",
+    solver: str = "qp:proxqp",
+    limits: bool = True,
+    velocity_limits: Any = None,
+    damping: float | None = None,
+    limit_gain: float = 1.0,
+    rows: Sequence[int] | None = None,
+) -> FloatArray:
+    """Joint step ``dq`` (rad, m) that moves the tool by ``twist * dt``, inside the limits.
+
+    With ``v = twist * dt`` and ``J`` the geometric Jacobian at ``q`` (world frame, tool
+    point; its ``rows`` when given), the step solves
+
+    * ``objective="least_norm"``: ``min ||dq||^2  s.t.  J dq = v,  lb <= dq <= ub``;
+    * ``objective="least_squares"``: ``min ||J dq - v||^2 + lambda^2 ||dq||^2  s.t.
+      lb <= dq <= ub`` (``lambda`` = ``damping``, default
+      :data:`~optik.programs.diff_qp.DEFAULT_DAMPING` = 1e-3; without active bounds the
+      answer is ``(J^T J + lambda^2 I)^-1 J^T v``);
+
+    with ``lb = max(limit_gain (lower - q), -velocity_limits dt)`` and
+    ``ub = min(limit_gain (upper - q), velocity_limits dt)``, so ``q + dq`` stays inside
+    the limits.
+
+    Args:
+        robot: the robot.
+        q: configuration (dof,), rad or m.
+        twist: tool twist (6,) in the world frame: linear velocity (m/s) then angular
+            velocity (rad/s).
+        dt: time step (s), > 0.
+        objective: ``"least_norm"`` or ``"least_squares"``.
+        solver: a ``qpsolvers`` backend (``"qp:<name>"`` or ``"<name>"``) or a CasADi conic
+            plugin (``"casadi:<plugin>"``); see :func:`diff_ik_solvers`.
+        limits: bound ``q + dq`` by the joint limits.
+        velocity_limits: joint speed limits (dof,), rad/s or m/s, ``inf`` for none.
+        damping: ``lambda >= 0`` for least squares (``None``: the default); must be
+            ``None`` for least norm.
+        limit_gain: fraction in (0, 1] of the distance to a limit one step may cover.
+        rows: Jacobian rows (0..5) the task constrains (default all six), e.g.
+            ``(0, 1, 2)`` for the tool's linear velocity only.
+
+    Returns:
+        ``dq`` of shape (dof,), verified by optik (see :func:`verify_step`).
+
+    Raises:
+        NoSolutionError: least norm and ``J dq = twist*dt`` cannot hold inside the bounds
+            (proved by an LP), or the bounds are inconsistent; ``exc.program`` is the
+            :class:`~optik.programs.diff_qp.DiffIKProgram`.
+        SolverError: the backend failed (raised, returned nothing, or a point that fails
+            optik's checks) on a program that has a solution.
+        UnknownSolverError: unknown or uninstalled solver; the message lists the installed.
+        ShapeError, NonFiniteError: bad ``q``, ``twist`` or ``velocity_limits``.
+        OptikError: ``dt <= 0``, ``limit_gain`` outside (0, 1], a bad ``damping`` or
+            ``objective``.
+    """
+    family, name = _resolve(solver)
+    try:
+        step = float(dt)
+    except (TypeError, ValueError) as exc:
+        raise OptikError(f"dt must be a number of seconds, got {dt!r}") from exc
+    if not math.isfinite(step):
+        raise NonFiniteError("dt")
+    if step <= 0.0:
+        raise OptikError(f"dt must be > 0, got {step}")
+    twist_arr = finite_array("twist", twist, (6,))
+    program = build_program(
+        robot,
+        q,
+        twist_arr * step,
+        objective=objective,
+        dt=step,
+        damping=damping,
+        limits=limits,
+        limit_gain=limit_gain,
+        velocity_limits=velocity_limits,
+        rows=rows,
+    )
+    label = f"{family}:{name}"
+    if not program.bounds_consistent:
+        raise _inconsistent(program)
+    solution = solve_program(program, name) if family == "qp" else solve_conic(program, name)
+    dq, reason = verify_step(program, solution)
+    if dq is not None:
+        return dq
+    error = _no_solution(program, label)
+    if error is not None:
+        raise error
+    raise SolverError(label, f"{reason}; the program has a solution")

@@ -1,0 +1,621 @@
+"""One differential-IK step as a quadratic program, built before it is solved.
+
+The step ``dq`` (dof,) moves the tool by the task displacement ``v = twist * dt`` to first
+order, ``J dq ~ v``, where ``J`` (m, dof) holds the selected rows of the geometric
+Jacobian (rows 0-2 linear, m per joint unit; rows 3-5 angular, rad per joint unit). Two
+programs, in the ``qpsolvers`` form ``min 1/2 x^T P x + c^T x  s.t.  A x = b,
+lb <= x <= ub``:
+
+* **least norm** (seed 000, eq. 50, with bounds)::
+
+      min  1/2 dq^T W dq    s.t.   J dq = v,   lb <= dq <= ub
+
+  ``P = W`` (default ``I``), ``c = 0``, ``A = J``, ``b = v``. Without active bounds and
+  with ``W = I`` the answer is the closed form ``J^T (J J^T)^-1 v`` (eq. 48).
+
+* **least squares** (seed 000, eq. 63, damped, with bounds)::
+
+      min  1/2 ||J dq - v||^2_Wt + 1/2 lambda^2 dq^T W dq    s.t.   lb <= dq <= ub
+
+  ``P = J^T Wt J + lambda^2 W``, ``c = -J^T Wt v``. Without active bounds the answer is
+  the damped closed form ``(J^T Wt J + lambda^2 W)^-1 J^T Wt v``; with ``lambda = 0`` and
+  ``J`` of full column rank, the least-squares answer ``(J^T J)^-1 J^T v`` (eq. 47).
+
+The damping ``lambda`` (default :data:`DEFAULT_DAMPING` = 1e-3, in task units per joint
+unit: m/rad for linear rows) keeps ``P`` positive definite when ``J`` has fewer rows than
+columns (redundant arms) or loses rank (singularities). Its bias on the answer is
+``lambda^2 / (sigma^2 + lambda^2)`` along a singular direction of ``J`` with singular
+value ``sigma``: below 1e-4 relative for ``sigma >= 0.1`` m. It also bounds the condition
+number of ``P`` by ``(sigma_max^2 + lambda^2) / lambda^2`` (about 1e6 for arms of metre
+size), which QP backends still solve to about 1e-10; a smaller default (1e-6) would make
+``P`` numerically singular (condition 1e12) and the backends' answers inaccurate along
+the null space of ``J``. See ``docs/programs.md``.
+
+Bounds on ``dq`` come from the joint limits and from optional velocity limits::
+
+    lb = max(gain * (lower - q), -vmax * dt),   ub = min(gain * (upper - q), vmax * dt)
+
+so ``q + dq`` stays inside ``[lower, upper]``. Infinite limits stay infinite (no ``1e20``
+sentinels); when every bound is infinite the program has no ``lb``/``ub`` at all.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any, Final, Literal
+
+import numpy as np
+import qpsolvers
+import scipy.optimize
+
+from optik._checks import FloatArray, as_float_array, check_finite, finite_array
+from optik.errors import NonFiniteError, OptikError, ShapeError
+from optik.model import Robot
+
+__all__ = [
+    "ALL_ROWS",
+    "DEFAULT_DAMPING",
+    "OBJECTIVES",
+    "POSITION_ROWS",
+    "DiffIKProgram",
+    "Equilibrated",
+    "KKTReport",
+    "Objective",
+    "QPSolution",
+    "build_program",
+    "build_qp",
+    "step_bounds",
+]
+
+Objective = Literal["least_norm", "least_squares"]
+
+#: The two objectives of a differential-IK step.
+OBJECTIVES: Final[tuple[str, ...]] = ("least_norm", "least_squares")
+
+#: Default damping ``lambda`` of the least-squares program (m/rad for linear rows).
+DEFAULT_DAMPING: Final[float] = 1e-3
+
+#: The six rows of the geometric Jacobian: linear x, y, z then angular x, y, z.
+ALL_ROWS: Final[tuple[int, ...]] = (0, 1, 2, 3, 4, 5)
+
+#: The linear (position) rows of the geometric Jacobian.
+POSITION_ROWS: Final[tuple[int, ...]] = (0, 1, 2)
+
+
+@dataclass(frozen=True)
+class QPSolution:
+    """What a backend returned for a :class:`DiffIKProgram`, before optik checks it.
+
+    Attributes:
+        x: the returned point (dof,), or ``None`` when the backend returned nothing.
+        found: the backend's own claim of success.
+        status: the backend's status text (or the exception it raised).
+        backend: the backend's name, e.g. ``"qp:proxqp"`` or ``"casadi:qrqp"``.
+        iterations: iterations reported by the backend, -1 when unknown.
+    """
+
+    x: FloatArray | None
+    found: bool
+    status: str
+    backend: str
+    iterations: int = -1
+
+
+@dataclass(frozen=True)
+class KKTReport:
+    """Karush-Kuhn-Tucker conditions of a program at a point, multipliers fitted by optik.
+
+    With ``g = P x + c`` the stationarity condition is
+    ``g + A^T y - z_lower + z_upper = 0`` with ``z_lower, z_upper >= 0`` supported on the
+    lower / upper active bounds. The multipliers are the nonnegative least-squares fit of
+    that equation over the active set (``scipy.optimize.lsq_linear``), so their signs are
+    enforced and ``stationarity`` is the smallest residual any valid multipliers achieve.
+
+    Attributes:
+        stationarity: ``||g + A^T y - z_lower + z_upper||_inf`` at the fitted multipliers.
+        primal: largest violation of ``A x = b`` and of the bounds.
+        y: equality multipliers (m,) (empty for least squares).
+        z_lower: lower-bound multipliers (dof,), zero off the lower active set.
+        z_upper: upper-bound multipliers (dof,), zero off the upper active set.
+        active_lower: the joints whose lower bound is active.
+        active_upper: the joints whose upper bound is active.
+        scale: ``||P||_inf ||x||_inf + ||c||_inf + ||A^T||_inf ||b||_inf``, for relative tests.
+    """
+
+    stationarity: float
+    primal: float
+    y: FloatArray
+    z_lower: FloatArray
+    z_upper: FloatArray
+    active_lower: np.ndarray
+    active_upper: np.ndarray
+    scale: float
+
+
+@dataclass(frozen=True)
+class Equilibrated:
+    """A program rescaled for a backend: same minimizer up to the factor ``scale``.
+
+    The backend solves ``min 1/2 x'^T P x' + c^T x'  s.t.  A x' = b,  lb <= x' <= ub``
+    and the step is ``dq = x' / scale``. ``lb``/``ub`` are ``None`` when unbounded and
+    ``A``/``b`` ``None`` for least squares.
+    """
+
+    P: FloatArray
+    c: FloatArray
+    A: FloatArray | None
+    b: FloatArray | None
+    lb: FloatArray | None
+    ub: FloatArray | None
+    scale: float
+
+
+@dataclass(frozen=True, eq=False)
+class DiffIKProgram:
+    """A differential-IK step program: the ``qpsolvers.Problem`` and the data it came from.
+
+    Attributes:
+        qp: the quadratic program ``min 1/2 x^T P x + c^T x s.t. A x = b, lb <= x <= ub``
+            (``qp.q`` is ``c``); ``qp.A``/``qp.b`` only for least norm, ``qp.lb``/``qp.ub``
+            only when some bound is finite.
+        objective: ``"least_norm"`` or ``"least_squares"``.
+        q: the configuration the step starts from (dof,).
+        J: the task rows of the Jacobian at ``q`` (m, dof).
+        v: the task displacement (m,), m and rad.
+        rows: indices of ``J``'s rows in the 6-row geometric Jacobian.
+        lower: lower bound on ``dq`` (dof,), ``-inf`` where unbounded.
+        upper: upper bound on ``dq`` (dof,), ``+inf`` where unbounded.
+        W: joint-space weight (dof, dof), symmetric positive definite.
+        Wt: task-space weight (m, m), symmetric positive semidefinite (least squares).
+        damping: ``lambda`` of the least-squares program (0 for least norm).
+    """
+
+    qp: qpsolvers.Problem
+    objective: Objective
+    q: FloatArray
+    J: FloatArray
+    v: FloatArray
+    rows: tuple[int, ...]
+    lower: FloatArray
+    upper: FloatArray
+    W: FloatArray
+    Wt: FloatArray
+    damping: float
+    _cache: dict[str, float] = field(default_factory=dict, repr=False, compare=False)
+
+    # ------------------------------------------------------------------ shape
+    @property
+    def dof(self) -> int:
+        """Number of variables (joint coordinates)."""
+        return int(self.J.shape[1])
+
+    @property
+    def task_dim(self) -> int:
+        """Number of task rows ``m``."""
+        return int(self.J.shape[0])
+
+    @property
+    def P(self) -> FloatArray:
+        """Cost matrix (dof, dof)."""
+        return np.asarray(self.qp.P, dtype=np.float64)
+
+    @property
+    def c(self) -> FloatArray:
+        """Cost vector (dof,) (``qpsolvers`` calls it ``q``)."""
+        return np.asarray(self.qp.q, dtype=np.float64)
+
+    @property
+    def bounds_consistent(self) -> bool:
+        """Whether ``lower <= upper`` for every joint (else no ``dq`` exists)."""
+        return bool(np.all(self.lower <= self.upper))
+
+    def equilibrated(self) -> Equilibrated:
+        """The program rescaled for a backend, whose tolerances are absolute.
+
+        The minimizer does not change when the cost is divided by ``p = max |P|``, and it
+        scales with ``(v, lb, ub)``: the backend solves for ``x' = s dq`` with
+        ``s = 1 / ||v||_inf`` (1 when ``v = 0``), so its absolute tolerances act relative
+        to the size of the task and of the cost.
+        """
+        qp = self.qp
+        p = float(np.max(np.abs(qp.P)))
+        p = p if p > 0.0 else 1.0
+        vmax = float(np.max(np.abs(self.v), initial=0.0))
+        s = 1.0 / vmax if vmax > 0.0 else 1.0
+        return Equilibrated(
+            P=qp.P / p,
+            c=qp.q * (s / p),
+            A=None if qp.A is None else np.array(qp.A, dtype=np.float64),
+            b=None if qp.b is None else qp.b * s,
+            lb=None if qp.lb is None else qp.lb * s,
+            ub=None if qp.ub is None else qp.ub * s,
+            scale=s,
+        )
+
+    # ------------------------------------------------------------------ evaluation
+    def cost(self, dq: FloatArray) -> float:
+        """Objective value ``1/2 dq^T P dq + c^T dq``."""
+        return float(0.5 * dq @ self.P @ dq + self.c @ dq)
+
+    def task_residual(self, dq: FloatArray) -> FloatArray:
+        """``J dq - v`` (m,), m and rad."""
+        r: FloatArray = self.J @ dq - self.v
+        return r
+
+    def bound_violation(self, dq: FloatArray) -> float:
+        """Largest excursion of ``dq`` beyond ``[lower, upper]``, 0 inside."""
+        with np.errstate(invalid="ignore"):
+            excess = np.maximum(self.lower - dq, dq - self.upper)
+        return float(max(0.0, np.max(excess)))
+
+    def clip(self, dq: FloatArray) -> FloatArray:
+        """``dq`` clipped into ``[lower, upper]`` (bounds are exact afterwards)."""
+        out: FloatArray = np.minimum(np.maximum(dq, self.lower), self.upper)
+        return out
+
+    def min_task_violation(self) -> float:
+        """Smallest ``||J dq - v||_inf`` over ``lower <= dq <= upper`` (an LP).
+
+        Solved by ``scipy.optimize.linprog`` (HiGHS), independently of the QP backend:
+        ``min t  s.t.  -t <= J dq - v <= t,  lower <= dq <= upper``. Zero (to the LP's
+        tolerance) when the least-norm equality can hold inside the bounds; ``inf`` when the
+        bounds themselves are inconsistent.
+        """
+        if "min_task_violation" in self._cache:
+            return self._cache["min_task_violation"]
+        if not self.bounds_consistent:
+            value = math.inf
+        else:
+            m, n = self.J.shape
+            ones = np.ones((m, 1))
+            A_ub = np.block([[self.J, -ones], [-self.J, -ones]])
+            b_ub = np.concatenate([self.v, -self.v])
+            cost = np.zeros(n + 1)
+            cost[-1] = 1.0
+            bounds = [
+                (None if math.isinf(lo) else lo, None if math.isinf(hi) else hi)
+                for lo, hi in zip(self.lower, self.upper, strict=True)
+            ] + [(0.0, None)]
+            res = scipy.optimize.linprog(
+                cost,
+                A_ub=A_ub,
+                b_ub=b_ub,
+                bounds=bounds,
+                method="highs",
+                options={
+                    "primal_feasibility_tolerance": 1e-10,
+                    "dual_feasibility_tolerance": 1e-10,
+                },
+            )
+            if res.status == 0:
+                # The LP's point: refine the violation from the point itself (not res.fun).
+                x = np.clip(res.x[:n], self.lower, self.upper)
+                value = float(np.max(np.abs(self.J @ x - self.v)))
+            else:  # pragma: no cover - bounded LP with a feasible box is always solvable
+                value = math.inf
+        self._cache["min_task_violation"] = value
+        return value
+
+    def kkt(self, dq: FloatArray, active_tol: float = 1e-9) -> KKTReport:
+        """The KKT conditions at ``dq`` with multipliers fitted over the active set.
+
+        A bound counts as active when ``dq`` lies within ``active_tol`` of it. See
+        :class:`KKTReport` for the conditions and how the multipliers are found.
+        """
+        n = self.dof
+        g = self.P @ dq + self.c
+        at_lower = np.isfinite(self.lower) & (dq - self.lower <= active_tol)
+        at_upper = np.isfinite(self.upper) & (self.upper - dq <= active_tol)
+        cols = []
+        lo_bounds: list[float] = []
+        hi_bounds: list[float] = []
+        if self.objective == "least_norm":
+            cols.append(self.J.T)
+            lo_bounds += [-np.inf] * self.task_dim
+            hi_bounds += [np.inf] * self.task_dim
+        lower_idx = np.flatnonzero(at_lower)
+        upper_idx = np.flatnonzero(at_upper)
+        eye = np.eye(n)
+        # g + A^T y + E_l (-z_l) + E_u z_u = 0, i.e. the columns of M times the unknowns.
+        cols.append(-eye[:, lower_idx])
+        cols.append(eye[:, upper_idx])
+        lo_bounds += [0.0] * (lower_idx.size + upper_idx.size)
+        hi_bounds += [np.inf] * (lower_idx.size + upper_idx.size)
+        M = np.hstack(cols) if cols else np.zeros((n, 0))
+        if M.shape[1] == 0:
+            unknowns = np.zeros(0)
+            residual = g
+        else:
+            fit = scipy.optimize.lsq_linear(
+                M, -g, bounds=(np.array(lo_bounds), np.array(hi_bounds)), method="bvls"
+            )
+            unknowns = np.asarray(fit.x, dtype=np.float64)
+            residual = g + M @ unknowns
+        k = self.task_dim if self.objective == "least_norm" else 0
+        y = unknowns[:k]
+        z_lower = np.zeros(n)
+        z_upper = np.zeros(n)
+        z_lower[lower_idx] = unknowns[k : k + lower_idx.size]
+        z_upper[upper_idx] = unknowns[k + lower_idx.size :]
+        primal = self.bound_violation(dq)
+        if self.objective == "least_norm":
+            primal = max(primal, float(np.max(np.abs(self.task_residual(dq)), initial=0.0)))
+        scale = float(
+            np.max(np.abs(self.P)) * np.max(np.abs(dq), initial=0.0)
+            + np.max(np.abs(self.c), initial=0.0)
+            + (
+                np.max(np.abs(self.J)) * np.max(np.abs(self.v), initial=0.0)
+                if self.objective == "least_norm"
+                else 0.0
+            )
+        )
+        return KKTReport(
+            stationarity=float(np.max(np.abs(residual), initial=0.0)),
+            primal=primal,
+            y=y,
+            z_lower=z_lower,
+            z_upper=z_upper,
+            active_lower=at_lower,
+            active_upper=at_upper,
+            scale=scale,
+        )
+
+
+# ---------------------------------------------------------------------- validation
+def _check_rows(rows: Sequence[int] | None, v: FloatArray) -> tuple[tuple[int, ...], FloatArray]:
+    """Resolve the task rows and the task vector they select."""
+    if v.ndim != 1:
+        raise ShapeError("v", "(6,), (3,) or (len(rows),)", v.shape)
+    if rows is None:
+        if v.shape == (6,):
+            return ALL_ROWS, v
+        if v.shape == (3,):
+            return POSITION_ROWS, v
+        raise ShapeError("v", "(6,) or (3,) (or pass rows)", v.shape)
+    try:
+        picked = tuple(int(r) for r in rows)
+    except (TypeError, ValueError) as exc:
+        raise OptikError(f"rows must be a sequence of integers in 0..5, got {rows!r}") from exc
+    if (
+        not picked
+        or len(set(picked)) != len(picked)
+        or any(r < 0 or r > 5 for r in picked)
+        or any(int(r) != r for r in rows)
+    ):
+        raise OptikError(f"rows must be distinct integers in 0..5, got {rows!r}")
+    if v.shape == (len(picked),):
+        return picked, v
+    if v.shape == (6,):
+        return picked, v[list(picked)]
+    raise ShapeError("v", f"(6,) or ({len(picked)},) for rows {picked}", v.shape)
+
+
+def _check_weight(name: str, value: Any, size: int, definite: bool) -> FloatArray:
+    """A weight given as a diagonal (size,) or a matrix (size, size); returns the matrix."""
+    if value is None:
+        return np.eye(size)
+    arr = as_float_array(name, value)
+    if arr.shape == (size,):
+        check_finite(name, arr)
+        if np.any(arr < 0.0) or (definite and np.any(arr <= 0.0)):
+            kind = "positive" if definite else "nonnegative"
+            raise OptikError(f"{name}: diagonal weights must be {kind}, got {arr}")
+        return np.diag(arr)
+    if arr.shape != (size, size):
+        raise ShapeError(name, f"({size},) or ({size}, {size})", arr.shape)
+    check_finite(name, arr)
+    if not np.allclose(arr, arr.T, rtol=0.0, atol=1e-12 * max(1.0, float(np.max(np.abs(arr))))):
+        raise OptikError(f"{name}: weight matrix must be symmetric")
+    sym = 0.5 * (arr + arr.T)
+    smallest = float(np.linalg.eigvalsh(sym)[0])
+    if smallest < 0.0 or (definite and smallest <= 0.0):
+        kind = "positive definite" if definite else "positive semidefinite"
+        raise OptikError(f"{name}: weight matrix must be {kind} (smallest eigenvalue {smallest})")
+    return sym
+
+
+def _check_positive(name: str, value: Any, allow_zero: bool = False) -> float:
+    try:
+        x = float(value)
+    except (TypeError, ValueError) as exc:
+        raise OptikError(f"{name} must be a number, got {value!r}") from exc
+    if not math.isfinite(x):
+        raise NonFiniteError(name)
+    if x < 0.0 or (x == 0.0 and not allow_zero):
+        raise OptikError(f"{name} must be {'>= 0' if allow_zero else '> 0'}, got {x}")
+    return x
+
+
+def step_bounds(
+    robot: Robot,
+    q: FloatArray,
+    *,
+    limits: bool = True,
+    limit_gain: float = 1.0,
+    velocity_limits: Any = None,
+    dt: float | None = None,
+) -> tuple[FloatArray, FloatArray]:
+    """Bounds on one step ``dq`` from the joint limits and optional velocity limits.
+
+    ``lb = max(gain (lower - q), -vmax dt)``, ``ub = min(gain (upper - q), vmax dt)``;
+    infinite limits stay infinite.
+
+    Args:
+        robot: the robot (its ``lower``/``upper`` limits, rad or m).
+        q: configuration (dof,), already validated.
+        limits: apply the joint limits.
+        limit_gain: fraction in (0, 1] of the distance to a limit one step may cover.
+        velocity_limits: ``vmax`` (dof,) in rad/s or m/s, ``>= 0``, ``inf`` allowed.
+        dt: the time step (s), required with ``velocity_limits``.
+
+    Returns:
+        ``(lb, ub)``, each (dof,).
+
+    Raises:
+        OptikError: ``limit_gain`` outside (0, 1], ``dt <= 0``, negative velocity limits or
+            velocity limits without ``dt``.
+        ShapeError, NonFiniteError: a bad ``velocity_limits`` array.
+    """
+    gain = _check_positive("limit_gain", limit_gain)
+    if gain > 1.0:
+        raise OptikError(f"limit_gain must lie in (0, 1], got {gain}")
+    n = robot.dof
+    lb = np.full(n, -np.inf)
+    ub = np.full(n, np.inf)
+    if limits:
+        with np.errstate(invalid="ignore"):
+            lb = np.where(np.isfinite(robot.lower), gain * (robot.lower - q), -np.inf)
+            ub = np.where(np.isfinite(robot.upper), gain * (robot.upper - q), np.inf)
+    if velocity_limits is not None:
+        if dt is None:
+            raise OptikError("velocity_limits need the time step dt")
+        step = _check_positive("dt", dt)
+        vmax = as_float_array("velocity_limits", velocity_limits)
+        if vmax.shape != (n,):
+            raise ShapeError("velocity_limits", f"({n},)", vmax.shape)
+        if np.any(np.isnan(vmax)):
+            raise NonFiniteError("velocity_limits", tuple(np.argwhere(np.isnan(vmax))[0]))
+        if np.any(vmax < 0.0):
+            raise OptikError(f"velocity_limits must be >= 0, got {vmax}")
+        reach = vmax * step
+        lb = np.maximum(lb, -reach)
+        ub = np.minimum(ub, reach)
+    return lb, ub
+
+
+# ---------------------------------------------------------------------- builders
+def build_program(
+    robot: Robot,
+    q: Any,
+    v: Any,
+    *,
+    objective: Objective = "least_norm",
+    dt: float | None = None,
+    W: Any = None,
+    Wt: Any = None,
+    damping: float | None = None,
+    limits: bool = True,
+    limit_gain: float = 1.0,
+    velocity_limits: Any = None,
+    rows: Sequence[int] | None = None,
+) -> DiffIKProgram:
+    """Build the least-norm or least-squares step program at ``q`` (see the module doc).
+
+    Args:
+        robot: the robot.
+        q: configuration (dof,), rad or m.
+        v: task displacement ``twist * dt``: (6,) linear (m) then angular (rad), (3,) for
+            the position rows, or one entry per index of ``rows``.
+        objective: ``"least_norm"`` or ``"least_squares"``.
+        dt: time step (s) that scales ``velocity_limits``; required with them.
+        W: joint weight, (dof,) diagonal or (dof, dof) symmetric positive definite
+            (default ``I``).
+        Wt: task weight of the least-squares residual, (m,) or (m, m) symmetric positive
+            semidefinite (default ``I``).
+        damping: ``lambda >= 0`` of the least-squares program (default
+            :data:`DEFAULT_DAMPING`); must stay ``None`` for least norm.
+        limits: bound ``q + dq`` by the joint limits.
+        limit_gain: fraction in (0, 1] of the distance to each limit a step may use.
+        velocity_limits: joint speed limits (dof,), rad/s or m/s, ``inf`` allowed.
+        rows: indices (0..5) of the Jacobian rows of the task (default: all six for a
+            (6,) ``v``, the position rows for a (3,) ``v``).
+
+    Returns:
+        The :class:`DiffIKProgram`; its ``qp`` is the ``qpsolvers.Problem``.
+
+    Raises:
+        ShapeError: ``q``, ``v``, ``W``, ``Wt`` or ``velocity_limits`` has a wrong shape.
+        NonFiniteError: one of them holds NaN (or infinity where not allowed).
+        OptikError: an unknown objective, ``limit_gain`` outside (0, 1], ``dt <= 0``,
+            ``damping < 0`` or given for least norm, bad ``rows``, or weights that are not
+            symmetric (semi)definite.
+    """
+    if not isinstance(robot, Robot):
+        raise OptikError(f"robot must be an optik.Robot, got {type(robot).__name__}")
+    if objective not in OBJECTIVES:
+        raise OptikError(f"objective must be one of {OBJECTIVES}, got {objective!r}")
+    if dt is not None:
+        _check_positive("dt", dt)
+    q_arr = finite_array("q", q, (robot.dof,))
+    v_raw = as_float_array("v", v)
+    picked, v_arr = _check_rows(rows, v_raw)
+    v_arr = check_finite("v", np.array(v_arr, dtype=np.float64))
+    n, m = robot.dof, len(picked)
+    W_mat = _check_weight("W", W, n, definite=True)
+    Wt_mat = _check_weight("Wt", Wt, m, definite=False)
+    if objective == "least_norm":
+        if damping is not None:
+            raise OptikError("damping applies to the least_squares objective only")
+        if Wt is not None:
+            raise OptikError("Wt applies to the least_squares objective only")
+        lam = 0.0
+    else:
+        lam = DEFAULT_DAMPING if damping is None else _check_positive("damping", damping, True)
+    lb, ub = step_bounds(
+        robot, q_arr, limits=limits, limit_gain=limit_gain, velocity_limits=velocity_limits, dt=dt
+    )
+    J = np.ascontiguousarray(robot.jacobian(q_arr)[list(picked)])
+    bounded = bool(np.any(np.isfinite(lb)) or np.any(np.isfinite(ub)))
+    qp_lb = lb.copy() if bounded else None
+    qp_ub = ub.copy() if bounded else None
+    if objective == "least_norm":
+        qp = qpsolvers.Problem(
+            W_mat.copy(), np.zeros(n), A=J.copy(), b=v_arr.copy(), lb=qp_lb, ub=qp_ub
+        )
+    else:
+        P = J.T @ Wt_mat @ J + lam * lam * W_mat
+        P = 0.5 * (P + P.T)
+        qp = qpsolvers.Problem(P, -(J.T @ (Wt_mat @ v_arr)), lb=qp_lb, ub=qp_ub)
+    return DiffIKProgram(
+        qp=qp,
+        objective=objective,
+        q=q_arr.copy(),
+        J=J,
+        v=v_arr,
+        rows=picked,
+        lower=lb,
+        upper=ub,
+        W=W_mat,
+        Wt=Wt_mat,
+        damping=lam,
+    )
+
+
+def build_qp(
+    robot: Robot,
+    q: Any,
+    v: Any,
+    *,
+    objective: Objective = "least_norm",
+    dt: float | None = None,
+    W: Any = None,
+    Wt: Any = None,
+    damping: float | None = None,
+    limits: bool = True,
+    limit_gain: float = 1.0,
+    velocity_limits: Any = None,
+    rows: Sequence[int] | None = None,
+) -> qpsolvers.Problem:
+    """The ``qpsolvers.Problem`` of one differential-IK step.
+
+    Least norm: ``min 1/2 dq^T W dq  s.t.  J dq = v,  lb <= dq <= ub``; least squares:
+    ``min 1/2 ||J dq - v||^2_Wt + 1/2 lambda^2 dq^T W dq  s.t.  lb <= dq <= ub``. Arguments,
+    raises and bounds as in :func:`build_program` (which also keeps ``J``, ``v`` and the
+    bounds next to the problem).
+    """
+    return build_program(
+        robot,
+        q,
+        v,
+        objective=objective,
+        dt=dt,
+        W=W,
+        Wt=Wt,
+        damping=damping,
+        limits=limits,
+        limit_gain=limit_gain,
+        velocity_limits=velocity_limits,
+        rows=rows,
+    ).qp

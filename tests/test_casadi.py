@@ -1,0 +1,248 @@
+"""The CasADi forms: conic (QP) step programs and the nonlinear IK program.
+
+Conic plugins are checked like the qpsolvers backends (closed forms to 1e-8 with the limits
+inactive, KKT with multipliers computed here when active). The NLP's symbolic FK must equal
+``Robot.fk``; ipopt and sqpmethod must reach FK targets from nearby warm starts.
+"""
+
+from __future__ import annotations
+
+import gc
+import time
+import weakref
+
+import casadi
+import numpy as np
+import pytest
+from conftest import PROBLEM_NAMES, SEED, assert_close, random_q, robot_of
+from test_qp_solvers import (
+    KKT_ROBOTS,
+    check_active,
+    check_least_norm,
+    check_least_squares,
+    inactive_cases,
+    least_norm_program,
+    reach,
+)
+
+import optik.solvers.casadi_nlp  # noqa: F401  (registers casadi:ipopt, casadi:sqpmethod)
+from optik.errors import InvalidRotationError, OptikError, ShapeError, UnknownSolverError
+from optik.model import DHJoint, Robot
+from optik.programs import nlp as nlp_module
+from optik.programs.casadi_qp import (
+    CONIC_OPTIONS,
+    EXCLUDED_PLUGINS,
+    build_conic,
+    casadi_conic_plugins,
+    solve_conic,
+)
+from optik.programs.diff_qp import DiffIKProgram, QPSolution
+from optik.programs.nlp import build_nlp, symbolic_fk
+from optik.solvers._base import IKQuery, available_solvers, get_solver
+from optik.spatial import rotation_angle
+
+PLUGINS = casadi_conic_plugins()
+
+
+def conic(plugin: str):
+    def solve(prog: DiffIKProgram) -> QPSolution:
+        return solve_conic(prog, plugin)
+
+    return solve
+
+
+# ---------------------------------------------------------------------- conic plugins
+def test_working_plugins_found() -> None:
+    assert {"qrqp", "osqp"} <= set(PLUGINS)
+    assert not set(PLUGINS) & set(EXCLUDED_PLUGINS)
+    assert set(PLUGINS) <= set(CONIC_OPTIONS)
+    assert casadi_conic_plugins() is PLUGINS  # probed once per process
+
+
+@pytest.mark.parametrize("plugin", PLUGINS)
+@pytest.mark.parametrize("name", PROBLEM_NAMES)
+def test_conic_least_norm_matches_closed_form(name: str, plugin: str) -> None:
+    for case in inactive_cases(name):
+        check_least_norm(conic(plugin), case)
+
+
+@pytest.mark.parametrize("plugin", PLUGINS)
+@pytest.mark.parametrize("name", PROBLEM_NAMES)
+def test_conic_least_squares_matches_closed_form(name: str, plugin: str) -> None:
+    for case in inactive_cases(name):
+        check_least_squares(conic(plugin), case)
+
+
+@pytest.mark.parametrize("plugin", PLUGINS)
+@pytest.mark.parametrize("objective", ["least_norm", "least_squares"])
+@pytest.mark.parametrize("name", KKT_ROBOTS)
+def test_conic_active_limits_kkt(name: str, objective: str, plugin: str) -> None:
+    check_active(conic(plugin), name, objective)
+
+
+def test_conic_program_is_inspectable_and_solver_reused() -> None:
+    case = inactive_cases("puma560", 1)[0]
+    prog = least_norm_program(case)
+    first = build_conic(prog, "qrqp")
+    eq = prog.equilibrated()
+    assert_close(first.args["h"], eq.P)
+    assert_close(first.args["a"], prog.J)
+    assert_close(first.args["lba"], first.args["uba"])
+    assert_close(first.args["lba"] / first.scale, prog.v, atol=1e-18)
+    assert isinstance(first.solver, casadi.Function)
+    second = build_conic(least_norm_program(inactive_cases("puma560", 2)[1]), "qrqp")
+    assert second.solver is first.solver  # one solver per (plugin, dof, rows)
+
+
+def test_unknown_conic_plugin() -> None:
+    prog = least_norm_program(inactive_cases("puma560", 1)[0])
+    with pytest.raises(UnknownSolverError) as info:
+        build_conic(prog, "no_such_plugin")
+    assert "casadi:qrqp" in str(info.value)
+
+
+# ---------------------------------------------------------------------- symbolic FK
+@pytest.mark.parametrize("name", PROBLEM_NAMES)
+def test_symbolic_fk_equals_robot_fk(name: str) -> None:
+    robot = robot_of(name)
+    fk = symbolic_fk(robot)
+    rng = np.random.default_rng(SEED)
+    for q in random_q(robot, rng, 20):
+        assert_close(np.asarray(fk(q)), robot.fk(q), atol=1e-12, what=f"{name} FK")
+
+
+def test_symbolic_fk_with_mimic_coupling_and_tool() -> None:
+    """A chain whose variables differ from q (a mimic joint) and with base and tool."""
+    robot = Robot.from_dh(
+        [
+            {"a": 0.3, "alpha": 0.4, "d": 0.1, "name": "a", "role": "arm"},
+            {"a": 0.2, "theta": 0.3, "name": "b", "mimic": {"joint": "a", "multiplier": -2.0}},
+            {"d": 0.5, "type": "prismatic", "lower": 0.0, "upper": 1.0, "name": "c"},
+        ],
+        base=np.array([[0, -1, 0, 0.1], [1, 0, 0, 0.2], [0, 0, 1, 0.3], [0, 0, 0, 1.0]]),
+        tool=np.array([[1, 0, 0, 0.05], [0, 0, -1, 0], [0, 1, 0, 0.1], [0, 0, 0, 1.0]]),
+    )
+    assert robot.dof == 2
+    fk = symbolic_fk(robot)
+    for q in np.random.default_rng(SEED).uniform([-2.0, 0.0], [2.0, 1.0], (10, 2)):
+        assert_close(np.asarray(fk(q)), robot.fk(q), atol=1e-12)
+
+
+# ---------------------------------------------------------------------- the NLP program
+def test_nlp_is_inspectable() -> None:
+    robot = robot_of("puma560")
+    prog = build_nlp(robot, "pose")
+    q = random_q(robot, np.random.default_rng(SEED))
+    T = robot.fk(q)
+    params = prog.parameter_vector(T, w_rot=2.0, mu=0.5, q_ref=q + 0.1)
+    f = casadi.Function("f", [prog.q, prog.parameters], [prog.objective])
+    # At the target's own q: only the regularisation remains, mu * |q - q_ref|^2.
+    assert float(f(q, params)) == pytest.approx(0.5 * 6 * 0.01, rel=1e-12)
+    # The orientation measure is 3 - trace(R*^T R) = 2 (1 - cos(angle)).
+    m = casadi.Function("m", [prog.q, prog.parameters], [prog.orientation_measure])
+    q2 = q + 0.05
+    angle = rotation_angle(T[:3, :3].T @ robot.fk(q2)[:3, :3])
+    assert float(m(q2, params)) == pytest.approx(2.0 * (1.0 - np.cos(angle)), rel=1e-9)
+    assert prog.dof == 6
+    assert_close(prog.lbx, robot.lower)
+    assert_close(prog.ubx, robot.upper)
+
+
+def test_nlp_is_cached_per_robot_and_released_with_it() -> None:
+    robot = Robot.from_dh([DHJoint(a=0.5, role="arm"), DHJoint(a=0.4, role="arm")], name="2r")
+    first = build_nlp(robot, "position")
+    assert build_nlp(robot, "position") is first
+    assert build_nlp(robot, "pose") is not first
+    assert build_nlp(robot, "position", plugin="sqpmethod") is not first
+    ref = weakref.ref(robot)
+    del robot
+    gc.collect()
+    assert ref() is None  # the cache holds the robot weakly
+    assert all(r.name != "2r" for r in nlp_module._CACHE)
+
+
+def test_nlp_position_mode_accepts_a_point() -> None:
+    robot = robot_of("puma560")
+    prog = build_nlp(robot, "position")
+    q = random_q(robot, np.random.default_rng(SEED))
+    p = robot.fk(q)[:3, 3]
+    sol = prog.solve(p, np.clip(q + 0.05, robot.lower, robot.upper))
+    assert sol.success, sol.status
+    assert np.linalg.norm(robot.fk(sol.q)[:3, 3] - p) < 1e-8
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "error"),
+    [
+        ({"target": np.eye(3)}, ShapeError),
+        ({"target": np.diag([1.0, 1.0, -1.0, 1.0])}, InvalidRotationError),
+        ({"w_rot": -1.0}, OptikError),
+        ({"mu": np.nan}, OptikError),
+        ({"q_ref": np.zeros(5)}, ShapeError),
+    ],
+)
+def test_nlp_bad_parameters(kwargs: dict, error: type[Exception]) -> None:
+    prog = build_nlp(robot_of("puma560"), "pose")
+    target = kwargs.pop("target", np.eye(4))
+    with pytest.raises(error):
+        prog.parameter_vector(target, **kwargs)
+
+
+def test_build_nlp_bad_arguments() -> None:
+    robot = robot_of("puma560")
+    with pytest.raises(OptikError):
+        build_nlp(robot, "orientation")  # type: ignore[arg-type]
+    with pytest.raises(OptikError):
+        build_nlp(robot, "pose", max_iter=0)
+    with pytest.raises(OptikError):
+        build_nlp(robot, "pose", plugin="no_such_nlpsol")
+
+
+@pytest.mark.parametrize(
+    ("name", "plugin"), [("puma560", "ipopt"), ("puma560", "sqpmethod"), ("panda", "sqpmethod")]
+)
+def test_nlp_reaches_targets_inside_bounds(name: str, plugin: str) -> None:
+    """One solve per target from a start 0.05 rad away: the program alone (no restarts).
+
+    Ipopt alone on the redundant panda stalls near 1e-6 (docs/programs.md); the
+    ``casadi:ipopt`` solver's proximal restarts reach it (test_nlp_solver_reaches_targets).
+    """
+    robot = robot_of(name)
+    prog = build_nlp(robot, "pose", plugin=plugin, max_iter=200)
+    rng = np.random.default_rng(SEED + 3)
+    for q_true in random_q(robot, rng, 5):
+        T = robot.fk(q_true)
+        q0 = np.clip(q_true + 0.05 * rng.normal(size=robot.dof), robot.lower, robot.upper)
+        sol = prog.solve(T, q0)
+        assert robot.within_limits(sol.q, tol=0.0)
+        T_out = robot.fk(sol.q)
+        assert np.linalg.norm(T_out[:3, 3] - T[:3, 3]) < 1e-6, sol.status
+        assert rotation_angle(T[:3, :3].T @ T_out[:3, :3]) < 1e-6, sol.status
+
+
+# ---------------------------------------------------------------------- casadi:<nlpsol> IK
+def test_nlp_solvers_registered() -> None:
+    assert {"casadi:ipopt", "casadi:sqpmethod"} <= set(available_solvers())
+
+
+@pytest.mark.parametrize("solver", ["casadi:ipopt", "casadi:sqpmethod"])
+@pytest.mark.parametrize(
+    ("name", "mode"), [("puma560", "pose"), ("panda", "pose"), ("panda", "position")]
+)
+def test_nlp_solver_reaches_targets(solver: str, name: str, mode: str) -> None:
+    reach(solver, name, mode, count=4)
+
+
+def test_nlp_solver_respects_limits_when_target_is_outside() -> None:
+    """A target whose nearby branch needs joint 1 beyond its limit: q stays inside."""
+    robot = robot_of("puma560")
+    q_out = robot.mid_limits.copy()
+    q_out[0] = robot.upper[0] + 0.3
+    T = robot.fk(q_out)
+    for name in ("casadi:ipopt", "casadi:sqpmethod"):
+        solver = get_solver(name)
+        start = robot.mid_limits.copy()
+        start[0] = robot.upper[0] - 0.05
+        out = solver.solve(IKQuery(robot, T, "pose", 1e-6), start, 200, time.perf_counter() + 30)
+        assert not out.failed, out.message
+        assert robot.within_limits(out.q, tol=0.0)
