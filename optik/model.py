@@ -494,21 +494,30 @@ class Robot:
         return clone
 
     @property
-    def reach_bound(self) -> float:
-        """An upper bound (m) on the tool's distance from the world origin.
+    def reach_sphere(self) -> tuple[FloatArray, float]:
+        """A ball (centre (3,), radius m) in the world frame that contains every tool position.
 
-        The sum of the lengths of every constant translation in the chain plus the
-        largest stroke of each prismatic joint: no configuration reaches farther.
+        By the triangle inequality the tool lies within the sum of the chain's constant
+        translations (plus each prismatic joint's largest stroke) of the first frame. When
+        the first joint's next translation lies on its own axis (true of most arms: the
+        shoulder sits on the base axis), that point does not move with the first joint and
+        the ball is centred there, which is much tighter. Points outside are unreachable.
         """
-        links = float(np.sum(np.linalg.norm(self._K[:, :3, 3], axis=1)))
-        strokes = 0.0
+        lengths = np.linalg.norm(self._K[:, :3, 3], axis=1)
+        strokes = np.zeros(len(self._prismatic))
         for i, prismatic in enumerate(self._prismatic):
             if prismatic:
-                column = self._coupling[i]
-                strokes += float(
-                    np.sum(np.abs(column) * np.maximum(np.abs(self.lower), np.abs(self.upper)))
-                )
-        return links + strokes
+                reach = np.maximum(np.abs(self.lower), np.abs(self.upper))
+                strokes[i] = float(np.sum(np.abs(self._coupling[i]) * reach))
+        K0, K1 = self._K[0], self._K[1]
+        if not self._prismatic[0] and float(np.hypot(K1[0, 3], K1[1, 3])) < 1e-12:
+            # K1's translation is on joint 1's z axis: a fixed point of the first motion.
+            center = K0[:3, 3] + K0[:3, 2] * K1[2, 3]
+            radius = float(np.sum(lengths[2:]) + np.sum(strokes[1:]))
+        else:
+            center = K0[:3, 3].copy()
+            radius = float(np.sum(lengths[1:]) + np.sum(strokes))
+        return center, radius
 
     def _fk_unchecked(self, q: FloatArray) -> FloatArray:
         """:meth:`fk` of one float64 configuration (dof,) without input validation.

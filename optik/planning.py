@@ -181,23 +181,35 @@ def _as_path(path: Any, mode: str | None) -> tuple[FloatArray, str]:
     raise ShapeError("path", "(N, 3) positions or (N, 4, 4) poses", array.shape)
 
 
-def _dedupe(rows: list[FloatArray], limit: int) -> list[FloatArray]:
-    out: list[FloatArray] = []
-    for q in rows:
-        if all(np.max(np.abs(q - other)) > _DUPLICATE for other in out):
-            out.append(q)
-        if len(out) >= limit:
-            break
-    return out
+def _dedupe(rows: FloatArray, limit: int) -> list[FloatArray]:
+    """Distinct rows of ``rows`` (k, dof) in their order, at most ``limit``.
+
+    Rows equal after rounding to ``_DUPLICATE`` count as one (two rows straddling a
+    rounding boundary may both stay: harmless, one extra candidate).
+    """
+    if len(rows) == 0:
+        return []
+    keys = np.round(rows / _DUPLICATE)
+    _, first = np.unique(keys, axis=0, return_index=True)
+    return list(rows[np.sort(first)[:limit]])
 
 
 class _CandidateFinder:
     """Candidate configurations at one waypoint, inside the (margin-shrunk) limits."""
 
     def __init__(
-        self, robot: Robot, work: Robot, mode: str, tol: float, restarts: int, seed: int, limit: int
+        self,
+        robot: Robot,
+        work: Robot,
+        mode: str,
+        tol: float,
+        restarts: int,
+        seed: int,
+        limit: int,
+        max_step: float,
     ) -> None:
         self.robot, self.work, self.mode, self.tol = robot, work, mode, tol
+        self.max_step = max_step
         self.restarts, self.seed, self.limit = restarts, seed, limit
         family = family_of(robot)
         self.analytic = family is not None and mode in family.modes
@@ -209,12 +221,17 @@ class _CandidateFinder:
             if not branches:
                 return []
             # Joints with more than 2 pi of range have several representatives of each
-            # branch: also take those nearest every previous candidate, for continuity.
+            # branch. Those that continue a previous candidate (within one step of it)
+            # come first; the branches themselves follow, for where the path must jump.
             B = np.array(branches)
-            rows: list[FloatArray] = list(B)
-            for ref in seeds:
-                rows.extend(wrap_into_limits(B, self.work, ref))
-            return _dedupe(rows, self.limit)
+            parts = []
+            if seeds:
+                refs = np.array(seeds)[:, None, :]
+                V = wrap_into_limits(B[None], self.work, refs)
+                near = np.max(np.abs(V - refs), axis=2) <= self.max_step
+                parts.append(V[near])
+            parts.append(B)
+            return _dedupe(np.concatenate(parts), self.limit)
         rows = []
         for q0 in seeds:
             result = solve_ik(
@@ -242,12 +259,13 @@ class _CandidateFinder:
             )
             if result.success:
                 rows.append(result.q)
-        return _dedupe(rows, self.limit)
+        return _dedupe(np.array(rows), self.limit) if rows else []
 
     def why_unsolved(self, T: FloatArray) -> str:
         """``"outside_limits"`` if reachable with the limits lifted, else ``"unreachable"``."""
         target = T if self.mode == "pose" else T[:3, 3]
-        if float(np.linalg.norm(T[:3, 3])) > self.robot.reach_bound:
+        center, radius = self.robot.reach_sphere
+        if float(np.linalg.norm(T[:3, 3] - center)) > radius:
             return "unreachable"
         if self.analytic:
             loose = analytic_ik(self.robot, target, self.mode, within_limits=False)
@@ -328,7 +346,7 @@ def plan_path(
     restarts: int = 2,
     seed: int = 0,
     singular_threshold: float = 1e-3,
-    max_candidates: int = 16,
+    max_candidates: int = 32,
     greedy: bool = False,
 ) -> PathPlan:
     """Turn a Cartesian path into a continuous joint path inside the limits.
@@ -367,7 +385,9 @@ def plan_path(
         raise OptikError(f"limit_margin {limit_margin} leaves no range for some joint")
     work = robot.with_limits(lower, upper)
     start = None if q_start is None else work.check_q(q_start, "q_start")
-    finder = _CandidateFinder(robot, work, mode, tol, restarts, seed, max_candidates)
+    finder = _CandidateFinder(
+        robot, work, mode, tol, restarts, seed, max_candidates, max_joint_step
+    )
 
     n = len(poses)
     layers: list[list[FloatArray]] = []
@@ -452,7 +472,7 @@ def reachability(
 ) -> Reachability:
     """Batched reachability of workspace points inside the joint limits.
 
-    Points beyond :attr:`Robot.reach_bound` are rejected without solving (proven
+    Points outside :attr:`Robot.reach_sphere` are rejected without solving (proven
     unreachable); the rest are solved in one compiled, multi-threaded batch (position IK,
     or full pose with the given ``orientation``, a 3x3 rotation shared by all points), each
     answer verified by FK. A point the numeric search misses within ``restarts`` is
@@ -463,7 +483,8 @@ def reachability(
         raise ShapeError("points", "(N, 3)", P.shape)
     if not np.all(np.isfinite(P)):
         raise OptikError("points: values must be finite")
-    far = np.linalg.norm(P, axis=1) > robot.reach_bound
+    center, radius = robot.reach_sphere
+    far = np.linalg.norm(P - center, axis=1) > radius
     Q = np.full((len(P), robot.dof), np.nan)
     reachable = np.zeros(len(P), dtype=bool)
     candidates = np.flatnonzero(~far)

@@ -171,3 +171,18 @@ def test_plots_render(tmp_path) -> None:  # type: ignore[no-untyped-def]
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     with pytest.raises(OptikError, match="axis"):
         result.plot_slice(tmp_path / "bad.png", "w")
+
+
+@pytest.mark.parametrize(
+    "name", ["panda", "puma560", "ur5", "stanford_arm", "jumbo_drill_6dof", "dobot_magician"]
+)
+def test_reach_sphere_contains_every_tool_position(name: str, rng: np.random.Generator) -> None:
+    robot = load_problem(name).robot
+    center, radius = robot.reach_sphere
+    lower = np.where(np.isfinite(robot.lower), robot.lower, -math.pi)
+    upper = np.where(np.isfinite(robot.upper), robot.upper, math.pi)
+    Q = rng.uniform(lower, upper, (5000, robot.dof))
+    Q[:50] = np.where(rng.random((50, robot.dof)) < 0.5, lower, upper)  # corners of the box
+    distance = np.linalg.norm(robot.fk(Q)[:, :3, 3] - center, axis=1)
+    assert distance.max() <= radius + 1e-12
+    assert distance.max() >= 0.75 * radius  # tight enough to prune, not a vacuous bound
