@@ -17,6 +17,7 @@ from optik.ik import solve_ik
 from optik.paths import line, read_path
 from optik.planning import PLAN_STATUSES, plan_path
 from optik.problems import Problem, builtin_problems, load_problem
+from optik.report import add_report_command
 from optik.solvers import available_solvers
 from optik.spatial import rpy_to_matrix, transform
 
@@ -221,6 +222,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_cmd_problems)
     _add_solve_command(sub)
     _add_plan_command(sub)
+    add_report_command(sub)
     return parser
 
 
