@@ -259,8 +259,9 @@ def solve_ik(
     if not starts and q0 is not None:
         starts = [q_start]
 
-    if isinstance(numeric, DLSSolver) and len(starts) <= 1 and budget >= 0 and math.isinf(deadline):
-        # The whole restart loop runs compiled; the answer is verified below all the same.
+    if isinstance(numeric, DLSSolver) and budget >= 0 and math.isinf(deadline):
+        # The whole restart loop runs compiled, from the first start (the nearest branch,
+        # exact, when there is a closed form); the answer is verified below all the same.
         output, used = numeric.solve_restarts(
             query, starts[0] if starts else None, iterations_per_attempt, budget, seed
         )
