@@ -4,7 +4,7 @@ IK written as least-norm and least-squares programs with hard joint limits, chec
 against closed forms, with analytic IK as the warm start.
 """
 
-from optik.analytic import analytic_ik
+from optik.analytic import AnalyticBatch, analytic_ik, analytic_ik_batch
 from optik.diffik import diff_ik
 from optik.errors import OptikError
 from optik.ik import IKBatchResult, IKResult, solve_ik, solve_ik_batch
@@ -18,7 +18,7 @@ from optik.trig import solve_trig
 __version__ = "0.1.0"
 
 __all__ = [
-    "DHJoint",
+    "AnalyticBatch",    "DHJoint",
     "IKBatchResult",
     "IKResult",
     "Joint",
@@ -31,6 +31,7 @@ __all__ = [
     "Target",
     "__version__",
     "analytic_ik",
+    "analytic_ik_batch",
     "available_solvers",
     "diff_ik",
     "generalized_inverse",

@@ -3,28 +3,63 @@
 One family per module, registered by name; a robot names its family (``analytic`` in a
 problem file or the ``analytic=`` argument of its constructor), or
 :func:`detect_family` finds the first registered family that fits its joint structure.
+
+:func:`analytic_ik` solves one target and :func:`analytic_ik_batch` many. Families with a
+compiled pipeline (``spherical_wrist`` and ``ur``: :mod:`optik.analytic._compiled`) run
+the closed form, the wrapping into the limits, the limit filter, the FK check, the
+de-duplication and the sort in one compiled call; the others run their closed form in
+Python and the same steps in numpy (:func:`wrap_into_limits`, ``Robot.fk``).
 """
 
 from __future__ import annotations
 
 import math
-from typing import Any, cast
+from typing import Any, NamedTuple, cast
 
 import numpy as np
+from numpy.typing import NDArray
 
-from optik._checks import FloatArray
-from optik.analytic import dobot, planar_2r, spherical_rrp, spherical_wrist, ur  # noqa: F401
-from optik.analytic._base import FAMILIES, AnalyticFamily
-from optik.errors import AnalyticIKError
+from optik._checks import FloatArray, as_float_array, check_finite, finite_array
+from optik.analytic import (  # noqa: F401
+    _compiled,
+    dobot,
+    planar_2r,
+    spherical_rrp,
+    spherical_wrist,
+    ur,
+)
+from optik.analytic._base import (
+    DUPLICATE_TOLERANCE,
+    FAMILIES,
+    VERIFY_TOLERANCE,
+    AnalyticFamily,
+)
+from optik.errors import AnalyticIKError, OptikError, ShapeError
 from optik.model import Robot
-from optik.spatial import as_target, invert_transform, rotation_angle
+from optik.spatial import as_pose, as_target, invert_transform, rotation_angle
 
-VERIFY_TOLERANCE = 1e-9
-"""Largest position (m) and orientation (rad) error of a returned branch."""
+_DUPLICATE = DUPLICATE_TOLERANCE
+_F64 = np.dtype(np.float64)
+# Constants of the hot path of analytic_ik, bound once (each module attribute lookup
+# costs more than the comparison it feeds).
+_SHAPE_4x4 = (4, 4)
+_SHAPE_DOF = (_compiled.DOF,)
+_SHAPE_OUT = (_compiled.MAX_BRANCHES, _compiled.DOF)
+_SORT = _compiled.SORT
+_WITHIN_LIMITS = _compiled.WITHIN_LIMITS
+_solve = _compiled.solve
 
-_DUPLICATE = 1e-9
-
-__all__ = ["FAMILIES", "AnalyticFamily", "analytic_ik", "detect_family", "family_of"]
+__all__ = [
+    "FAMILIES",
+    "VERIFY_TOLERANCE",
+    "AnalyticBatch",
+    "AnalyticFamily",
+    "analytic_ik",
+    "analytic_ik_batch",
+    "detect_family",
+    "family_of",
+    "wrap_into_limits",
+]
 
 
 def detect_family(robot: Robot) -> AnalyticFamily | None:
@@ -84,6 +119,37 @@ def wrap_into_limits(Q: FloatArray, robot: Robot, q_ref: FloatArray) -> FloatArr
     return np.where(revolute, base + two_pi * k, Q)
 
 
+def _plain(array: FloatArray) -> FloatArray:
+    """``array`` itself if C-contiguous, aligned and writeable float64, else such a copy.
+
+    The compiled kernels are specialised for exactly this array type; any other layout
+    would trigger a new compilation.
+    """
+    if array.dtype == _F64 and array.flags.carray:
+        return array
+    return np.array(array, dtype=np.float64, order="C")
+
+
+def _check_mode(robot: Robot, mode: str) -> AnalyticFamily:
+    """The robot's family, checked to solve ``mode`` (the errors of :func:`analytic_ik`)."""
+    if mode not in ("pose", "position"):
+        raise AnalyticIKError(f"mode must be 'pose' or 'position', got {mode!r}")
+    family = family_of(robot)
+    if family is None:
+        raise AnalyticIKError(f"robot {robot.name!r} has no closed-form IK family")
+    if mode not in family.modes:
+        raise AnalyticIKError(f"family {family.name!r} solves mode(s) {family.modes}, not {mode!r}")
+    return family
+
+
+def _check_ref(robot: Robot, q_ref: Any) -> FloatArray:
+    """``q_ref`` validated as one configuration (dof,)."""
+    ref = robot.check_q(q_ref, "q_ref")
+    if ref.ndim != 1:
+        raise AnalyticIKError("q_ref must be a single configuration (dof,)")
+    return ref
+
+
 def analytic_ik(
     robot: Robot,
     target: Any,
@@ -113,18 +179,50 @@ def analytic_ik(
             (e.g. position-only IK of a 6-dof arm, which has infinitely many solutions).
         OptikError: malformed target or ``q_ref``.
     """
-    if mode not in ("pose", "position"):
-        raise AnalyticIKError(f"mode must be 'pose' or 'position', got {mode!r}")
-    family = family_of(robot)
-    if family is None:
-        raise AnalyticIKError(f"robot {robot.name!r} has no closed-form IK family")
-    if mode not in family.modes:
-        raise AnalyticIKError(f"family {family.name!r} solves mode(s) {family.modes}, not {mode!r}")
+    plan = robot._cache.get("analytic_plan")
+    if plan is not None and mode == "pose":
+        # The hot path (a compiled family, already found and checked to fit): a float64
+        # C-contiguous (4, 4) target and (dof,) q_ref go to the kernel as they are; it
+        # validates them (finite; last row and rotation as optik.spatial.as_pose).
+        params, mid = cast("tuple[FloatArray, FloatArray]", plan)
+        if (
+            type(target) is not np.ndarray
+            or target.shape != _SHAPE_4x4
+            or target.dtype != _F64
+            or not target.flags.carray
+        ):
+            target = _plain(as_target(target, mode))
+        if q_ref is None:
+            ref = mid
+            flags = 0
+        else:
+            flags = _SORT
+            if (
+                type(q_ref) is not np.ndarray
+                or q_ref.shape != _SHAPE_DOF
+                or q_ref.dtype != _F64
+                or not q_ref.flags.carray
+            ):
+                ref = _plain(_check_ref(robot, q_ref))
+            else:
+                ref = q_ref
+        if within_limits:
+            flags |= _WITHIN_LIMITS
+        out = np.empty(_SHAPE_OUT)
+        n = _solve(params, target, ref, flags, out)
+        if n > 0:
+            return [out[i] for i in range(n)]  # cheaper than list(out[:n]): no slice view
+        if n < 0:
+            _raise_input_error(robot, target, q_ref, n)
+        return []
+    family = _check_mode(robot, mode)
+    if family.kernel and mode == "pose":
+        params = _compiled.params_of(robot, family.kernel)
+        robot._cache["analytic_plan"] = (params, _compiled.mid_limits(params))
+        return analytic_ik(robot, target, mode, q_ref, within_limits)
     T_target = as_target(target, mode)
     sort = q_ref is not None
-    ref = robot.mid_limits if q_ref is None else robot.check_q(q_ref, "q_ref")
-    if ref.ndim != 1:
-        raise AnalyticIKError("q_ref must be a single configuration (dof,)")
+    ref = robot.mid_limits if q_ref is None else _check_ref(robot, q_ref)
     if mode == "position" and np.any(np.abs(robot.T_flange_tool[:3, 3]) > 0.0):
         raise AnalyticIKError(
             f"robot {robot.name!r}: position-only closed forms need a tool without offset"
@@ -133,6 +231,33 @@ def analytic_ik(
         invert_transform(robot.T_world_base) @ T_target @ invert_transform(robot.T_flange_tool)
     )
     raw = family.candidates(robot, T_0_flange, mode, ref)
+    return _finish(robot, raw, T_target, mode, ref, sort, within_limits)
+
+
+def _raise_input_error(robot: Robot, target: Any, q_ref: Any, code: int) -> None:
+    """Raise the optik error for an input the compiled checks rejected (``code < 0``)."""
+    as_target(target, "pose")  # raises for a bad target
+    if q_ref is not None:
+        _check_ref(robot, q_ref)  # ... or for a bad q_ref
+    raise OptikError(  # pragma: no cover - the compiled checks replicate the Python ones
+        f"target or q_ref rejected by the compiled checks (code {code}) but not by Python"
+    )
+
+
+def _finish(
+    robot: Robot,
+    raw: list[FloatArray],
+    T_target: FloatArray,
+    mode: str,
+    ref: FloatArray,
+    sort: bool,
+    within_limits: bool,
+) -> list[FloatArray]:
+    """Wrap, filter by the limits, verify by FK, dedupe and sort raw branches (numpy).
+
+    The steps of the compiled pipeline (:func:`optik.analytic._compiled.solve`), for the
+    families that run in Python.
+    """
     if not raw:
         return []
     Q = np.array(raw, dtype=float)
@@ -155,3 +280,151 @@ def analytic_ik(
     if sort:
         branches.sort(key=lambda q: float(np.linalg.norm(q - ref)))
     return branches
+
+
+# ---------------------------------------------------------------------- batches
+IntArray = NDArray[np.int64]
+
+
+class AnalyticBatch(NamedTuple):
+    """Every branch of a batch of targets: :func:`analytic_ik_batch`'s result.
+
+    Unpacks as ``Q, counts = analytic_ik_batch(robot, targets)``.
+
+    Attributes:
+        q: (N, B, dof) branches of target ``i`` in ``q[i, :counts[i]]`` (rad, m), in
+            :func:`analytic_ik`'s order; the rows past ``counts[i]`` are NaN. ``B`` is
+            :data:`optik.analytic._compiled.MAX_BRANCHES` (8), or more for a Python
+            family that returned more.
+        counts: (N,) number of branches of each target (0: unreachable, or only outside
+            the limits when they are applied).
+    """
+
+    q: FloatArray
+    counts: IntArray
+
+    def branches(self, i: int) -> list[FloatArray]:
+        """The branches of target ``i``, as :func:`analytic_ik` returns them."""
+        return list(self.q[i, : int(self.counts[i])])
+
+    @property
+    def first(self) -> FloatArray:
+        """(N, dof) the first branch of each target, NaN where there is none.
+
+        With a ``q_ref`` it is the branch nearest the reference.
+        """
+        return self.q[:, 0, :]
+
+    @property
+    def solved(self) -> NDArray[np.bool_]:
+        """(N,) whether each target has at least one branch."""
+        return self.counts > 0
+
+
+def _batch_targets(targets: Any, mode: str) -> FloatArray:
+    """Validate a batch of targets: (N, 4, 4) poses, or in position mode (N, 3) points.
+
+    Returns (N, 4, 4) C-contiguous float64 poses (identity rotations in position mode).
+
+    Raises:
+        ShapeError: wrong shape (also a bad last row, as :func:`optik.spatial.as_pose`).
+        NonFiniteError: a NaN or infinite entry.
+        InvalidRotationError: a rotation block that is not a proper rotation (the message
+            names the first bad target, ``targets[i]``).
+    """
+    T = as_float_array("targets", targets)
+    if mode == "position" and T.ndim == 2 and T.shape[1] == 3:
+        check_finite("targets", T)
+        poses = np.zeros((len(T), 4, 4))
+        poses[:, 0, 0] = poses[:, 1, 1] = poses[:, 2, 2] = poses[:, 3, 3] = 1.0
+        poses[:, :3, 3] = T
+        return poses
+    if T.ndim != 3 or T.shape[1:] != (4, 4):
+        expected = "(N, 4, 4)" + (" or (N, 3)" if mode == "position" else "")
+        raise ShapeError("targets", expected, T.shape)
+    T = _plain(T)
+    bad = _compiled.first_bad_pose(T, *_compiled.pose_tolerances())
+    if bad >= 0:
+        as_pose(f"targets[{bad}]", T[bad])  # raises the error naming the first bad target
+        raise OptikError(  # pragma: no cover - the compiled checks replicate as_pose
+            f"targets[{bad}] rejected by the compiled checks but not by as_pose"
+        )
+    if mode == "position":
+        positions = T[:, :3, 3]
+        T = np.zeros_like(T)
+        T[:, 0, 0] = T[:, 1, 1] = T[:, 2, 2] = T[:, 3, 3] = 1.0
+        T[:, :3, 3] = positions
+    return T
+
+
+def analytic_ik_batch(
+    robot: Robot,
+    targets: Any,
+    mode: str = "pose",
+    q_ref: Any = None,
+    within_limits: bool = True,
+) -> AnalyticBatch:
+    """:func:`analytic_ik` over a batch of targets, in one compiled loop where possible.
+
+    For a family with a compiled pipeline (``spherical_wrist``, ``ur``) the whole batch is
+    one call of :func:`optik.analytic._compiled.solve_batch` (serial, one core); other
+    families loop over :func:`analytic_ik` in Python. Either way target ``i`` gets exactly
+    the branches, in the same order, that ``analytic_ik(robot, targets[i], mode,
+    q_ref_i, within_limits)`` returns.
+
+    Args:
+        robot: a robot whose joint structure has a closed-form family.
+        targets: (N, 4, 4) world poses of the tool; in position mode also (N, 3) points
+            (m).
+        mode: ``"pose"`` or ``"position"``.
+        q_ref: ``None`` (mid-limits, branches in the family's order), one reference
+            (dof,) for every target, or one per target (N, dof); with a reference the
+            branches are sorted by their distance to it.
+        within_limits: drop branches outside the joint limits (default).
+
+    Returns:
+        An :class:`AnalyticBatch` ``(q, counts)``: ``q`` (N, B, dof) NaN-padded branches,
+        ``counts`` (N,).
+
+    Raises:
+        AnalyticIKError: the robot has no family, or the family does not solve ``mode``.
+        ShapeError: ``targets`` or ``q_ref`` has the wrong shape.
+        NonFiniteError: a NaN or infinite entry in ``targets`` or ``q_ref``.
+        InvalidRotationError: a target whose rotation is not proper (first one named).
+    """
+    family = _check_mode(robot, mode)
+    T = _batch_targets(targets, mode)
+    N = T.shape[0]
+    dof = robot.dof
+    if q_ref is None:
+        refs: FloatArray | None = None
+    else:
+        refs = finite_array("q_ref", q_ref, (dof,), batch=True)
+        refs = refs.reshape(1, dof) if refs.ndim == 1 else refs
+        if refs.shape[0] not in (1, N):
+            raise ShapeError("q_ref", f"({dof},) or ({N}, {dof})", refs.shape)
+    if family.kernel and mode == "pose":
+        params = _compiled.params_of(robot, family.kernel)
+        ref = _compiled.mid_limits(params).reshape(1, dof) if refs is None else _plain(refs)
+        flags = (0 if refs is None else _compiled.SORT) | (
+            _compiled.WITHIN_LIMITS if within_limits else 0
+        )
+        Q, counts = _compiled.solve_batch(params, T, ref, flags)
+        return AnalyticBatch(Q, counts)
+    if mode == "position" and np.any(np.abs(robot.T_flange_tool[:3, 3]) > 0.0):
+        raise AnalyticIKError(
+            f"robot {robot.name!r}: position-only closed forms need a tool without offset"
+        )
+    results = []
+    for k in range(N):
+        target = T[k] if mode == "pose" else T[k, :3, 3]
+        ref_k = None if refs is None else refs[0 if len(refs) == 1 else k]
+        results.append(analytic_ik(robot, target, mode, ref_k, within_limits))
+    width = max([_compiled.MAX_BRANCHES, *(len(r) for r in results)])
+    Q = np.full((N, width, dof), math.nan)
+    counts = np.zeros(N, dtype=np.int64)
+    for k, branches in enumerate(results):
+        counts[k] = len(branches)
+        if branches:
+            Q[k, : len(branches)] = branches
+    return AnalyticBatch(Q, counts)

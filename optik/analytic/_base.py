@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
+from typing import ClassVar
 
 import numpy as np
 
@@ -12,7 +13,17 @@ from optik.model import DHJoint, Robot
 from optik.trig import solve_trig
 
 SINGULAR_EPS = 1e-12
-"""Below this magnitude a coefficient pair of the trig equation counts as zero."""
+"""Below this magnitude (relative to ``max(|a|, |b|, |c|, 1)``) a coefficient pair of the
+trig equation counts as zero."""
+
+FREE_RHS_TOL = 1e-9
+"""With ``a = b = 0``, ``|c|`` below this (relative, as above) makes the joint free."""
+
+VERIFY_TOLERANCE = 1e-9
+"""Largest position (m) and orientation (rad) error of a returned branch."""
+
+DUPLICATE_TOLERANCE = 1e-9
+"""Two branches closer than this (max-abs, rad or m) are one."""
 
 
 class AnalyticFamily(ABC):
@@ -21,10 +32,17 @@ class AnalyticFamily(ABC):
     Subclasses state which robots they fit and return raw candidate branches; the caller
     (:func:`optik.analytic.analytic_ik`) wraps angles into the limits, verifies every
     branch by forward kinematics and filters by the limits.
+
+    A family whose closed form is compiled (:mod:`optik.analytic._compiled`) sets
+    ``kernel`` to its id there; ``analytic_ik`` and ``analytic_ik_batch`` then run the
+    whole pipeline (closed form, wrapping, limits, FK check, sorting) in one compiled
+    call. Such a family must fit only six-joint DH robots without coupled joints.
     """
 
     name: str = ""
     modes: tuple[str, ...] = ("pose",)
+    kernel: ClassVar[int] = 0
+    """Id of the family's compiled pipeline (0: none, the family runs in Python)."""
 
     @abstractmethod
     def fits(self, robot: Robot) -> bool:
@@ -60,10 +78,12 @@ def angles(a: float, b: float, c: float, free: float) -> tuple[float, ...]:
 
     ``a = b = 0`` arises at singular configurations (a shoulder over the base, a wrist
     aligned): the joint is then free when ``c = 0`` and the caller's reference is used.
+    The compiled families use its twin :func:`optik.analytic._compiled.trig_roots` (the
+    same rules; a test checks that both agree).
     """
     scale = max(abs(a), abs(b), abs(c), 1.0)
     if abs(a) <= SINGULAR_EPS * scale and abs(b) <= SINGULAR_EPS * scale:
-        return (free,) if abs(c) <= 1e-9 * scale else ()
+        return (free,) if abs(c) <= FREE_RHS_TOL * scale else ()
     return tuple(solve_trig(a, b, c))
 
 
