@@ -18,7 +18,8 @@ from optik.trig import solve_trig
 __version__ = "0.1.0"
 
 __all__ = [
-    "AnalyticBatch",    "DHJoint",
+    "AnalyticBatch",
+    "DHJoint",
     "IKBatchResult",
     "IKResult",
     "Joint",
