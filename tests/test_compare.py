@@ -285,8 +285,7 @@ def test_closed_form_cases_follow_the_shapes() -> None:
 
 def test_step_backends_agree_with_the_closed_forms() -> None:
     backends = step_backends()
-    if not backends:
-        pytest.skip("no step-program backend installed")
+    assert backends, "osqp and proxsuite are core dependencies: backends must be found"
     assert all(b.startswith(("qp:", "casadi:")) for b in backends)
     robot = load_problem("dobot_magician").robot
     for case in closed_form_cases(robot, "dobot_magician", 1, seed=1):
@@ -307,8 +306,7 @@ def test_solve_step_rejects_other_names() -> None:
 
 def test_closed_form_rows(reference: list[ResultRow]) -> None:
     rows = [r for r in reference if r.kind == "closed_form"]
-    if not _one_qp_and_one_casadi():
-        pytest.skip("no step-program backend installed")
+    assert _one_qp_and_one_casadi(), "osqp / proxsuite and casadi are core dependencies"
     assert rows
     for row in rows:
         assert row.method in ("min_norm", "least_squares")

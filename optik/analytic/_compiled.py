@@ -39,7 +39,7 @@ Every kernel is serial (``nogil``): callers may run them from several threads.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numba as nb
 import numpy as np
@@ -189,6 +189,31 @@ def params_of(robot: Robot, family: int) -> FloatArray:
         params = pack_params(robot, family)
         robot._cache["analytic_params"] = params
     return params  # type: ignore[return-value]
+
+
+def raw_candidates(
+    kernel: Any, robot: Robot, family: int, T_0_target: FloatArray, q_ref: FloatArray
+) -> list[FloatArray]:
+    """The raw branches (before wrapping and verification) of a family's candidate kernel.
+
+    Args:
+        kernel: :func:`spherical_wrist_candidates` or :func:`ur_candidates`.
+        robot: the robot.
+        family: the family's kernel id (``AnalyticFamily.kernel``).
+        T_0_target: 4x4 flange target in frame 0.
+        q_ref: (dof,) reference for joints left free at singularities.
+    """
+    params = params_of(robot, family)
+    out = np.empty((MAX_BRANCHES, DOF))
+    n = kernel(
+        dh_block(params),
+        np.ascontiguousarray(T_0_target, dtype=np.float64),
+        np.ascontiguousarray(q_ref, dtype=np.float64).reshape(1, -1),
+        0,
+        tolerances(params),
+        out,
+    )
+    return list(out[:n])
 
 
 def tolerances(params: FloatArray) -> FloatArray:

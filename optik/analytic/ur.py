@@ -22,8 +22,6 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-
 from optik._checks import FloatArray
 from optik.analytic import _compiled
 from optik.analytic._base import AnalyticFamily, dh_rows, register
@@ -58,14 +56,6 @@ class URArm(AnalyticFamily):
         self, robot: Robot, T_0_target: FloatArray, mode: str, q_ref: FloatArray
     ) -> list[FloatArray]:
         """Up to eight branches: two shoulders x two wrists x two elbows."""
-        params = _compiled.params_of(robot, self.kernel)
-        out = np.empty((_compiled.MAX_BRANCHES, _compiled.DOF))
-        n = _compiled.ur_candidates(
-            _compiled.dh_block(params),
-            np.ascontiguousarray(T_0_target, dtype=np.float64),
-            np.ascontiguousarray(q_ref, dtype=np.float64).reshape(1, -1),
-            0,
-            _compiled.tolerances(params),
-            out,
+        return _compiled.raw_candidates(
+            _compiled.ur_candidates, robot, self.kernel, T_0_target, q_ref
         )
-        return list(out[:n])
