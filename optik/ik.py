@@ -17,7 +17,7 @@ copied from a backend.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -82,7 +82,6 @@ class IKResult:
     solver: str = ""
     message: str = ""
     backend_converged: bool | None = None
-    extra: dict[str, Any] = field(default_factory=dict)
 
 
 def _verify(
