@@ -89,6 +89,21 @@ def _chain_step(
     )
 
 
+@nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _store(
+    a: tuple[float, float, float, float, float, float, float, float, float, float, float, float],
+    out: np.ndarray,
+) -> None:
+    """Write the top 3x4 rows held in scalars, and the row ``0 0 0 1``, into ``out`` (4, 4)."""
+    for r in range(3):
+        for c in range(4):
+            out[r, c] = a[4 * r + c]
+    out[3, 0] = 0.0
+    out[3, 1] = 0.0
+    out[3, 2] = 0.0
+    out[3, 3] = 1.0
+
+
 @_jit
 def fk_into(K: np.ndarray, prismatic: np.ndarray, theta: np.ndarray, out: np.ndarray) -> None:
     """Forward kinematics of one chain configuration ``theta`` (n,) into ``out`` (4, 4).
@@ -106,10 +121,7 @@ def fk_into(K: np.ndarray, prismatic: np.ndarray, theta: np.ndarray, out: np.nda
             theta[i],
             K[i + 1],
         )
-    out[0, 0], out[0, 1], out[0, 2], out[0, 3] = a00, a01, a02, a03
-    out[1, 0], out[1, 1], out[1, 2], out[1, 3] = a10, a11, a12, a13
-    out[2, 0], out[2, 1], out[2, 2], out[2, 3] = a20, a21, a22, a23
-    out[3, 0], out[3, 1], out[3, 2], out[3, 3] = 0.0, 0.0, 0.0, 1.0
+    _store((a00, a01, a02, a03, a10, a11, a12, a13, a20, a21, a22, a23), out)
 
 
 @_jit
@@ -156,10 +168,7 @@ def fk_jacobian_work(
             theta[i],
             K[i + 1],
         )
-    T_out[0, 0], T_out[0, 1], T_out[0, 2], T_out[0, 3] = a00, a01, a02, a03
-    T_out[1, 0], T_out[1, 1], T_out[1, 2], T_out[1, 3] = a10, a11, a12, a13
-    T_out[2, 0], T_out[2, 1], T_out[2, 2], T_out[2, 3] = a20, a21, a22, a23
-    T_out[3, 0], T_out[3, 1], T_out[3, 2], T_out[3, 3] = 0.0, 0.0, 0.0, 1.0
+    _store((a00, a01, a02, a03, a10, a11, a12, a13, a20, a21, a22, a23), T_out)
     for i in range(n):
         zx = J_out[3, i]
         zy = J_out[4, i]
