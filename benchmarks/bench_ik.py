@@ -358,7 +358,6 @@ def bench_batch(
     import numba
 
     threads = min(threads, numba.config.NUMBA_NUM_THREADS)
-    numba.set_num_threads(threads)
     name = f"optik solve_ik_batch ({threads} thread{'s' if threads > 1 else ''})"
     method = Method(
         name,
@@ -369,10 +368,12 @@ def bench_batch(
     )
     walls, result = [], None
     try:
-        optik.solve_ik_batch(robot, targets[:WARMUP], tol=args.tol, seed=args.seed)
+        optik.solve_ik_batch(robot, targets[:WARMUP], tol=args.tol, seed=args.seed, threads=threads)
         for _ in range(max(args.batch_repeat, 1)):
             t0 = time.perf_counter()
-            result = optik.solve_ik_batch(robot, targets, tol=args.tol, seed=args.seed)
+            result = optik.solve_ik_batch(
+                robot, targets, tol=args.tol, seed=args.seed, threads=threads
+            )
             walls.append(time.perf_counter() - t0)
     except Exception as exc:  # reported as a row that did not run
         method.n_note = f"failed: {type(exc).__name__}: {exc}"[:160]

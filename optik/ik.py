@@ -20,6 +20,7 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
+import numba
 import numpy as np
 
 from optik._checks import FloatArray, finite_array
@@ -121,6 +122,19 @@ def _check_options(mode: str, tol: float, warm_start: str, timeout_s: Any, resta
         raise OptikError(f"timeout_s must be positive, got {timeout_s!r}")
     if restarts is not None and (not isinstance(restarts, int) or restarts < 0):
         raise OptikError(f"restarts must be a non-negative integer, got {restarts!r}")
+
+
+def _check_threads(threads: Any) -> int:
+    """``threads`` for :func:`solve_ik_batch`: ``None`` means numba's current count."""
+    if threads is None:
+        return int(numba.get_num_threads())
+    available = int(numba.config.NUMBA_NUM_THREADS)  # type: ignore[attr-defined]
+    if not isinstance(threads, int) or isinstance(threads, bool) or not 1 <= threads <= available:
+        raise OptikError(
+            f"threads must be an integer from 1 to {available} (numba's NUMBA_NUM_THREADS), "
+            f"got {threads!r}"
+        )
+    return threads
 
 
 def _random_start(robot: Robot, rng: np.random.Generator) -> FloatArray:
@@ -374,6 +388,7 @@ def solve_ik_batch(
     max_iter: int = 100,
     restarts: int = DEFAULT_RESTARTS,
     seed: int = 0,
+    threads: int | None = None,
 ) -> IKBatchResult:
     """Solve many targets with the compiled damped least squares, in parallel threads.
 
@@ -391,9 +406,13 @@ def solve_ik_batch(
         max_iter: iterations per attempt.
         restarts: attempts after the first.
         seed: base seed of the restarts.
+        threads: worker threads (default: numba's current thread count,
+            ``numba.get_num_threads()``); 1 solves on the calling thread. Batches smaller
+            than :data:`PARALLEL_BATCH` always do.
     """
     start_time = now()
     _check_options(mode, tol, "q0", None, restarts)
+    threads = _check_threads(threads)
     array = np.asarray(targets, dtype=float)
     if mode == "position" and array.ndim == 2 and array.shape[1] == 3:
         poses = np.broadcast_to(np.eye(4), (array.shape[0], 4, 4)).copy()
@@ -407,26 +426,33 @@ def solve_ik_batch(
         raise ShapeError("targets", "(N, 4, 4) (or (N, 3) in position mode)", array.shape)
     q_start = _check_q0(robot, q0)
     table_q, table_features = seed_table(robot)
-    kernel = lm_solve_batch if len(poses) >= PARALLEL_BATCH else lm_solve_batch_serial
-    Q, iterations, used, _ = kernel(
-        robot._K,
-        robot._prismatic,
-        robot._coupling,
-        robot._identity_coupling,
-        robot.lower,
-        robot.upper,
-        np.ascontiguousarray(poses),
-        mode == "pose",
-        q_start,
-        q0 is not None,
-        table_q,
-        table_features,
-        float(tol),
-        int(max_iter),
-        1e-3,
-        int(restarts),
-        int(seed),
-    )
+    parallel = threads > 1 and len(poses) >= PARALLEL_BATCH
+    kernel = lm_solve_batch if parallel else lm_solve_batch_serial
+    previous_threads = numba.get_num_threads()
+    if parallel:
+        numba.set_num_threads(threads)
+    try:
+        Q, iterations, used, _ = kernel(
+            robot._K,
+            robot._prismatic,
+            robot._coupling,
+            robot._identity_coupling,
+            robot.lower,
+            robot.upper,
+            np.ascontiguousarray(poses),
+            mode == "pose",
+            q_start,
+            q0 is not None,
+            table_q,
+            table_features,
+            float(tol),
+            int(max_iter),
+            1e-3,
+            int(restarts),
+            int(seed),
+        )
+    finally:
+        numba.set_num_threads(previous_threads)
     T = robot.fk(Q)
     position = np.linalg.norm(T[:, :3, 3] - poses[:, :3, 3], axis=1)
     if mode == "pose":

@@ -148,8 +148,18 @@ def test_batch_matches_independent_verification(rng: np.random.Generator) -> Non
     assert batch.success.mean() >= 0.999
     for k in range(len(Q)):
         assert bool(batch.success[k]) == _verify(panda, batch.q[k], T[k], 1e-6)
-    again = optik.solve_ik_batch(panda, T)
-    assert np.array_equal(batch.q, again.q)  # thread-count independent and seeded
+    for threads in (1, 2):
+        again = optik.solve_ik_batch(panda, T, threads=threads)
+        assert np.array_equal(batch.q, again.q)  # seeded, thread-count independent
+        assert np.array_equal(batch.iterations, again.iterations)
+
+
+def test_batch_threads_must_be_a_count() -> None:
+    panda = load_problem("panda").robot
+    T = panda.fk(panda.mid_limits)[None]
+    for bad in (0, -1, 2.0, True, 10**6):
+        with pytest.raises(OptikError, match="threads"):
+            optik.solve_ik_batch(panda, T, threads=bad)
 
 
 def test_bad_input_raises_optik_errors() -> None:

@@ -367,7 +367,64 @@ def lm_solve_restarts(
     return best_q, total, restarts, False, best_pos, best_rot
 
 
-def _solve_batch(
+@_jit
+def _solve_target(
+    k: int,
+    K: np.ndarray,
+    prismatic: np.ndarray,
+    C: np.ndarray,
+    identity: bool,
+    lower: np.ndarray,
+    upper: np.ndarray,
+    targets: np.ndarray,
+    pose: bool,
+    q0: np.ndarray,
+    use_q0: bool,
+    table_q: np.ndarray,
+    table_features: np.ndarray,
+    tol: float,
+    max_iter: int,
+    w_bias: float,
+    restarts: int,
+    seed: int,
+    Q: np.ndarray,
+    iters: np.ndarray,
+    used: np.ndarray,
+    ok: np.ndarray,
+) -> None:
+    """Row ``k`` of a batch: :func:`lm_solve_restarts` with the random stream ``seed + k``."""
+    q, it, u, good, _, _ = lm_solve_restarts(
+        K,
+        prismatic,
+        C,
+        identity,
+        lower,
+        upper,
+        targets[k],
+        pose,
+        q0,
+        use_q0,
+        table_q,
+        table_features,
+        tol,
+        max_iter,
+        w_bias,
+        restarts,
+        seed + k,
+    )
+    Q[k] = q
+    iters[k] = it
+    used[k] = u
+    ok[k] = good
+
+
+# The parallel and the serial batch are two functions, not one function jitted twice:
+# numba's on-disk cache keys entries by the function (file, name, line) and signature,
+# not by `parallel`, so one source compiled both ways would share (and swap) one entry.
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy", parallel=True)
+def lm_solve_batch(
     K: np.ndarray,
     prismatic: np.ndarray,
     C: np.ndarray,
@@ -386,46 +443,53 @@ def _solve_batch(
     restarts: int,
     seed: int,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`lm_solve_restarts` for every target (N, 4, 4).
+    """:func:`lm_solve_restarts` for every target (N, 4, 4), in numba's threads (``prange``).
 
     Target ``k`` uses the random stream ``seed + k``, so results do not depend on the
     number of threads. Returns ``(q (N, dof), iterations (N,), restarts (N,), ok (N,))``.
     """
     N = targets.shape[0]
-    dof = q0.shape[0]
-    Q = np.empty((N, dof))
+    Q = np.empty((N, q0.shape[0]))
     iters = np.empty(N, dtype=np.int64)
     used = np.empty(N, dtype=np.int64)
     ok = np.empty(N, dtype=np.bool_)
     for k in nb.prange(N):
-        q, it, u, good, _, _ = lm_solve_restarts(
-            K,
-            prismatic,
-            C,
-            identity,
-            lower,
-            upper,
-            targets[k],
-            pose,
-            q0,
-            use_q0,
-            table_q,
-            table_features,
-            tol,
-            max_iter,
-            w_bias,
-            restarts,
-            seed + k,
-        )
-        Q[k] = q
-        iters[k] = it
-        used[k] = u
-        ok[k] = good
+        _solve_target(
+            k, K, prismatic, C, identity, lower, upper, targets, pose, q0, use_q0, table_q,
+            table_features, tol, max_iter, w_bias, restarts, seed, Q, iters, used, ok,
+        )  # fmt: skip
     return Q, iters, used, ok
 
 
-lm_solve_batch = nb.njit(cache=True, nogil=True, error_model="numpy", parallel=True)(_solve_batch)
-"""The batch over threads (``prange``): for large batches."""
-
-lm_solve_batch_serial = _jit(_solve_batch)
-"""The same loop on one thread: small batches, where starting threads costs more."""
+@_jit
+def lm_solve_batch_serial(
+    K: np.ndarray,
+    prismatic: np.ndarray,
+    C: np.ndarray,
+    identity: bool,
+    lower: np.ndarray,
+    upper: np.ndarray,
+    targets: np.ndarray,
+    pose: bool,
+    q0: np.ndarray,
+    use_q0: bool,
+    table_q: np.ndarray,
+    table_features: np.ndarray,
+    tol: float,
+    max_iter: int,
+    w_bias: float,
+    restarts: int,
+    seed: int,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`lm_solve_batch` on the calling thread: small batches, where threads cost more."""
+    N = targets.shape[0]
+    Q = np.empty((N, q0.shape[0]))
+    iters = np.empty(N, dtype=np.int64)
+    used = np.empty(N, dtype=np.int64)
+    ok = np.empty(N, dtype=np.bool_)
+    for k in range(N):
+        _solve_target(
+            k, K, prismatic, C, identity, lower, upper, targets, pose, q0, use_q0, table_q,
+            table_features, tol, max_iter, w_bias, restarts, seed, Q, iters, used, ok,
+        )  # fmt: skip
+    return Q, iters, used, ok
