@@ -17,6 +17,7 @@ import numba as nb
 import numpy as np
 
 from optik._kernels import fk_jacobian_work
+from optik._nrt import borrowed
 
 _jit = nb.njit(cache=True, nogil=True, error_model="numpy")
 
@@ -143,8 +144,47 @@ def _evaluate(
     return task_error(T, target, pose, e, M)
 
 
+STALL_WINDOW = 8
+STALL_RATIO = 0.5
+"""An attempt stops when ``STALL_WINDOW`` iterations did not cut the squared error
+``e^T e`` to ``STALL_RATIO`` of what it was: restarting beats crawling."""
+
+QUICK_ATTEMPTS = 4
+QUICK_WINDOW = 3
+QUICK_RATIO = 0.7
+"""The first ``QUICK_ATTEMPTS`` attempts of :func:`lm_solve_restarts` (the nearest
+starts) give up sooner, after ``QUICK_WINDOW`` iterations without a cut to
+``QUICK_RATIO``. Measured on 4,000 random Panda targets: a third of the attempts from the
+nearest table entries fail, and they ran 17.6 iterations before the rule above stopped
+them, more than half of all iterations; the quick rule cuts the iterations per target by
+a quarter (18.6 to 14.0) at the price of more restarts (0.57 to 0.71), and later
+attempts keep the patient rule, so targets that need a slow start still converge."""
+
+
 @_jit
-def lm_solve(
+def workspace(n_chain: int, dof: int) -> tuple[np.ndarray, ...]:
+    """Scratch arrays of :func:`lm_attempt` for a chain of ``n_chain`` joints, ``dof`` inputs."""
+    return (
+        np.empty((4, 4)),  # T: pose at q
+        np.empty((6, dof)),  # J: Jacobian at q
+        np.empty(6),  # e: task error at q
+        np.empty((4, 4)),  # T_new, J_new, e_new, q_new: at the trial point
+        np.empty((6, dof)),
+        np.empty(6),
+        np.empty(dof),
+        np.empty((6, n_chain)),  # Jc: chain Jacobian (coupled robots)
+        np.empty((n_chain, 3)),  # joint origins
+        np.empty((3, 4)),  # relative rotation and rotation vector
+        np.empty((dof, dof)),  # A = J^T J + lambda I
+        np.empty(dof),  # g = J^T e
+        np.empty(dof),  # dq
+        np.empty((dof, dof + 1)),  # Cholesky factor and reciprocal diagonal
+        np.empty(16),  # error history (a ring of the last 16 iterations)
+    )
+
+
+@_jit
+def lm_attempt(
     K: np.ndarray,
     prismatic: np.ndarray,
     C: np.ndarray,
@@ -153,52 +193,64 @@ def lm_solve(
     upper: np.ndarray,
     target: np.ndarray,
     pose: bool,
-    q0: np.ndarray,
+    q_inout: np.ndarray,
     tol: float,
     max_iter: int,
     w_bias: float,
-) -> tuple[np.ndarray, int, bool, float, float]:
-    """Projected Levenberg–Marquardt from ``q0``.
+    window: int,
+    ratio: float,
+    scratch: tuple[np.ndarray, ...],
+) -> tuple[int, bool, float, float]:
+    """Projected Levenberg–Marquardt from ``q_inout`` (dof,), which it overwrites.
+
+    ``scratch`` comes from :func:`workspace`. The attempt stops when converged, after
+    ``max_iter`` iterations, or when ``window`` iterations did not cut ``e^T e`` to
+    ``ratio`` of its value (``window`` <= 16).
 
     Returns:
-        ``(q, iterations, converged, position_error, orientation_error)``; ``converged``
+        ``(iterations, converged, position_error, orientation_error)``; ``converged``
         means both errors are at most ``tol`` (m, rad) with ``q`` inside the limits.
     """
-    n_chain = prismatic.shape[0]
-    dof = q0.shape[0]
+    # Borrowed views (optik._nrt): the iteration passes these arrays to helpers many
+    # times; their owners are this call's arguments.
+    K = borrowed(K)
+    prismatic = borrowed(prismatic)
+    C = borrowed(C)
+    lower = borrowed(lower)
+    upper = borrowed(upper)
+    target = borrowed(target)
+    q = borrowed(q_inout)
+    T = borrowed(scratch[0])
+    J = borrowed(scratch[1])
+    e = borrowed(scratch[2])
+    T_new = borrowed(scratch[3])
+    J_new = borrowed(scratch[4])
+    e_new = borrowed(scratch[5])
+    q_new = borrowed(scratch[6])
+    Jc = borrowed(scratch[7])
+    work = borrowed(scratch[8])
+    M = borrowed(scratch[9])
+    A = borrowed(scratch[10])
+    g = borrowed(scratch[11])
+    dq = borrowed(scratch[12])
+    L = borrowed(scratch[13])
+    history = borrowed(scratch[14])
+    dof = q.shape[0]
     m = 6 if pose else 3
-    q = q0.copy()
     for i in range(dof):
         q[i] = min(max(q[i], lower[i]), upper[i])
-    T = np.empty((4, 4))
-    Jc = np.empty((6, n_chain))
-    J = np.empty((6, dof))
-    e = np.empty(6)
-    work = np.empty((n_chain, 3))
-    M = np.empty((3, 4))
-    L = np.empty((dof, dof + 1))
     pos, rot = _evaluate(K, prismatic, C, identity, q, target, pose, T, Jc, J, e, work, M)
     E = 0.0
     for r in range(m):
         E += e[r] * e[r]
-    A = np.empty((dof, dof))
-    g = np.empty(dof)
-    dq = np.empty(dof)
-    q_new = np.empty(dof)
-    T_new = np.empty((4, 4))
-    J_new = np.empty((6, dof))
-    e_new = np.empty(6)
     scale = 1.0
     it = 0
-    checkpoint = E
     while it < max_iter:
-        # Restarting beats crawling: give up when 8 iterations did not halve the error.
-        if it > 0 and it % 8 == 0:
-            if 0.5 * checkpoint < E:
-                break
-            checkpoint = E
         if pos <= tol and rot <= tol:
-            return q, it, True, pos, rot
+            return it, True, pos, rot
+        if it >= window and ratio * history[(it - window) % 16] < E:
+            break
+        history[it % 16] = E
         it += 1
         lam = scale * (0.5 * E + w_bias)
         for a in range(dof):
@@ -251,7 +303,37 @@ def lm_solve(
             scale *= 4.0
             if scale > 1e12:
                 break
-    return q, it, pos <= tol and rot <= tol, pos, rot
+    return it, pos <= tol and rot <= tol, pos, rot
+
+
+@_jit
+def lm_solve(
+    K: np.ndarray,
+    prismatic: np.ndarray,
+    C: np.ndarray,
+    identity: bool,
+    lower: np.ndarray,
+    upper: np.ndarray,
+    target: np.ndarray,
+    pose: bool,
+    q0: np.ndarray,
+    tol: float,
+    max_iter: int,
+    w_bias: float,
+) -> tuple[np.ndarray, int, bool, float, float]:
+    """Projected Levenberg–Marquardt from ``q0`` (one attempt, the patient stall rule).
+
+    Returns:
+        ``(q, iterations, converged, position_error, orientation_error)``; ``converged``
+        means both errors are at most ``tol`` (m, rad) with ``q`` inside the limits.
+    """
+    q = q0.copy()
+    scratch = workspace(prismatic.shape[0], q0.shape[0])
+    it, ok, pos, rot = lm_attempt(
+        K, prismatic, C, identity, lower, upper, target, pose, q, tol, max_iter, w_bias,
+        STALL_WINDOW, STALL_RATIO, scratch,
+    )  # fmt: skip
+    return q, it, ok, pos, rot
 
 
 @_jit
@@ -264,26 +346,20 @@ def _uniform_in_limits(lower: np.ndarray, upper: np.ndarray, out: np.ndarray) ->
 
 @_jit
 def _seed_distances(features: np.ndarray, target: np.ndarray, pose: bool) -> np.ndarray:
-    """Squared distance of each table entry's pose features (M, 12) to the target's.
+    """Squared distance of each table entry's pose features (12, M) to the target's.
 
     Features are the position and, scaled by ``sqrt(ROTATION_WEIGHT)``, the rotation
-    matrix (see :func:`optik.solvers._seeds.pose_features`), so the distance is
-    ``||p_i - p*||^2 + w ||R_i - R*||_F^2``; position mode uses the first three only.
+    matrix row by row (see :func:`optik.solvers._seeds.pose_features`), so the distance
+    is ``||p_i - p*||^2 + w ||R_i - R*||_F^2``; position mode uses the first three only.
+    One feature per row keeps the inner loop over the table contiguous (vectorised).
     """
-    M = features.shape[0]
-    width = 12 if pose else 3
-    f = np.empty(12)
-    for r in range(3):
-        f[r] = target[r, 3]
-        for c in range(3):
-            f[3 + 3 * r + c] = SQRT_ROTATION_WEIGHT * target[r, c]
-    out = np.empty(M)
-    for i in range(M):
-        d = 0.0
-        for j in range(width):
-            x = features[i, j] - f[j]
-            d += x * x
-        out[i] = d
+    M = features.shape[1]
+    out = np.zeros(M)
+    for j in range(12 if pose else 3):
+        f = target[j, 3] if j < 3 else SQRT_ROTATION_WEIGHT * target[(j - 3) // 3, (j - 3) % 3]
+        for i in range(M):
+            x = features[j, i] - f
+            out[i] += x * x
     return out
 
 
@@ -325,42 +401,51 @@ def lm_solve_restarts(
     restarts: int,
     seed: int,
 ) -> tuple[np.ndarray, int, int, bool, float, float]:
-    """:func:`lm_solve` from a sequence of starts until one converges.
+    """:func:`lm_attempt` from a sequence of starts until one converges.
 
     The starts: ``q0`` (when ``use_q0``), then the configurations of a seed table
-    (``table_q`` (M, dof) with their pose features (M, 12)) nearest the target, then
+    (``table_q`` (M, dof) with their pose features (12, M)) nearest the target, then
     table entries and seeded uniform draws inside the limits in turn. Nearby starts
-    converge in a few Gauss–Newton steps; the uniform draws keep the search global.
+    converge in a few Gauss–Newton steps; the uniform draws keep the search global. The
+    first :data:`QUICK_ATTEMPTS` attempts use the quick stall rule.
 
     Returns:
         ``(q, total_iterations, restarts_used, converged, position_error,
         orientation_error)`` of the first converged attempt, else of the best one.
     """
-    np.random.seed(seed)  # noqa: NPY002 (numba: per-thread legacy generator)
     dof = lower.shape[0]
     distances = _seed_distances(table_features, target, pose)
-    start = np.empty(dof)
+    scratch = workspace(prismatic.shape[0], dof)
+    q = np.empty(dof)
     best_q = q0.copy()
     best_err = np.inf
     best_pos = np.inf
     best_rot = np.inf
     total = 0
     attempt = 0
+    seeded = False
     while attempt <= restarts:
         table_turn = attempt < 4 or attempt % 2 == 0
         index = _pop_nearest(distances) if table_turn and not (use_q0 and attempt == 0) else -1
         if use_q0 and attempt == 0:
-            start[:] = q0
+            q[:] = q0
         elif index >= 0:
-            start[:] = table_q[index]
+            q[:] = table_q[index]
         else:
-            _uniform_in_limits(lower, upper, start)
-        q, it, ok, pos, rot = lm_solve(
-            K, prismatic, C, identity, lower, upper, target, pose, start, tol, max_iter, w_bias
-        )
+            if not seeded:  # seeding costs more than most solves: only when drawing
+                np.random.seed(seed)  # noqa: NPY002 (numba: per-thread legacy generator)
+                seeded = True
+            _uniform_in_limits(lower, upper, q)
+        quick = attempt < QUICK_ATTEMPTS
+        it, ok, pos, rot = lm_attempt(
+            K, prismatic, C, identity, lower, upper, target, pose, q, tol, max_iter, w_bias,
+            QUICK_WINDOW if quick else STALL_WINDOW, QUICK_RATIO if quick else STALL_RATIO,
+            scratch,
+        )  # fmt: skip
         total += it
         if ok or pos + rot < best_err:
-            best_q, best_err, best_pos, best_rot = q, pos + rot, pos, rot
+            best_q[:] = q
+            best_err, best_pos, best_rot = pos + rot, pos, rot
         if ok:
             return best_q, total, attempt, True, best_pos, best_rot
         attempt += 1

@@ -41,14 +41,18 @@ def pose_features(T: FloatArray) -> FloatArray:
 
 
 def seed_table(robot: Robot, size: int = TABLE_SIZE) -> tuple[FloatArray, FloatArray]:
-    """``(Q (size, dof), features (size, 12))`` of uniform configurations, cached per robot."""
+    """``(Q (size, dof), features (12, size))`` of uniform configurations, cached per robot.
+
+    The features are stored one per row (the transpose of :func:`pose_features`), the
+    layout the compiled nearest-entry scan reads fastest.
+    """
     key = f"seed_table:{size}"
     cached = robot._cache.get(key)
     if cached is None:
         lower = np.where(np.isfinite(robot.lower), robot.lower, -math.pi)
         upper = np.where(np.isfinite(robot.upper), robot.upper, math.pi)
         Q = np.random.default_rng(_TABLE_SEED).uniform(lower, upper, (size, robot.dof))
-        cached = (np.ascontiguousarray(Q), pose_features(robot.fk(Q)))
+        cached = (np.ascontiguousarray(Q), np.ascontiguousarray(pose_features(robot.fk(Q)).T))
         robot._cache[key] = cached
     return cached  # type: ignore[return-value]
 
@@ -57,7 +61,7 @@ def nearest_seeds(robot: Robot, target: FloatArray, mode: str, count: int) -> Fl
     """The ``count`` table configurations whose poses are nearest ``target``, nearest first."""
     Q, features = seed_table(robot)
     width = 12 if mode == "pose" else 3
-    d = np.sum((features[:, :width] - pose_features(target[None])[0, :width]) ** 2, axis=1)
+    d = np.sum((features[:width].T - pose_features(target[None])[0, :width]) ** 2, axis=1)
     count = min(count, len(d))
     index = np.argpartition(d, count - 1)[:count] if count < len(d) else np.arange(len(d))
     return Q[index[np.argsort(d[index])]]
