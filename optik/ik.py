@@ -425,7 +425,7 @@ def solve_ik_batch(
     else:
         raise ShapeError("targets", "(N, 4, 4) (or (N, 3) in position mode)", array.shape)
     q_start = _check_q0(robot, q0)
-    table_q, table_features = seed_table(robot)
+    table = seed_table(robot)
     parallel = threads > 1 and len(poses) >= PARALLEL_BATCH
     kernel = lm_solve_batch if parallel else lm_solve_batch_serial
     previous_threads = numba.get_num_threads()
@@ -443,8 +443,10 @@ def solve_ik_batch(
             mode == "pose",
             q_start,
             q0 is not None,
-            table_q,
-            table_features,
+            table.q,
+            table.features,
+            table.centroids,
+            table.offsets,
             float(tol),
             int(max_iter),
             1e-3,

@@ -133,7 +133,7 @@ class DLSSolver(IKSolver):
         converged (else the best) attempt and the number of restarts used.
         """
         robot = query.robot
-        table_q, table_features = seed_table(robot)
+        table = seed_table(robot)
         start = robot.mid_limits if q0 is None else q0
         q, it, used, ok, _, _ = lm_solve_restarts(
             robot._K,
@@ -146,8 +146,10 @@ class DLSSolver(IKSolver):
             query.mode == "pose",
             np.ascontiguousarray(start, dtype=float),
             q0 is not None,
-            table_q,
-            table_features,
+            table.q,
+            table.features,
+            table.centroids,
+            table.offsets,
             float(query.tol),
             int(max_iter),
             self.w_bias,
