@@ -344,7 +344,9 @@ def bench_robot(
     finally:
         gc.enable()
         gc.collect()
-    methods += [bench_batch(robot, targets, args, threads) for threads in args.threads]
+    extra = rng.uniform(robot.lower, robot.upper, (max(args.batch_n - args.n, 0), robot.dof))
+    batch_targets = np.concatenate([targets, robot.fk(extra)])[: max(args.batch_n, 1)]
+    methods += [bench_batch(robot, batch_targets, args, threads) for threads in args.threads]
     for method in methods:
         for i, row in enumerate(method.rows):
             row.update(robot=key, method=method.name, index=i)
@@ -588,6 +590,13 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
         help="numba thread counts of solve_ik_batch, one row each (default: %(default)s)",
     )
     p.add_argument("--batch-repeat", type=int, default=5, help="timed runs of the batch")
+    p.add_argument(
+        "--batch-n",
+        type=int,
+        default=20_000,
+        help="targets of the solve_ik_batch rows: the n targets, then more drawn the same "
+        "way (default: %(default)s; a batch of a few hundred measures thread start-up)",
+    )
     p.add_argument(
         "--budget-s",
         type=float,
