@@ -30,7 +30,7 @@ from optik.limits import LIMIT_TOLERANCE
 from optik.model import Robot
 from optik.solvers import get_solver
 from optik.solvers._base import IKQuery, IKSolver, SolverOutput, now
-from optik.solvers._lm_kernel import lm_solve_batch, lm_solve_batch_serial
+from optik.solvers._lm_kernel import chain_args, lm_solve_batch, lm_solve_batch_serial
 from optik.solvers._seeds import nearest_seeds, seed_table
 from optik.solvers.iterative import DLSSolver
 from optik.spatial import as_pose, as_target, pose_error, rotation_angle
@@ -433,23 +433,15 @@ def solve_ik_batch(
         numba.set_num_threads(threads)
     try:
         Q, iterations, used, _ = kernel(
-            robot._K,
-            robot._prismatic,
-            robot._coupling,
-            robot._identity_coupling,
-            robot.lower,
-            robot.upper,
+            *chain_args(robot),
             np.ascontiguousarray(poses),
             mode == "pose",
             q_start,
             q0 is not None,
-            table.q,
-            table.features,
-            table.centroids,
-            table.offsets,
+            *table,
             float(tol),
             int(max_iter),
-            1e-3,
+            DLSSolver.w_bias,
             int(restarts),
             int(seed),
         )

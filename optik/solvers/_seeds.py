@@ -52,6 +52,8 @@ def pose_features(T: FloatArray) -> FloatArray:
 class SeedTable(NamedTuple):
     """Configurations and their pose features, sorted by cluster.
 
+    The fields are in the order the compiled solvers take them (``*table``).
+
     Attributes:
         q: (M, dof) joint vectors, uniform inside the limits (rad / m).
         features: (12, M) pose features (:func:`pose_features`, one feature per row: the

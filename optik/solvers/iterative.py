@@ -12,7 +12,7 @@ import numpy as np
 
 from optik._checks import FloatArray
 from optik.solvers._base import IKQuery, IKSolver, SolverOutput, now, register
-from optik.solvers._lm_kernel import lm_solve, lm_solve_restarts
+from optik.solvers._lm_kernel import chain_args, lm_solve, lm_solve_restarts
 from optik.solvers._seeds import seed_table
 
 
@@ -109,12 +109,7 @@ class DLSSolver(IKSolver):
         """Run the compiled projected LM from ``q0``."""
         robot = query.robot
         q, it, ok, _, _ = lm_solve(
-            robot._K,
-            robot._prismatic,
-            robot._coupling,
-            robot._identity_coupling,
-            robot.lower,
-            robot.upper,
+            *chain_args(robot),
             query.target,
             query.mode == "pose",
             np.ascontiguousarray(q0, dtype=float),
@@ -136,20 +131,12 @@ class DLSSolver(IKSolver):
         table = seed_table(robot)
         start = robot.mid_limits if q0 is None else q0
         q, it, used, ok, _, _ = lm_solve_restarts(
-            robot._K,
-            robot._prismatic,
-            robot._coupling,
-            robot._identity_coupling,
-            robot.lower,
-            robot.upper,
+            *chain_args(robot),
             query.target,
             query.mode == "pose",
             np.ascontiguousarray(start, dtype=float),
             q0 is not None,
-            table.q,
-            table.features,
-            table.centroids,
-            table.offsets,
+            *table,
             float(query.tol),
             int(max_iter),
             self.w_bias,
