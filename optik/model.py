@@ -14,29 +14,21 @@ from __future__ import annotations
 
 import copy
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, TypeVar
 
 import numpy as np
 
 from optik import _kernels
+from optik.chain import Chain, ChainLink, JointKind, Mimic, read_only
 from optik._checks import FloatArray, as_float_array, check_finite, finite_array
 from optik.errors import InvalidLimitsError, ModelError, ShapeError
 from optik.limits import limit_violation, resolve_limits, within_limits
 from optik.spatial import as_pose, rot_x, rot_z, transform
 
-JointKind = Literal["revolute", "prismatic"]
 _KINDS = ("revolute", "prismatic")
-
-
-@dataclass(frozen=True)
-class Mimic:
-    """A passive joint driven by another: ``t = multiplier * q[joint]`` (plus its offset)."""
-
-    joint: str
-    multiplier: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -84,20 +76,8 @@ class Joint:
     role: str | None = None
 
 
-@dataclass(frozen=True)
-class _ChainLink:
-    """A chain joint before assembly: constant ``before``, motion, link frame ``after``."""
-
-    name: str
-    kind: JointKind
-    before: FloatArray
-    after: FloatArray
-    offset: float
-    mimic: Mimic | None = None
-    role: str | None = None
-    lower: float | None = None
-    upper: float | None = None
-    continuous: bool = False
+T_cached = TypeVar("T_cached")
+_ChainLink = ChainLink  # the DH and URDF readers build these
 
 
 def _tz(d: float) -> FloatArray:
@@ -265,21 +245,21 @@ class Robot:
         self.name = name
         self.joints: tuple[Joint, ...] = tuple(joints)
         self.chain_names: tuple[str, ...] = tuple(names)
-        self.lower: FloatArray = np.array([j.lower for j in joints])
-        self.upper: FloatArray = np.array([j.upper for j in joints])
+        self.lower: FloatArray = read_only(np.array([j.lower for j in joints], dtype=float))
+        self.upper: FloatArray = read_only(np.array([j.upper for j in joints], dtype=float))
         self.T_world_base = T_base
         self.T_flange_tool = T_tool
         self.dh = dh
         self.convention = convention
         self.analytic = analytic
-        self._K = np.ascontiguousarray(K)
-        self._E = np.ascontiguousarray(E)
-        self._prismatic = np.array([link.kind == "prismatic" for link in links])
-        self._coupling = coupling
+        self._K = read_only(K)
+        self._E = read_only(E)
+        self._prismatic = read_only(np.array([link.kind == "prismatic" for link in links]))
+        self._coupling = read_only(coupling)
         self._identity_coupling = coupling.shape[0] == coupling.shape[1] and bool(
             np.all(coupling == np.eye(n))
         )
-        self._cache: dict[str, object] = {}
+        self._cache: dict[Callable[[Robot], Any], Any] = {}
 
     # ------------------------------------------------------------------ constructors
     @classmethod
@@ -396,6 +376,28 @@ class Robot:
         return tuple(j.name for j in self.joints)
 
     @property
+    def chain(self) -> Chain:
+        """The kinematics and limits as the kernels take them (:class:`optik.chain.Chain`)."""
+        return self.cached(_build_chain)
+
+    def cached(self, build: Callable[[Robot], T_cached]) -> T_cached:
+        """``build(self)``, computed once per robot and kept (the one caching pattern).
+
+        Derived data (the chain, the seed table, the closed-form family and its packed
+        parameters) is keyed by the function that builds it, so no module writes string
+        keys into the robot. :meth:`with_limits` starts a fresh cache.
+        """
+        try:
+            return self._cache[build]  # type: ignore[no-any-return]
+        except KeyError:
+            value = self._cache[build] = build(self)
+            return value
+
+    def cached_value(self, build: Callable[[Robot], T_cached]) -> T_cached | None:
+        """What :meth:`cached` holds for ``build``, or ``None`` if it was not built yet."""
+        return self._cache.get(build)
+
+    @property
     def coupling(self) -> FloatArray:
         """``C`` with chain variables ``t = C q``, shape (chain joints, dof)."""
         return self._coupling.copy()
@@ -488,8 +490,8 @@ class Robot:
             joints.append(Joint(joint.name, joint.kind, float(a), float(b), joint.role))
         clone = copy.copy(self)
         clone.joints = tuple(joints)
-        clone.lower = lo.copy()
-        clone.upper = hi.copy()
+        clone.lower = read_only(lo)
+        clone.upper = read_only(hi)
         clone._cache = {}
         return clone
 
@@ -542,6 +544,19 @@ class Robot:
     def within_limits(self, q: Any, tol: float = 1e-12) -> bool | FloatArray:
         """Whether ``q`` (or each row) respects the limits up to ``tol``."""
         return within_limits(self.check_q(q), self.lower, self.upper, tol)
+
+
+def _build_chain(robot: Robot) -> Chain:
+    """The :class:`Chain` of ``robot`` (see :attr:`Robot.chain`)."""
+    return Chain(
+        robot._K,
+        robot._E,
+        robot._prismatic,
+        robot._coupling,
+        robot._identity_coupling,
+        robot.lower,
+        robot.upper,
+    )
 
 
 def finite_or_inf_limits(limits: Any, dof: int) -> FloatArray:

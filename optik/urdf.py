@@ -16,7 +16,7 @@ import numpy as np
 
 from optik._checks import FloatArray
 from optik.errors import URDFError
-from optik.model import _ChainLink
+from optik.chain import ChainLink
 from optik.spatial import rpy_to_matrix, transform
 
 _MOVING = {"revolute": "revolute", "continuous": "revolute", "prismatic": "prismatic"}
@@ -80,7 +80,7 @@ def _read_root(source: str | Path) -> ET.Element:
 
 def parse_urdf_chain(
     source: str | Path, base_link: str, tip_link: str
-) -> tuple[str, list[_ChainLink], FloatArray]:
+) -> tuple[str, list[ChainLink], FloatArray]:
     """Read the serial chain from ``base_link`` to ``tip_link``.
 
     Returns:
@@ -119,7 +119,7 @@ def parse_urdf_chain(
         link = str(parent.get("link"))
     path.reverse()
 
-    chain: list[_ChainLink] = []
+    chain: list[ChainLink] = []
     pending = np.eye(4)  # fixed transforms since the last moving joint
     for joint in path:
         jname = str(joint.get("name"))
@@ -155,7 +155,7 @@ def parse_urdf_chain(
             upper = float(_floats(limit.get("upper"), 1, f"joint {jname!r} upper", (0.0,))[0])
         before = pending @ origin @ align
         chain.append(
-            _ChainLink(
+            ChainLink(
                 name=jname,
                 kind=_MOVING[jtype],  # type: ignore[arg-type]
                 before=before,

@@ -77,22 +77,23 @@ def family_of(robot: Robot) -> AnalyticFamily | None:
         AnalyticIKError: the declared family is unknown or does not fit the robot.
     """
     if robot.analytic is None:
-        if "family" not in robot._cache:
-            robot._cache["family"] = detect_family(robot)
-        return cast("AnalyticFamily | None", robot._cache["family"])
+        return robot.cached(detect_family)
     family = FAMILIES.get(robot.analytic)
     if family is None:
         raise AnalyticIKError(
             f"robot {robot.name!r}: unknown analytic family {robot.analytic!r} "
             f"(registered: {sorted(FAMILIES)})"
         )
-    if robot._cache.get("declared_fits") is None:
-        robot._cache["declared_fits"] = family.fits(robot)
-    if not robot._cache["declared_fits"]:
+    if not robot.cached(_declared_family_fits):
         raise AnalyticIKError(
             f"robot {robot.name!r}: its joint structure does not fit family {family.name!r}"
         )
     return family
+
+
+def _declared_family_fits(robot: Robot) -> bool:
+    """Whether the robot's declared (registered) family fits its joint structure."""
+    return FAMILIES[cast(str, robot.analytic)].fits(robot)
 
 
 def wrap_into_limits(Q: FloatArray, robot: Robot, q_ref: FloatArray) -> FloatArray:
@@ -179,7 +180,7 @@ def analytic_ik(
             (e.g. position-only IK of a 6-dof arm, which has infinitely many solutions).
         OptikError: malformed target or ``q_ref``.
     """
-    plan = robot._cache.get("analytic_plan")
+    plan = robot.cached_value(_compiled_plan)
     if plan is not None and mode == "pose":
         # The hot path (a compiled family, already found and checked to fit): a float64
         # C-contiguous (4, 4) target and (dof,) q_ref go to the kernel as they are; it
@@ -217,8 +218,7 @@ def analytic_ik(
         return []
     family = _check_mode(robot, mode)
     if family.kernel and mode == "pose":
-        params = _compiled.params_of(robot, family.kernel)
-        robot._cache["analytic_plan"] = (params, _compiled.mid_limits(params))
+        robot.cached(_compiled_plan)
         return analytic_ik(robot, target, mode, q_ref, within_limits)
     T_target = as_target(target, mode)
     sort = q_ref is not None
@@ -232,6 +232,13 @@ def analytic_ik(
     )
     raw = family.candidates(robot, T_0_flange, mode, ref)
     return _finish(robot, raw, T_target, mode, ref, sort, within_limits)
+
+
+def _compiled_plan(robot: Robot) -> tuple[FloatArray, FloatArray]:
+    """The packed parameters and mid-limits of a robot whose family is compiled."""
+    family = cast(AnalyticFamily, family_of(robot))
+    params = _compiled.params_of(robot, family.kernel)
+    return params, _compiled.mid_limits(params)
 
 
 def _raise_input_error(robot: Robot, target: Any, q_ref: Any, code: int) -> None:

@@ -168,7 +168,7 @@ def pack_params(robot: Robot, family: int) -> FloatArray:
     params[_BASE_INV:_TOOL_INV] = invert_transform(robot.T_world_base).reshape(-1)
     params[_TOOL_INV:_MID] = invert_transform(robot.T_flange_tool).reshape(-1)
     params[_MID:_CHAIN] = robot.mid_limits
-    params[_CHAIN:_TOLS] = robot._K[:, :3, :].reshape(-1)
+    params[_CHAIN:_TOLS] = robot.chain.K[:, :3, :].reshape(-1)
     params[_TOLS:] = (
         TRIG_TOL,
         SINGULAR_EPS,
@@ -184,11 +184,19 @@ def pack_params(robot: Robot, family: int) -> FloatArray:
 
 def params_of(robot: Robot, family: int) -> FloatArray:
     """:func:`pack_params` of ``robot``, cached in the robot (do not modify it)."""
-    params = robot._cache.get("analytic_params")
-    if params is None:
-        params = pack_params(robot, family)
-        robot._cache["analytic_params"] = params
-    return params  # type: ignore[return-value]
+    kernel = _PACKERS[family]
+    return robot.cached(kernel)
+
+
+def _pack_spherical_wrist(robot: Robot) -> FloatArray:
+    return pack_params(robot, SPHERICAL_WRIST)
+
+
+def _pack_ur(robot: Robot) -> FloatArray:
+    return pack_params(robot, UR)
+
+
+_PACKERS = {SPHERICAL_WRIST: _pack_spherical_wrist, UR: _pack_ur}
 
 
 def raw_candidates(

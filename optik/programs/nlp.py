@@ -8,7 +8,7 @@ and ``q_ref`` (dof,)::
 
 ``(p(q), R(q))`` is the tool pose from a symbolic copy of the robot's chain,
 ``T = K[0] M(t_1) K[1] ... M(t_n) K[n]`` with ``t = C q`` (the same constants
-``robot._K``, ``robot._prismatic``, ``robot._coupling`` that the compiled kernels of
+``robot.chain`` (:class:`optik.chain.Chain`) that the compiled kernels of
 ``Robot.fk`` use), so it cannot drift from ``Robot.fk``. In ``"position"`` mode the
 orientation term is left out.
 
@@ -104,11 +104,11 @@ def _motion(prismatic: bool, t: casadi.SX) -> casadi.SX:
 
 def _fk_expression(robot: Robot, q: casadi.SX) -> casadi.SX:
     """Symbolic tool pose (4, 4) of ``robot`` at ``q`` from its chain form."""
-    K = robot._K
-    C = robot._coupling
-    t = casadi.mtimes(casadi.DM(C), q)
+    chain = robot.chain
+    K = chain.K
+    t = casadi.mtimes(casadi.DM(chain.C), q)
     T = casadi.SX(casadi.DM(K[0]))
-    for i, prismatic in enumerate(robot._prismatic):
+    for i, prismatic in enumerate(chain.prismatic):
         T = casadi.mtimes(casadi.mtimes(T, _motion(bool(prismatic), t[i])), casadi.DM(K[i + 1]))
     return T
 

@@ -32,14 +32,7 @@ def chain_args(
     robot: Robot,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, bool, np.ndarray, np.ndarray]:
     """The robot as the kernels take it: ``(K, prismatic, C, identity, lower, upper)``."""
-    return (
-        robot._K,
-        robot._prismatic,
-        robot._coupling,
-        robot._identity_coupling,
-        robot.lower,
-        robot.upper,
-    )
+    return robot.chain.kernel_args()
 
 
 @_jit

@@ -89,27 +89,30 @@ def _kmeans(
     return centres, nearest(centres)
 
 
-def seed_table(robot: Robot, size: int = TABLE_SIZE, clusters: int = TABLE_CLUSTERS) -> SeedTable:
+def seed_table(robot: Robot) -> SeedTable:
     """The robot's clustered :class:`SeedTable` (built on first use, then cached)."""
-    key = f"seed_table:{size}:{clusters}"
-    cached = robot._cache.get(key)
-    if cached is None:
-        rng = np.random.default_rng(_TABLE_SEED)
-        lower = np.where(np.isfinite(robot.lower), robot.lower, -math.pi)
-        upper = np.where(np.isfinite(robot.upper), robot.upper, math.pi)
-        Q = rng.uniform(lower, upper, (size, robot.dof))
-        features = pose_features(robot.fk(Q))
-        centres, labels = _kmeans(features, min(clusters, size), rng)
-        order = np.argsort(labels, kind="stable")
-        offsets = np.searchsorted(labels[order], np.arange(len(centres) + 1))
-        cached = SeedTable(
-            np.ascontiguousarray(Q[order]),
-            np.ascontiguousarray(features[order].T),
-            np.ascontiguousarray(centres.T),
-            offsets.astype(np.int64),
-        )
-        robot._cache[key] = cached
-    return cached  # type: ignore[return-value]
+    return robot.cached(build_seed_table)
+
+
+def build_seed_table(
+    robot: Robot, size: int = TABLE_SIZE, clusters: int = TABLE_CLUSTERS
+) -> SeedTable:
+    """A clustered :class:`SeedTable` of ``size`` uniform configurations inside the limits."""
+    rng = np.random.default_rng(_TABLE_SEED)
+    lower = np.where(np.isfinite(robot.lower), robot.lower, -math.pi)
+    upper = np.where(np.isfinite(robot.upper), robot.upper, math.pi)
+    Q = rng.uniform(lower, upper, (size, robot.dof))
+    features = pose_features(robot.fk(Q))
+    centres, labels = _kmeans(features, min(clusters, size), rng)
+    order = np.argsort(labels, kind="stable")
+    offsets = np.searchsorted(labels[order], np.arange(len(centres) + 1))
+    cached = SeedTable(
+        np.ascontiguousarray(Q[order]),
+        np.ascontiguousarray(features[order].T),
+        np.ascontiguousarray(centres.T),
+        offsets.astype(np.int64),
+    )
+    return cached
 
 
 def nearest_seeds(robot: Robot, target: FloatArray, mode: str, count: int) -> FloatArray:
