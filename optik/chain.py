@@ -36,8 +36,6 @@ class Mimic:
     multiplier: float = 1.0
 
 
-
-
 @dataclass(frozen=True)
 class ChainLink:
     """A chain joint before assembly: constant ``before``, the motion, link frame ``after``.
@@ -99,7 +97,9 @@ class Chain(NamedTuple):
         """Number of joint coordinates (entries of ``q``)."""
         return int(self.lower.shape[0])
 
-    def kernel_args(self) -> tuple[FloatArray, np.ndarray, FloatArray, bool, FloatArray, FloatArray]:
+    def kernel_args(
+        self,
+    ) -> tuple[FloatArray, np.ndarray, FloatArray, bool, FloatArray, FloatArray]:
         """``(K, prismatic, C, identity, lower, upper)``: the leading arguments of the solvers."""
         return self.K, self.prismatic, self.C, self.identity, self.lower, self.upper
 

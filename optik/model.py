@@ -22,8 +22,8 @@ from typing import Any, TypeVar
 import numpy as np
 
 from optik import _kernels
-from optik.chain import Chain, ChainLink, JointKind, Mimic, read_only
 from optik._checks import FloatArray, as_float_array, check_finite, finite_array
+from optik.chain import Chain, ChainLink, JointKind, Mimic, read_only
 from optik.errors import InvalidLimitsError, ModelError, ShapeError
 from optik.limits import limit_violation, resolve_limits, within_limits
 from optik.spatial import as_pose, rot_x, rot_z, transform

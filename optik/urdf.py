@@ -15,8 +15,8 @@ from pathlib import Path
 import numpy as np
 
 from optik._checks import FloatArray
-from optik.errors import URDFError
 from optik.chain import ChainLink
+from optik.errors import URDFError
 from optik.spatial import rpy_to_matrix, transform
 
 _MOVING = {"revolute": "revolute", "continuous": "revolute", "prismatic": "prismatic"}
