@@ -388,7 +388,7 @@ class Robot:
         keys into the robot. :meth:`with_limits` starts a fresh cache.
         """
         try:
-            return self._cache[build]  # type: ignore[no-any-return]
+            return self._cache[build]
         except KeyError:
             value = self._cache[build] = build(self)
             return value

@@ -185,7 +185,7 @@ def analytic_ik(
         # The hot path (a compiled family, already found and checked to fit): a float64
         # C-contiguous (4, 4) target and (dof,) q_ref go to the kernel as they are; it
         # validates them (finite; last row and rotation as optik.spatial.as_pose).
-        params, mid = cast("tuple[FloatArray, FloatArray]", plan)
+        params, mid = plan
         if (
             type(target) is not np.ndarray
             or target.shape != _SHAPE_4x4
