@@ -243,3 +243,67 @@ def joint_frames(
         T[:, :] = tmp
     out[n + 1] = T
     return out
+
+
+@_jit
+def pose_errors_into(
+    K: np.ndarray,
+    prismatic: np.ndarray,
+    C: np.ndarray,
+    identity: bool,
+    lower: np.ndarray,
+    upper: np.ndarray,
+    Q: np.ndarray,
+    targets: np.ndarray,
+    pose: bool,
+    out: np.ndarray,
+) -> None:
+    """Verify configurations ``Q`` (N, dof) against ``targets`` (N or 1, 4, 4) from FK.
+
+    Row ``k`` of ``out`` (N, 3) gets the position error ``||p(q) - p*||`` (m), the
+    orientation error ``angle(R*^T R(q))`` (rad, the robust ``atan2`` form of
+    :func:`optik.spatial.rotation_angle`; 0 when ``pose`` is False) and the largest
+    excursion beyond a limit (rad or m, 0 inside). A row with a non-finite entry gets
+    ``inf`` for all three.
+    """
+    N = Q.shape[0]
+    T = np.empty((4, 4))
+    single = targets.shape[0] == 1
+    for k in range(N):
+        q = Q[k]
+        finite = True
+        for i in range(q.shape[0]):
+            if not np.isfinite(q[i]):
+                finite = False
+        if not finite:
+            out[k, 0] = np.inf
+            out[k, 1] = np.inf
+            out[k, 2] = np.inf
+            continue
+        if identity:
+            fk_into(K, prismatic, q, T)
+        else:
+            fk_into(K, prismatic, C @ q, T)
+        G = targets[0] if single else targets[k]
+        dx = T[0, 3] - G[0, 3]
+        dy = T[1, 3] - G[1, 3]
+        dz = T[2, 3] - G[2, 3]
+        out[k, 0] = np.sqrt(dx * dx + dy * dy + dz * dz)
+        if pose:
+            # R = G^T T (3x3): only its trace and skew part are needed.
+            r = np.empty((3, 3))
+            for a in range(3):
+                for b in range(3):
+                    r[a, b] = G[0, a] * T[0, b] + G[1, a] * T[1, b] + G[2, a] * T[2, b]
+            sx = r[2, 1] - r[1, 2]
+            sy = r[0, 2] - r[2, 0]
+            sz = r[1, 0] - r[0, 1]
+            s = 0.5 * np.sqrt(sx * sx + sy * sy + sz * sz)
+            c = 0.5 * (r[0, 0] + r[1, 1] + r[2, 2] - 1.0)
+            out[k, 1] = np.arctan2(s, c)
+        else:
+            out[k, 1] = 0.0
+        worst = 0.0
+        for i in range(q.shape[0]):
+            worst = max(worst, lower[i] - q[i], q[i] - upper[i])
+        out[k, 2] = worst

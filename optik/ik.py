@@ -29,11 +29,12 @@ from optik.errors import JointLimitError, OptikError, ShapeError
 from optik.limits import LIMIT_TOLERANCE
 from optik.model import Robot
 from optik.solvers import get_solver
-from optik.solvers._base import IKQuery, IKSolver, SolverOutput, now
-from optik.solvers._lm_kernel import chain_args, lm_solve_batch, lm_solve_batch_serial
-from optik.solvers._seeds import nearest_seeds, seed_table
+from optik.solvers._base import IKQuery, IKSolver, now
+from optik.solvers._lm_kernel import lm_solve_batch, lm_solve_batch_serial
+from optik.solvers._seeds import seed_table, start_sequence
 from optik.solvers.iterative import DLSSolver
-from optik.spatial import as_pose, as_target, pose_error, rotation_angle
+from optik.spatial import as_pose, as_target
+from optik.verify import verify, verify_one
 
 AUTO_NUMERIC_SOLVER = "dls"
 """What ``solver="auto"`` uses without a closed form: the fastest solver that meets the
@@ -45,8 +46,15 @@ DEFAULT_RESTARTS = 100
 PARALLEL_BATCH = 64
 """Batches at least this large run in parallel threads; smaller ones on one thread."""
 
-TABLE_STARTS = 4
-"""Starts taken from the seed table (nearest poses first) before uniform random draws."""
+UNLIMITED_RESTARTS = 2**62
+"""The restart budget within a finite ``timeout_s`` when ``restarts`` is not given."""
+
+BATCH_SLICE = 4096
+"""Targets per compiled call of :func:`solve_ik_batch`: between calls Python lets a
+``KeyboardInterrupt`` through."""
+
+MAX_SEED = 2**63 - 1
+"""Largest ``seed`` (the streams are 64-bit)."""
 
 STATUSES = ("converged", "unreachable", "outside_limits", "max_iter", "timeout", "solver_failed")
 
@@ -85,22 +93,6 @@ class IKResult:
     backend_converged: bool | None = None
 
 
-def _verify(
-    robot: Robot, q: FloatArray, target: FloatArray, mode: str
-) -> tuple[float, float, float]:
-    q = np.ascontiguousarray(q, dtype=float)
-    if not np.isfinite(q).all():
-        return math.inf, math.inf, math.inf
-    position, orientation = pose_error(robot._fk_unchecked(q), target)
-    if mode == "position":
-        orientation = 0.0
-    return position, orientation, robot._violation_unchecked(q)
-
-
-def _is_success(position: float, orientation: float, violation: float, tol: float) -> bool:
-    return position <= tol and orientation <= tol and violation <= LIMIT_TOLERANCE
-
-
 def _check_q0(robot: Robot, q0: Any) -> FloatArray:
     if q0 is None:
         return robot.mid_limits
@@ -111,17 +103,42 @@ def _check_q0(robot: Robot, q0: Any) -> FloatArray:
     return np.clip(q, robot.lower, robot.upper)
 
 
-def _check_options(mode: str, tol: float, warm_start: str, timeout_s: Any, restarts: Any) -> None:
-    if mode not in ("pose", "position"):
+def _is_int(value: Any) -> bool:
+    return isinstance(value, int | np.integer) and not isinstance(value, bool | np.bool_)
+
+
+def _is_real(value: Any) -> bool:
+    return isinstance(value, int | float | np.integer | np.floating) and not isinstance(
+        value, bool | np.bool_
+    )
+
+
+def _check_options(
+    mode: Any,
+    tol: Any,
+    warm_start: Any,
+    timeout_s: Any,
+    restarts: Any,
+    max_iter: Any = None,
+    seed: Any = 0,
+) -> None:
+    """Validate the keywords shared by :func:`solve_ik` and :func:`solve_ik_batch`."""
+    if not isinstance(mode, str) or mode not in ("pose", "position"):
         raise OptikError(f"mode must be 'pose' or 'position', got {mode!r}")
-    if not (isinstance(tol, int | float) and math.isfinite(tol) and tol > 0):
-        raise OptikError(f"tol must be a positive finite number, got {tol!r}")
-    if warm_start not in ("analytic", "q0"):
+    if not (_is_real(tol) and math.isfinite(tol) and tol > 0):
+        raise OptikError(f"tol must be a positive finite number (m and rad), got {tol!r}")
+    if not isinstance(warm_start, str) or warm_start not in ("analytic", "q0"):
         raise OptikError(f"warm_start must be 'analytic' or 'q0', got {warm_start!r}")
-    if timeout_s is not None and not (timeout_s > 0):
-        raise OptikError(f"timeout_s must be positive, got {timeout_s!r}")
-    if restarts is not None and (not isinstance(restarts, int) or restarts < 0):
-        raise OptikError(f"restarts must be a non-negative integer, got {restarts!r}")
+    if timeout_s is not None and not (_is_real(timeout_s) and timeout_s > 0):
+        raise OptikError(f"timeout_s must be a positive number of seconds, got {timeout_s!r}")
+    if restarts is not None and not (_is_int(restarts) and 0 <= restarts <= UNLIMITED_RESTARTS):
+        raise OptikError(
+            f"restarts must be an integer from 0 to {UNLIMITED_RESTARTS}, got {restarts!r}"
+        )
+    if max_iter is not None and not (_is_int(max_iter) and 1 <= max_iter <= 10**9):
+        raise OptikError(f"max_iter must be an integer from 1 to 10**9, got {max_iter!r}")
+    if not (_is_int(seed) and 0 <= seed <= MAX_SEED):
+        raise OptikError(f"seed must be an integer from 0 to 2**63 - 1, got {seed!r}")
 
 
 def _check_threads(threads: Any) -> int:
@@ -137,12 +154,6 @@ def _check_threads(threads: Any) -> int:
     return threads
 
 
-def _random_start(robot: Robot, rng: np.random.Generator) -> FloatArray:
-    lower = np.where(np.isfinite(robot.lower), robot.lower, -math.pi)
-    upper = np.where(np.isfinite(robot.upper), robot.upper, math.pi)
-    return rng.uniform(lower, upper)
-
-
 def _result(
     robot: Robot,
     q: FloatArray,
@@ -156,8 +167,9 @@ def _result(
     message: str,
     claim: bool | None,
 ) -> IKResult:
-    position, orientation, violation = _verify(robot, q, query.target, query.mode)
-    success = _is_success(position, orientation, violation, query.tol)
+    position, orientation, violation, success = verify_one(
+        robot, q, query.target, query.mode, query.tol
+    )
     return IKResult(
         q=q,
         success=success,
@@ -205,10 +217,14 @@ def solve_ik(
             exists) or ``"q0"`` (ignore the closed form).
         tol: position (m) and orientation (rad) tolerance of success.
         max_iter: iterations per attempt (default: the solver's own).
-        timeout_s: wall-time budget for all attempts.
+        timeout_s: wall-time budget (s) for all attempts; ``inf`` means no time limit
+            (the restart budget then stays :data:`DEFAULT_RESTARTS`). Compilation on a
+            first call in a fresh environment is counted too.
         restarts: attempts after the first (default: :data:`DEFAULT_RESTARTS` without a
-            timeout, unlimited within a timeout).
-        seed: seed of the restart sequence (results are deterministic for a seed).
+            finite timeout, unlimited within one).
+        seed: seed of the restart sequence, 0 to 2**63 - 1 (results are deterministic
+            for a seed, and the same with and without ``timeout_s`` until it cuts the run
+            short: :mod:`optik.solvers._starts`).
 
     Returns:
         An :class:`IKResult`; a well-formed query that cannot be solved gives
@@ -218,12 +234,17 @@ def solve_ik(
         OptikError: malformed target, ``q0``, options, or an unknown solver name.
     """
     start_time = now()
-    _check_options(mode, tol, warm_start, timeout_s, restarts)
+    if not isinstance(robot, Robot):
+        raise OptikError(f"robot must be an optik.Robot, got {type(robot).__name__}")
+    _check_options(mode, tol, warm_start, timeout_s, restarts, max_iter, seed)
+    if not isinstance(solver, str):
+        raise OptikError(f"solver must be a solver name (str), got {solver!r}")
     T_target = as_target(target, mode)
     q_start = _check_q0(robot, q0)
     numeric: IKSolver | None = None if solver == "auto" else get_solver(solver)
     query = IKQuery(robot, T_target, mode, float(tol))
-    deadline = start_time + timeout_s if timeout_s is not None else math.inf
+    # timeout_s=inf is "no time limit": the restart budget then stays finite.
+    deadline = start_time + float(timeout_s) if timeout_s is not None else math.inf
 
     starts: list[FloatArray] = []
     family = family_of(robot) if warm_start == "analytic" else None
@@ -267,92 +288,31 @@ def solve_ik(
     if numeric is None:
         numeric = get_solver(AUTO_NUMERIC_SOLVER)
     iterations_per_attempt = max_iter if max_iter is not None else numeric.default_max_iter
-    budget = restarts if restarts is not None else (DEFAULT_RESTARTS if timeout_s is None else -1)
-    rng = np.random.default_rng(seed)
+    if restarts is not None:
+        last = int(restarts)
+    else:
+        last = UNLIMITED_RESTARTS if math.isfinite(deadline) else DEFAULT_RESTARTS
     if not starts and q0 is not None:
         starts = [q_start]
-
-    if isinstance(numeric, DLSSolver) and budget >= 0 and math.isinf(deadline):
-        # The whole restart loop runs compiled, from the first start (the nearest branch,
-        # exact, when there is a closed form); the answer is verified below all the same.
-        output, used = numeric.solve_restarts(
-            query, starts[0] if starts else None, iterations_per_attempt, budget, seed
-        )
-        return _result(
-            robot,
-            output.q,
-            query,
-            start_time,
-            status_if_failed="max_iter",
-            iterations=output.iterations,
-            restarts=used,
-            solver=numeric.name,
-            message=output.message,
-            claim=output.converged,
-        )
-
-    best: SolverOutput | None = None
-    best_error = math.inf
-    total_iterations = 0
-    attempts = 0
-    timed_out = False
-    all_failed = True
-    table: FloatArray | None = None
-    while True:
-        if budget >= 0 and attempts > budget:
-            break
-        if attempts < len(starts):
-            start = starts[attempts]
-        else:
-            if table is None:  # only when the given starts are exhausted
-                table = nearest_seeds(robot, T_target, mode, TABLE_STARTS)
-            k = attempts - len(starts)
-            start = table[k] if k < len(table) else _random_start(robot, rng)
-        if attempts > 0 and now() > deadline:
-            timed_out = True
-            break
-        try:
-            output = numeric.solve(query, start, iterations_per_attempt, deadline)
-        except Exception as exc:  # a backend crash becomes a status, with its text
-            best = SolverOutput(start, 0, False, f"{type(exc).__name__}: {exc}", failed=True)
-            attempts += 1
-            break
-        attempts += 1
-        total_iterations += output.iterations
-        all_failed = all_failed and output.failed
-        if output.failed:
-            if best is None:
-                best = output
-            continue
-        position, orientation, violation = _verify(robot, output.q, T_target, mode)
-        error = position + orientation + violation
-        if best is None or best.failed or error < best_error:
-            best, best_error = output, error
-        if _is_success(position, orientation, violation, tol):
-            break
-        if now() > deadline:
-            timed_out = True
-            break
-    if best is None:  # pragma: no cover - at least one attempt always runs
-        raise OptikError("no IK attempt ran")
-    if all_failed:
-        status = "solver_failed"
-    elif timed_out:
-        status = "timeout"
-    else:
-        status = "max_iter"
+    sequence = start_sequence(robot, T_target, mode, starts, int(seed))
+    run = numeric.run(query, sequence, int(iterations_per_attempt), last, deadline)
     return _result(
         robot,
-        best.q,
+        run.q,
         query,
         start_time,
-        status_if_failed=status,
-        iterations=total_iterations,
-        restarts=max(attempts - 1, 0),
+        status_if_failed=run.status_if_failed,
+        iterations=run.iterations,
+        restarts=run.restarts,
         solver=numeric.name,
-        message=best.message,
-        claim=best.converged,
+        message=run.message,
+        claim=run.converged,
     )
+
+
+BATCH_STATUSES = ("converged", "unreachable", "max_iter")
+"""Per-target statuses of :func:`solve_ik_batch`: ``unreachable`` is proved (the target
+lies outside the robot's reach sphere, :attr:`optik.Robot.reach_sphere`)."""
 
 
 @dataclass
@@ -360,10 +320,13 @@ class IKBatchResult:
     """Verified outcomes of :func:`solve_ik_batch`, one row per target.
 
     Attributes:
-        q: (N, dof) joint vectors.
+        q: (N, dof) joint vectors (the best attempt where unsuccessful; NaN where the
+            target was proved unreachable and not solved).
         success: (N,) verified success (FK errors within ``tol``, limits respected).
-        position_error: (N,) m.
+        status: (N,) strings from :data:`BATCH_STATUSES`.
+        position_error: (N,) m (inf where not solved).
         orientation_error: (N,) rad (0 in position mode).
+        limit_violation: (N,) largest excursion beyond a limit (rad or m).
         iterations: (N,) iterations over all attempts.
         restarts: (N,) attempts after the first.
         time_s: wall time of the whole batch.
@@ -371,11 +334,36 @@ class IKBatchResult:
 
     q: FloatArray
     success: np.ndarray
+    status: np.ndarray
     position_error: FloatArray
     orientation_error: FloatArray
+    limit_violation: FloatArray
     iterations: np.ndarray
     restarts: np.ndarray
     time_s: float
+
+
+def _batch_poses(targets: Any, mode: str) -> FloatArray:
+    """(N, 4, 4) validated target poses (identity rotations in position mode)."""
+    array = np.asarray(targets) if not isinstance(targets, np.ndarray) else targets
+    if array.ndim >= 1 and array.shape[0] == 0:
+        expected = (3,) if (mode == "position" and array.ndim == 2) else (4, 4)
+        return np.empty((0, 4, 4)) if array.shape[1:] in ((4, 4), expected) else _bad(array)
+    if mode == "position" and array.ndim == 2 and array.shape[1:] == (3,):
+        poses = np.broadcast_to(np.eye(4), (array.shape[0], 4, 4)).copy()
+        poses[:, :3, 3] = finite_array("targets", array, (3,), batch=True)
+        return poses
+    if array.ndim == 3 and array.shape[1:] == (4, 4):
+        poses = as_pose("targets", array, batch=True)
+        if mode == "position":
+            poses = poses.copy()
+            poses[:, :3, :3] = np.eye(3)
+        return np.ascontiguousarray(poses, dtype=np.float64)
+    return _bad(array)
+
+
+def _bad(array: np.ndarray) -> FloatArray:
+    raise ShapeError("targets", "(N, 4, 4) (or (N, 3) in position mode)", array.shape)
 
 
 def solve_ik_batch(
@@ -393,13 +381,14 @@ def solve_ik_batch(
     """Solve many targets with the compiled damped least squares, in parallel threads.
 
     Every target starts from ``q0`` when given, then from the seed table's entries nearest
-    it and seeded uniform draws (target ``k`` uses seed ``seed + k``, so results do not
-    depend on the thread count).
+    it and seeded uniform draws (:mod:`optik.solvers._starts`; target ``k`` uses the stream
+    ``seed + k``, so results do not depend on the thread count or the slicing). Targets
+    outside the robot's reach sphere are not solved: their status is ``"unreachable"``.
 
     Args:
         robot: the robot.
         targets: (N, 4, 4) world poses (in position mode only translations count; an
-            (N, 3) array of positions is accepted too).
+            (N, 3) array of positions is accepted too); N may be 0.
         mode: ``"pose"`` or ``"position"``.
         q0: shared initial guess (dof,).
         tol: position (m) and orientation (rad) tolerance.
@@ -411,49 +400,53 @@ def solve_ik_batch(
             than :data:`PARALLEL_BATCH` always do.
     """
     start_time = now()
-    _check_options(mode, tol, "q0", None, restarts)
+    if not isinstance(robot, Robot):
+        raise OptikError(f"robot must be an optik.Robot, got {type(robot).__name__}")
+    _check_options(mode, tol, "q0", None, restarts, max_iter, seed)
+    if seed > MAX_SEED - 2**40:  # target k uses seed + k
+        raise OptikError(f"seed must be at most 2**63 - 2**40 in a batch, got {seed!r}")
     threads = _check_threads(threads)
-    array = np.asarray(targets, dtype=float)
-    if mode == "position" and array.ndim == 2 and array.shape[1] == 3:
-        poses = np.broadcast_to(np.eye(4), (array.shape[0], 4, 4)).copy()
-        poses[:, :3, 3] = finite_array("targets", array, (3,), batch=True)
-    elif array.ndim == 3 and array.shape[1:] == (4, 4):
-        poses = as_pose("targets", array, batch=True)
-        if mode == "position":
-            poses = poses.copy()
-            poses[:, :3, :3] = np.eye(3)
-    else:
-        raise ShapeError("targets", "(N, 4, 4) (or (N, 3) in position mode)", array.shape)
+    poses = _batch_poses(targets, mode)
     q_start = _check_q0(robot, q0)
+    N = poses.shape[0]
+    Q = np.full((N, robot.dof), math.nan)
+    iterations = np.zeros(N, dtype=np.int64)
+    used = np.zeros(N, dtype=np.int64)
+    centre, radius = robot.reach_sphere
+    with np.errstate(over="ignore"):  # a target 1e154 m away is simply unreachable
+        distance = np.linalg.norm(poses[:, :3, 3] - centre, axis=1)
+    reachable = distance <= radius * (1 + 1e-9) + 1e-12
+    rows = np.flatnonzero(reachable)
     table = seed_table(robot)
-    parallel = threads > 1 and len(poses) >= PARALLEL_BATCH
-    kernel = lm_solve_batch if parallel else lm_solve_batch_serial
+    given = q_start.reshape(1, -1) if q0 is not None else np.empty((0, robot.dof))
+    K, prismatic, C, identity, lower, upper = robot.chain.kernel_args()
     previous_threads = numba.get_num_threads()
-    if parallel:
-        numba.set_num_threads(threads)
     try:
-        Q, iterations, used, _ = kernel(
-            *chain_args(robot),
-            np.ascontiguousarray(poses),
-            mode == "pose",
-            q_start,
-            q0 is not None,
-            *table,
-            float(tol),
-            int(max_iter),
-            DLSSolver.w_bias,
-            int(restarts),
-            int(seed),
-        )
+        for lo in range(0, len(rows), BATCH_SLICE):
+            part = rows[lo : lo + BATCH_SLICE]
+            parallel = threads > 1 and len(part) >= PARALLEL_BATCH
+            kernel = lm_solve_batch if parallel else lm_solve_batch_serial
+            if parallel:
+                numba.set_num_threads(threads)
+            # Target k keeps the stream seed + k whatever slice it falls in.
+            Qp, it, u, _ = kernel(
+                K, prismatic, C, identity, lower, upper, np.ascontiguousarray(poses[part]),
+                mode == "pose", given, *table, float(tol), int(max_iter), DLSSolver.w_bias,
+                int(restarts), part.astype(np.int64) + int(seed),
+            )  # fmt: skip
+            Q[part], iterations[part], used[part] = Qp, it, u
     finally:
         numba.set_num_threads(previous_threads)
-    T = robot.fk(Q)
-    position = np.linalg.norm(T[:, :3, 3] - poses[:, :3, 3], axis=1)
-    if mode == "pose":
-        R_rel = np.swapaxes(poses[:, :3, :3], 1, 2) @ T[:, :3, :3]
-        orientation = np.asarray(rotation_angle(R_rel), dtype=float).reshape(-1)
-    else:
-        orientation = np.zeros(len(Q))
-    violation = np.asarray(robot.limit_violation(Q), dtype=float).reshape(-1)
-    success = (position <= tol) & (orientation <= tol) & (violation <= LIMIT_TOLERANCE)
-    return IKBatchResult(Q, success, position, orientation, iterations, used, now() - start_time)
+    verdict = verify(robot, Q, poses, mode, float(tol))
+    status = np.where(verdict.success, "converged", np.where(reachable, "max_iter", "unreachable"))
+    return IKBatchResult(
+        Q,
+        verdict.success,
+        status.astype(object),
+        verdict.position_error,
+        verdict.orientation_error,
+        verdict.limit_violation,
+        iterations,
+        used,
+        now() - start_time,
+    )

@@ -154,7 +154,7 @@ def test_fk_shared_prefix_is_fk_into_bit_for_bit(rng: np.random.Generator) -> No
     for name in COMPILED:
         robot = robot_of(name)
         n = robot.dof
-        K, prismatic = robot._K, robot._prismatic
+        K, prismatic = robot.chain.K, robot.chain.prismatic
         params = _compiled.params_of(robot, family_of(robot).kernel)  # type: ignore[union-attr]
         pre = np.empty((n + 2, 12))
         pre[0] = K[0, :3, :].reshape(-1)

@@ -19,13 +19,12 @@ from optik.solvers._lm_kernel import (
     QUICK_WINDOW,
     STALL_RATIO,
     STALL_WINDOW,
-    chain_args,
     lm_attempt,
     lm_solve_restarts,
-    table_candidates,
     workspace,
 )
 from optik.solvers._seeds import seed_table
+from optik.solvers._starts import table_order
 from optik.solvers.iterative import DLSSolver
 
 
@@ -78,10 +77,11 @@ def _attempt(
     pose: bool = True,
 ) -> tuple[int, bool]:
     q = np.array(q0, dtype=float)
-    scratch = workspace(robot._prismatic.shape[0], robot.dof)
+    scratch = workspace(robot.chain.n, robot.dof)
     it, ok, _, _ = lm_attempt(
-        *chain_args(robot), target, pose, q, tol, 100, DLSSolver.w_bias, window, ratio, scratch
-    )
+        *robot.chain.kernel_args(), target, pose, q, tol, 100, DLSSolver.w_bias, window, ratio,
+        scratch,
+    )  # fmt: skip
     return it, ok
 
 
@@ -119,15 +119,15 @@ def test_first_attempts_use_the_quick_stall_rule() -> None:
     differs = 0
     for _ in range(40):
         target = panda.fk(rng.uniform(panda.lower, panda.upper))
-        index, d = table_candidates(table.features, table.centroids, table.offsets, target, True)
-        start = table.q[index[np.argmin(d)]]
-        _, total, used, ok, _, _ = lm_solve_restarts(
-            *chain_args(panda), target, True, panda.mid_limits, False, *table,
-            1e-6, 100, DLSSolver.w_bias, 0, 0,
+        order = table_order(table.features, table.centroids, table.offsets, target, True)
+        start = table.q[order[0]]
+        _, total, ran, ok, _, _ = lm_solve_restarts(
+            *panda.chain.kernel_args(), target, True, np.empty((0, panda.dof)), order, table.q,
+            1e-6, 100, DLSSolver.w_bias, 0, 0, 0,
         )  # fmt: skip
         quick = _attempt(panda, target, start, QUICK_WINDOW, QUICK_RATIO, 1e-6)
         patient = _attempt(panda, target, start, STALL_WINDOW, STALL_RATIO, 1e-6)
-        assert used == 0 and (total, ok) == quick
+        assert ran == 1 and (total, ok) == quick
         differs += quick != patient
     assert differs > 0  # the two rules do part ways on these targets
 

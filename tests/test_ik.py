@@ -217,3 +217,55 @@ def test_seed003_two_link_example() -> None:
         q0=[0.5, 0.5],
     )
     assert precise.success and precise.position_error <= 1e-9
+
+
+def test_batch_reports_status_and_limit_violation_per_target(rng: np.random.Generator) -> None:
+    panda = load_problem("panda").robot
+    Q = rng.uniform(panda.lower, panda.upper, (70, panda.dof))
+    T = panda.fk(Q)
+    T[3, :3, 3] = [1e154, 0.0, 0.0]  # overflows any squared distance: proved unreachable
+    T[4, :3, 3] = [5.0, 0.0, 0.0]  # outside the reach sphere
+    res = optik.solve_ik_batch(panda, T, threads=2)
+    assert list(res.status[3:5]) == ["unreachable", "unreachable"]
+    assert not res.success[3] and not res.success[4]
+    others = np.delete(np.arange(70), [3, 4])
+    assert np.all(res.status[others] == "converged") and res.success[others].all()
+    assert np.all(res.limit_violation[others] <= 1e-12)
+    assert np.all(res.iterations >= 0) and np.all(res.iterations[others] < 10**6)
+    # The same rows, verified here from FK.
+    for k in others[:10]:
+        p, r = pose_error(panda.fk(res.q[k]), T[k])
+        assert p <= 1e-6 and r <= 1e-6
+
+
+def test_batch_of_zero_targets() -> None:
+    panda = load_problem("panda").robot
+    res = optik.solve_ik_batch(panda, np.empty((0, 4, 4)))
+    assert res.q.shape == (0, panda.dof) and res.success.shape == (0,)
+
+
+@pytest.mark.parametrize(
+    "bad",
+    [
+        {"max_iter": "10"},
+        {"max_iter": 0},
+        {"max_iter": True},
+        {"seed": -1},
+        {"seed": 1.5},
+        {"seed": True},
+        {"timeout_s": "1"},
+        {"timeout_s": math.nan},
+        {"tol": True},
+        {"restarts": 2.0},
+        {"solver": ["dls"]},
+    ],
+)
+def test_bad_options_raise_optik_errors(bad: dict[str, object]) -> None:
+    puma = load_problem("puma560").robot
+    with pytest.raises(OptikError):
+        optik.solve_ik(puma, puma.fk(puma.mid_limits), **bad)  # type: ignore[arg-type]
+
+
+def test_not_a_robot() -> None:
+    with pytest.raises(OptikError, match=r"optik\.Robot"):
+        optik.solve_ik("panda", np.eye(4))  # type: ignore[arg-type]

@@ -5,7 +5,6 @@ from __future__ import annotations
 import numpy as np
 
 from optik.problems import load_problem
-from optik.solvers._lm_kernel import table_candidates
 from optik.solvers._seeds import (
     TABLE_CLUSTERS,
     TABLE_SIZE,
@@ -13,6 +12,7 @@ from optik.solvers._seeds import (
     pose_features,
     seed_table,
 )
+from optik.solvers._starts import table_candidates
 
 
 def test_table_entries_are_in_limits_and_their_features_are_their_poses() -> None:

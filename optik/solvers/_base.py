@@ -8,6 +8,7 @@ backend is never reported as "solver not found".
 
 from __future__ import annotations
 
+import math
 import time
 from abc import ABC, abstractmethod
 from collections.abc import Callable
@@ -16,9 +17,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from optik._checks import FloatArray
-from optik.errors import UnknownSolverError
+from optik.errors import SolverError, UnknownSolverError
 from optik.model import Robot
+from optik.solvers._starts import StartSequence
 from optik.spatial import log_so3
+from optik.verify import verify_one
 
 
 @dataclass(frozen=True)
@@ -68,11 +71,35 @@ class SolverOutput:
     failed: bool = False
 
 
+@dataclass
+class RunOutput:
+    """The outcome of :meth:`IKSolver.run` over a sequence of starts (unverified claim).
+
+    Attributes:
+        q: the first converged attempt's joint vector, else the best one's (dof,).
+        iterations: iterations over all attempts.
+        restarts: attempts after the first.
+        converged: the backend's claim for ``q``.
+        message: the backend's text for ``q``.
+        status_if_failed: ``"max_iter"``, ``"timeout"`` or ``"solver_failed"``: what to
+            report when optik's own verification of ``q`` fails.
+    """
+
+    q: FloatArray
+    iterations: int
+    restarts: int
+    converged: bool
+    message: str
+    status_if_failed: str
+
+
 class IKSolver(ABC):
     """A numeric IK method: refines ``q0`` towards the query's target inside the limits.
 
     Subclasses set ``name`` and implement :meth:`solve`; :meth:`is_available` says whether
-    the backend imports on this machine.
+    the backend imports on this machine. :meth:`run` takes every solver through the one
+    start policy (:mod:`optik.solvers._starts`); a compiled solver may override it with
+    the same semantics.
     """
 
     name: str = ""
@@ -87,6 +114,62 @@ class IKSolver(ABC):
     @abstractmethod
     def solve(self, query: IKQuery, q0: FloatArray, max_iter: int, deadline: float) -> SolverOutput:
         """Refine ``q0``; stop at convergence, ``max_iter``, or when ``now() > deadline``."""
+
+    def run(
+        self,
+        query: IKQuery,
+        starts: StartSequence,
+        max_iter: int,
+        last: int,
+        deadline: float,
+    ) -> RunOutput:
+        """Attempts from starts ``0..last`` until one is verified, or the deadline passes.
+
+        Each attempt's answer is verified from FK (:func:`optik.verify.verify_one`); the
+        first verified one is returned, else the one with the smallest sum of errors.
+        A backend exception ends the run with ``solver_failed`` and its text.
+        """
+        best: SolverOutput | None = None
+        best_error = math.inf
+        total_iterations = 0
+        attempts = 0
+        timed_out = False
+        all_failed = True
+        while attempts <= last:
+            if attempts > 0 and now() > deadline:
+                timed_out = True
+                break
+            start = starts.start(attempts)
+            try:
+                output = self.solve(query, start, max_iter, deadline)
+            except Exception as exc:  # a backend crash becomes a status, with its text
+                best = SolverOutput(start, 0, False, f"{type(exc).__name__}: {exc}", failed=True)
+                attempts += 1
+                break
+            attempts += 1
+            total_iterations += output.iterations
+            all_failed = all_failed and output.failed
+            if output.failed:
+                if best is None:
+                    best = output
+                continue
+            position, orientation, violation, ok = verify_one(
+                query.robot, output.q, query.target, query.mode, query.tol
+            )
+            error = position + orientation + violation
+            if best is None or best.failed or error < best_error:
+                best, best_error = output, error
+            if ok:
+                break
+            if now() > deadline:
+                timed_out = True
+                break
+        if best is None:  # pragma: no cover - at least one attempt always runs
+            raise SolverError(self.name, "no IK attempt ran")
+        status = "solver_failed" if all_failed else ("timeout" if timed_out else "max_iter")
+        return RunOutput(
+            best.q, total_iterations, max(attempts - 1, 0), best.converged, best.message, status
+        )
 
 
 @dataclass(frozen=True)

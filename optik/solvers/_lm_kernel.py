@@ -13,26 +13,14 @@ FK and the Jacobian come from :mod:`optik._kernels`, the same code as ``Robot.fk
 
 from __future__ import annotations
 
-import math
-from typing import TYPE_CHECKING
-
 import numba as nb
 import numpy as np
 
 from optik._kernels import fk_jacobian_work
 from optik._nrt import borrowed
-
-if TYPE_CHECKING:
-    from optik.model import Robot
+from optik.solvers._starts import start_into, table_order
 
 _jit = nb.njit(cache=True, nogil=True, error_model="numpy")
-
-
-def chain_args(
-    robot: Robot,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, bool, np.ndarray, np.ndarray]:
-    """The robot as the kernels take it: ``(K, prismatic, C, identity, lower, upper)``."""
-    return robot.chain.kernel_args()
 
 
 @_jit
@@ -366,74 +354,6 @@ def lm_solve(
 
 
 @_jit
-def _uniform_in_limits(lower: np.ndarray, upper: np.ndarray, out: np.ndarray) -> None:
-    for i in range(lower.shape[0]):
-        lo = lower[i] if np.isfinite(lower[i]) else -np.pi
-        hi = upper[i] if np.isfinite(upper[i]) else np.pi
-        out[i] = lo + (hi - lo) * np.random.random()  # noqa: NPY002 (numba: legacy API only)
-
-
-ROTATION_WEIGHT = 0.05
-"""Weight (m^2) of the squared Frobenius rotation distance when ranking table poses:
-``||R_i - R*||_F^2 = 4 (1 - cos a)``, so 0.3 m counts like about 1 rad."""
-
-SQRT_ROTATION_WEIGHT = math.sqrt(ROTATION_WEIGHT)
-
-
-@_jit
-def table_candidates(
-    features: np.ndarray, centroids: np.ndarray, offsets: np.ndarray, target: np.ndarray, pose: bool
-) -> tuple[np.ndarray, np.ndarray]:
-    """The seed-table entries of the cluster nearest ``target``, with their distances.
-
-    ``features`` (12, M) and ``centroids`` (12, C) are pose features (position, then
-    ``sqrt(ROTATION_WEIGHT) R`` row by row: :func:`optik.solvers._seeds.pose_features`),
-    so squared distances are ``||p_i - p*||^2 + w ||R_i - R*||_F^2``; position mode
-    compares the first three only. Returns ``(indices (k,), squared distances (k,))``.
-    Loops run over contiguous rows of one feature, which vectorise.
-    """
-    features = borrowed(features)
-    centroids = borrowed(centroids)
-    width = 12 if pose else 3
-    f = np.empty(12)
-    for j in range(12):
-        f[j] = target[j, 3] if j < 3 else SQRT_ROTATION_WEIGHT * target[(j - 3) // 3, (j - 3) % 3]
-    to_centre = np.zeros(centroids.shape[1])
-    for j in range(width):
-        row = centroids[j]
-        for c in range(row.shape[0]):
-            x = row[c] - f[j]
-            to_centre[c] += x * x
-    nearest = _pop_nearest(to_centre)
-    lo = offsets[nearest]
-    n = offsets[nearest + 1] - lo
-    index = np.empty(n, dtype=np.int64)
-    for t in range(n):
-        index[t] = lo + t
-    distances = np.zeros(n)
-    for j in range(width):
-        row = features[j, lo : lo + n]
-        for t in range(n):
-            x = row[t] - f[j]
-            distances[t] += x * x
-    return index, distances
-
-
-@_jit
-def _pop_nearest(distances: np.ndarray) -> int:
-    """Index of the smallest remaining distance, then marked as used (-1 when none left)."""
-    best = -1
-    value = np.inf
-    for i in range(distances.shape[0]):
-        if distances[i] < value:
-            value = distances[i]
-            best = i
-    if best >= 0:
-        distances[best] = np.inf
-    return best
-
-
-@_jit
 def lm_solve_restarts(
     K: np.ndarray,
     prismatic: np.ndarray,
@@ -443,56 +363,42 @@ def lm_solve_restarts(
     upper: np.ndarray,
     target: np.ndarray,
     pose: bool,
-    q0: np.ndarray,
-    use_q0: bool,
+    given: np.ndarray,
+    order: np.ndarray,
     table_q: np.ndarray,
-    table_features: np.ndarray,
-    table_centroids: np.ndarray,
-    table_offsets: np.ndarray,
     tol: float,
     max_iter: int,
     w_bias: float,
-    restarts: int,
+    first: int,
+    last: int,
     seed: int,
 ) -> tuple[np.ndarray, int, int, bool, float, float]:
-    """:func:`lm_attempt` from a sequence of starts until one converges.
+    """:func:`lm_attempt` from starts ``first`` to ``last`` (inclusive) until one converges.
 
-    The starts: ``q0`` (when ``use_q0``), then the entries of a seed table (``table_q``
-    (M, dof), ``table_features`` (12, M), ``table_centroids`` (12, C), ``table_offsets``
-    (C + 1,): :class:`optik.solvers._seeds.SeedTable`) in the cluster nearest the target,
-    nearest first, then such entries and seeded uniform draws inside the limits in turn.
-    Nearby starts converge in a few Gauss–Newton steps; the uniform draws keep the search
-    global. The first :data:`QUICK_ATTEMPTS` attempts use the quick stall rule.
+    Start ``k`` is :func:`optik.solvers._starts.start_into`'s: the ``given`` starts (closed
+    -form branches nearest ``q0``, or ``q0``), then seed-table entries ``table_q[order]``
+    (nearest the target first) and seeded uniform draws inside the limits in turn. Start
+    ``k`` depends on ``k`` and ``seed`` only, so a caller may run the attempts in slices
+    (for a deadline, or to stay interruptible) and get the same answer. The first
+    :data:`QUICK_ATTEMPTS` attempts use the quick stall rule.
 
     Returns:
-        ``(q, total_iterations, restarts_used, converged, position_error,
-        orientation_error)`` of the first converged attempt, else of the best one.
+        ``(q, total_iterations, attempts_run, converged, position_error,
+        orientation_error)`` of the first converged attempt, else of the best one (the
+        smallest sum of both errors; the earliest among equals).
     """
     dof = lower.shape[0]
-    candidates, distances = table_candidates(
-        table_features, table_centroids, table_offsets, target, pose
-    )
     scratch = workspace(prismatic.shape[0], dof)
     q = np.empty(dof)
-    best_q = q0.copy()
+    best_q = np.empty(dof)
+    best_q[:] = np.nan
     best_err = np.inf
     best_pos = np.inf
     best_rot = np.inf
     total = 0
-    attempt = 0
-    seeded = False
-    while attempt <= restarts:
-        table_turn = attempt < 4 or attempt % 2 == 0
-        index = _pop_nearest(distances) if table_turn and not (use_q0 and attempt == 0) else -1
-        if use_q0 and attempt == 0:
-            q[:] = q0
-        elif index >= 0:
-            q[:] = table_q[candidates[index]]
-        else:
-            if not seeded:  # seeding costs more than most solves: only when drawing
-                np.random.seed(seed)  # noqa: NPY002 (numba: per-thread legacy generator)
-                seeded = True
-            _uniform_in_limits(lower, upper, q)
+    attempt = first
+    while attempt <= last:
+        start_into(attempt, given, order, table_q, lower, upper, seed, q)
         quick = attempt < QUICK_ATTEMPTS
         it, ok, pos, rot = lm_attempt(
             K, prismatic, C, identity, lower, upper, target, pose, q, tol, max_iter, w_bias,
@@ -500,13 +406,13 @@ def lm_solve_restarts(
             scratch,
         )  # fmt: skip
         total += it
-        if ok or pos + rot < best_err:
+        if ok or pos + rot < best_err or attempt == first:
             best_q[:] = q
             best_err, best_pos, best_rot = pos + rot, pos, rot
         if ok:
-            return best_q, total, attempt, True, best_pos, best_rot
+            return best_q, total, attempt - first + 1, True, best_pos, best_rot
         attempt += 1
-    return best_q, total, restarts, False, best_pos, best_rot
+    return best_q, total, last - first + 1, False, best_pos, best_rot
 
 
 @_jit
@@ -520,8 +426,7 @@ def _solve_target(
     upper: np.ndarray,
     targets: np.ndarray,
     pose: bool,
-    q0: np.ndarray,
-    use_q0: bool,
+    given: np.ndarray,
     table_q: np.ndarray,
     table_features: np.ndarray,
     table_centroids: np.ndarray,
@@ -530,37 +435,21 @@ def _solve_target(
     max_iter: int,
     w_bias: float,
     restarts: int,
-    seed: int,
+    seeds: np.ndarray,
     Q: np.ndarray,
     iters: np.ndarray,
     used: np.ndarray,
     ok: np.ndarray,
 ) -> None:
-    """Row ``k`` of a batch: :func:`lm_solve_restarts` with the random stream ``seed + k``."""
+    """Row ``k`` of a batch: :func:`lm_solve_restarts` with the random stream ``seeds[k]``."""
+    order = table_order(table_features, table_centroids, table_offsets, targets[k], pose)
     q, it, u, good, _, _ = lm_solve_restarts(
-        K,
-        prismatic,
-        C,
-        identity,
-        lower,
-        upper,
-        targets[k],
-        pose,
-        q0,
-        use_q0,
-        table_q,
-        table_features,
-        table_centroids,
-        table_offsets,
-        tol,
-        max_iter,
-        w_bias,
-        restarts,
-        seed + k,
-    )
+        K, prismatic, C, identity, lower, upper, targets[k], pose, given, order, table_q,
+        tol, max_iter, w_bias, 0, restarts, seeds[k],
+    )  # fmt: skip
     Q[k] = q
     iters[k] = it
-    used[k] = u
+    used[k] = u - 1
     ok[k] = good
 
 
@@ -579,8 +468,7 @@ def lm_solve_batch(
     upper: np.ndarray,
     targets: np.ndarray,
     pose: bool,
-    q0: np.ndarray,
-    use_q0: bool,
+    given: np.ndarray,
     table_q: np.ndarray,
     table_features: np.ndarray,
     table_centroids: np.ndarray,
@@ -589,35 +477,36 @@ def lm_solve_batch(
     max_iter: int,
     w_bias: float,
     restarts: int,
-    seed: int,
+    seeds: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """:func:`lm_solve_restarts` for every target (N, 4, 4), in numba's threads (``prange``).
 
-    Target ``k`` uses the random stream ``seed + k``, so results do not depend on the
+    Target ``k`` uses the random stream ``seeds[k]``, so results do not depend on the
     number of threads. Returns ``(q (N, dof), iterations (N,), restarts (N,), ok (N,))``.
     """
     N = targets.shape[0]
-    Q = np.empty((N, q0.shape[0]))
+    Q = np.empty((N, lower.shape[0]))
     iters = np.empty(N, dtype=np.int64)
     used = np.empty(N, dtype=np.int64)
     ok = np.empty(N, dtype=np.bool_)
     # Borrowed views (optik._nrt): every thread passes these to each target's solve, and
     # counting references to one shared array from several threads serialises them.
     K_, prismatic_, C_ = borrowed(K), borrowed(prismatic), borrowed(C)
-    lower_, upper_, targets_, q0_ = (
+    lower_, upper_, targets_, given_ = (
         borrowed(lower),
         borrowed(upper),
         borrowed(targets),
-        borrowed(q0),
+        borrowed(given),
     )
     table_q_, table_features_ = borrowed(table_q), borrowed(table_features)
     table_centroids_, table_offsets_ = borrowed(table_centroids), borrowed(table_offsets)
     Q_, iters_, used_, ok_ = borrowed(Q), borrowed(iters), borrowed(used), borrowed(ok)
+    seeds_ = borrowed(seeds)
     for k in nb.prange(N):
         _solve_target(
-            k, K_, prismatic_, C_, identity, lower_, upper_, targets_, pose, q0_, use_q0,
+            k, K_, prismatic_, C_, identity, lower_, upper_, targets_, pose, given_,
             table_q_, table_features_, table_centroids_, table_offsets_, tol, max_iter, w_bias,
-            restarts, seed, Q_, iters_, used_, ok_,
+            restarts, seeds_, Q_, iters_, used_, ok_,
         )  # fmt: skip
     return Q, iters, used, ok
 
@@ -632,8 +521,7 @@ def lm_solve_batch_serial(
     upper: np.ndarray,
     targets: np.ndarray,
     pose: bool,
-    q0: np.ndarray,
-    use_q0: bool,
+    given: np.ndarray,
     table_q: np.ndarray,
     table_features: np.ndarray,
     table_centroids: np.ndarray,
@@ -642,18 +530,18 @@ def lm_solve_batch_serial(
     max_iter: int,
     w_bias: float,
     restarts: int,
-    seed: int,
+    seeds: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """:func:`lm_solve_batch` on the calling thread: small batches, where threads cost more."""
     N = targets.shape[0]
-    Q = np.empty((N, q0.shape[0]))
+    Q = np.empty((N, lower.shape[0]))
     iters = np.empty(N, dtype=np.int64)
     used = np.empty(N, dtype=np.int64)
     ok = np.empty(N, dtype=np.bool_)
     for k in range(N):
         _solve_target(
-            k, K, prismatic, C, identity, lower, upper, targets, pose, q0, use_q0, table_q,
+            k, K, prismatic, C, identity, lower, upper, targets, pose, given, table_q,
             table_features, table_centroids, table_offsets, tol, max_iter, w_bias, restarts,
-            seed, Q, iters, used, ok,
+            seeds, Q, iters, used, ok,
         )  # fmt: skip
     return Q, iters, used, ok

@@ -5,7 +5,7 @@ iterations on random targets and makes restarts rarer (measured on the Panda: 36
 iterations per solve with 256 entries). Larger tables start closer still, so the table is
 large and clustered: its entries are grouped by k-means on their pose features, and a
 query scans the cluster centres, then the members of the nearest cluster only (see
-:func:`optik.solvers._lm_kernel.table_candidates`). The table is drawn and clustered
+:func:`optik.solvers._starts.table_candidates`). The table is drawn and clustered
 with fixed seeds, so results stay deterministic.
 """
 
@@ -18,7 +18,7 @@ import numpy as np
 
 from optik._checks import FloatArray
 from optik.model import Robot
-from optik.solvers._lm_kernel import ROTATION_WEIGHT, table_candidates
+from optik.solvers._starts import ROTATION_WEIGHT, StartSequence, table_order
 
 TABLE_SIZE = 8192
 """Entries per robot. Measured on 20,000 random Panda poses (the quick stall rule of
@@ -118,11 +118,23 @@ def build_seed_table(
 def nearest_seeds(robot: Robot, target: FloatArray, mode: str, count: int) -> FloatArray:
     """Up to ``count`` table configurations near ``target``, nearest first.
 
-    The entries of the cluster whose centre is nearest (the starts the compiled solver
-    takes first), ranked by their own distance.
+    The entries of the cluster whose centre is nearest (the starts the solvers take first
+    after the given ones: :mod:`optik.solvers._starts`), ranked by their own distance.
     """
     table = seed_table(robot)
-    index, d = table_candidates(
+    order = table_order(
         table.features, table.centroids, table.offsets, np.asarray(target, float), mode == "pose"
     )
-    return table.q[index[np.argsort(d, kind="stable")[:count]]]
+    return table.q[order[:count]]
+
+
+def start_sequence(
+    robot: Robot, target: FloatArray, mode: str, given: FloatArray | list[FloatArray], seed: int
+) -> StartSequence:
+    """The starts of one query (:mod:`optik.solvers._starts`): ``given``, table, draws."""
+    table = seed_table(robot)
+    order = table_order(
+        table.features, table.centroids, table.offsets, np.asarray(target, float), mode == "pose"
+    )
+    G = np.asarray(given, dtype=np.float64).reshape(-1, robot.dof)
+    return StartSequence(G, order, table.q, robot.lower, robot.upper, seed)

@@ -6,14 +6,15 @@ All three respect the joint limits by projection: after each step, ``q`` is clam
 
 from __future__ import annotations
 
+import math
 from abc import abstractmethod
 
 import numpy as np
 
 from optik._checks import FloatArray
-from optik.solvers._base import IKQuery, IKSolver, SolverOutput, now, register
-from optik.solvers._lm_kernel import chain_args, lm_solve, lm_solve_restarts
-from optik.solvers._seeds import seed_table
+from optik.solvers._base import IKQuery, IKSolver, RunOutput, SolverOutput, now, register
+from optik.solvers._lm_kernel import lm_solve, lm_solve_restarts
+from optik.solvers._starts import StartSequence
 
 
 def _errors(query: IKQuery, e: FloatArray) -> tuple[float, float]:
@@ -109,7 +110,7 @@ class DLSSolver(IKSolver):
         """Run the compiled projected LM from ``q0``."""
         robot = query.robot
         q, it, ok, _, _ = lm_solve(
-            *chain_args(robot),
+            *robot.chain.kernel_args(),
             query.target,
             query.mode == "pose",
             np.ascontiguousarray(q0, dtype=float),
@@ -119,29 +120,57 @@ class DLSSolver(IKSolver):
         )
         return SolverOutput(q, int(it), bool(ok), "converged" if ok else "stalled or max_iter")
 
-    def solve_restarts(
-        self, query: IKQuery, q0: FloatArray | None, max_iter: int, restarts: int, seed: int
-    ) -> tuple[SolverOutput, int]:
-        """Attempts from ``q0``, the seed table's nearest entries, then uniform draws.
+    def run(
+        self,
+        query: IKQuery,
+        starts: StartSequence,
+        max_iter: int,
+        last: int,
+        deadline: float,
+    ) -> RunOutput:
+        """:meth:`IKSolver.run` in the compiled kernel, in slices of attempts.
 
-        All attempts run inside the compiled kernel. Returns the output of the first
-        converged (else the best) attempt and the number of restarts used.
+        The attempts run inside :func:`optik.solvers._lm_kernel.lm_solve_restarts`, a slice
+        at a time: between slices Python checks the deadline and lets a ``KeyboardInterrupt``
+        through. Start ``k`` does not depend on the slicing, so the answer is the same with
+        and without a deadline (until the deadline cuts the run short). With a deadline the
+        slices start at one attempt and double up to :data:`TIMED_SLICE`; without one they
+        hold :data:`UNTIMED_SLICE` attempts.
         """
         robot = query.robot
-        table = seed_table(robot)
-        start = robot.mid_limits if q0 is None else q0
-        q, it, used, ok, _, _ = lm_solve_restarts(
-            *chain_args(robot),
-            query.target,
-            query.mode == "pose",
-            np.ascontiguousarray(start, dtype=float),
-            q0 is not None,
-            *table,
-            float(query.tol),
-            int(max_iter),
-            self.w_bias,
-            int(restarts),
-            int(seed),
-        )
-        message = "converged" if ok else "stalled or max_iter"
-        return SolverOutput(q, int(it), bool(ok), message), int(used)
+        K, prismatic, C, identity, lower, upper = robot.chain.kernel_args()
+        timed = math.isfinite(deadline)
+        size = 1 if timed else UNTIMED_SLICE
+        first = 0
+        total = 0
+        best_q: FloatArray | None = None
+        best_error = math.inf
+        while True:
+            hi = min(first + size - 1, last)
+            q, it, ran, ok, pos, rot = lm_solve_restarts(
+                K, prismatic, C, identity, lower, upper, query.target, query.mode == "pose",
+                starts.given, starts.order, starts.table_q, float(query.tol), int(max_iter),
+                self.w_bias, first, hi, starts.seed,
+            )  # fmt: skip
+            total += int(it)
+            if ok:
+                return RunOutput(q, total, first + int(ran) - 1, True, "converged", "max_iter")
+            if best_q is None or pos + rot < best_error:
+                best_q, best_error = q, pos + rot
+            first = hi + 1
+            if first > last:
+                return RunOutput(best_q, total, last, False, "stalled or max_iter", "max_iter")
+            if now() > deadline:
+                message = "stalled or max_iter"
+                return RunOutput(best_q, total, first - 1, False, message, "timeout")
+            if timed:
+                size = min(2 * size, TIMED_SLICE)
+
+
+UNTIMED_SLICE = 256
+"""Attempts per compiled call without a deadline: a call returns to Python (and so to
+Ctrl-C) at least every 256 attempts, a few milliseconds."""
+
+TIMED_SLICE = 16
+"""Largest slice with a deadline: the deadline is checked at least every 16 attempts
+(under a millisecond on a 7-dof arm)."""

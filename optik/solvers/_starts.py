@@ -1,0 +1,216 @@
+"""The one start policy of numeric IK: the sequence of starting configurations.
+
+Every numeric solver, compiled or not, with or without a deadline, in a single query or a
+batch, takes its starts from :func:`start_into`:
+
+1. the *given* starts, in order: the closed-form branches inside the limits, nearest
+   ``q0`` first (when the robot has a closed form), else ``q0`` when the caller gave one;
+2. then the entries of the robot's seed table (:mod:`optik.solvers._seeds`) in the
+   cluster whose centre is nearest the target, nearest first (:func:`table_order`): the
+   first :data:`TABLE_FIRST` starts after the given ones, then every other start;
+3. between those, and once the cluster is used up, uniform draws inside the limits
+   (``[-pi, pi]`` for a continuous joint).
+
+Start ``k`` is a pure function of ``k``, the given starts, the table order and ``seed``:
+the draws come from a counter-based generator (SplitMix64 of ``seed``, ``k`` and the
+joint index), not from a stream, so a caller may run attempts ``0..k`` in one compiled
+call or in slices (between which it checks a deadline, or lets Ctrl-C through) and get
+the same starts, and a batch's answers do not depend on how it is split into threads.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+import numpy as np
+
+from optik._checks import FloatArray
+from optik._nrt import borrowed
+
+_jit = nb.njit(cache=True, nogil=True, error_model="numpy")
+
+TABLE_FIRST = 4
+"""Starts taken from the seed table, nearest first, before draws alternate with them."""
+
+ROTATION_WEIGHT = 0.05
+"""Weight (m^2) of the squared Frobenius rotation distance when ranking table poses:
+``||R_i - R*||_F^2 = 4 (1 - cos a)``, so 0.3 m counts like about 1 rad."""
+
+SQRT_ROTATION_WEIGHT = math.sqrt(ROTATION_WEIGHT)
+
+_GOLDEN = np.uint64(0x9E3779B97F4A7C15)
+_MIX1 = np.uint64(0xBF58476D1CE4E5B9)
+_MIX2 = np.uint64(0x94D049BB133111EB)
+_UNIT = 1.0 / 9007199254740992.0  # 2^-53
+
+
+@_jit
+def _splitmix(x: np.uint64) -> np.uint64:
+    """SplitMix64's output function: a bijective 64-bit mix (Steele et al. 2014)."""
+    x = (x ^ (x >> np.uint64(30))) * _MIX1
+    x = (x ^ (x >> np.uint64(27))) * _MIX2
+    return x ^ (x >> np.uint64(31))
+
+
+@_jit
+def uniform_draw(seed: int, k: int, i: int) -> float:
+    """A uniform number in [0, 1) for start ``k``, joint ``i`` of the stream ``seed``."""
+    h = _splitmix(np.uint64(seed) * _GOLDEN + np.uint64(k))
+    h = _splitmix(h + np.uint64(i + 1) * _GOLDEN)
+    return float(h >> np.uint64(11)) * _UNIT
+
+
+@_jit
+def start_into(
+    k: int,
+    given: np.ndarray,
+    order: np.ndarray,
+    table_q: np.ndarray,
+    lower: np.ndarray,
+    upper: np.ndarray,
+    seed: int,
+    out: np.ndarray,
+) -> int:
+    """Write start ``k`` into ``out`` (dof,); return its source: 0 given, 1 table, 2 draw.
+
+    Args:
+        k: the start's index (0 is the first attempt).
+        given: (G, dof) starts taken first, in order (may be empty).
+        order: (M,) indices into ``table_q``, nearest the target first.
+        table_q: (T, dof) seed-table configurations.
+        lower: (dof,) lower limits; ``-inf`` draws from ``-pi``.
+        upper: (dof,) upper limits; ``+inf`` draws up to ``pi``.
+        seed: the stream of the uniform draws.
+        out: (dof,) the start.
+    """
+    n_given = given.shape[0]
+    if k < n_given:
+        out[:] = given[k]
+        return 0
+    j = k - n_given
+    entry = -1
+    if j < TABLE_FIRST:
+        entry = j
+    elif (j - TABLE_FIRST) % 2 == 0:
+        entry = TABLE_FIRST + (j - TABLE_FIRST) // 2
+    if 0 <= entry < order.shape[0]:
+        out[:] = table_q[order[entry]]
+        return 1
+    for i in range(lower.shape[0]):
+        lo = lower[i] if np.isfinite(lower[i]) else -np.pi
+        hi = upper[i] if np.isfinite(upper[i]) else np.pi
+        out[i] = lo + (hi - lo) * uniform_draw(seed, k, i)
+    return 2
+
+
+@_jit
+def _pop_nearest(distances: np.ndarray) -> int:
+    """Index of the smallest remaining distance, then marked as used (-1 when none left)."""
+    best = -1
+    value = np.inf
+    for i in range(distances.shape[0]):
+        if distances[i] < value:
+            value = distances[i]
+            best = i
+    if best >= 0:
+        distances[best] = np.inf
+    return best
+
+
+@_jit
+def table_candidates(
+    features: np.ndarray, centroids: np.ndarray, offsets: np.ndarray, target: np.ndarray, pose: bool
+) -> tuple[np.ndarray, np.ndarray]:
+    """The seed-table entries of the cluster nearest ``target``, with their distances.
+
+    ``features`` (12, M) and ``centroids`` (12, C) are pose features (position, then
+    ``sqrt(ROTATION_WEIGHT) R`` row by row: :func:`optik.solvers._seeds.pose_features`),
+    so squared distances are ``||p_i - p*||^2 + w ||R_i - R*||_F^2``; position mode
+    compares the first three only. Returns ``(indices (k,), squared distances (k,))``;
+    both are empty when no distance is finite (a target whose coordinates overflow).
+    Loops run over contiguous rows of one feature, which vectorise.
+    """
+    features = borrowed(features)
+    centroids = borrowed(centroids)
+    width = 12 if pose else 3
+    f = np.empty(12)
+    for j in range(12):
+        f[j] = target[j, 3] if j < 3 else SQRT_ROTATION_WEIGHT * target[(j - 3) // 3, (j - 3) % 3]
+    to_centre = np.zeros(centroids.shape[1])
+    for j in range(width):
+        row = centroids[j]
+        for c in range(row.shape[0]):
+            x = row[c] - f[j]
+            to_centre[c] += x * x
+    nearest = _pop_nearest(to_centre)
+    if nearest < 0:
+        return np.empty(0, dtype=np.int64), np.empty(0)
+    lo = offsets[nearest]
+    n = offsets[nearest + 1] - lo
+    index = np.empty(n, dtype=np.int64)
+    for t in range(n):
+        index[t] = lo + t
+    distances = np.zeros(n)
+    for j in range(width):
+        row = features[j, lo : lo + n]
+        for t in range(n):
+            x = row[t] - f[j]
+            distances[t] += x * x
+    return index, distances
+
+
+@_jit
+def table_order(
+    features: np.ndarray, centroids: np.ndarray, offsets: np.ndarray, target: np.ndarray, pose: bool
+) -> np.ndarray:
+    """Indices of the table entries nearest ``target`` (its nearest cluster), nearest first."""
+    index, distances = table_candidates(features, centroids, offsets, target, pose)
+    return index[np.argsort(distances, kind="mergesort")]
+
+
+class StartSequence:
+    """The starts of one query, as :func:`start_into` defines them (see the module).
+
+    Args:
+        given: the starts taken first, in order (closed-form branches, or ``q0``).
+        order: (M,) seed-table indices nearest the target first.
+        table_q: (T, dof) seed-table configurations.
+        lower: (dof,) lower limits.
+        upper: (dof,) upper limits.
+        seed: stream of the uniform draws.
+    """
+
+    def __init__(
+        self,
+        given: FloatArray,
+        order: np.ndarray,
+        table_q: FloatArray,
+        lower: FloatArray,
+        upper: FloatArray,
+        seed: int,
+    ) -> None:
+        dof = lower.shape[0]
+        self.given = np.ascontiguousarray(np.asarray(given, dtype=np.float64).reshape(-1, dof))
+        self.order = order
+        self.table_q = table_q
+        self.lower = lower
+        self.upper = upper
+        self.seed = seed
+
+    def start(self, k: int) -> FloatArray:
+        """Start ``k`` (dof,), a new array."""
+        out = np.empty(self.lower.shape[0])
+        start_into(k, self.given, self.order, self.table_q, self.lower, self.upper, self.seed, out)
+        return out
+
+
+__all__ = [
+    "ROTATION_WEIGHT",
+    "TABLE_FIRST",
+    "StartSequence",
+    "start_into",
+    "table_candidates",
+    "table_order",
+    "uniform_draw",
+]

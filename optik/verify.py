@@ -1,0 +1,71 @@
+"""One verification of IK answers, from forward kinematics and the limits.
+
+Every result optik reports (:func:`optik.solve_ik`, :func:`optik.solve_ik_batch`, the
+closed forms' callers, the comparison runs, planning and the benchmarks) is judged here,
+never by a backend's own claim: the position error ``||p(q) - p*||`` (m), the
+orientation error ``angle(R*^T R(q))`` (rad; 0 in position mode) and the limit violation
+(rad or m), all computed by :func:`optik._kernels.pose_errors_into` from the robot's chain.
+Success means both errors at most ``tol`` and the violation at most
+:data:`optik.limits.LIMIT_TOLERANCE`.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from optik._checks import FloatArray
+from optik._kernels import pose_errors_into
+from optik.limits import LIMIT_TOLERANCE
+from optik.model import Robot
+
+
+class Verdict(NamedTuple):
+    """Errors of a batch of answers, each (N,), and the verified success mask."""
+
+    position_error: FloatArray
+    orientation_error: FloatArray
+    limit_violation: FloatArray
+    success: np.ndarray
+
+
+def pose_errors(robot: Robot, Q: FloatArray, targets: FloatArray, mode: str) -> FloatArray:
+    """(N, 3) position error (m), orientation error (rad) and limit violation of ``Q``.
+
+    Args:
+        robot: the robot.
+        Q: (N, dof) or (dof,) configurations (rad, m); a row with NaN or inf gets inf.
+        targets: (N, 4, 4) or one (4, 4) world pose of the tool for every row.
+        mode: ``"pose"``, or ``"position"`` (orientation error 0).
+    """
+    Q2 = np.ascontiguousarray(np.asarray(Q, dtype=np.float64).reshape(-1, robot.dof))
+    T = np.ascontiguousarray(np.asarray(targets, dtype=np.float64).reshape(-1, 4, 4))
+    out = np.empty((Q2.shape[0], 3))
+    chain = robot.chain
+    pose_errors_into(
+        chain.K, chain.prismatic, chain.C, chain.identity, chain.lower, chain.upper,
+        Q2, T, mode == "pose", out,
+    )  # fmt: skip
+    return out
+
+
+def verify(robot: Robot, Q: FloatArray, targets: FloatArray, mode: str, tol: float) -> Verdict:
+    """:func:`pose_errors` and the success mask (both errors <= ``tol``, inside the limits)."""
+    errors = pose_errors(robot, Q, targets, mode)
+    position, orientation, violation = errors[:, 0], errors[:, 1], errors[:, 2]
+    success = (position <= tol) & (orientation <= tol) & (violation <= LIMIT_TOLERANCE)
+    return Verdict(position, orientation, violation, success)
+
+
+def verify_one(
+    robot: Robot, q: FloatArray, target: FloatArray, mode: str, tol: float
+) -> tuple[float, float, float, bool]:
+    """:func:`verify` of one configuration: ``(position, orientation, violation, success)``."""
+    errors = pose_errors(robot, q, target, mode)[0]
+    position, orientation, violation = float(errors[0]), float(errors[1]), float(errors[2])
+    success = position <= tol and orientation <= tol and violation <= LIMIT_TOLERANCE
+    return position, orientation, violation, success
+
+
+__all__ = ["Verdict", "pose_errors", "verify", "verify_one"]
