@@ -515,26 +515,14 @@ def _ik_row(
 
 # ---------------------------------------------------------------------------- closed form
 def step_backends() -> tuple[str, ...]:
-    """Backends that solve a step program here: ``qp:<name>`` then ``casadi:<plugin>``.
+    """Backends that solve a step program here: the registry's ``"step"`` solvers.
 
-    Found by guarded imports of :mod:`optik.solvers.qp` (the ``qpsolvers`` backends that
-    import) and :mod:`optik.programs.casadi_qp` (the conic plugins that pass its probe);
-    a missing module contributes nothing, so the section is empty rather than broken.
+    ``qp:<name>`` (the ``qpsolvers`` backends that import) and ``casadi:<plugin>`` (the
+    conic plugins that pass their probe), from :func:`optik.solvers.available_solvers`.
     """
-    names: list[str] = []
-    try:
-        from optik.solvers.qp import installed_backends
-    except ImportError:
-        pass
-    else:
-        names += [f"qp:{b}" for b in installed_backends()]
-    try:
-        from optik.programs.casadi_qp import casadi_conic_plugins
-    except ImportError:
-        pass
-    else:
-        names += [f"casadi:{p}" for p in casadi_conic_plugins()]
-    return tuple(names)
+    from optik.solvers import available_solvers
+
+    return tuple(available_solvers(kind="step"))
 
 
 @dataclass(frozen=True)
@@ -701,7 +689,7 @@ def _room(dq: FloatArray, lower: FloatArray, upper: FloatArray) -> float:
 
 
 def solve_step(program: Any, backend: str) -> Any:
-    """Solve a step program with ``qp:<name>`` or ``casadi:<plugin>``, unchecked.
+    """Solve a step program with a registered ``"step"`` backend, unchecked.
 
     Args:
         program: a :class:`optik.programs.diff_qp.DiffIKProgram`.
@@ -712,18 +700,11 @@ def solve_step(program: Any, backend: str) -> Any:
         ``status``, ``iterations``).
 
     Raises:
-        OptikError: a name without the ``qp:`` or ``casadi:`` prefix.
+        UnknownSolverError: not a registered step backend here.
     """
-    family, _, name = backend.partition(":")
-    if family == "qp":
-        from optik.solvers.qp import solve_program
+    from optik.solvers import get_solver
 
-        return solve_program(program, name)
-    if family == "casadi":
-        from optik.programs.casadi_qp import solve_conic
-
-        return solve_conic(program, name)
-    raise OptikError(f"not a step-program backend: {backend!r} (expected qp:* or casadi:*)")
+    return get_solver(backend, kind="step").solve(program)
 
 
 def _closed_form_row(

@@ -12,6 +12,7 @@ program raises :class:`~optik.errors.SolverError` instead.
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Sequence
 from typing import Any, Final
 
@@ -26,9 +27,8 @@ from optik.errors import (
     UnknownSolverError,
 )
 from optik.model import Robot
-from optik.programs.casadi_qp import casadi_conic_plugins, solve_conic
 from optik.programs.diff_qp import DiffIKProgram, Objective, QPSolution, build_program
-from optik.solvers.qp import installed_backends, qpsolvers_backends, solve_program
+from optik.solvers import StepBackend, available_solvers, get_solver, registered_solvers
 
 __all__ = [
     "FEASIBILITY_ATOL",
@@ -48,33 +48,27 @@ KKT_RTOL: Final[float] = 1e-6
 
 
 def diff_ik_solvers() -> list[str]:
-    """Solver names :func:`diff_ik` accepts here: ``qp:<backend>`` and ``casadi:<plugin>``."""
-    return [f"qp:{b}" for b in installed_backends()] + [
-        f"casadi:{p}" for p in casadi_conic_plugins()
-    ]
+    """Solver names :func:`diff_ik` accepts here: ``available_solvers(kind="step")``."""
+    return available_solvers(kind="step")
 
 
-def _resolve(solver: str) -> tuple[str, str]:
-    """``("qp", backend)`` or ``("casadi", plugin)`` for a solver name, or raise."""
+def _resolve(solver: Any) -> StepBackend:
+    """The step backend registered as ``solver`` (a bare ``qpsolvers`` name is deprecated)."""
+    if (
+        isinstance(solver, str)
+        and ":" not in solver
+        and f"qp:{solver}" in registered_solvers(kind="step")
+    ):
+        warnings.warn(
+            f"diff_ik(solver={solver!r}) is deprecated: write solver='qp:{solver}'",
+            DeprecationWarning,
+            stacklevel=3,
+        )
+        solver = f"qp:{solver}"
     if not isinstance(solver, str):
         raise UnknownSolverError(repr(solver), diff_ik_solvers())
-    if solver.startswith("casadi:"):
-        plugin = solver.split(":", 1)[1]
-        if plugin in casadi_conic_plugins():
-            return "casadi", plugin
-        raise UnknownSolverError(
-            solver, diff_ik_solvers(), "diff_ik takes a CasADi conic (QP) plugin here."
-        )
-    backend = solver.split(":", 1)[1] if solver.startswith("qp:") else solver
-    if backend in installed_backends():
-        return "qp", backend
-    if backend in qpsolvers_backends():
-        raise UnknownSolverError(
-            solver,
-            diff_ik_solvers(),
-            f"Its backend is not installed: `pip install qpsolvers[{backend}]`.",
-        )
-    raise UnknownSolverError(solver, diff_ik_solvers())
+    backend: StepBackend = get_solver(solver, kind="step")
+    return backend
 
 
 def _tolerance(program: DiffIKProgram) -> float:
@@ -187,8 +181,10 @@ def diff_ik(
             velocity (rad/s).
         dt: time step (s), > 0.
         objective: ``"least_norm"`` or ``"least_squares"``.
-        solver: a ``qpsolvers`` backend (``"qp:<name>"`` or ``"<name>"``) or a CasADi conic
-            plugin (``"casadi:<plugin>"``); see :func:`diff_ik_solvers`.
+        solver: a step backend of the registry, ``available_solvers(kind="step")``: a
+            ``qpsolvers`` backend ``"qp:<name>"`` or a CasADi conic plugin
+            ``"casadi:<plugin>"``. A bare ``"<name>"`` still means ``"qp:<name>"`` but is
+            deprecated (``DeprecationWarning``).
         limits: bound ``q + dq`` by the joint limits.
         velocity_limits: joint speed limits (dof,), rad/s or m/s, ``inf`` for none.
         damping: ``lambda >= 0`` for least squares (``None``: the default); must be
@@ -211,7 +207,7 @@ def diff_ik(
         OptikError: ``dt <= 0``, ``limit_gain`` outside (0, 1], a bad ``damping`` or
             ``objective``.
     """
-    family, name = _resolve(solver)
+    backend = _resolve(solver)
     try:
         step = float(dt)
     except (TypeError, ValueError) as exc:
@@ -233,10 +229,10 @@ def diff_ik(
         velocity_limits=velocity_limits,
         rows=rows,
     )
-    label = f"{family}:{name}"
+    label = backend.name
     if not program.bounds_consistent:
         raise _inconsistent(program)
-    solution = solve_program(program, name) if family == "qp" else solve_conic(program, name)
+    solution = backend.solve(program)
     dq, reason = verify_step(program, solution)
     if dq is not None:
         return dq

@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterator
+from typing import Any
+
 import numpy as np
 import pytest
 from conftest import SEED, assert_close, robot_of
 
-import optik.diffik as diffik_module
+import optik
 from optik.diffik import diff_ik, diff_ik_solvers, verify_step
 from optik.errors import (
     NonFiniteError,
@@ -17,14 +20,15 @@ from optik.errors import (
     UnknownSolverError,
 )
 from optik.linalg import least_squares, min_norm
-from optik.programs.casadi_qp import casadi_conic_plugins
 from optik.programs.diff_qp import DEFAULT_DAMPING, DiffIKProgram, QPSolution, build_program
+from optik.solvers import StepBackend, register_solver, registered_solvers, unregister_solver
+from optik.solvers.casadi_conic import casadi_conic_plugins
 from optik.solvers.qp import installed_backends, qpsolvers_backends
 
 Q_PUMA = np.array([0.1, 0.5, -1.0, 0.3, 0.6, 0.2])
 TWIST = np.array([0.1, -0.05, 0.08, 0.2, -0.1, 0.3])  # m/s then rad/s
 DT = 0.01
-SOLVERS = ["qp:proxqp", "osqp", "qp:daqp", "casadi:qrqp", "casadi:osqp"]
+SOLVERS = ["qp:proxqp", "qp:osqp", "qp:daqp", "casadi:qrqp", "casadi:osqp"]
 
 
 def near_limit_push(name: str = "puma560") -> tuple:
@@ -144,30 +148,70 @@ def test_inconsistent_bounds_raise_no_solution() -> None:
 
 
 # ---------------------------------------------------------------------- verification
-def test_a_backend_answer_is_checked_not_trusted(monkeypatch: pytest.MonkeyPatch) -> None:
+class _FakeStep(StepBackend):
+    """A step backend that answers with a fixed rule (registered for one test only)."""
+
+    def __init__(self, name: str, rule: Callable[[DiffIKProgram], QPSolution]) -> None:
+        self.name = name
+        self.rule = rule
+
+    def solve(self, program: DiffIKProgram, initvals: np.ndarray | None = None) -> QPSolution:
+        return self.rule(program)
+
+
+@pytest.fixture
+def fake_step() -> Iterator[Callable[[Callable[[DiffIKProgram], QPSolution]], str]]:
+    name = "test:fake-step"
+
+    def install(rule: Callable[[DiffIKProgram], QPSolution]) -> str:
+        register_solver(name, lambda: _FakeStep(name, rule), lambda: True, kind="step")
+        return name
+
+    yield install
+    unregister_solver(name, kind="step")
+    assert name not in registered_solvers(kind="step")
+
+
+def test_a_backend_answer_is_checked_not_trusted(fake_step: Any) -> None:
     """A backend claiming success at a wrong point gives SolverError, not a wrong step."""
     robot = robot_of("panda")
     q = robot.mid_limits + 0.2
 
-    def liar(program: DiffIKProgram, backend: str) -> QPSolution:
+    def liar(program: DiffIKProgram) -> QPSolution:
         x = np.linalg.pinv(program.J) @ program.v
         null = np.linalg.svd(program.J)[2][-1]
-        return QPSolution(x + 1e-3 * null, True, "solved", f"qp:{backend}")  # feasible, not min
+        return QPSolution(x + 1e-3 * null, True, "solved", "test")  # feasible, not minimal
 
-    monkeypatch.setattr(diffik_module, "solve_program", liar)
+    name = fake_step(liar)
     with pytest.raises(SolverError) as info:
-        diff_ik(robot, q, TWIST, dt=DT)
+        diff_ik(robot, q, TWIST, dt=DT, solver=name)
     assert "not optimal" in str(info.value)
-    assert info.value.solver == "qp:proxqp"
+    assert info.value.solver == name
 
 
-def test_a_failed_backend_on_a_feasible_program(monkeypatch: pytest.MonkeyPatch) -> None:
-    def broken(program: DiffIKProgram, backend: str) -> QPSolution:
-        return QPSolution(None, False, "ValueError: boom", f"qp:{backend}")
+def test_a_failed_backend_on_a_feasible_program(fake_step: Any) -> None:
+    def broken(program: DiffIKProgram) -> QPSolution:
+        return QPSolution(None, False, "ValueError: boom", "test")
 
-    monkeypatch.setattr(diffik_module, "solve_program", broken)
+    name = fake_step(broken)
     with pytest.raises(SolverError, match="boom"):
-        diff_ik(robot_of("puma560"), Q_PUMA, TWIST, dt=DT)
+        diff_ik(robot_of("puma560"), Q_PUMA, TWIST, dt=DT, solver=name)
+
+
+def test_bare_backend_name_is_deprecated() -> None:
+    robot = robot_of("puma560")
+    with pytest.warns(DeprecationWarning, match="qp:osqp"):
+        dq = diff_ik(robot, Q_PUMA, TWIST, dt=DT, solver="osqp")
+    assert_close(dq, diff_ik(robot, Q_PUMA, TWIST, dt=DT, solver="qp:osqp"), atol=1e-9)
+
+
+def test_step_solvers_come_from_the_registry() -> None:
+    names = diff_ik_solvers()
+    assert names == optik.available_solvers(kind="step")
+    assert "qp:proxqp" in names and "casadi:qrqp" in names
+    assert "dls" not in names and "casadi:ipopt" not in names  # whole-IK solvers only
+    with pytest.raises(UnknownSolverError, match="whole-IK solver"):
+        diff_ik(robot_of("puma560"), Q_PUMA, TWIST, dt=DT, solver="dls")
 
 
 def test_verify_step_accepts_an_unclaimed_but_correct_point() -> None:
@@ -245,4 +289,5 @@ def test_every_installed_backend_by_both_names(solver: str) -> None:
     expected = min_norm(robot.jacobian(q), TWIST * DT)
     assert_close(diff_ik(robot, q, TWIST, dt=DT, solver=solver), expected, atol=1e-9)
     plain = solver.split(":", 1)[1]
-    assert_close(diff_ik(robot, q, TWIST, dt=DT, solver=plain), expected, atol=1e-9)
+    with pytest.warns(DeprecationWarning):
+        assert_close(diff_ik(robot, q, TWIST, dt=DT, solver=plain), expected, atol=1e-9)

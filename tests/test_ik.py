@@ -17,7 +17,7 @@ from optik.errors import (
     UnknownSolverError,
 )
 from optik.problems import load_problem
-from optik.solvers import IKSolver, register_solver
+from optik.solvers import IKSolver, register_solver, unregister_solver
 from optik.spatial import pose_error
 
 SIX_AND_SEVEN_DOF = ["puma560", "ur5", "panda", "stanford_arm", "jumbo_drill_6dof"]
@@ -117,10 +117,14 @@ class _Exploding(IKSolver):
 
 def test_backend_exception_becomes_solver_failed() -> None:
     register_solver("test:exploding", _Exploding, lambda: True)
-    panda = load_problem("panda").robot
-    result = optik.solve_ik(panda, panda.fk(panda.mid_limits + 0.1), solver="test:exploding")
-    assert result.status == "solver_failed" and not result.success
-    assert "backend crashed" in result.message
+    try:
+        panda = load_problem("panda").robot
+        result = optik.solve_ik(panda, panda.fk(panda.mid_limits + 0.1), solver="test:exploding")
+        assert result.status == "solver_failed" and not result.success
+        assert "backend crashed" in result.message
+    finally:
+        unregister_solver("test:exploding")
+    assert "test:exploding" not in optik.solvers.registered_solvers()
 
 
 def test_deterministic_for_a_seed(rng: np.random.Generator) -> None:

@@ -1,226 +1,28 @@
-"""The differential-IK step programs as CasADi conic (QP) problems.
+"""The differential-IK step programs as CasADi conic (QP) problems: data, not solved here.
 
-The same least-norm and least-squares programs as :mod:`optik.programs.diff_qp`, handed
-to ``casadi.conic``, whose standard form is::
+The same least-norm and least-squares programs as :mod:`optik.programs.diff_qp`, in the
+standard form of ``casadi.conic``::
 
     min  1/2 x^T H x + g^T x   s.t.   lba <= A x <= uba,   lbx <= x <= ubx
 
 Least norm: ``H = W``, ``g = 0``, ``A = J``, ``lba = uba = v``. Least squares:
 ``H = J^T Wt J + lambda^2 W``, ``g = -J^T Wt v`` and no rows in ``A``. Both are passed
 equilibrated (:meth:`~optik.programs.diff_qp.DiffIKProgram.equilibrated`), so the
-plugins' absolute tolerances act relative to the task size.
-
-A conic solver depends only on the plugin and the (dense) sparsity of ``H`` and ``A``, so
-it is built once per ``(plugin, dof, rows of A)`` and reused for every step.
-:func:`casadi_conic_plugins` lists the plugins of this CasADi build that solve a probe QP
-correctly; :data:`CONIC_OPTIONS` holds the quiet, tight options used for each.
+plugins' absolute tolerances act relative to the task size. The ``casadi:<plugin>`` step
+backends (:mod:`optik.solvers.casadi_conic`) solve them.
 """
 
 from __future__ import annotations
 
-import contextlib
-import functools
-import os
-import sys
-import threading
-from collections.abc import Iterator
 from dataclasses import dataclass
-from typing import Any, Final
 
-import casadi
 import numpy as np
 
 from optik._checks import FloatArray
-from optik.errors import UnknownSolverError
-from optik.programs.diff_qp import DiffIKProgram, QPSolution
+from optik.errors import OptikError
+from optik.programs.diff_qp import DiffIKProgram
 
-__all__ = [
-    "CANDIDATE_PLUGINS",
-    "CONIC_OPTIONS",
-    "EXCLUDED_PLUGINS",
-    "ConicProgram",
-    "build_conic",
-    "casadi_conic_plugins",
-    "solve_conic",
-]
-
-#: Options of each conic plugin: no output, tolerances as tight as the plugin reaches
-#: reliably (measured accuracies in ``docs/programs.md``). ``error_on_fail`` is off
-#: everywhere: a failure is read from ``stats()`` and reported, never raised.
-CONIC_OPTIONS: Final[dict[str, dict[str, Any]]] = {
-    # CasADi's own active-set QP solver (dense QR of the KKT system).
-    "qrqp": {
-        "print_iter": False,
-        "print_header": False,
-        "print_info": False,
-        "constr_viol_tol": 1e-12,
-        "dual_inf_tol": 1e-12,
-    },
-    # CasADi's own interior-point QP solver.
-    "ipqp": {
-        "print_iter": False,
-        "print_header": False,
-        "print_info": False,
-        "constr_viol_tol": 1e-12,
-        "dual_inf_tol": 1e-12,
-    },
-    # OSQP 1.0 inside CasADi, set as the qpsolvers backend (see optik.solvers.qp): 1e-10,
-    # no Ruiz scaling (programs come equilibrated), no polishing (it prints to stdout).
-    "osqp": {
-        "osqp": {
-            "verbose": False,
-            "eps_abs": 1e-10,
-            "eps_rel": 0.0,
-            "eps_prim_inf": 1e-10,
-            "eps_dual_inf": 1e-10,
-            "scaling": 0,
-            "polishing": False,
-            "max_iter": 100_000,
-        }
-    },
-    "proxqp": {"proxqp": {"eps_abs": 1e-12, "eps_rel": 0.0, "verbose": False, "max_iter": 10_000}},
-    "qpoases": {"printLevel": "none", "terminationTolerance": 1e-12},
-    "daqp": {"daqp": {"primal_tol": 1e-12, "dual_tol": 1e-12}},
-    # Interior point: the duality-gap test must be on and tight too, else it stops 1e-9
-    # from the closed forms (measured); bounds are approached to within ~4e-9.
-    "piqp": {
-        "piqp": {
-            "verbose": False,
-            "eps_abs": 1e-12,
-            "eps_rel": 0.0,
-            "check_duality_gap": True,
-            "eps_duality_gap_abs": 1e-12,
-            "eps_duality_gap_rel": 0.0,
-        }
-    },
-    "superscs": {"superscs": {"verbose": 0, "eps": 1e-10, "max_iters": 100_000}},
-}
-
-#: Plugins probed by :func:`casadi_conic_plugins`: the open-source QP plugins that ship
-#: with the CasADi wheel. ``fatrop`` and ``hpipm`` are left out (they expect an
-#: optimal-control, stage-wise structure), and so are the commercial ones (``cplex``,
-#: ``gurobi``, ``mosek``, ``xpress``), whose loaders print warnings when absent; add a
-#: name here (and its options to :data:`CONIC_OPTIONS`) to probe it too.
-CANDIDATE_PLUGINS: Final[tuple[str, ...]] = (
-    "qrqp",
-    "ipqp",
-    "osqp",
-    "proxqp",
-    "qpoases",
-    "daqp",
-    "piqp",
-    "superscs",
-)
-
-#: Plugins that load but give wrong answers on these programs, with the reason; they are
-#: never listed. Measured with CasADi 3.8.2.
-EXCLUDED_PLUGINS: Final[dict[str, str]] = {
-    "highs": (
-        "HiGHS 1.13 reports 'Optimal' after 0 QP iterations on a QP without constraint rows "
-        "(every least-squares step) at points whose gradient is far from zero (relative "
-        "errors 1e-4 to 1 on Jacobian programs with condition numbers 5e2-1e6)"
-    ),
-}
-
-#: Plugins that print a banner when a solver is created, whatever their options; their
-#: construction and first call run with the process's stdout sent to /dev/null.
-_BANNER_PLUGINS: Final[frozenset[str]] = frozenset({"qpoases"})
-
-_lock = threading.Lock()
-_SOLVERS: dict[tuple[str, int, int], casadi.Function] = {}
-
-
-@contextlib.contextmanager
-def _silenced_stdout() -> Iterator[None]:
-    """Send file descriptor 1 to /dev/null (C libraries print there, not via ``sys``)."""
-    try:
-        sys.stdout.flush()
-        fd = sys.stdout.fileno()
-    except (AttributeError, OSError, ValueError):
-        fd = 1
-    saved = os.dup(fd)
-    try:
-        with open(os.devnull, "w") as null:
-            os.dup2(null.fileno(), fd)
-            try:
-                yield
-            finally:
-                os.dup2(saved, fd)
-    finally:
-        os.close(saved)
-
-
-def _new_solver(plugin: str, n: int, m: int) -> casadi.Function:
-    """A conic solver for dense ``H`` (n, n) and ``A`` (m, n), quiet and tight."""
-    options = {"error_on_fail": False, **CONIC_OPTIONS.get(plugin, {})}
-    sparsity = {"h": casadi.Sparsity.dense(n, n), "a": casadi.Sparsity.dense(m, n)}
-    name = f"optik_{plugin}_{n}x{m}"
-    if plugin not in _BANNER_PLUGINS:
-        return casadi.conic(name, plugin, sparsity, options)
-    with _silenced_stdout():
-        solver = casadi.conic(name, plugin, sparsity, options)
-        solver(h=np.eye(n), g=np.zeros(n), a=np.zeros((m, n)), lba=0.0, uba=0.0)
-    return solver
-
-
-def _solver(plugin: str, n: int, m: int) -> casadi.Function:
-    """The cached conic solver for ``(plugin, n, m)``, built on first use."""
-    key = (plugin, n, m)
-    with _lock:
-        solver = _SOLVERS.get(key)
-        if solver is None:
-            solver = _new_solver(plugin, n, m)
-            _SOLVERS[key] = solver
-    return solver
-
-
-def _probe(plugin: str) -> bool:
-    """Whether ``plugin`` loads and solves both shapes of step program correctly.
-
-    1. ``min (x0 - 1)^2 + (x1 - 2)^2 + x2^2  s.t.  x0 + x1 + x2 = 1,  x1 <= 0.5`` (an
-       equality row, an active bound, infinite bounds elsewhere): ``(0.75, 0.5, -0.25)``.
-    2. a dense 7-variable QP without rows, ``H = M^T M + 1e-2 I`` (``M`` a fixed 6x7
-       matrix, condition number about 2e3), infinite bounds: ``x = -H^-1 g``.
-
-    Both must be met to 1e-6 (relative), whatever the plugin claims.
-    """
-    try:
-        if not casadi.has_conic(plugin):
-            return False
-        first = _solver(plugin, 3, 1)(
-            h=2.0 * np.eye(3),
-            g=np.array([-2.0, -4.0, 0.0]),
-            a=np.ones((1, 3)),
-            lba=1.0,
-            uba=1.0,
-            lbx=np.full(3, -np.inf),
-            ubx=np.array([np.inf, 0.5, np.inf]),
-        )
-        x1 = np.asarray(first["x"], dtype=np.float64).ravel()
-        if not np.max(np.abs(x1 - np.array([0.75, 0.5, -0.25]))) < 1e-6:
-            return False
-        M = np.cos(np.arange(42.0).reshape(6, 7) * 1.3 + 0.2)
-        H = M.T @ M + 1e-2 * np.eye(7)
-        g = -M.T @ np.linspace(-1.0, 1.0, 6)
-        second = _solver(plugin, 7, 0)(h=H, g=g, lbx=np.full(7, -np.inf), ubx=np.full(7, np.inf))
-        x2 = np.asarray(second["x"], dtype=np.float64).ravel()
-        expected = np.linalg.solve(H, -g)
-        return bool(np.max(np.abs(x2 - expected)) < 1e-6 * np.max(np.abs(expected)))
-    except Exception:  # a plugin that cannot load or run is not listed
-        return False
-
-
-@functools.cache
-def casadi_conic_plugins() -> tuple[str, ...]:
-    """Conic plugins of this CasADi build that load and solve a probe QP, in probe order.
-
-    Each of :data:`CANDIDATE_PLUGINS` is loaded and must solve two probe QPs (one with an
-    equality row and an active bound, one dense without rows) to 1e-6, whatever it
-    claims; the result is cached for the process. In CasADi 3.8.2 this excludes ``ipqp``
-    (NaN with infinite bounds) and ``superscs`` (a wrong point reported as success);
-    ``highs`` is not probed at all (see :data:`EXCLUDED_PLUGINS`).
-    """
-    return tuple(plugin for plugin in CANDIDATE_PLUGINS if _probe(plugin))
+__all__ = ["ConicProgram", "build_conic"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -230,50 +32,37 @@ class ConicProgram:
     Attributes:
         program: the step program it was built from.
         plugin: the conic plugin, e.g. ``"qrqp"``.
-        solver: the (cached, shared) ``casadi.conic`` function.
-        args: its inputs ``h, g, a, lba, uba, lbx, ubx`` (equilibrated, see the module).
+        args: the solver's inputs ``h, g, a, lba, uba, lbx, ubx`` (equilibrated, see the
+            module).
         scale: the step is ``x / scale``.
     """
 
     program: DiffIKProgram
     plugin: str
-    solver: casadi.Function
     args: dict[str, FloatArray]
     scale: float
 
-    def solve(self) -> QPSolution:
-        """Run the plugin; a failure comes back as ``found=False`` with its status."""
-        name = f"casadi:{self.plugin}"
-        if not self.program.bounds_consistent:
-            return QPSolution(None, False, "inconsistent bounds (lower > upper)", name)
-        try:
-            result = self.solver(**self.args)
-            stats = self.solver.stats()
-        except Exception as exc:  # keep the plugin's message
-            return QPSolution(None, False, f"{type(exc).__name__}: {exc}", name)
-        x = np.asarray(result["x"], dtype=np.float64).ravel() / self.scale
-        status = str(stats.get("return_status", "") or ("success" if stats.get("success") else ""))
-        iterations = int(stats.get("iter_count", -1) or -1)
-        return QPSolution(x, bool(stats.get("success", False)), status, name, iterations)
+    @property
+    def shape(self) -> tuple[int, int]:
+        """``(variables, rows of A)``: with the plugin, what a conic solver is built for."""
+        return self.program.dof, int(self.args["a"].shape[0])
 
 
 def build_conic(program: DiffIKProgram, plugin: str) -> ConicProgram:
     """The step program as a CasADi conic problem for ``plugin``.
 
+    Data only: the backend (``casadi:<plugin>`` step solvers,
+    :mod:`optik.solvers.casadi_conic`) builds the ``casadi.conic`` function and solves it.
+
     Args:
         program: the step program.
-        plugin: a conic plugin listed by :func:`casadi_conic_plugins`.
-
-    Raises:
-        UnknownSolverError: ``plugin`` is not a working conic plugin here; the message
-            lists the working ones as ``casadi:<plugin>``.
+        plugin: a conic plugin name (see
+            :func:`optik.solvers.casadi_conic.casadi_conic_plugins`).
     """
-    plugins = casadi_conic_plugins()
-    if plugin not in plugins:
-        raise UnknownSolverError(f"casadi:{plugin}", [f"casadi:{p}" for p in plugins])
+    if not isinstance(plugin, str) or not plugin:
+        raise OptikError(f"plugin must be a CasADi conic plugin name, got {plugin!r}")
     eq = program.equilibrated()
     n = program.dof
-    m = 0 if eq.A is None else eq.A.shape[0]
     inf = np.full(n, np.inf)
     args: dict[str, FloatArray] = {
         "h": eq.P,
@@ -284,9 +73,4 @@ def build_conic(program: DiffIKProgram, plugin: str) -> ConicProgram:
         "lbx": -inf if eq.lb is None else eq.lb,
         "ubx": inf if eq.ub is None else eq.ub,
     }
-    return ConicProgram(program, plugin, _solver(plugin, n, m), args, eq.scale)
-
-
-def solve_conic(program: DiffIKProgram, plugin: str) -> QPSolution:
-    """Build (or reuse) the conic solver for ``plugin`` and solve ``program``, unchecked."""
-    return build_conic(program, plugin).solve()
+    return ConicProgram(program, plugin, args, eq.scale)

@@ -1,9 +1,12 @@
 """The solver contract and the one registry of solver names.
 
 A backend family adds itself in one place: a subclass of :class:`IKSolver` decorated
-with :func:`register` (or :func:`register_many` for a family of names such as
-``qp:<backend>``). Names are looked up before any backend runs, so a bug inside a
-backend is never reported as "solver not found".
+with :func:`register`, or :func:`register_solver` calls for a family of names such as
+``qp:<backend>``, each saying what the name provides (:data:`SOLVER_KINDS`: a whole IK
+solver, or the backend of one differential-IK step). :func:`optik.solve_ik`,
+:func:`optik.diff_ik`, the comparison runs and the report all resolve names here. Names
+are looked up before any backend runs, so a bug inside a backend is never reported as
+"solver not found".
 """
 
 from __future__ import annotations
@@ -13,12 +16,14 @@ import time
 from abc import ABC, abstractmethod
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from optik._checks import FloatArray
-from optik.errors import SolverError, UnknownSolverError
+from optik.errors import OptikError, SolverError, UnknownSolverError
 from optik.model import Robot
+from optik.programs.diff_qp import DiffIKProgram, QPSolution
 from optik.solvers._starts import StartSequence
 from optik.spatial import log_so3
 from optik.verify import verify_one
@@ -172,62 +177,136 @@ class IKSolver(ABC):
         )
 
 
+SOLVER_KINDS = ("ik", "step")
+"""What a registered name provides: ``"ik"``, a whole IK solver (``solve_ik``'s
+``solver=``, an :class:`IKSolver`); ``"step"``, a backend that solves one differential-IK
+step program (``diff_ik``'s ``solver=``, a :class:`StepBackend`). One name may provide
+both: ``qp:osqp`` is an IK loop of QP steps and the backend of one step."""
+
+
+class StepBackend(ABC):
+    """A backend that solves differential-IK step programs (built, not solved, elsewhere).
+
+    Subclasses set ``name`` and implement :meth:`solve`, which never raises for a backend
+    failure: the answer is checked by :func:`optik.diffik.verify_step`.
+    """
+
+    name: str = ""
+
+    @abstractmethod
+    def solve(self, program: DiffIKProgram, initvals: FloatArray | None = None) -> QPSolution:
+        """The backend's answer and claim for ``program``, unchecked."""
+
+
+_KIND_TEXT = {
+    "ik": "a whole-IK solver",
+    "step": "a step backend (qp:<name>, or a CasADi conic plugin casadi:<plugin>)",
+}
+
+
 @dataclass(frozen=True)
-class _Entry:
-    factory: Callable[[], IKSolver]
+class _Provider:
+    factory: Callable[[], Any]
     available: Callable[[], bool]
     install_hint: str
 
 
-_REGISTRY: dict[str, _Entry] = {}
-_INSTANCES: dict[str, IKSolver] = {}
+_REGISTRY: dict[str, dict[str, _Provider]] = {}
+_INSTANCES: dict[tuple[str, str], Any] = {}
+
+
+def _check_kind(kind: str) -> None:
+    if kind not in SOLVER_KINDS:
+        raise OptikError(f"solver kind must be one of {SOLVER_KINDS}, got {kind!r}")
 
 
 def register_solver(
     name: str,
-    factory: Callable[[], IKSolver],
+    factory: Callable[[], Any],
     available: Callable[[], bool],
     install_hint: str = "",
+    kind: str = "ik",
 ) -> None:
-    """Add a solver name to the registry (the one place a backend is added)."""
-    _REGISTRY[name] = _Entry(factory, available, install_hint)
+    """Add what ``name`` provides of ``kind`` to the registry (the one place a backend is added).
+
+    Args:
+        name: the solver name, e.g. ``"qp:osqp"``.
+        factory: builds the solver (an :class:`IKSolver` for ``"ik"``, a
+            :class:`StepBackend` for ``"step"``); called once, on first use.
+        available: whether the backend imports and runs on this machine.
+        install_hint: what to tell a user who asks for it when it is not available.
+        kind: one of :data:`SOLVER_KINDS`.
+    """
+    _check_kind(kind)
+    _REGISTRY.setdefault(name, {})[kind] = _Provider(factory, available, install_hint)
+    _INSTANCES.pop((name, kind), None)
+
+
+def unregister_solver(name: str, kind: str = "ik") -> None:
+    """Remove what ``name`` provides of ``kind`` (a no-op when it provides nothing)."""
+    providers = _REGISTRY.get(name, {})
+    providers.pop(kind, None)
+    if not providers:
+        _REGISTRY.pop(name, None)
+    _INSTANCES.pop((name, kind), None)
 
 
 def register(cls: type[IKSolver]) -> type[IKSolver]:
-    """Class decorator: register ``cls`` under ``cls.name``."""
+    """Class decorator: register ``cls`` under ``cls.name`` as an ``"ik"`` solver."""
     register_solver(cls.name, cls, cls.is_available)
     return cls
 
 
-def available_solvers() -> list[str]:
-    """Registered solver names whose backend imports on this machine, sorted."""
-    return sorted(name for name, entry in _REGISTRY.items() if entry.available())
+def available_solvers(kind: str = "ik") -> list[str]:
+    """Registered names providing ``kind`` whose backend imports on this machine, sorted.
+
+    Args:
+        kind: ``"ik"`` (default: the names ``solve_ik`` takes) or ``"step"`` (the names
+            ``diff_ik`` takes); see :data:`SOLVER_KINDS`.
+    """
+    _check_kind(kind)
+    return sorted(
+        name
+        for name, providers in _REGISTRY.items()
+        if kind in providers and providers[kind].available()
+    )
 
 
-def registered_solvers() -> list[str]:
-    """Every registered solver name, installed or not."""
-    return sorted(_REGISTRY)
+def registered_solvers(kind: str = "ik") -> list[str]:
+    """Every name registered for ``kind``, installed or not."""
+    _check_kind(kind)
+    return sorted(name for name, providers in _REGISTRY.items() if kind in providers)
 
 
-def get_solver(name: str) -> IKSolver:
-    """The solver registered as ``name`` (one shared instance per name).
+def get_solver(name: str, kind: str = "ik") -> Any:
+    """The solver registered as ``name`` for ``kind`` (one shared instance per name and kind).
 
     Raises:
-        UnknownSolverError: unknown name, or a known backend that is not installed; the
-            message lists the installed solvers.
+        UnknownSolverError: not a string, unknown name (or not of this kind), or a known
+            backend that is not installed; the message lists the installed names.
     """
-    entry = _REGISTRY.get(name)
-    if entry is None:
-        raise UnknownSolverError(name, ["auto", *available_solvers()])
-    if not entry.available():
-        raise UnknownSolverError(
-            name,
-            ["auto", *available_solvers()],
-            entry.install_hint or "Its backend is not installed.",
+    _check_kind(kind)
+    listed = (["auto"] if kind == "ik" else []) + available_solvers(kind)
+    if not isinstance(name, str):
+        raise UnknownSolverError(repr(name), listed)
+    provider = _REGISTRY.get(name, {}).get(kind)
+    if provider is None:
+        other = [k for k in _REGISTRY.get(name, {}) if k != kind]
+        hint = (
+            f"It is registered as {_KIND_TEXT[other[0]]} (kind {other[0]!r}), not as "
+            f"{_KIND_TEXT[kind]} (kind {kind!r})."
+            if other
+            else ""
         )
-    if name not in _INSTANCES:
-        _INSTANCES[name] = entry.factory()
-    return _INSTANCES[name]
+        raise UnknownSolverError(name, listed, hint)
+    if not provider.available():
+        raise UnknownSolverError(
+            name, listed, provider.install_hint or "Its backend is not installed."
+        )
+    key = (name, kind)
+    if key not in _INSTANCES:
+        _INSTANCES[key] = provider.factory()
+    return _INSTANCES[key]
 
 
 def now() -> float:

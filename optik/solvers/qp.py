@@ -19,10 +19,18 @@ import scipy.sparse as spa
 
 from optik._checks import FloatArray
 from optik.programs.diff_qp import DiffIKProgram, QPSolution, build_program
-from optik.solvers._base import IKQuery, IKSolver, SolverOutput, now, register_solver
+from optik.solvers._base import (
+    IKQuery,
+    IKSolver,
+    SolverOutput,
+    StepBackend,
+    now,
+    register_solver,
+)
 
 __all__ = [
     "BACKEND_OPTIONS",
+    "QPStepBackend",
     "QPStepSolver",
     "installed_backends",
     "qpsolvers_backends",
@@ -238,6 +246,18 @@ class QPStepSolver(IKSolver):
                 lam *= 10.0
 
 
+class QPStepBackend(StepBackend):
+    """A differential-IK step program solved by a ``qpsolvers`` backend (:func:`solve_program`)."""
+
+    def __init__(self, backend: str) -> None:
+        self.backend = backend
+        self.name = f"qp:{backend}"
+
+    def solve(self, program: DiffIKProgram, initvals: FloatArray | None = None) -> QPSolution:
+        """The backend's answer and claim, unchecked; never raises for a backend failure."""
+        return solve_program(program, self.backend, initvals)
+
+
 def _converged(e: FloatArray, tol: float) -> bool:
     """Position (m) and orientation (rad) errors both within ``tol``."""
     if float(np.linalg.norm(e[:3])) > tol:
@@ -246,21 +266,21 @@ def _converged(e: FloatArray, tol: float) -> bool:
 
 
 def _register_all() -> None:
-    """Register ``qp:<name>`` for every backend ``qpsolvers`` supports."""
+    """Register ``qp:<name>`` (an IK loop and a step backend) for every ``qpsolvers`` backend."""
     for backend in qpsolvers_backends():
 
         def factory(backend: str = backend) -> IKSolver:
             return QPStepSolver(backend)
 
+        def step_factory(backend: str = backend) -> StepBackend:
+            return QPStepBackend(backend)
+
         def available(backend: str = backend) -> bool:
             return backend in qpsolvers.available_solvers
 
-        register_solver(
-            f"qp:{backend}",
-            factory,
-            available,
-            f"Install it with `pip install qpsolvers[{backend}]`.",
-        )
+        hint = f"Install it with `pip install qpsolvers[{backend}]`."
+        register_solver(f"qp:{backend}", factory, available, hint)
+        register_solver(f"qp:{backend}", step_factory, available, hint, kind="step")
 
 
 _register_all()
