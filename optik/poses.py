@@ -292,7 +292,7 @@ def _convention(name: str, convention: Any) -> str:
     if convention is None:
         raise PoseArgumentError(
             name,
-            'required with rpy: name the convention, e.g. rpy_convention="urdf" '
+            'required: name the roll-pitch-yaw convention, e.g. rpy_convention="urdf" '
             "(R = Rz(yaw) Ry(pitch) Rx(roll))",
         )
     if convention not in _SCIPY_SEQUENCE:
@@ -401,7 +401,7 @@ def _canonical_xyzw(q: FloatArray) -> FloatArray:
     return np.where(lead < 0.0, -q, q)
 
 
-def to_rpy(T: Any, *, rpy_convention: str, degrees: bool = False) -> FloatArray:
+def to_rpy(T: Any, *, rpy_convention: str | None = None, degrees: bool = False) -> FloatArray:
     """Roll, pitch and yaw of a pose's rotation in a named convention.
 
     With ``rpy_convention="urdf"``, ``R = Rz(yaw) Ry(pitch) Rx(roll)``; roll and yaw lie in
@@ -413,14 +413,15 @@ def to_rpy(T: Any, *, rpy_convention: str, degrees: bool = False) -> FloatArray:
 
     Args:
         T: pose (4, 4) or (N, 4, 4), validated as :func:`optik.spatial.as_pose`.
-        rpy_convention: a key of :data:`RPY_CONVENTIONS` (``"urdf"``).
+        rpy_convention: required: a key of :data:`RPY_CONVENTIONS` (``"urdf"``).
         degrees: return degrees instead of radians.
 
     Returns:
         ``(roll, pitch, yaw)`` (3,) or (N, 3), rad (deg with ``degrees=True``).
 
     Raises:
-        PoseArgumentError: unknown ``rpy_convention``, or ``degrees`` not a bool.
+        PoseArgumentError: a missing or unknown ``rpy_convention``, or ``degrees`` not a
+            bool.
         ShapeError: wrong shape or last row.
         NonFiniteError: a NaN or infinite entry.
         InvalidRotationError: the rotation block is not a proper rotation.
@@ -429,8 +430,6 @@ def to_rpy(T: Any, *, rpy_convention: str, degrees: bool = False) -> FloatArray:
     if not isinstance(degrees, (bool, np.bool_)):
         raise PoseArgumentError("degrees", f"expected True or False, got {degrees!r}")
     rotation = to_rotation(T)
-    if len(np.shape(rotation.as_quat())) == 2 and len(rotation) == 0:
-        return np.zeros((0, 3))
     with warnings.catch_warnings():
         # The gimbal-lock case is documented above; scipy's warning adds nothing.
         warnings.filterwarnings("ignore", message="Gimbal lock detected", category=UserWarning)
