@@ -408,7 +408,7 @@ def to_rpy(T: Any, *, rpy_convention: str | None = None, degrees: bool = False) 
     [-pi, pi], pitch in [-pi/2, pi/2], and ``pose(rpy=to_rpy(T, ...), ...)`` reproduces
     the rotation. At pitch = ±pi/2 (gimbal lock) only roll - yaw (pitch +pi/2) or roll +
     yaw (pitch -pi/2) is determined; scipy then sets yaw to 0, and within about 1e-7 rad
-    of the lock the triple reproduces the rotation to about 2e-7 rad rather than to
+    of the lock the triple reproduces the rotation to within 2.5e-7 rad rather than to
     rounding error.
 
     Args:
