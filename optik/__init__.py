@@ -11,6 +11,15 @@ from optik.ik import IKBatchResult, IKResult, solve_ik, solve_ik_batch
 from optik.linalg import generalized_inverse, least_squares, min_norm
 from optik.model import DHJoint, Joint, Mimic, Robot
 from optik.planning import PathPlan, Reachability, plan_path, reachability
+from optik.poses import (
+    as_target_pose,
+    pose,
+    to_position_rotation,
+    to_quat_wxyz,
+    to_quat_xyzw,
+    to_rotation,
+    to_rpy,
+)
 from optik.problems import Problem, Target, load_problem
 from optik.solvers import available_solvers
 from optik.trig import solve_trig
@@ -33,6 +42,7 @@ __all__ = [
     "__version__",
     "analytic_ik",
     "analytic_ik_batch",
+    "as_target_pose",
     "available_solvers",
     "diff_ik",
     "generalized_inverse",
@@ -40,8 +50,14 @@ __all__ = [
     "load_problem",
     "min_norm",
     "plan_path",
+    "pose",
     "reachability",
     "solve_ik",
     "solve_ik_batch",
     "solve_trig",
+    "to_position_rotation",
+    "to_quat_wxyz",
+    "to_quat_xyzw",
+    "to_rotation",
+    "to_rpy",
 ]

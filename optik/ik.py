@@ -24,16 +24,17 @@ import numba
 import numpy as np
 
 from optik._checks import FloatArray, finite_array
-from optik.analytic import analytic_ik, family_of
+from optik.analytic import AnalyticFamily, analytic_ik, family_of
 from optik.errors import JointLimitError, OptikError, ShapeError
 from optik.limits import LIMIT_TOLERANCE
 from optik.model import Robot
+from optik.poses import as_target_pose
 from optik.solvers import get_solver
 from optik.solvers._base import IKQuery, IKSolver, now
 from optik.solvers._lm_kernel import lm_solve_batch, lm_solve_batch_serial
 from optik.solvers._seeds import seed_table, start_sequence
 from optik.solvers.iterative import DLSSolver
-from optik.spatial import as_pose, as_target
+from optik.spatial import as_pose
 from optik.verify import verify, verify_one
 
 AUTO_NUMERIC_SOLVER = "dls"
@@ -186,6 +187,72 @@ def _result(
     )
 
 
+CROSS_CHECK_RESTARTS = 20
+"""Restarts of the numeric attempt that checks a closed form's "no branch" before it is
+reported as a proof: at singular poses (a wrist or elbow aligned, a joint free) a closed
+form can miss the one-parameter family of solutions that passes through them."""
+
+
+def _family_solves(robot: Robot, family: AnalyticFamily, mode: str) -> bool:
+    """Whether the closed form applies (position-only closed forms place the flange).
+
+    The mode must be one the family solves, and for position-only IK the tool must have
+    no offset.
+    """
+    if mode not in family.modes:
+        return False
+    return mode != "position" or not np.any(np.abs(robot.T_flange_tool[:3, 3]) > 0.0)
+
+
+def _closed_form_proof(
+    robot: Robot, query: IKQuery, q_start: FloatArray, start_time: float, seed: int
+) -> IKResult:
+    """The result when the closed form finds no branch inside the limits, cross-checked.
+
+    Before ``unreachable`` or ``outside_limits`` is reported, a short ``dls`` run
+    (:data:`CROSS_CHECK_RESTARTS`, from the out-of-limit branches clipped into the limits,
+    then the seed table) looks for an answer the closed form missed at a degenerate pose;
+    if it finds a verified one, that answer is returned.
+    """
+    outside = analytic_ik(robot, query.target, query.mode, q_ref=q_start, within_limits=False)
+    given = [np.clip(q, robot.lower, robot.upper) for q in outside] or [q_start]
+    numeric = get_solver(AUTO_NUMERIC_SOLVER)
+    sequence = start_sequence(robot, query.target, query.mode, given, seed)
+    run = numeric.run(query, sequence, numeric.default_max_iter, CROSS_CHECK_RESTARTS, math.inf)
+    found = verify_one(robot, run.q, query.target, query.mode, query.tol)[3]
+    if found:
+        return _result(
+            robot,
+            run.q,
+            query,
+            start_time,
+            status_if_failed="max_iter",
+            iterations=run.iterations,
+            restarts=run.restarts,
+            solver=numeric.name,
+            message="",
+            claim=run.converged,
+        )
+    status = "outside_limits" if outside else "unreachable"
+    reason = (
+        "closed form: every branch lies outside the joint limits"
+        if outside
+        else "closed form: no branch reaches the target"
+    )
+    return _result(
+        robot,
+        outside[0] if outside else q_start,
+        query,
+        start_time,
+        status_if_failed=status,
+        iterations=run.iterations,
+        restarts=run.restarts,
+        solver="analytic",
+        message=reason + f" (a {numeric.name} cross-check found no answer either)",
+        claim=None,
+    )
+
+
 def solve_ik(
     robot: Robot,
     target: Any,
@@ -204,8 +271,10 @@ def solve_ik(
 
     Args:
         robot: the robot.
-        target: 4x4 world pose of the tool (``mode="pose"``), or a 3-vector / 4x4 whose
-            translation is used (``mode="position"``); metres.
+        target: world pose of the tool (``mode="pose"``): a 4x4, a ``(p, R)`` pair or a
+            mapping of :func:`optik.pose`'s keywords (e.g. ``{"position": p,
+            "quat_wxyz": q}``); in position mode also a 3-vector (metres). See
+            :func:`optik.as_target_pose`.
         mode: ``"pose"`` or ``"position"``.
         solver: a name from :func:`optik.available_solvers`, or ``"auto"`` (the closed
             form when the robot has one, else :data:`AUTO_NUMERIC_SOLVER`).
@@ -239,38 +308,37 @@ def solve_ik(
     _check_options(mode, tol, warm_start, timeout_s, restarts, max_iter, seed)
     if not isinstance(solver, str):
         raise OptikError(f"solver must be a solver name (str), got {solver!r}")
-    T_target = as_target(target, mode)
+    T_target = as_target_pose(target, mode)
     q_start = _check_q0(robot, q0)
     numeric: IKSolver | None = None if solver == "auto" else get_solver(solver)
     query = IKQuery(robot, T_target, mode, float(tol))
     # timeout_s=inf is "no time limit": the restart budget then stays finite.
     deadline = start_time + float(timeout_s) if timeout_s is not None else math.inf
 
+    centre, radius = robot.reach_sphere
+    if float(np.linalg.norm(T_target[:3, 3] - centre)) > radius + tol:
+        return _result(
+            robot,
+            q_start,
+            query,
+            start_time,
+            status_if_failed="unreachable",
+            iterations=0,
+            restarts=0,
+            solver="reach",
+            message=(
+                f"the target lies {float(np.linalg.norm(T_target[:3, 3] - centre)):.6g} m from "
+                f"the reach sphere's centre, beyond its radius {radius:.6g} m"
+            ),
+            claim=None,
+        )
+
     starts: list[FloatArray] = []
     family = family_of(robot) if warm_start == "analytic" else None
-    if family is not None and mode in family.modes:
+    if family is not None and _family_solves(robot, family, mode):
         branches = analytic_ik(robot, T_target, mode, q_ref=q_start)
         if not branches:
-            outside = analytic_ik(robot, T_target, mode, q_ref=q_start, within_limits=False)
-            status = "outside_limits" if outside else "unreachable"
-            q_report = outside[0] if outside else q_start
-            reason = (
-                "closed form: every branch lies outside the joint limits"
-                if outside
-                else "closed form: no branch reaches the target"
-            )
-            return _result(
-                robot,
-                q_report,
-                query,
-                start_time,
-                status_if_failed=status,
-                iterations=0,
-                restarts=0,
-                solver="analytic",
-                message=reason,
-                claim=None,
-            )
+            return _closed_form_proof(robot, query, q_start, start_time, int(seed))
         if numeric is None:
             return _result(
                 robot,

@@ -36,7 +36,8 @@ from optik.analytic._base import (
 )
 from optik.errors import AnalyticIKError, OptikError, ShapeError
 from optik.model import Robot
-from optik.spatial import as_pose, as_target, invert_transform, rotation_angle
+from optik.poses import as_target_pose
+from optik.spatial import as_pose, invert_transform, rotation_angle
 
 _DUPLICATE = DUPLICATE_TOLERANCE
 _F64 = np.dtype(np.float64)
@@ -192,7 +193,7 @@ def analytic_ik(
             or target.dtype != _F64
             or not target.flags.carray
         ):
-            target = _plain(as_target(target, mode))
+            target = _plain(as_target_pose(target, mode))
         if q_ref is None:
             ref = mid
             flags = 0
@@ -220,7 +221,7 @@ def analytic_ik(
     if family.kernel and mode == "pose":
         robot.cached(_compiled_plan)
         return analytic_ik(robot, target, mode, q_ref, within_limits)
-    T_target = as_target(target, mode)
+    T_target = as_target_pose(target, mode)
     sort = q_ref is not None
     ref = robot.mid_limits if q_ref is None else _check_ref(robot, q_ref)
     if mode == "position" and np.any(np.abs(robot.T_flange_tool[:3, 3]) > 0.0):
@@ -243,7 +244,7 @@ def _compiled_plan(robot: Robot) -> tuple[FloatArray, FloatArray]:
 
 def _raise_input_error(robot: Robot, target: Any, q_ref: Any, code: int) -> None:
     """Raise the optik error for an input the compiled checks rejected (``code < 0``)."""
-    as_target(target, "pose")  # raises for a bad target
+    as_target_pose(target, "pose")  # raises for a bad target
     if q_ref is not None:
         _check_ref(robot, q_ref)  # ... or for a bad q_ref
     raise OptikError(  # pragma: no cover - the compiled checks replicate the Python ones
