@@ -42,6 +42,7 @@ from typing import Any, Final
 import numpy as np
 
 from optik._checks import FloatArray
+from optik._files import write_atomic
 from optik.compare import (
     AGREEMENT_TOL,
     CHAPTER_TABLE_2,
@@ -119,28 +120,6 @@ _BACKEND_PACKAGES: Final[dict[str, str]] = {
     "qpswift": "qpSWIFT",
     "sip": "sip_python",
 }
-
-
-# ---------------------------------------------------------------------------- files
-def write_atomic(path: str | Path, data: str | bytes) -> Path:
-    """Write ``data`` to ``path`` whole, so that no reader ever sees a partial file.
-
-    The data goes to a temporary file in the same folder, which ``os.replace`` (atomic on
-    POSIX and Windows) then renames; the temporary file is removed if writing fails.
-    """
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
-    try:
-        if isinstance(data, bytes):
-            tmp.write_bytes(data)
-        else:
-            tmp.write_text(data, encoding="utf-8")
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
-    return path
 
 
 # ---------------------------------------------------------------------------- summaries

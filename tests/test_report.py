@@ -8,7 +8,6 @@ import csv
 import io
 import json
 import math
-import os
 from html.parser import HTMLParser
 from pathlib import Path
 
@@ -25,7 +24,6 @@ from optik.report import (
     add_report_command,
     make_report,
     shifted_geometric_mean,
-    write_atomic,
 )
 
 SECTIONS = ("closed-form", "full-ik", "seed001", "seed003", "environment")
@@ -200,21 +198,6 @@ def test_interrupted_report_leaves_no_partial_file_and_resumes(
     )
     assert not _temporary_files(tmp_path)
     assert [s.problem for s in resumed.ik] == [s.problem for s in report.ik]
-
-
-def test_write_atomic_keeps_the_old_file_when_writing_fails(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
-) -> None:
-    path = write_atomic(tmp_path / "a.txt", "old")
-
-    def broken(src: object, dst: object) -> None:
-        raise OSError("disk full")
-
-    monkeypatch.setattr(os, "replace", broken)
-    with pytest.raises(OSError, match="disk full"):
-        write_atomic(path, "new")
-    assert path.read_text() == "old"
-    assert not _temporary_files(tmp_path)
 
 
 # ---------------------------------------------------------------------------- CLI
