@@ -5,12 +5,11 @@ from __future__ import annotations
 import csv
 import json
 import math
-from dataclasses import fields
 from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import ROOT
+from conftest import ROOT, Interrupt, one_qp_and_one_casadi, tiny_config, without_timing
 
 from optik.compare import (
     AGREEMENT_TOL,
@@ -52,35 +51,6 @@ DOCUMENTED_COLUMNS = (
     "method",
     "message",
 )
-
-
-def _one_qp_and_one_casadi() -> tuple[str, ...]:
-    names = step_backends()
-    picked = [n for n in names if n.startswith("qp:")][:1]
-    picked += [n for n in names if n.startswith("casadi:")][:1]
-    return tuple(picked)
-
-
-def tiny_config(seeds: bool = False, **overrides: object) -> RunConfig:
-    """Two small robots, three fast solvers, three targets, one closed-form configuration."""
-    values: dict[str, object] = {
-        "problems": ("planar_2r", "dobot_magician"),
-        "solvers": ("auto", "dls", "pinv"),
-        "n": 3,
-        "seed": 5,
-        "timeout_s": 0.5,
-        "closed_form_problems": ("dobot_magician",),
-        "closed_form_configs": 1,
-        "step_backends": _one_qp_and_one_casadi(),
-        "seeds": seeds,
-    }
-    values.update(overrides)
-    return RunConfig(**values)  # type: ignore[arg-type]
-
-
-def without_timing(rows: list[ResultRow]) -> list[tuple[object, ...]]:
-    """Rows as tuples without the wall time (the only field allowed to differ)."""
-    return [tuple(getattr(r, f.name) for f in fields(r) if f.name != "time_s") for r in rows]
 
 
 @pytest.fixture(scope="module")
@@ -150,10 +120,6 @@ def test_read_results_rejects_another_schema(tmp_path: Path) -> None:
 
 
 # ---------------------------------------------------------------------------- resume
-class Interrupt(Exception):
-    pass
-
-
 def test_resume_after_interruption(tmp_path: Path, reference: list[ResultRow]) -> None:
     path = tmp_path / "results.csv"
     written: list[ResultRow] = []
@@ -306,7 +272,7 @@ def test_solve_step_rejects_other_names() -> None:
 
 def test_closed_form_rows(reference: list[ResultRow]) -> None:
     rows = [r for r in reference if r.kind == "closed_form"]
-    assert _one_qp_and_one_casadi(), "osqp / proxsuite and casadi are core dependencies"
+    assert one_qp_and_one_casadi(), "osqp / proxsuite and casadi are core dependencies"
     assert rows
     for row in rows:
         assert row.method in ("min_norm", "least_squares")

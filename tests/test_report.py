@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import argparse
 import base64
 import csv
 import io
@@ -13,15 +12,15 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from test_compare import Interrupt, tiny_config, without_timing
+from conftest import Interrupt, tiny_config, without_timing
 
 from optik._progress import Progress
+from optik.cli import build_parser
 from optik.compare import ResultRow, read_results
 from optik.report import (
     ACCURACY_LEVELS,
     SGM_SHIFT_S,
     Report,
-    add_report_command,
     make_report,
     shifted_geometric_mean,
 )
@@ -202,8 +201,7 @@ def test_interrupted_report_leaves_no_partial_file_and_resumes(
 
 # ---------------------------------------------------------------------------- CLI
 def test_report_command(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    parser = argparse.ArgumentParser(prog="optik")
-    add_report_command(parser.add_subparsers(dest="command", required=True))
+    parser = build_parser()
     out = tmp_path / "out"
     args = parser.parse_args(
         ["report", "--quick", "-n", "1", "--problems", "planar_2r", "--solvers", "auto", "dls",
@@ -223,8 +221,7 @@ def test_report_command(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> N
 
 
 def test_report_command_rejects_unknown_solvers() -> None:
-    parser = argparse.ArgumentParser(prog="optik")
-    add_report_command(parser.add_subparsers(dest="command", required=True))
+    parser = build_parser()
     with pytest.raises(SystemExit):
         parser.parse_args(["report", "--solvers", "no-such-solver"])
 
