@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import IO, Any, Final, TextIO
 
 from optik._files import write_atomic_with
-from optik.errors import OptikError
+from optik.errors import ResultsFileError
 
 __all__ = [
     "COLUMNS",
@@ -101,21 +101,32 @@ class ResultRow:
 
     @classmethod
     def from_record(cls, record: Mapping[str, str]) -> ResultRow:
-        """Parse a CSV record (column name -> cell), the inverse of :meth:`to_record`."""
+        """Parse a CSV record (column name -> cell), the inverse of :meth:`to_record`.
+
+        Raises:
+            ValueError: a cell that :meth:`to_record` cannot have written (an unknown
+                ``kind``, a boolean other than ``true``/``false``, an empty ``success``,
+                a number that does not parse); the message names the column.
+        """
         values: dict[str, Any] = {}
         for f in fields(cls):
             text = record[f.name]
             kind = _COLUMN_TYPES[f.name]
             if kind is str:
                 values[f.name] = text
-            elif text == "":
+            elif text == "" and f.name != "success":
                 values[f.name] = None if f.name != "time_s" else 0.0
             elif kind is bool:
+                if text not in ("true", "false"):
+                    raise ValueError(f"column {f.name!r}: {text!r} is not true or false")
                 values[f.name] = text == "true"
-            elif kind is int:
-                values[f.name] = int(text)
             else:
-                values[f.name] = float(text)
+                try:
+                    values[f.name] = kind(text)
+                except ValueError:
+                    raise ValueError(f"column {f.name!r}: {text!r} is not a number") from None
+        if values["kind"] not in KINDS:
+            raise ValueError(f"column 'kind': {values['kind']!r} is not one of {list(KINDS)}")
         return cls(**values)
 
 
@@ -165,24 +176,65 @@ def read_results(path: str | Path) -> list[ResultRow]:
     A last line without its newline (a run killed mid-write) is ignored.
 
     Raises:
-        OptikError: the header is not :data:`COLUMNS` (another schema or another file).
+        ResultsFileError: the header is not :data:`COLUMNS` (another schema or another
+            file), a row is corrupted (wrong number of cells, a cell that does not parse,
+            not UTF-8), or two rows have the same key (:meth:`ResultRow.key`); the
+            message names the file and the line (both lines for a duplicate).
     """
-    text = Path(path).read_text(encoding="utf-8")
-    if text and not text.endswith("\n"):
-        text = text[: text.rfind("\n") + 1]
-    return _parse(text, Path(path))
+    raw = Path(path).read_bytes()
+    return _parse(raw[: raw.rfind(b"\n") + 1], Path(path))
 
 
-def _parse(text: str, path: Path) -> list[ResultRow]:
-    reader = csv.DictReader(io.StringIO(text, newline=""))
+def _parse(raw: bytes, path: Path) -> list[ResultRow]:
+    """The rows of a results file's complete lines; strict (see :func:`read_results`)."""
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = raw[: exc.start].count(b"\n") + 1
+        raise ResultsFileError(str(path), line, "not UTF-8 text (a corrupted row)") from None
     if not text:
         return []
-    if tuple(reader.fieldnames or ()) != COLUMNS:
-        raise OptikError(
-            f"{path}: not an optik results file of this version (columns "
-            f"{reader.fieldnames} instead of {list(COLUMNS)})"
+    reader = csv.reader(io.StringIO(text, newline=""))
+    header = next(reader)
+    if tuple(header) != COLUMNS:
+        raise ResultsFileError(
+            str(path),
+            1,
+            f"not an optik results file of this version (columns {header} instead of "
+            f"{list(COLUMNS)})",
         )
-    return [ResultRow.from_record(record) for record in reader]
+    rows: list[ResultRow] = []
+    first_line: dict[Key, int] = {}
+    start = reader.line_num + 1  # a cell may hold a newline: a row may span lines
+    while True:
+        try:
+            cells = next(reader, None)
+        except csv.Error as exc:
+            raise ResultsFileError(str(path), start, f"corrupted row: {exc}") from None
+        if cells is None:
+            break
+        line, start = start, reader.line_num + 1
+        if not cells:
+            continue  # a blank line holds no row
+        if len(cells) != len(COLUMNS):
+            raise ResultsFileError(
+                str(path), line, f"corrupted row: {len(cells)} cells instead of {len(COLUMNS)}"
+            )
+        try:
+            row = ResultRow.from_record(dict(zip(COLUMNS, cells, strict=True)))
+        except ValueError as exc:
+            raise ResultsFileError(str(path), line, f"corrupted row: {exc}") from None
+        key = row.key()
+        if key in first_line:
+            raise ResultsFileError(
+                str(path),
+                line,
+                f"duplicate of the row at line {first_line[key]} (same kind, problem, "
+                "target, solver and settings); delete one of the two lines and resume",
+            )
+        first_line[key] = line
+        rows.append(row)
+    return rows
 
 
 class ResultsFile:
@@ -197,7 +249,8 @@ class ResultsFile:
         resume: continue an existing file instead of starting a new one.
 
     Raises:
-        OptikError: resuming a file whose header is not :data:`COLUMNS`.
+        ResultsFileError: resuming a file whose header is not :data:`COLUMNS`, with a
+            corrupted row or with two rows of the same key (see :func:`read_results`).
     """
 
     def __init__(self, path: str | Path, resume: bool = False) -> None:
@@ -210,7 +263,7 @@ class ResultsFile:
             if len(complete) != len(raw):
                 with open(self.path, "r+b") as f:
                     f.truncate(len(complete))
-            self.rows = _parse(complete.decode("utf-8"), self.path)
+            self.rows = _parse(complete, self.path)
             if not complete:
                 self._start()
         else:
