@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 from optik._checks import FloatArray
 from optik.compare.config import RunConfig, ik_settings
-from optik.compare.results import ResultRow
+from optik.compare.results import ResultRow, problem_row
 from optik.ik import solve_ik
 from optik.problems import Problem
 
@@ -19,11 +21,12 @@ def _ik_row(
     config: RunConfig,
     solve_seed: int,
 ) -> ResultRow:
-    robot = problem.robot
-    settings = ik_settings(config, solver)
+    base = problem_row(
+        "ik", problem, target_id, solver, ik_settings(config, solver), success=False, status="error"
+    )
     try:
         result = solve_ik(
-            robot,
+            problem.robot,
             pose,
             mode=config.mode,
             solver=solver,
@@ -33,24 +36,9 @@ def _ik_row(
             seed=solve_seed,
         )
     except Exception as exc:  # a crash is a row, not the end of the run
-        return ResultRow(
-            kind="ik",
-            problem=problem.name,
-            robot=robot.name,
-            target=target_id,
-            solver=solver,
-            settings=settings,
-            success=False,
-            status="error",
-            message=f"{type(exc).__name__}: {exc}",
-        )
-    return ResultRow(
-        kind="ik",
-        problem=problem.name,
-        robot=robot.name,
-        target=target_id,
-        solver=solver,
-        settings=settings,
+        return replace(base, message=f"{type(exc).__name__}: {exc}")
+    return replace(
+        base,
         success=bool(result.success),
         status=result.status,
         position_error=float(result.position_error),

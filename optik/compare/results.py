@@ -17,6 +17,7 @@ from typing import IO, Any, Final, TextIO
 
 from optik._files import write_atomic_with
 from optik.errors import ResultsFileError
+from optik.problems import Problem
 
 __all__ = [
     "COLUMNS",
@@ -24,6 +25,7 @@ __all__ = [
     "Key",
     "ResultRow",
     "ResultsFile",
+    "problem_row",
     "read_results",
     "rows_of",
     "settings_json",
@@ -153,6 +155,21 @@ _COLUMN_TYPES: Final[dict[str, type]] = {
 
 #: Columns of ``results.csv``, in order (see :class:`ResultRow` and ``docs/report.md``).
 COLUMNS: Final[tuple[str, ...]] = tuple(f.name for f in fields(ResultRow))
+
+
+def problem_row(
+    kind: str, problem: Problem, target: str, solver: str, settings: str, **columns: Any
+) -> ResultRow:
+    """A row of ``problem`` (its name and its robot's name filled in), other columns given."""
+    return ResultRow(
+        kind=kind,
+        problem=problem.name,
+        robot=problem.robot.name,
+        target=target,
+        solver=solver,
+        settings=settings,
+        **columns,
+    )
 
 
 def _cell(value: Any) -> str:

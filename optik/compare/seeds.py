@@ -16,7 +16,7 @@ import numpy as np
 
 from optik._checks import FloatArray
 from optik.compare.backends import seed_solver
-from optik.compare.results import ResultRow, settings_json
+from optik.compare.results import ResultRow, problem_row, settings_json
 from optik.errors import OptikError
 from optik.problems import Problem, load_problem
 from optik.solvers import IKQuery
@@ -71,6 +71,51 @@ def _seed003_settings(alpha: float, q0: FloatArray, tol: float) -> str:
     return settings_json({"mode": "position", "q0": q0.tolist(), "step": alpha, "tol": tol})
 
 
+def _position_row(
+    kind: str,
+    problem: Problem,
+    target_id: str,
+    solver: str,
+    settings: str,
+    q: FloatArray,
+    *,
+    iterations: int,
+    time_s: float,
+    converged: bool,
+    method: str,
+    message: str = "",
+    check_limits: bool = False,
+) -> ResultRow:
+    """A position-only row verified from FK: success is ``||p(q) - p*|| <= tol`` (m).
+
+    With ``check_limits`` the limits must also hold (violation at most 1e-12); the
+    backend's ``message`` is kept only for a failure.
+    """
+    robot = problem.robot
+    target = problem.targets[target_id]
+    position = float(np.linalg.norm(robot.fk(q)[:3, 3] - target.position))
+    violation = float(robot.limit_violation(q))
+    ok = position <= target.tolerance and (violation <= 1e-12 or not check_limits)
+    return problem_row(
+        kind,
+        problem,
+        target_id,
+        solver,
+        settings,
+        success=ok,
+        status="converged" if ok else "max_iter",
+        position_error=position,
+        orientation_error=0.0,
+        limit_violation=violation,
+        iterations=iterations,
+        restarts=0,
+        time_s=time_s,
+        backend_converged=converged,
+        method=method,
+        message=message if not ok else "",
+    )
+
+
 def dobot_chapter_rows(
     problem: Problem | None = None,
     solvers: Sequence[str] = SEED001_SOLVERS,
@@ -107,28 +152,20 @@ def dobot_chapter_rows(
             start = now()
             out = solver.solve(query, q, max_iter, math.inf)
             elapsed = now() - start
-            position = float(np.linalg.norm(robot.fk(out.q)[:3, 3] - target.position))
-            violation = float(robot.limit_violation(out.q))
-            ok = position <= target.tolerance and violation <= 1e-12
             rows.append(
-                ResultRow(
-                    kind="seed001",
-                    problem=problem.name,
-                    robot=robot.name,
-                    target=part,
-                    solver=name,
-                    settings=settings,
-                    success=ok,
-                    status="converged" if ok else "max_iter",
-                    position_error=position,
-                    orientation_error=0.0,
-                    limit_violation=violation,
+                _position_row(
+                    "seed001",
+                    problem,
+                    part,
+                    name,
+                    settings,
+                    out.q,
                     iterations=int(out.iterations),
-                    restarts=0,
                     time_s=elapsed,
-                    backend_converged=bool(out.converged),
+                    converged=bool(out.converged),
                     method=name,
-                    message=out.message if not ok else "",
+                    message=out.message,
+                    check_limits=True,
                 )
             )
             q = out.q
@@ -181,25 +218,18 @@ def planar_2r_example(
                 converged = True
                 break
         elapsed = now() - start
-        position = float(np.linalg.norm(robot.fk(q)[:3, 3] - target.position))
-        ok = position <= target.tolerance
+        settings = _seed003_settings(alpha, q0, target.tolerance)
         rows.append(
-            ResultRow(
-                kind="seed003",
-                problem=problem.name,
-                robot=robot.name,
-                target="seed003",
-                solver="pinv",
-                settings=_seed003_settings(alpha, q0, target.tolerance),
-                success=ok,
-                status="converged" if ok else "max_iter",
-                position_error=position,
-                orientation_error=0.0,
-                limit_violation=float(robot.limit_violation(q)),
+            _position_row(
+                "seed003",
+                problem,
+                "seed003",
+                "pinv",
+                settings,
+                q,
                 iterations=iterations,
-                restarts=0,
                 time_s=elapsed,
-                backend_converged=converged,
+                converged=converged,
                 method=f"pinv, step {alpha:g}",
             )
         )

@@ -16,7 +16,7 @@ import numpy as np
 
 from optik._checks import FloatArray
 from optik.compare.backends import solve_step
-from optik.compare.results import ResultRow, settings_json
+from optik.compare.results import ResultRow, problem_row, settings_json
 from optik.compare.targets import _stable_id, random_configurations
 from optik.linalg import least_squares, min_norm
 from optik.model import Robot
@@ -196,17 +196,11 @@ def _room(dq: FloatArray, lower: FloatArray, upper: FloatArray) -> float:
 def _closed_form_row(
     problem: Problem, case: StepCase, backend: str, seed: int, program: Any
 ) -> ResultRow:
-    base = ResultRow(
-        kind="closed_form",
-        problem=problem.name,
-        robot=problem.robot.name,
-        target=case.target,
-        solver=backend,
-        settings=case.settings(seed),
-        success=False,
-        status="error",
-        method=case.method,
+    settings = case.settings(seed)
+    base = problem_row(
+        "closed_form", problem, case.target, backend, settings, success=False, status="error"
     )
+    base = replace(base, method=case.method)
     start = now()
     try:
         solution = solve_step(program, backend)

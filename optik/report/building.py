@@ -34,15 +34,10 @@ __all__ = [
 #: ``--quick``: robots, solvers (those installed are used, in this order), targets per
 #: robot, timeout, and caps on solvers that are slow when they fail.
 QUICK_PROBLEMS: Final[tuple[str, ...]] = ("dobot_magician", "puma560", "ur5", "panda")
-QUICK_SOLVERS: Final[tuple[str, ...]] = (
-    "auto",
-    "dls",
-    "pinv",
-    "transpose",
-    "qp:daqp",
-    "qp:proxqp",
-    "casadi:sqpmethod",
-    "casadi:ipopt",
+QUICK_SOLVERS: Final[tuple[str, ...]] = (  # by family: iterative, qpsolvers, CasADi
+    *("auto", "dls", "pinv", "transpose"),
+    *("qp:daqp", "qp:proxqp"),
+    *("casadi:sqpmethod", "casadi:ipopt"),
 )
 QUICK_N: Final[int] = 5
 QUICK_TIMEOUT_S: Final[float] = 0.1

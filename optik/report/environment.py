@@ -59,25 +59,21 @@ def _cpu_model() -> str:
     return platform.processor() or platform.machine() or "unknown"
 
 
+def _git(root: Path, *args: str) -> str:
+    """The output of ``git -C root ARGS`` (raises on a failure or after 5 s)."""
+    command = ["git", "-C", str(root), *args]
+    out = subprocess.run(command, capture_output=True, text=True, timeout=5, check=True)
+    return out.stdout.strip()
+
+
 def _git_revision() -> str | None:
-    root = Path(__file__).resolve().parent.parent
+    """The short revision of the checkout optik runs from, ``+dirty`` with local changes."""
+    root = Path(__file__).resolve().parents[2]
     if not (root / ".git").exists():
         return None
     try:
-        head = subprocess.run(
-            ["git", "-C", str(root), "rev-parse", "--short", "HEAD"],
-            capture_output=True,
-            text=True,
-            timeout=5,
-            check=True,
-        ).stdout.strip()
-        dirty = subprocess.run(
-            ["git", "-C", str(root), "status", "--porcelain", "--untracked-files=no"],
-            capture_output=True,
-            text=True,
-            timeout=5,
-            check=True,
-        ).stdout.strip()
+        head = _git(root, "rev-parse", "--short", "HEAD")
+        dirty = _git(root, "status", "--porcelain", "--untracked-files=no")
     except (OSError, subprocess.SubprocessError):
         return None
     return head + ("+dirty" if dirty else "")
