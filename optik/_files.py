@@ -9,8 +9,10 @@ old file as it was.
 
 from __future__ import annotations
 
+import contextlib
 import os
-import tempfile
+import stat
+import uuid
 from collections.abc import Callable
 from pathlib import Path
 from typing import IO, Any
@@ -18,6 +20,8 @@ from typing import IO, Any
 from optik.errors import OutputFileError
 
 __all__ = ["prepare_folder", "write_atomic", "write_atomic_with"]
+
+_O_BINARY = getattr(os, "O_BINARY", 0)  # Windows: no newline translation at the fd level
 
 
 def prepare_folder(folder: str | Path) -> Path:
@@ -38,6 +42,28 @@ def prepare_folder(folder: str | Path) -> Path:
     if not os.access(folder, os.W_OK | os.X_OK):
         raise OutputFileError(str(folder), "the folder is not writable")
     return folder
+
+
+def _create_temporary(target: Path) -> tuple[int, str]:
+    """A new hidden file beside ``target``, with the permissions ``open(target, "w")`` gives.
+
+    ``tempfile.mkstemp`` would create it private (0600); a report is meant to be read by
+    others, so the file is created with mode 0666 less the umask, or with the mode of the
+    file it replaces.
+    """
+    for _ in range(100):
+        tmp = target.with_name(f".{target.name}.{uuid.uuid4().hex[:12]}.tmp")
+        try:
+            fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | _O_BINARY, 0o666)
+        except FileExistsError:
+            continue
+        except OSError as exc:
+            raise OutputFileError(str(target), exc.strerror or str(exc)) from exc
+        # A new file (or a mode we may not copy) keeps the umask's permissions.
+        with contextlib.suppress(OSError):
+            os.chmod(tmp, stat.S_IMODE(target.stat().st_mode))
+        return fd, str(tmp)
+    raise OutputFileError(str(target), "no free temporary name in its folder")  # pragma: no cover
 
 
 def write_atomic_with(
@@ -61,10 +87,7 @@ def write_atomic_with(
     if target.is_dir():
         raise OutputFileError(str(target), "it is a folder")
     prepare_folder(target.parent)
-    try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
-    except OSError as exc:
-        raise OutputFileError(str(target), exc.strerror or str(exc)) from exc
+    fd, tmp = _create_temporary(target)
     try:
         mode = "wb" if binary else "w"
         encoding = None if binary else "utf-8"

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import stat
 from pathlib import Path
 
 import numpy as np
@@ -26,6 +27,17 @@ def test_write_atomic_writes_text_and_bytes_whole(tmp_path: Path) -> None:
     write_atomic(text, "new")
     assert text.read_text(encoding="utf-8") == "new"
     assert not _leftovers(tmp_path)
+
+
+def test_write_atomic_gives_the_permissions_of_a_plain_write(tmp_path: Path) -> None:
+    plain = tmp_path / "plain.txt"
+    with open(plain, "w", encoding="utf-8") as f:  # the reference: what open() creates
+        f.write("x")
+    new = write_atomic(tmp_path / "new.txt", "x")
+    assert stat.S_IMODE(new.stat().st_mode) == stat.S_IMODE(plain.stat().st_mode)
+    os.chmod(new, 0o640)
+    write_atomic(new, "replaced")
+    assert stat.S_IMODE(new.stat().st_mode) == 0o640  # a replaced file keeps its mode
 
 
 def test_write_atomic_syncs_before_the_rename(
