@@ -28,7 +28,7 @@ from optik.compare import (
     step_backends,
     write_rows,
 )
-from optik.errors import OptikError, ResultsFileError
+from optik.errors import OptikError, OutputFileError, ResultsFileError
 from optik.problems import load_problem
 
 #: The columns documented in docs/report.md, in order.
@@ -233,6 +233,14 @@ def test_resume_names_both_lines_of_a_duplicate(tmp_path: Path) -> None:
     path.write_text("".join(lines[:5]), encoding="utf-8")
     with ResultsFile(path, resume=True) as results:
         assert [r.target for r in results.rows] == ["t0000", "t0001", "t0002"]
+
+
+def test_results_file_in_place_of_a_folder_or_on_a_file(tmp_path: Path) -> None:
+    with pytest.raises(OutputFileError, match="is a folder"):
+        ResultsFile(tmp_path)
+    (tmp_path / "plain").write_text("x", encoding="utf-8")
+    with pytest.raises(OutputFileError, match="plain is a file, not a folder"):
+        ResultsFile(tmp_path / "plain" / "results.csv")
 
 
 def test_resume_rejects_a_file_that_is_not_utf8(tmp_path: Path) -> None:

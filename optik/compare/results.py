@@ -15,8 +15,8 @@ from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import IO, Any, Final, TextIO
 
-from optik._files import write_atomic_with
-from optik.errors import ResultsFileError
+from optik._files import prepare_folder, write_atomic_with
+from optik.errors import OutputFileError, ResultsFileError
 from optik.problems import Problem
 
 __all__ = [
@@ -266,13 +266,16 @@ class ResultsFile:
         resume: continue an existing file instead of starting a new one.
 
     Raises:
+        OutputFileError: ``path`` is a folder, or its folder cannot be created or written.
         ResultsFileError: resuming a file whose header is not :data:`COLUMNS`, with a
             corrupted row or with two rows of the same key (see :func:`read_results`).
     """
 
     def __init__(self, path: str | Path, resume: bool = False) -> None:
         self.path = Path(path)
-        self.path.parent.mkdir(parents=True, exist_ok=True)
+        if self.path.is_dir():
+            raise OutputFileError(str(self.path), "it is a folder")
+        prepare_folder(self.path.parent)
         self.rows: list[ResultRow] = []
         if resume and self.path.exists():
             raw = self.path.read_bytes()

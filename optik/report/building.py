@@ -87,6 +87,11 @@ def make_report(
 
     Returns:
         A :class:`Report` with the paths and summaries.
+
+    Raises:
+        OutputFileError: ``out_dir`` is a file, or a place that cannot be written.
+        ResultsFileError: with ``resume``, ``results.csv`` holds a corrupted or a
+            duplicated row (the message names the line).
     """
     start = time.perf_counter()
     out = prepare_folder(out_dir)
