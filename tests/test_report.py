@@ -245,3 +245,13 @@ def test_progress_bar_draws_on_a_terminal_only() -> None:
     text = terminal.getvalue()
     assert text.count("\r") == 4 and text.endswith("\n")
     assert "4/4" in text and "puma560 dls" in text and "[" + "#" * 28 + "]" in text
+
+
+def test_every_argument_parser_is_in_the_cli() -> None:
+    import optik.report
+
+    folder = Path(optik.report.__file__).parent
+    sources = sorted(folder.glob("*.py"))
+    assert len(sources) > 1
+    for path in sources:
+        assert "argparse" not in path.read_text(encoding="utf-8"), path.name
