@@ -12,9 +12,8 @@ from pathlib import Path
 import numpy as np
 
 import optik
+from optik.compare import planar_2r_example
 from optik.plots import plot_planar_trajectory
-from optik.solvers import IKQuery
-from optik.solvers.iterative import PinvSolver
 
 
 def main(out_dir: str | Path = ".") -> dict[str, float]:
@@ -22,22 +21,13 @@ def main(out_dir: str | Path = ".") -> dict[str, float]:
     problem = optik.load_problem("planar_2r")
     robot = problem.robot
     target = problem.targets["seed003"]
-    q0 = np.array([0.5, 0.5])
 
-    # The note's Algorithm 1: theta <- theta + 0.001 J^+ delta until |delta| < 0.01.
-    solver = PinvSolver(step=0.001)
-    query = IKQuery(robot, target.pose, "position", target.tolerance)
-    trajectory = [q0]
-    q = q0
-    iterations = 0
-    while True:
-        out = solver.solve(query, q, 1, math.inf)
-        iterations += out.iterations
-        q = out.q
-        trajectory.append(q)
-        if out.converged:
-            break
-    error = float(np.linalg.norm(robot.fk(q)[:3, 3] - target.position))
+    # The note's Algorithm 1: theta <- theta + 0.001 J^+ delta until |delta| < 0.01, from
+    # theta = (0.5, 0.5) rad (the same computation as the report's seed 003 section).
+    (row,), trajectory = planar_2r_example(problem, steps=(0.001,))
+    iterations = int(row.iterations or 0)
+    error = float(row.position_error or 0.0)
+    q = trajectory[-1]
     print(
         f"seed 003 (step 0.001): {iterations} iterations, error {error:.4f} m, "
         f"q = ({math.degrees(q[0]):.2f}, {math.degrees(q[1]):.2f}) deg"
@@ -52,7 +42,7 @@ def main(out_dir: str | Path = ".") -> dict[str, float]:
     print(f"both elbow branches: {[np.degrees(b).round(2).tolist() for b in branches]}")
 
     path = plot_planar_trajectory(
-        robot, np.array(trajectory), target.position, Path(out_dir) / "planar_2r_trajectory.png"
+        robot, trajectory, target.position, Path(out_dir) / "planar_2r_trajectory.png"
     )
     print(f"wrote {path}")
     return {"iterations": iterations, "error": error, "precise_error": precise.position_error}

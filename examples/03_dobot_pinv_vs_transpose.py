@@ -9,33 +9,17 @@ Run: ``python examples/03_dobot_pinv_vs_transpose.py``.
 
 from __future__ import annotations
 
-import math
-
-import numpy as np
-
-import optik
-from optik.solvers import IKQuery
-from optik.solvers.iterative import PinvSolver, TransposeSolver
-
-CHAPTER_TABLE_2 = {"part1": (22, 55), "part2": (5, 34), "part3": (6, 68)}
+from optik.compare import CHAPTER_TABLE_2, dobot_chapter_rows
 
 
 def main() -> dict[str, dict[str, int]]:
     """Iterations per method and part, printed beside the chapter's numbers."""
-    problem = optik.load_problem("dobot_magician")
-    robot = problem.robot
+    # The same computation as the report's seed 001 section (the chapter's two methods).
     counts: dict[str, dict[str, int]] = {}
-    for solver in (PinvSolver(), TransposeSolver()):
-        q = np.zeros(robot.dof)
-        for part in ("part1", "part2", "part3"):
-            target = problem.targets[part]
-            out = solver.solve(
-                IKQuery(robot, target.pose, "position", target.tolerance), q, 10_000, math.inf
-            )
-            if not out.converged:
-                raise RuntimeError(f"{solver.name} did not converge on {part}")
-            counts.setdefault(part, {})[solver.name] = out.iterations
-            q = out.q
+    for row in dobot_chapter_rows(solvers=("pinv", "transpose")):
+        if not row.backend_converged:
+            raise RuntimeError(f"{row.solver} did not converge on {row.target}")
+        counts.setdefault(row.target, {})[row.solver] = int(row.iterations or 0)
     print(f"{'part':<8}{'pinv':>6}{'transpose':>11}   chapter (pinv / transpose)")
     for part, (pinv, transpose) in CHAPTER_TABLE_2.items():
         ours = counts[part]

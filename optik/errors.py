@@ -130,3 +130,22 @@ class SolverError(OptikError):
 
 class AnalyticIKError(OptikError):
     """A robot has no closed-form family, or the family does not fit the robot."""
+
+
+class OutputFileError(OptikError):
+    """A file cannot be written where asked (a folder there, a file as parent, no access)."""
+
+    def __init__(self, path: str, reason: str) -> None:
+        self.path = path
+        self.reason = reason
+        super().__init__(f"cannot write {path}: {reason}")
+
+
+class ResultsFileError(OptikError):
+    """A results table is malformed; the message names the file and the line (1-based)."""
+
+    def __init__(self, path: str, line: int, message: str) -> None:
+        self.path = path
+        self.line = line
+        self.detail = message
+        super().__init__(f"{path}, line {line}: {message}")

@@ -315,24 +315,6 @@ def solve_ik(
     # timeout_s=inf is "no time limit": the restart budget then stays finite.
     deadline = start_time + float(timeout_s) if timeout_s is not None else math.inf
 
-    centre, radius = robot.reach_sphere
-    if float(np.linalg.norm(T_target[:3, 3] - centre)) > radius + tol:
-        return _result(
-            robot,
-            q_start,
-            query,
-            start_time,
-            status_if_failed="unreachable",
-            iterations=0,
-            restarts=0,
-            solver="reach",
-            message=(
-                f"the target lies {float(np.linalg.norm(T_target[:3, 3] - centre)):.6g} m from "
-                f"the reach sphere's centre, beyond its radius {radius:.6g} m"
-            ),
-            claim=None,
-        )
-
     starts: list[FloatArray] = []
     family = family_of(robot) if warm_start == "analytic" else None
     if family is not None and _family_solves(robot, family, mode):
@@ -353,6 +335,25 @@ def solve_ik(
                 claim=None,
             )
         starts = branches
+    # No closed form: the reach sphere still proves a target unreachable.
+    centre, radius = robot.reach_sphere
+    if float(np.linalg.norm(T_target[:3, 3] - centre)) > radius + tol:
+        return _result(
+            robot,
+            q_start,
+            query,
+            start_time,
+            status_if_failed="unreachable",
+            iterations=0,
+            restarts=0,
+            solver="reach",
+            message=(
+                f"the target lies {float(np.linalg.norm(T_target[:3, 3] - centre)):.6g} m from "
+                f"the reach sphere's centre, beyond its radius {radius:.6g} m"
+            ),
+            claim=None,
+        )
+
     if numeric is None:
         numeric = get_solver(AUTO_NUMERIC_SOLVER)
     iterations_per_attempt = max_iter if max_iter is not None else numeric.default_max_iter

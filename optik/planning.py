@@ -16,8 +16,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
-import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -26,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from optik._checks import FloatArray, as_float_array
+from optik._files import write_atomic_with
 from optik.analytic import analytic_ik, family_of, wrap_into_limits
 from optik.errors import OptikError, ShapeError
 from optik.ik import solve_ik, solve_ik_batch
@@ -156,16 +155,7 @@ class PathPlan:
 
 def _atomic_write(target: Path, writer: Callable[[Any], None], binary: bool = False) -> Path:
     """Write through a temporary file in the same folder, then rename over ``target``."""
-    target.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", dir=target.parent)
-    try:
-        with os.fdopen(fd, "wb" if binary else "w", encoding=None if binary else "utf-8") as handle:
-            writer(handle)
-        os.replace(tmp, target)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return target
+    return write_atomic_with(target, writer, binary=binary)
 
 
 def _as_path(path: Any, mode: str | None) -> tuple[FloatArray, str]:

@@ -10,6 +10,7 @@ from __future__ import annotations
 import functools
 import math
 import os
+from dataclasses import fields
 from pathlib import Path
 from typing import Any
 
@@ -17,6 +18,7 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, settings
 
+from optik.compare import ResultRow, RunConfig, step_backends
 from optik.model import Robot
 from optik.problems import Problem, load_problem
 
@@ -222,3 +224,37 @@ def fd_jacobian(robot: Robot, q: np.ndarray, h: float = 1e-6) -> np.ndarray:
         W = dT[:3, :3] @ T0[:3, :3].T
         J[3:, k] = vee_of(0.5 * (W - W.T))
     return J
+
+
+# ---------------------------------------------------------------------------- comparison runs
+class Interrupt(Exception):
+    """Raised from an ``on_row`` callback to stop a run as a kill would."""
+
+
+def one_qp_and_one_casadi() -> tuple[str, ...]:
+    names = step_backends()
+    picked = [n for n in names if n.startswith("qp:")][:1]
+    picked += [n for n in names if n.startswith("casadi:")][:1]
+    return tuple(picked)
+
+
+def tiny_config(seeds: bool = False, **overrides: object) -> RunConfig:
+    """Two small robots, three fast solvers, three targets, one closed-form configuration."""
+    values: dict[str, object] = {
+        "problems": ("planar_2r", "dobot_magician"),
+        "solvers": ("auto", "dls", "pinv"),
+        "n": 3,
+        "seed": 5,
+        "timeout_s": 0.5,
+        "closed_form_problems": ("dobot_magician",),
+        "closed_form_configs": 1,
+        "step_backends": one_qp_and_one_casadi(),
+        "seeds": seeds,
+    }
+    values.update(overrides)
+    return RunConfig(**values)  # type: ignore[arg-type]
+
+
+def without_timing(rows: list[ResultRow]) -> list[tuple[object, ...]]:
+    """Rows as tuples without the wall time (the only field allowed to differ)."""
+    return [tuple(getattr(r, f.name) for f in fields(r) if f.name != "time_s") for r in rows]

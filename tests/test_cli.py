@@ -2,14 +2,20 @@
 
 from __future__ import annotations
 
+import json
 import math
 import re
+from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 import pytest
 from conftest import PROBLEM_NAMES, ROOT, load
 
+from optik import cli
 from optik.cli import main
+from optik.compare import COLUMNS
+from optik.errors import OptikError
 
 
 def _row(out: str, name: str) -> str:
@@ -101,3 +107,129 @@ def test_documented_examples_run(doc: str, monkeypatch: pytest.MonkeyPatch) -> N
     assert blocks, f"{doc} has no python example"
     for code in blocks:
         exec(compile(code, doc, "exec"), {"__name__": "__doc_example__"})
+
+
+# ---------------------------------------------------------------------------- exit codes
+def _strict_json(text: str) -> Any:
+    """JSON as the standard defines it: ``Infinity`` and ``NaN`` are not JSON."""
+
+    def refuse(name: str) -> None:
+        raise ValueError(f"not JSON: {name}")
+
+    return json.loads(text, parse_constant=refuse)
+
+
+def test_no_solution_exits_1_with_valid_json(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["solve", "planar_2r", "--position", "5", "5", "0", "--json"]) == 1
+    data = _strict_json(capsys.readouterr().out)
+    assert data["status"] == "unreachable" and data["success"] is False
+    # Two unit links reach 2 m: the target is at least 7.07 - 2 m from every tool position.
+    assert data["position_error"] >= math.hypot(5, 5) - 2.0
+
+
+def test_json_writes_non_finite_numbers_as_null(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    real = cli.solve_ik
+
+    def far(*args: Any, **kwargs: Any) -> Any:
+        result = real(*args, **kwargs)
+        return replace(result, position_error=math.inf, orientation_error=math.nan)
+
+    monkeypatch.setattr(cli, "solve_ik", far)
+    assert main(["solve", "planar_2r", "--position", "1", "1", "0", "--json"]) == 0
+    out = capsys.readouterr().out
+    data = _strict_json(out)
+    assert data["position_error"] is None and data["orientation_error"] is None
+    assert data["success"] is True and len(data["q"]) == 2
+    assert "Infinity" not in out and "NaN" not in out
+
+
+@pytest.mark.parametrize(
+    ("argv", "names"),
+    [
+        (["solve", "planar_2r", "--position", "1", "1", "0", "--seed", "-1"], "--seed"),
+        (["solve", "planar_2r", "--position", "1", "1", "0", "--seed", "1.5"], "--seed"),
+        (["solve", "planar_2r", "--position", "nan", "1", "0"], "--position"),
+        (["solve", "planar_2r", "--position", "1", "1", "0", "--tol", "0"], "--tol"),
+        (["solve", "planar_2r", "--position", "1", "1", "0", "--tol", "inf"], "--tol"),
+        (["solve", "planar_2r", "--position", "1", "1", "0", "--timeout-ms", "-5"], "--timeout-ms"),
+        (["solve", "planar_2r", "--position", "1", "1", "0", "--q0", "0", "x"], "--q0"),
+        (["plan", "planar_2r", "--line", "1", "0", "0", "1", "1", "0", "--step", "0"], "--step"),
+        (["plan", "planar_2r", "--problem-path", "p", "--limit-margin", "-1"], "--limit-margin"),
+        (["report", "-n", "-3"], "-n"),
+        (["report", "--timeout-ms", "nan"], "--timeout-ms"),
+    ],
+)
+def test_bad_numbers_exit_2_naming_the_argument(
+    argv: list[str], names: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    with pytest.raises(SystemExit) as info:
+        main(argv)
+    assert info.value.code == 2
+    err = capsys.readouterr().err
+    assert f"argument {names}" in err and "Traceback" not in err
+
+
+def _one_error_line(err: str) -> str:
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("optik: error: "), err
+    return lines[0]
+
+
+@pytest.mark.parametrize("command", ["report", "plan"])
+def test_out_on_a_file_exits_2(
+    command: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    taken = tmp_path / "taken"
+    taken.write_text("mine", encoding="utf-8")
+    extra = ["planar_2r", "--line", "1", "0", "0", "1", "1", "0"] if command == "plan" else []
+    assert main([command, *extra, "--out", str(taken)]) == 2
+    line = _one_error_line(capsys.readouterr().err)
+    assert f"cannot write {taken}" in line and "is a file, not a folder" in line
+    assert taken.read_text(encoding="utf-8") == "mine"
+
+
+@pytest.mark.skipif(not Path("/proc/self").is_dir(), reason="needs the Linux /proc file system")
+@pytest.mark.parametrize("command", ["report", "plan"])
+def test_out_in_a_place_that_cannot_be_written_exits_2(
+    command: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    extra = ["planar_2r", "--line", "1", "0", "0", "1", "1", "0"] if command == "plan" else []
+    assert main([command, *extra, "--out", "/proc/optik-out"]) == 2
+    assert "cannot write /proc/optik-out" in _one_error_line(capsys.readouterr().err)
+
+
+def test_resume_of_a_corrupted_table_exits_2(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    results = tmp_path / "results.csv"
+    results.write_text(",".join(COLUMNS) + "\nik,planar_2r,oops\n", encoding="utf-8")
+    argv = ["report", "--quick", "-n", "1", "--problems", "planar_2r", "--solvers", "dls"]
+    assert main([*argv, "--out", str(tmp_path), "--resume"]) == 2
+    line = _one_error_line(capsys.readouterr().err)
+    assert f"{results}, line 2: corrupted row" in line
+
+
+def test_an_internal_error_is_not_a_no_solution(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    def broken(*args: Any, **kwargs: Any) -> Any:
+        raise RuntimeError("a bug")
+
+    monkeypatch.setattr(cli, "solve_ik", broken)
+    code = main(["solve", "planar_2r", "--position", "1", "1", "0"])
+    assert code == cli.EXIT_INTERNAL == 3
+    err = capsys.readouterr().err
+    assert "RuntimeError: a bug" in err and "internal error" in err
+
+
+def test_a_multi_line_error_is_printed_on_one_line(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    def refuse(*args: Any, **kwargs: Any) -> Any:
+        raise OptikError("first part\n  second part")
+
+    monkeypatch.setattr(cli, "solve_ik", refuse)
+    assert main(["solve", "planar_2r", "--position", "1", "1", "0"]) == 2
+    assert _one_error_line(capsys.readouterr().err) == "optik: error: first part second part"

@@ -5,12 +5,11 @@ from __future__ import annotations
 import csv
 import json
 import math
-from dataclasses import fields
 from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import ROOT
+from conftest import ROOT, Interrupt, one_qp_and_one_casadi, tiny_config, without_timing
 
 from optik.compare import (
     AGREEMENT_TOL,
@@ -27,8 +26,9 @@ from optik.compare import (
     run,
     solve_step,
     step_backends,
+    write_rows,
 )
-from optik.errors import OptikError
+from optik.errors import OptikError, OutputFileError, ResultsFileError
 from optik.problems import load_problem
 
 #: The columns documented in docs/report.md, in order.
@@ -52,35 +52,6 @@ DOCUMENTED_COLUMNS = (
     "method",
     "message",
 )
-
-
-def _one_qp_and_one_casadi() -> tuple[str, ...]:
-    names = step_backends()
-    picked = [n for n in names if n.startswith("qp:")][:1]
-    picked += [n for n in names if n.startswith("casadi:")][:1]
-    return tuple(picked)
-
-
-def tiny_config(seeds: bool = False, **overrides: object) -> RunConfig:
-    """Two small robots, three fast solvers, three targets, one closed-form configuration."""
-    values: dict[str, object] = {
-        "problems": ("planar_2r", "dobot_magician"),
-        "solvers": ("auto", "dls", "pinv"),
-        "n": 3,
-        "seed": 5,
-        "timeout_s": 0.5,
-        "closed_form_problems": ("dobot_magician",),
-        "closed_form_configs": 1,
-        "step_backends": _one_qp_and_one_casadi(),
-        "seeds": seeds,
-    }
-    values.update(overrides)
-    return RunConfig(**values)  # type: ignore[arg-type]
-
-
-def without_timing(rows: list[ResultRow]) -> list[tuple[object, ...]]:
-    """Rows as tuples without the wall time (the only field allowed to differ)."""
-    return [tuple(getattr(r, f.name) for f in fields(r) if f.name != "time_s") for r in rows]
 
 
 @pytest.fixture(scope="module")
@@ -150,10 +121,6 @@ def test_read_results_rejects_another_schema(tmp_path: Path) -> None:
 
 
 # ---------------------------------------------------------------------------- resume
-class Interrupt(Exception):
-    pass
-
-
 def test_resume_after_interruption(tmp_path: Path, reference: list[ResultRow]) -> None:
     path = tmp_path / "results.csv"
     written: list[ResultRow] = []
@@ -201,6 +168,86 @@ def test_without_resume_the_file_starts_afresh(tmp_path: Path) -> None:
     first = read_results(path)
     run(tiny_config(n=1, step_backends=()), path, progress=False)
     assert len(read_results(path)) == len(first)
+
+
+def _rows(n: int) -> list[ResultRow]:
+    return [
+        ResultRow(
+            kind="ik",
+            problem="planar_2r",
+            robot="planar 2R",
+            target=f"t{k:04d}",
+            solver="dls",
+            settings='{"a":1}',
+            success=True,
+            status="converged",
+            position_error=1e-9,
+            iterations=3,
+            time_s=1e-4,
+            message="multi\nline" if k == 1 else "",
+        )
+        for k in range(n)
+    ]
+
+
+@pytest.mark.parametrize(
+    ("bad_cell", "reason"),
+    [
+        ("iterations", "'iterations'"),  # "three" is not a number
+        ("success", "'success'"),  # "yes" is not true or false
+        ("kind", "'kind'"),  # not one of the kinds
+        ("cells", "cells instead of 18"),  # a cell lost
+    ],
+)
+def test_resume_names_the_corrupted_line(tmp_path: Path, bad_cell: str, reason: str) -> None:
+    path = write_rows(_rows(4), tmp_path / "results.csv")
+    lines = path.read_text(encoding="utf-8").splitlines(keepends=True)
+    # Line 1 is the header, row 1 spans lines 3-4 (a newline in its message): row 2 is line 5.
+    assert lines[4].startswith("ik,planar_2r,planar 2R,t0002,")
+    cells = next(csv.reader([lines[4]]))
+    if bad_cell == "cells":
+        cells = cells[:-1]
+    else:
+        cells[COLUMNS.index(bad_cell)] = {"iterations": "three", "success": "yes"}.get(
+            bad_cell, "bogus"
+        )
+    with open(path, "w", encoding="utf-8", newline="") as f:
+        f.writelines(lines[:4])
+        csv.writer(f, lineterminator="\n").writerow(cells)
+        f.writelines(lines[5:])
+    for read in (read_results, lambda p: ResultsFile(p, resume=True)):
+        with pytest.raises(ResultsFileError, match=reason) as info:
+            read(path)
+        assert info.value.line == 5 and info.value.path == str(path)
+        assert f"{path}, line 5: corrupted row" in str(info.value)
+
+
+def test_resume_names_both_lines_of_a_duplicate(tmp_path: Path) -> None:
+    rows = _rows(3)
+    path = write_rows([*rows, rows[1]], tmp_path / "results.csv")  # row 1 twice (lines 3-4 and 6-7)
+    for read in (read_results, lambda p: ResultsFile(p, resume=True)):
+        with pytest.raises(ResultsFileError, match="line 6: duplicate of the row at line 3"):
+            read(path)
+    # Deleting one of the two lines, as the message says, makes the file resumable.
+    lines = path.read_text(encoding="utf-8").splitlines(keepends=True)
+    path.write_text("".join(lines[:5]), encoding="utf-8")
+    with ResultsFile(path, resume=True) as results:
+        assert [r.target for r in results.rows] == ["t0000", "t0001", "t0002"]
+
+
+def test_results_file_in_place_of_a_folder_or_on_a_file(tmp_path: Path) -> None:
+    with pytest.raises(OutputFileError, match="is a folder"):
+        ResultsFile(tmp_path)
+    (tmp_path / "plain").write_text("x", encoding="utf-8")
+    with pytest.raises(OutputFileError, match="plain is a file, not a folder"):
+        ResultsFile(tmp_path / "plain" / "results.csv")
+
+
+def test_resume_rejects_a_file_that_is_not_utf8(tmp_path: Path) -> None:
+    path = write_rows(_rows(2), tmp_path / "results.csv")
+    path.write_bytes(path.read_bytes() + b"ik,\xff\xfe\n")
+    with pytest.raises(ResultsFileError, match="line 5: not UTF-8"):
+        ResultsFile(path, resume=True)
 
 
 # ---------------------------------------------------------------------------- targets
@@ -306,7 +353,7 @@ def test_solve_step_rejects_other_names() -> None:
 
 def test_closed_form_rows(reference: list[ResultRow]) -> None:
     rows = [r for r in reference if r.kind == "closed_form"]
-    assert _one_qp_and_one_casadi(), "osqp / proxsuite and casadi are core dependencies"
+    assert one_qp_and_one_casadi(), "osqp / proxsuite and casadi are core dependencies"
     assert rows
     for row in rows:
         assert row.method in ("min_norm", "least_squares")

@@ -2,30 +2,27 @@
 
 from __future__ import annotations
 
-import argparse
 import base64
 import csv
 import io
 import json
 import math
-import os
 from html.parser import HTMLParser
 from pathlib import Path
 
 import numpy as np
 import pytest
-from test_compare import Interrupt, tiny_config, without_timing
+from conftest import Interrupt, tiny_config, without_timing
 
 from optik._progress import Progress
+from optik.cli import build_parser
 from optik.compare import ResultRow, read_results
 from optik.report import (
     ACCURACY_LEVELS,
     SGM_SHIFT_S,
     Report,
-    add_report_command,
     make_report,
     shifted_geometric_mean,
-    write_atomic,
 )
 
 SECTIONS = ("closed-form", "full-ik", "seed001", "seed003", "environment")
@@ -202,25 +199,9 @@ def test_interrupted_report_leaves_no_partial_file_and_resumes(
     assert [s.problem for s in resumed.ik] == [s.problem for s in report.ik]
 
 
-def test_write_atomic_keeps_the_old_file_when_writing_fails(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
-) -> None:
-    path = write_atomic(tmp_path / "a.txt", "old")
-
-    def broken(src: object, dst: object) -> None:
-        raise OSError("disk full")
-
-    monkeypatch.setattr(os, "replace", broken)
-    with pytest.raises(OSError, match="disk full"):
-        write_atomic(path, "new")
-    assert path.read_text() == "old"
-    assert not _temporary_files(tmp_path)
-
-
 # ---------------------------------------------------------------------------- CLI
 def test_report_command(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    parser = argparse.ArgumentParser(prog="optik")
-    add_report_command(parser.add_subparsers(dest="command", required=True))
+    parser = build_parser()
     out = tmp_path / "out"
     args = parser.parse_args(
         ["report", "--quick", "-n", "1", "--problems", "planar_2r", "--solvers", "auto", "dls",
@@ -240,8 +221,7 @@ def test_report_command(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> N
 
 
 def test_report_command_rejects_unknown_solvers() -> None:
-    parser = argparse.ArgumentParser(prog="optik")
-    add_report_command(parser.add_subparsers(dest="command", required=True))
+    parser = build_parser()
     with pytest.raises(SystemExit):
         parser.parse_args(["report", "--solvers", "no-such-solver"])
 
@@ -265,3 +245,13 @@ def test_progress_bar_draws_on_a_terminal_only() -> None:
     text = terminal.getvalue()
     assert text.count("\r") == 4 and text.endswith("\n")
     assert "4/4" in text and "puma560 dls" in text and "[" + "#" * 28 + "]" in text
+
+
+def test_every_argument_parser_is_in_the_cli() -> None:
+    import optik.report
+
+    folder = Path(optik.report.__file__).parent
+    sources = sorted(folder.glob("*.py"))
+    assert len(sources) > 1
+    for path in sources:
+        assert "argparse" not in path.read_text(encoding="utf-8"), path.name

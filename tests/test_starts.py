@@ -76,7 +76,7 @@ def test_dls_restarts_are_used_and_counted() -> None:
     # An unreachable pose within the reach sphere: every attempt fails; all are run.
     panda = load_problem("panda").robot
     target = panda.fk(panda.mid_limits)
-    target[:3, 3] = [0.0, 0.0, 1.5]  # above the shoulder, farther than the arm reaches
+    target[:3, 3] = [0.0, 0.0, 1.33]  # inside the reach sphere, beyond the arm
     res = optik.solve_ik(panda, target, solver="dls", restarts=300, seed=0)
     assert not res.success and res.status == "max_iter" and res.restarts == 300
 
@@ -84,7 +84,7 @@ def test_dls_restarts_are_used_and_counted() -> None:
 def test_timeout_inf_means_no_time_limit_with_a_finite_budget() -> None:
     panda = load_problem("panda").robot
     target = panda.fk(panda.mid_limits)
-    target[:3, 3] = [0.0, 0.0, 1.5]
+    target[:3, 3] = [0.0, 0.0, 1.33]
     res = optik.solve_ik(panda, target, solver="dls", timeout_s=math.inf, seed=0)
     assert res.status == "max_iter" and res.restarts == optik.ik.DEFAULT_RESTARTS
 
@@ -92,7 +92,7 @@ def test_timeout_inf_means_no_time_limit_with_a_finite_budget() -> None:
 def test_timeout_stops_an_unlimited_run() -> None:
     panda = load_problem("panda").robot
     target = panda.fk(panda.mid_limits)
-    target[:3, 3] = [0.0, 0.0, 1.5]
+    target[:3, 3] = [0.0, 0.0, 1.33]
     optik.solve_ik(panda, target, solver="dls", restarts=1)  # compile outside the timing
     res = optik.solve_ik(panda, target, solver="dls", timeout_s=0.2, seed=0)
     assert res.status == "timeout" and res.restarts > optik.ik.DEFAULT_RESTARTS

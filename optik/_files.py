@@ -1,0 +1,117 @@
+"""Files written whole or not at all: the one atomic write of optik.
+
+The data go to a temporary file in the target's folder (so the final rename stays on one
+file system), are flushed and ``fsync``-ed, and ``os.replace`` (atomic on POSIX and
+Windows) renames the temporary file over the target. A reader sees the old file or the
+new one, never a partial one; a failed write removes its temporary file and leaves the
+old file as it was.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import stat
+import uuid
+from collections.abc import Callable
+from pathlib import Path
+from typing import IO, Any
+
+from optik.errors import OutputFileError
+
+__all__ = ["prepare_folder", "write_atomic", "write_atomic_with"]
+
+_O_BINARY = getattr(os, "O_BINARY", 0)  # Windows: no newline translation at the fd level
+
+
+def prepare_folder(folder: str | Path) -> Path:
+    """Create ``folder`` (and its parents) for output, or say clearly why it cannot be.
+
+    Raises:
+        OutputFileError: ``folder`` or one of its parents is a file, or the place is not
+            writable (the message names the path).
+    """
+    folder = Path(folder)
+    for parent in (folder, *folder.parents):
+        if parent.exists() and not parent.is_dir():
+            raise OutputFileError(str(folder), f"{parent} is a file, not a folder")
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OutputFileError(str(folder), exc.strerror or str(exc)) from exc
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise OutputFileError(str(folder), "the folder is not writable")
+    return folder
+
+
+def _create_temporary(target: Path) -> tuple[int, str]:
+    """A new hidden file beside ``target``, with the permissions ``open(target, "w")`` gives.
+
+    ``tempfile.mkstemp`` would create it private (0600); a report is meant to be read by
+    others, so the file is created with mode 0666 less the umask, or with the mode of the
+    file it replaces.
+    """
+    for _ in range(100):
+        tmp = target.with_name(f".{target.name}.{uuid.uuid4().hex[:12]}.tmp")
+        try:
+            fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | _O_BINARY, 0o666)
+        except FileExistsError:
+            continue
+        except OSError as exc:
+            raise OutputFileError(str(target), exc.strerror or str(exc)) from exc
+        # A new file (or a mode we may not copy) keeps the umask's permissions.
+        with contextlib.suppress(OSError):
+            os.chmod(tmp, stat.S_IMODE(target.stat().st_mode))
+        return fd, str(tmp)
+    raise OutputFileError(str(target), "no free temporary name in its folder")  # pragma: no cover
+
+
+def write_atomic_with(
+    path: str | Path, writer: Callable[[IO[Any]], object], *, binary: bool = False
+) -> Path:
+    """Write ``path`` whole through ``writer(handle)`` (text UTF-8, or bytes if ``binary``).
+
+    Args:
+        path: the target file; its folder is created.
+        writer: writes the content to the open handle it is given.
+        binary: open the handle in binary mode.
+
+    Returns:
+        ``path`` as a :class:`~pathlib.Path`.
+
+    Raises:
+        OutputFileError: ``path`` is a folder, a parent is a file, or the place is not
+            writable.
+    """
+    target = Path(path)
+    if target.is_dir():
+        raise OutputFileError(str(target), "it is a folder")
+    prepare_folder(target.parent)
+    fd, tmp = _create_temporary(target)
+    try:
+        mode = "wb" if binary else "w"
+        encoding = None if binary else "utf-8"
+        newline = None if binary else ""
+        with os.fdopen(fd, mode, encoding=encoding, newline=newline) as handle:
+            writer(handle)
+            handle.flush()
+            os.fsync(handle.fileno())
+        os.replace(tmp, target)
+    except OSError as exc:
+        Path(tmp).unlink(missing_ok=True)
+        raise OutputFileError(str(target), exc.strerror or str(exc)) from exc
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return target
+
+
+def write_atomic(path: str | Path, data: str | bytes) -> Path:
+    """Write ``data`` (text as UTF-8, or bytes) to ``path`` whole; see :func:`write_atomic_with`.
+
+    Raises:
+        OutputFileError: ``path`` is a folder, a parent is a file, or the place is not
+            writable.
+    """
+    binary = isinstance(data, bytes)
+    return write_atomic_with(path, lambda handle: handle.write(data), binary=binary)

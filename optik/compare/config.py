@@ -1,0 +1,117 @@
+"""What a comparison run covers (:class:`RunConfig`) and what it did (:class:`RunStats`)."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+from optik._checks import FloatArray
+from optik.compare.results import Key, ResultRow, settings_json
+from optik.errors import OptikError
+from optik.solvers import available_solvers
+
+__all__ = ["RunConfig", "RunStats", "ik_settings"]
+
+
+@dataclass(frozen=True)
+class RunConfig:
+    """What a comparison run covers.
+
+    Attributes:
+        problems: problem names or files for the full-IK section.
+        solvers: solver names for the full-IK section (``"auto"`` allowed).
+        n: targets per robot.
+        seed: seed of the targets (and of each solve's restarts).
+        tol: IK tolerance: position (m) and orientation (rad).
+        timeout_s: time budget of one IK call, s; failures count at this time in the
+            shifted geometric mean.
+        mode: ``"pose"`` or ``"position"``.
+        caps: per-solver cap on the number of targets per robot (slow solvers).
+        closed_form_problems: problems of the closed-form section (default ``problems``).
+        closed_form_configs: configurations per robot in the closed-form section.
+        step_backends: step-program backends (``qp:<name>``, ``casadi:<plugin>``) of the
+            closed-form section; ``None`` means every one installed (:func:`step_backends`).
+        seeds: run the seed 001 and seed 003 sections.
+    """
+
+    problems: tuple[str, ...]
+    solvers: tuple[str, ...]
+    n: int = 20
+    seed: int = 0
+    tol: float = 1e-6
+    timeout_s: float = 1.0
+    mode: str = "pose"
+    caps: Mapping[str, int] = field(default_factory=dict)
+    closed_form_problems: tuple[str, ...] | None = None
+    closed_form_configs: int = 3
+    step_backends: tuple[str, ...] | None = None
+    seeds: bool = True
+
+    def __post_init__(self) -> None:
+        if self.n < 0 or self.closed_form_configs < 0:
+            raise OptikError("n and closed_form_configs must be non-negative")
+        if not (self.tol > 0 and math.isfinite(self.tol)):
+            raise OptikError(f"tol must be positive and finite, got {self.tol!r}")
+        if not (self.timeout_s > 0 and math.isfinite(self.timeout_s)):
+            raise OptikError(f"timeout_s must be positive and finite, got {self.timeout_s!r}")
+        if self.mode not in ("pose", "position"):
+            raise OptikError(f"mode must be 'pose' or 'position', got {self.mode!r}")
+        known = {"auto", *available_solvers()}
+        unknown = [s for s in self.solvers if s not in known]
+        if unknown:
+            raise OptikError(
+                f"unknown or unavailable solver(s) {unknown}; available: {sorted(known)}"
+            )
+
+    def targets_for(self, solver: str) -> int:
+        """Number of targets per robot that ``solver`` runs (``n``, or its cap)."""
+        return min(self.n, self.caps.get(solver, self.n))
+
+    def to_dict(self) -> dict[str, Any]:
+        """The configuration as plain JSON-able data (recorded in ``summary.json``)."""
+        data = asdict(self)
+        data["caps"] = dict(self.caps)
+        return data
+
+
+def ik_settings(config: RunConfig, solver: str) -> str:
+    """The settings JSON of an ``ik`` row: mode, tol, timeout, seed and warm start.
+
+    ``auto`` keeps :func:`optik.solve_ik`'s analytic warm start (its answer is the closed
+    form when the robot has one); every named solver runs with ``warm_start="q0"`` and no
+    ``q0``, so it is measured from the same starts as the others (the seed table's nearest
+    entries, then seeded uniform draws; see :mod:`optik.ik`).
+    """
+    return settings_json(
+        {
+            "mode": config.mode,
+            "seed": config.seed,
+            "timeout_s": config.timeout_s,
+            "tol": config.tol,
+            "warm_start": "analytic" if solver == "auto" else "q0",
+        }
+    )
+
+
+@dataclass
+class RunStats:
+    """What :func:`run` did.
+
+    Attributes:
+        written: rows produced and appended by this call.
+        skipped: rows already in the file (``resume``).
+        rows: every row of the file after the run, old and new.
+        step_backends: the closed-form section's backends (empty: none installed).
+        trajectory: seed 003's joint trajectory (K, 2), rad, for the plot.
+        planned: the keys of every row this configuration asks for (the report summarises
+            only these; a resumed file may hold rows of other settings).
+    """
+
+    written: int = 0
+    skipped: int = 0
+    rows: list[ResultRow] = field(default_factory=list)
+    step_backends: tuple[str, ...] = ()
+    trajectory: FloatArray | None = None
+    planned: set[Key] = field(default_factory=set)

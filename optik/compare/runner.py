@@ -1,0 +1,205 @@
+"""The comparison run: tasks of every section, warm-ups, and the resumable row loop."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from optik._checks import FloatArray
+from optik._progress import Progress
+from optik.compare.backends import solve_step, step_backends
+from optik.compare.config import RunConfig, RunStats, ik_settings
+from optik.compare.ik_runs import _ik_row
+from optik.compare.results import Key, ResultRow, ResultsFile
+from optik.compare.seeds import (
+    CHAPTER_TABLE_2,
+    SEED001_MAX_ITER,
+    SEED001_SOLVERS,
+    SEED003_Q0,
+    SEED003_STEPS,
+    _seed001_settings,
+    _seed003_settings,
+    dobot_chapter_rows,
+    planar_2r_example,
+)
+from optik.compare.steps import StepCase, _closed_form_row, closed_form_cases
+from optik.compare.targets import _solve_seed, random_configurations
+from optik.problems import Problem, load_problem
+
+__all__ = ["run"]
+
+
+@dataclass
+class _Task:
+    """Rows produced together (one IK call, one step solve, or a seed's chain)."""
+
+    keys: list[Key]
+    produce: Callable[[], list[ResultRow]]
+    note: str
+    group: tuple[str, ...] = ()
+    warm_up: Callable[[], object] | None = None
+
+
+def _ik_tasks(config: RunConfig, problems: Sequence[Problem]) -> Iterator[_Task]:
+    for problem in problems:
+        robot = problem.robot
+        counts = {s: config.targets_for(s) for s in config.solvers}
+        total = max(counts.values(), default=0)
+        Q = random_configurations(robot, problem.name, total, config.seed)
+        poses = robot.fk(Q) if total else np.empty((0, 4, 4))
+        for solver in config.solvers:
+            settings = ik_settings(config, solver)
+            for k in range(counts[solver]):
+                target_id = f"t{k:04d}"
+                pose = poses[k]
+
+                def produce(
+                    problem: Problem = problem,
+                    t: str = target_id,
+                    pose: FloatArray = pose,
+                    solver: str = solver,
+                    k: int = k,
+                ) -> list[ResultRow]:
+                    seed = _solve_seed(config.seed, problem.name, k)
+                    return [_ik_row(problem, t, pose, solver, config, seed)]
+
+                def warm_up(problem: Problem = problem, solver: str = solver) -> object:
+                    robot = problem.robot
+                    return _ik_row(
+                        problem, "warm-up", robot.fk(robot.mid_limits), solver, config, 0
+                    )
+
+                yield _Task(
+                    [("ik", problem.name, target_id, solver, settings)],
+                    produce,
+                    f"ik {problem.name} {solver}",
+                    ("ik", problem.name, solver),
+                    warm_up,
+                )
+
+
+def _closed_form_tasks(
+    config: RunConfig, problems: Sequence[Problem], backends: Sequence[str]
+) -> Iterator[_Task]:
+    for problem in problems:
+        cases = closed_form_cases(
+            problem.robot, problem.name, config.closed_form_configs, config.seed
+        )
+        for case in cases:
+            program = case.program(problem.robot)
+            settings = case.settings(config.seed)
+            for backend in backends:
+
+                def produce(
+                    problem: Problem = problem,
+                    case: StepCase = case,
+                    backend: str = backend,
+                    program: Any = program,
+                ) -> list[ResultRow]:
+                    return [_closed_form_row(problem, case, backend, config.seed, program)]
+
+                def warm_up(backend: str = backend, program: Any = program) -> object:
+                    try:
+                        return solve_step(program, backend)
+                    except Exception as exc:  # the timed call will record it
+                        return exc
+
+                key = ("closed_form", problem.name, case.target, backend, settings)
+                shape = (str(program.dof), str(program.task_dim), case.objective)
+                yield _Task(
+                    [key],
+                    produce,
+                    f"closed form {problem.name} {backend}",
+                    ("closed_form", backend, *shape),
+                    warm_up,
+                )
+
+
+def _seed_tasks(trajectory: list[FloatArray]) -> Iterator[_Task]:
+    dobot = load_problem("dobot_magician")
+    keys001: list[Key] = []
+    for solver in SEED001_SOLVERS:
+        for part in CHAPTER_TABLE_2:
+            settings = _seed001_settings(dobot.targets[part].tolerance, SEED001_MAX_ITER)
+            keys001.append(("seed001", dobot.name, part, solver, settings))
+    yield _Task(keys001, lambda: dobot_chapter_rows(dobot), "seed 001 DOBOT")
+    planar = load_problem("planar_2r")
+
+    def produce003() -> list[ResultRow]:
+        rows, path = planar_2r_example(planar)
+        trajectory.append(path)
+        return rows
+
+    tol = planar.targets["seed003"].tolerance
+    q0 = np.array(SEED003_Q0)
+    keys003: list[Key] = [
+        ("seed003", planar.name, "seed003", "pinv", _seed003_settings(a, q0, tol))
+        for a in SEED003_STEPS
+    ]
+    yield _Task(keys003, produce003, "seed 003 planar 2R")
+
+
+def run(
+    config: RunConfig,
+    results_path: str | Path,
+    *,
+    resume: bool = False,
+    progress: bool | None = None,
+    on_row: Callable[[ResultRow], None] | None = None,
+) -> RunStats:
+    """Run the comparison and append its rows to ``results_path``.
+
+    Sections in order: closed-form agreement, full IK, seed 001, seed 003. Before the
+    first timed row of each (problem, solver) pair of the IK section (and each backend and
+    program shape of the closed-form section) one untimed warm-up call runs, so one-off
+    costs (numba compilation, CasADi program construction) are not counted.
+
+    Args:
+        config: what to run.
+        results_path: the CSV file (created, or continued with ``resume``).
+        resume: keep the rows already in the file and skip their keys.
+        progress: draw a progress bar on stderr (``None``: only on a terminal).
+        on_row: called after each row is written (tests use it to interrupt a run).
+
+    Returns:
+        A :class:`RunStats`; seed 003's trajectory is recomputed when its row was skipped.
+    """
+    problems = [load_problem(p) for p in config.problems]
+    cf_names = (
+        config.problems if config.closed_form_problems is None else config.closed_form_problems
+    )
+    cf_problems = [load_problem(p) for p in cf_names]
+    backends = step_backends() if config.step_backends is None else config.step_backends
+    trajectory: list[FloatArray] = []
+    tasks: list[_Task] = []
+    if backends and config.closed_form_configs:
+        tasks += _closed_form_tasks(config, cf_problems, backends)
+    tasks += _ik_tasks(config, problems)
+    if config.seeds:
+        tasks += _seed_tasks(trajectory)
+    stats = RunStats(step_backends=tuple(backends), planned={k for t in tasks for k in t.keys})
+    with ResultsFile(results_path, resume=resume) as results:
+        pending = [t for t in tasks if not all(results.has(k) for k in t.keys)]
+        stats.skipped = sum(len(t.keys) for t in tasks) - sum(len(t.keys) for t in pending)
+        warmed: set[tuple[str, ...]] = set()
+        with Progress(sum(len(t.keys) for t in pending), enabled=progress) as bar:
+            for task in pending:
+                if task.warm_up is not None and task.group not in warmed:
+                    task.warm_up()
+                    warmed.add(task.group)
+                for row in task.produce():
+                    if results.has(row.key()):
+                        continue
+                    results.write(row)
+                    stats.written += 1
+                    bar.advance(note=task.note)
+                    if on_row is not None:
+                        on_row(row)
+        stats.rows = list(results.rows)
+    if config.seeds:
+        stats.trajectory = trajectory[0] if trajectory else planar_2r_example()[1]
+    return stats
