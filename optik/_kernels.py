@@ -15,6 +15,8 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
+from optik._math import pose_error
+
 _jit = nb.njit(cache=True, nogil=True, error_model="numpy")
 
 
@@ -284,25 +286,9 @@ def pose_errors_into(
             fk_into(K, prismatic, q, T)
         else:
             fk_into(K, prismatic, C @ q, T)
-        G = targets[0] if single else targets[k]
-        dx = T[0, 3] - G[0, 3]
-        dy = T[1, 3] - G[1, 3]
-        dz = T[2, 3] - G[2, 3]
-        out[k, 0] = np.sqrt(dx * dx + dy * dy + dz * dz)
-        if pose:
-            # R = G^T T (3x3): only its trace and skew part are needed.
-            r = np.empty((3, 3))
-            for a in range(3):
-                for b in range(3):
-                    r[a, b] = G[0, a] * T[0, b] + G[1, a] * T[1, b] + G[2, a] * T[2, b]
-            sx = r[2, 1] - r[1, 2]
-            sy = r[0, 2] - r[2, 0]
-            sz = r[1, 0] - r[0, 1]
-            s = 0.5 * np.sqrt(sx * sx + sy * sy + sz * sz)
-            c = 0.5 * (r[0, 0] + r[1, 1] + r[2, 2] - 1.0)
-            out[k, 1] = np.arctan2(s, c)
-        else:
-            out[k, 1] = 0.0
+        position, orientation = pose_error(T, targets[0] if single else targets[k])
+        out[k, 0] = position
+        out[k, 1] = orientation if pose else 0.0
         worst = 0.0
         for i in range(q.shape[0]):
             worst = max(worst, lower[i] - q[i], q[i] - upper[i])

@@ -60,6 +60,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from optik._checks import FloatArray, as_float_array, check_finite
+from optik._math import cholesky_factor, cholesky_substitute
 from optik.errors import NonFiniteError, OptikError, ShapeError, SingularMatrixError
 
 BoolArray = NDArray[np.bool_]
@@ -167,7 +168,7 @@ def _gram_kernel(  # pragma: no cover - compiled; its answers are tested through
     tall, ``G X = A^T``; wide, ``A^T G^-1 = (G^-1 A)^T``.
 
     With ``K`` the factor (``A`` wide, ``A^T`` tall, ``p x q``) and ``G = K K^T = L L^T``
-    (Cholesky, ``G`` never stored), it also computes the rigorous bound
+    (:func:`optik._math.cholesky_factor`), it also computes the rigorous bound
     ``kappa_up >= cond_2(G)``: with the comparison matrix ``M(L)`` (``|l_jj|`` on the
     diagonal, ``-|l_jk|`` off it), ``|L^-1| <= M(L)^-1`` entrywise (Higham, *Accuracy and
     Stability of Numerical Algorithms*, 2nd ed., Thm. 8.12), so ``||L^-1||_inf <= max z``
@@ -197,8 +198,10 @@ def _gram_kernel(  # pragma: no cover - compiled; its answers are tested through
     k = X.shape[2]
     kk = q if identity else k  # columns of the right-hand side R
     K = np.empty((p, q))
-    L = np.zeros((p, p))
+    G = np.empty((p, p))
+    L = np.zeros((p, p + 1))
     R = np.empty((p, kk))
+    column = np.empty(p)
     z = np.empty(p)
     w = np.empty(p)
     for i in range(N):
@@ -208,29 +211,17 @@ def _gram_kernel(  # pragma: no cover - compiled; its answers are tested through
             for c in range(q):
                 K[r, c] = A[i, r, c] if wide else A[i, c, r]
 
-        # Cholesky, column j of L from column j of G (left-looking).
+        # G = K K^T + lam2 I (lower triangle), then its Cholesky factor.
         trace = 0.0
-        positive = True
-        for j in range(p):
-            for r in range(j, p):
+        for r in range(p):
+            for j in range(r + 1):
                 s = 0.0
                 for c in range(q):
                     s += K[r, c] * K[j, c]
-                if r == j:
-                    s += lam2
-                    trace += s
-                for c in range(j):
-                    s -= L[r, c] * L[j, c]
-                if r == j:
-                    if not (s > 0.0 and s < np.inf):  # also catches NaN
-                        positive = False
-                        break
-                    L[j, j] = np.sqrt(s)
-                else:
-                    L[r, j] = s / L[j, j]
-            if not positive:
-                break
-        if not positive:
+                G[r, j] = s
+            G[r, r] += lam2
+            trace += G[r, r]
+        if not cholesky_factor(G, L):
             continue
 
         # kappa_up = trace(G) max(z) max(w), see the docstring.
@@ -239,18 +230,18 @@ def _gram_kernel(  # pragma: no cover - compiled; its answers are tested through
             s = 1.0
             for c in range(r):
                 s += abs(L[r, c]) * z[c]
-            z[r] = s / L[r, r]
+            z[r] = s * L[r, p]
             z_max = max(z_max, z[r])
         w_max = 0.0
         for r in range(p - 1, -1, -1):
             s = 1.0
             for c in range(r + 1, p):
                 s += abs(L[c, r]) * w[c]
-            w[r] = s / L[r, r]
+            w[r] = s * L[r, p]
             w_max = max(w_max, w[r])
         kappa_up[i] = trace * z_max * w_max
 
-        # Right-hand side R (p, kk), then R <- G^-1 R by two triangular solves.
+        # Right-hand side R (p, kk), then R <- G^-1 R column by column.
         for r in range(p):
             for c in range(kk):
                 if identity:
@@ -264,15 +255,10 @@ def _gram_kernel(  # pragma: no cover - compiled; its answers are tested through
                     R[r, c] = s
         for c in range(kk):
             for r in range(p):
-                s = R[r, c]
-                for t in range(r):
-                    s -= L[r, t] * R[t, c]
-                R[r, c] = s / L[r, r]
-            for r in range(p - 1, -1, -1):
-                s = R[r, c]
-                for t in range(r + 1, p):
-                    s -= L[t, r] * R[t, c]
-                R[r, c] = s / L[r, r]
+                column[r] = R[r, c]
+            cholesky_substitute(L, column, column)
+            for r in range(p):
+                R[r, c] = column[r]
 
         finite = True
         for r in range(n):

@@ -7,11 +7,11 @@ radians. Functions accept a leading batch axis where stated.
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import numpy as np
 
+from optik import _math
 from optik._checks import FloatArray, as_float_array, check_finite
 from optik.errors import InvalidRotationError, ShapeError
 
@@ -84,12 +84,15 @@ def rotation_angle(R: FloatArray) -> FloatArray | float:
     """Rotation angle in [0, pi] of ``R`` (3x3 or batch), accurate for tiny angles.
 
     Uses ``atan2(||vee(R - R^T)|| / 2, (trace R - 1) / 2)``; ``arccos`` of the trace
-    loses all precision below about 2e-8 rad.
+    loses all precision below about 2e-8 rad (:func:`optik._math.rotation_angle`).
     """
-    s = 0.5 * np.linalg.norm(vee(R - np.swapaxes(R, -1, -2)), axis=-1)
-    c = 0.5 * (np.trace(R, axis1=-2, axis2=-1) - 1.0)
-    angle = np.arctan2(s, c)
-    return float(angle) if np.ndim(angle) == 0 else angle
+    R = np.asarray(R, dtype=np.float64)
+    if R.ndim == 2:
+        return _math.rotation_angle(np.ascontiguousarray(R))
+    flat = np.ascontiguousarray(R.reshape(-1, 3, 3))
+    out = np.empty(flat.shape[0])
+    _math.rotation_angles(flat, out)
+    return out.reshape(R.shape[:-2])
 
 
 def exp_so3(omega: FloatArray) -> FloatArray:
@@ -106,24 +109,11 @@ def log_so3(R: FloatArray) -> FloatArray:
     """Rotation vector (axis times angle, rad) of the 3x3 rotation ``R``.
 
     Stable at both ends: a series for small angles and the symmetric part of ``R``
-    near pi, where ``sin(angle)`` vanishes.
+    near pi, where ``sin(angle)`` vanishes (:func:`optik._math.log_rotation`).
     """
-    v = 0.5 * vee(R - R.T)
-    s = float(np.linalg.norm(v))
-    c = 0.5 * (float(np.trace(R)) - 1.0)
-    theta = float(np.arctan2(s, c))
-    if theta < 1e-6:
-        return v * (1.0 + theta * theta / 6.0)
-    if theta < np.pi - 1e-3:
-        return v * (theta / s)
-    # Near pi: R + R^T = 2 cos(t) I + 2 (1 - cos t) a a^T determines the axis up to sign.
-    B = 0.5 * (R + R.T) - c * np.eye(3)
-    k = int(np.argmax(np.diag(B)))
-    axis = B[:, k] / np.sqrt(max(B[k, k], 1e-300))
-    axis /= np.linalg.norm(axis)
-    if float(axis @ v) < 0.0:
-        axis = -axis
-    return axis * theta
+    out = np.empty(3)
+    _math.log_rotation(np.ascontiguousarray(R, dtype=np.float64), out)
+    return out
 
 
 def rotation_error_vector(R_current: FloatArray, R_target: FloatArray) -> FloatArray:
@@ -133,21 +123,12 @@ def rotation_error_vector(R_current: FloatArray, R_target: FloatArray) -> FloatA
 
 def _rotation_defects(R: FloatArray) -> tuple[float, float]:
     """``max |R^T R - I|`` and the determinant farthest from 1, over a 3x3 or a batch."""
+    R = np.ascontiguousarray(R, dtype=np.float64)
     if R.ndim == 2:
-        # Plain floats: for one 3x3, numpy's per-call overhead dominates the arithmetic.
-        (a, b, c), (d, e, f), (g, h, i) = R.tolist()
-        err = max(
-            abs(a * a + d * d + g * g - 1.0),
-            abs(b * b + e * e + h * h - 1.0),
-            abs(c * c + f * f + i * i - 1.0),
-            abs(a * b + d * e + g * h),
-            abs(a * c + d * f + g * i),
-            abs(b * c + e * f + h * i),
-        )
-        return err, a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)
-    gram = np.swapaxes(R, -1, -2) @ R - np.eye(3)
-    det = np.linalg.det(R).reshape(-1)
-    return float(np.abs(gram).max()), float(det[np.argmax(np.abs(det - 1.0))])
+        err, det = _math.rotation_defects(R)
+    else:
+        err, det = _math.worst_rotation_defects(R.reshape(-1, 3, 3))
+    return float(err), float(det)
 
 
 def check_rotation(name: str, R: FloatArray, tol: float = ROTATION_TOLERANCE) -> None:
@@ -190,10 +171,7 @@ def as_target(value: Any, mode: str) -> FloatArray:
 
 def pose_error(T: FloatArray, T_target: FloatArray) -> tuple[float, float]:
     """Position error ``||p - p*||`` (m) and orientation error ``angle(R*^T R)`` (rad)."""
-    d = T[:3, 3] - T_target[:3, 3]
-    position = math.sqrt(float(d @ d))
-    R = T_target[:3, :3].T @ T[:3, :3]
-    sx, sy, sz = R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]
-    s = 0.5 * math.sqrt(sx * sx + sy * sy + sz * sz)
-    c = 0.5 * (R[0, 0] + R[1, 1] + R[2, 2] - 1.0)
-    return position, math.atan2(s, c)
+    position, orientation = _math.pose_error(
+        np.ascontiguousarray(T, dtype=np.float64), np.ascontiguousarray(T_target, dtype=np.float64)
+    )
+    return float(position), float(orientation)

@@ -26,6 +26,9 @@ Every returned angle then satisfies the equation to a residual
 ``|a cos t + b sin t - c| <= 2 sqrt(tol) max(1, r)`` (the tangent and degenerate cases;
 the two-root case is accurate to a few ulps of ``r + |c|``). Pass ``tol=0`` for exact
 tests.
+
+The arithmetic is compiled once, in :func:`optik._math.trig_branches` (the closed forms
+call the same code); the functions here validate their arguments and call it.
 """
 
 from __future__ import annotations
@@ -35,6 +38,7 @@ from typing import Any, Final
 
 import numpy as np
 
+from optik import _math
 from optik._checks import FloatArray, as_float_array, check_finite
 from optik.errors import NonFiniteError, OptikError, ShapeError
 
@@ -53,16 +57,10 @@ def wrap_angle(t: float) -> float:
         t: finite angle in radians.
 
     Returns:
-        ``t + 2 pi k`` in ``(-pi, pi]`` for the integer ``k`` that puts it there.
+        ``t + 2 pi k`` in ``(-pi, pi]`` for the integer ``k`` that puts it there (the
+        exact steps of :func:`optik._math.wrap_angle`: ``fmod`` and one correction).
     """
-    # fmod is exact, and so is the one correction (Sterbenz: |w| and 2 pi within a factor
-    # 2); the same steps as the vectorized form, so both agree to the last bit.
-    w = math.fmod(t, _TWO_PI)  # in (-2 pi, 2 pi)
-    if w > math.pi:
-        return w - _TWO_PI
-    if w <= -math.pi:
-        return w + _TWO_PI
-    return w
+    return float(_math.wrap_angle(float(t)))
 
 
 def _scalar(name: str, value: Any) -> float:
@@ -81,32 +79,6 @@ def _check_tol(tol: float) -> float:
     if not (value >= 0.0) or not math.isfinite(value):  # also rejects NaN
         raise OptikError(f"tol must be finite and >= 0, got {tol!r}")
     return value
-
-
-def _classify(a: float, b: float, c: float, tol: float) -> tuple[str, float]:
-    """Return the case and ``sqrt(r^2 - c^2)`` (0 unless two roots).
-
-    Cases: ``"free"`` (every t), ``"none"``, ``"one"`` (tangent), ``"two"``. The
-    difference ``r^2 - c^2`` is formed as ``(r - |c|)(r + |c|)``, without the
-    cancellation of ``a^2 + b^2 - c^2`` near tangency, and relative to ``r^2`` when
-    ``r >= 1`` so that it cannot overflow.
-    """
-    r = math.hypot(a, b)
-    if r * r <= tol:
-        return ("free" if c * c <= tol else "none"), 0.0
-    ac = abs(c)
-    if r >= 1.0:
-        rho = ac / r
-        gap = (1.0 - rho) * (1.0 + rho)  # (r^2 - c^2) / r^2 = -delta / scale
-        root = r * math.sqrt(gap) if gap > 0.0 else 0.0
-    else:
-        gap = (r - ac) * (r + ac)  # r^2 - c^2 = -delta / scale (scale = 1)
-        root = math.sqrt(gap) if gap > 0.0 else 0.0
-    if gap < -tol:
-        return "none", 0.0
-    if gap <= tol:
-        return "one", 0.0
-    return "two", root
 
 
 def solve_trig(
@@ -137,18 +109,13 @@ def solve_trig(
         OptikError: ``tol`` is negative or not finite.
     """
     a_f, b_f, c_f = _scalar("a", a), _scalar("b", b), _scalar("c", c)
-    free = _scalar("free_value", free_value)
-    case, root = _classify(a_f, b_f, c_f, _check_tol(tol))
-    if case == "none":
+    free = _math.wrap_angle(_scalar("free_value", free_value))
+    count, t1, t2 = _math.trig_roots(a_f, b_f, c_f, free, _check_tol(tol), -1.0, 0.0)
+    if count == 0:
         return ()
-    if case == "free":
-        return (wrap_angle(free),)
-    phi = math.atan2(b_f, a_f)
-    psi = math.atan2(root, c_f)  # in [0, pi]; 0 or pi in the tangent case
-    if case == "one":
-        return (wrap_angle(phi + psi),)
-    t1, t2 = wrap_angle(phi + psi), wrap_angle(phi - psi)
-    return (t1, t2) if t1 < t2 else (t2, t1)
+    if count == 1:
+        return (float(t1),)
+    return (float(t1), float(t2))
 
 
 def solve_trig_zero(
@@ -214,36 +181,11 @@ def solve_trig_batch(
         raise ShapeError("a, b, c", f"shapes that broadcast together, not {shapes}", ()) from exc
     tol = _check_tol(tol)
 
-    # The same arithmetic as _classify, elementwise (squares of huge entries overflow to
-    # inf harmlessly: they only feed comparisons that then come out right).
-    with np.errstate(over="ignore", invalid="ignore"):
-        r = np.hypot(a_arr, b_arr)
-        ac = np.abs(c_arr)
-        big = r >= 1.0
-        rho = ac / np.where(big, r, 1.0)
-        gap = np.where(big, (1.0 - rho) * (1.0 + rho), (r - ac) * (r + ac))
-        root = np.where(big, r, 1.0) * np.sqrt(np.maximum(gap, 0.0))
-        degenerate = r * r <= tol
-        free = degenerate & (c_arr * c_arr <= tol)
-    two = ~degenerate & (gap > tol)
-    valid = free | (~degenerate & (gap >= -tol))
-
-    phi = np.arctan2(b_arr, a_arr)
-    psi = np.arctan2(np.where(two, root, 0.0), c_arr)  # 0 or pi at a tangent root
-    t_plus = _wrap_array(phi + psi)
-    # A tangent root is phi + psi alone, as in solve_trig (phi - pi and phi + pi would
-    # wrap to values an ulp apart).
-    t_minus = np.where(two, _wrap_array(phi - psi), t_plus)
-    free_wrapped = _wrap_array(f_arr)
-    t_plus = np.where(free, free_wrapped, np.where(valid, t_plus, 0.0))
-    t_minus = np.where(free, free_wrapped, np.where(valid, t_minus, 0.0))
-    return t_plus, t_minus, valid
-
-
-def _wrap_array(t: FloatArray) -> FloatArray:
-    """Elementwise :func:`wrap_angle` (the same exact steps)."""
-    w = np.fmod(t, _TWO_PI)
-    wrapped: FloatArray = np.where(
-        w > math.pi, w - _TWO_PI, np.where(w <= -math.pi, w + _TWO_PI, w)
+    a_f, b_f, c_f, free = (
+        np.ascontiguousarray(x, dtype=np.float64).reshape(-1) for x in (a_arr, b_arr, c_arr, f_arr)
     )
-    return wrapped
+    out = np.empty((3, a_f.shape[0]))
+    _math.trig_branches_batch(a_f, b_f, c_f, free, tol, out)
+    shape = a_arr.shape
+    valid = (out[0] > 0).reshape(shape)
+    return out[1].reshape(shape), out[2].reshape(shape), valid

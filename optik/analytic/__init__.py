@@ -20,6 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from optik._checks import FloatArray, as_float_array, check_finite, finite_array
+from optik._math import first_bad_pose
 from optik.analytic import (  # noqa: F401
     _compiled,
     dobot,
@@ -351,7 +352,7 @@ def _batch_targets(targets: Any, mode: str) -> FloatArray:
         expected = "(N, 4, 4)" + (" or (N, 3)" if mode == "position" else "")
         raise ShapeError("targets", expected, T.shape)
     T = _plain(T)
-    bad = _compiled.first_bad_pose(T, *_compiled.pose_tolerances())
+    bad = first_bad_pose(T, *_compiled.pose_tolerances())
     if bad >= 0:
         as_pose(f"targets[{bad}]", T[bad])  # raises the error naming the first bad target
         raise OptikError(  # pragma: no cover - the compiled checks replicate as_pose

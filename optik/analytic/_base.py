@@ -6,11 +6,10 @@ import math
 from abc import ABC, abstractmethod
 from typing import ClassVar
 
-import numpy as np
-
 from optik._checks import FloatArray
+from optik._math import trig_roots
 from optik.model import DHJoint, Robot
-from optik.trig import solve_trig
+from optik.trig import TRIG_TOL
 
 SINGULAR_EPS = 1e-12
 """Below this magnitude (relative to ``max(|a|, |b|, |c|, 1)``) a coefficient pair of the
@@ -78,13 +77,14 @@ def angles(a: float, b: float, c: float, free: float) -> tuple[float, ...]:
 
     ``a = b = 0`` arises at singular configurations (a shoulder over the base, a wrist
     aligned): the joint is then free when ``c = 0`` and the caller's reference is used.
-    The compiled families use its twin :func:`optik.analytic._compiled.trig_roots` (the
-    same rules; a test checks that both agree).
+    The compiled :func:`optik._math.trig_roots` with the closed forms' tolerances
+    (:data:`SINGULAR_EPS`, :data:`FREE_RHS_TOL`, :data:`optik.trig.TRIG_TOL`); the
+    compiled families call it directly.
     """
-    scale = max(abs(a), abs(b), abs(c), 1.0)
-    if abs(a) <= SINGULAR_EPS * scale and abs(b) <= SINGULAR_EPS * scale:
-        return (free,) if abs(c) <= FREE_RHS_TOL * scale else ()
-    return tuple(solve_trig(a, b, c))
+    n, t1, t2 = trig_roots(
+        float(a), float(b), float(c), float(free), TRIG_TOL, SINGULAR_EPS, FREE_RHS_TOL
+    )
+    return (float(t1), float(t2))[:n]
 
 
 def dh_rows(robot: Robot) -> tuple[DHJoint, ...]:
@@ -99,25 +99,3 @@ def is_right_angle(alpha: float) -> int:
     if abs(alpha + math.pi / 2) < 1e-12:
         return -1
     return 0
-
-
-def dh_matrix(row: DHJoint, q: float) -> FloatArray:
-    """Standard DH A-matrix of ``row`` at joint value ``q`` (offset included)."""
-    theta = row.theta + (q if row.kind == "revolute" else 0.0)
-    d = row.d + (q if row.kind == "prismatic" else 0.0)
-    ct, st = math.cos(theta), math.sin(theta)
-    ca, sa = math.cos(row.alpha), math.sin(row.alpha)
-    return np.array(
-        [
-            [ct, -st * ca, st * sa, row.a * ct],
-            [st, ct * ca, -ct * sa, row.a * st],
-            [0.0, sa, ca, d],
-            [0.0, 0.0, 0.0, 1.0],
-        ]
-    )
-
-
-def wrap_to_pi(angle: float) -> float:
-    """``angle`` wrapped into (-pi, pi]."""
-    wrapped = math.remainder(angle, 2.0 * math.pi)
-    return math.pi if wrapped == -math.pi else wrapped

@@ -45,6 +45,14 @@ import numba as nb
 import numpy as np
 
 from optik._checks import FloatArray
+from optik._math import (
+    _SINCOS_RANGE,
+    _sincos_core,
+    mod_two_pi,
+    pose_defect,
+    sincos,
+    trig_roots,
+)
 from optik.analytic._base import (
     DUPLICATE_TOLERANCE,
     FREE_RHS_TOL,
@@ -244,89 +252,6 @@ def pose_tolerances() -> tuple[float, float]:
     return ROTATION_TOLERANCE, _BOTTOM_ROW_TOL
 
 
-# ---------------------------------------------------------------------- sine and cosine
-# sin and cos together, without a libm call: the kernels of fdlibm / musl (__sin, __cos:
-# minimax polynomials on [-pi/4, pi/4], < 1 ulp) after a Cody-Waite reduction by pi/2 with
-# a two-part constant. libm's sin and cos are opaque calls (about 20 ns each here, and
-# they serialise the FK chain); these inline and vectorise (about 4 ns per pair). On
-# |x| < _SINCOS_RANGE they differ from libm by at most 2e-16 (absolute) everywhere and by
-# at most 1 ulp away from the zeros of sin and cos (tests/test_analytic_batch.py checks
-# both); beyond that range, and for NaN or infinities, libm is used.
-_S1 = -1.66666666666666324348e-01
-_S2 = 8.33333333332248946124e-03
-_S3 = -1.98412698298579493134e-04
-_S4 = 2.75573137070700676789e-06
-_S5 = -2.50507602534068634195e-08
-_S6 = 1.58969099521155010221e-10
-_C1 = 4.16666666666666019037e-02
-_C2 = -1.38888888888741095749e-03
-_C3 = 2.48015872894767294178e-05
-_C4 = -2.75573143513906633035e-07
-_C5 = 2.08757232129817482790e-09
-_C6 = -1.13596475577881948265e-11
-_INVPIO2 = 6.36619772367581382433e-01  # 2 / pi
-_PIO2_1 = 1.57079632673412561417e00  # first 33 bits of pi / 2
-_PIO2_1T = 6.07710050650619224932e-11  # pi / 2 - _PIO2_1
-_TOINT = 1.5 / 2.220446049250313e-16  # adding and subtracting it rounds to an integer
-_SINCOS_RANGE = 1.0e5
-"""Largest |x| (rad) for the inline sine and cosine (the reduction error stays < 1e-20)."""
-
-_inline = nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
-
-
-@_inline
-def _sin_kernel(x: float, y: float) -> float:
-    """sin(x + y) for |x + y| <= pi / 4, ``y`` the tail of ``x`` (musl __sin)."""
-    z = x * x
-    w = z * z
-    r = _S2 + z * (_S3 + z * _S4) + z * w * (_S5 + z * _S6)
-    v = z * x
-    return x - ((z * (0.5 * y - v * r) - y) - v * _S1)
-
-
-@_inline
-def _cos_kernel(x: float, y: float) -> float:
-    """cos(x + y) for |x + y| <= pi / 4, ``y`` the tail of ``x`` (musl __cos)."""
-    z = x * x
-    w = z * z
-    r = z * (_C1 + z * (_C2 + z * _C3)) + w * w * (_C4 + z * (_C5 + z * _C6))
-    hz = 0.5 * z
-    w = 1.0 - hz
-    return w + (((1.0 - w) - hz) + (z * r - x * y))
-
-
-@_inline
-def _sincos_core(x: float) -> tuple[float, float]:
-    """``(sin x, cos x)`` for |x| < _SINCOS_RANGE, without branches (so loops vectorise).
-
-    ``x = n pi / 2 + y0 + y1``: ``x - n _PIO2_1`` is exact (Sterbenz; the product is exact
-    as ``_PIO2_1`` has 33 significant bits), the tail ``n _PIO2_1T`` leaves an error below
-    1e-20 on this range; then the quadrant ``n mod 4`` picks and signs the kernels.
-    """
-    fn = x * _INVPIO2 + _TOINT - _TOINT
-    r = x - fn * _PIO2_1
-    w = fn * _PIO2_1T
-    y0 = r - w
-    y1 = (r - y0) - w
-    n = np.int64(fn)
-    s = _sin_kernel(y0, y1)
-    c = _cos_kernel(y0, y1)
-    odd = (n & 1) != 0
-    sn = c if odd else s
-    cs = s if odd else c
-    sn = -sn if (n & 2) != 0 else sn
-    cs = -cs if ((n + 1) & 2) != 0 else cs
-    return sn, cs
-
-
-@_jit
-def sincos(x: float) -> tuple[float, float]:
-    """``(sin x, cos x)``: inline kernels on |x| < _SINCOS_RANGE, libm elsewhere (and NaN)."""
-    if abs(x) < _SINCOS_RANGE:
-        return _sincos_core(x)
-    return math.sin(x), math.cos(x)
-
-
 @_jit
 def _sincos_block(flat: np.ndarray, n: int) -> None:
     """Sines and cosines of the first ``n`` values of the pipeline's scratch block.
@@ -348,97 +273,6 @@ def _sincos_block(flat: np.ndarray, n: int) -> None:
     else:
         for i in range(n):
             flat[s0 + i], flat[c0 + i] = sincos(flat[i])
-
-
-# ---------------------------------------------------------------------- scalar helpers
-@_jit
-def _wrap_angle(t: float) -> float:
-    """``t`` in (-pi, pi]: the exact steps of :func:`optik.trig.wrap_angle`."""
-    if -math.pi < t <= math.pi:
-        return t  # fmod would return t unchanged (and costs a libm call)
-    w = np.fmod(t, _TWO_PI)
-    if w > math.pi:
-        return w - _TWO_PI
-    if w <= -math.pi:
-        return w + _TWO_PI
-    return w
-
-
-@_jit
-def _mod_two_pi(x: float) -> float:
-    """``numpy.remainder(x, 2 pi)``, bit for bit, in [0, 2 pi] (2 pi only by rounding).
-
-    numpy forms ``fmod(x, 2 pi)`` (exact), adds ``2 pi`` to a negative result and turns a
-    zero into +0. For ``0 <= x < 2 pi`` that is ``x``; for ``2 pi <= x < 4 pi`` it is
-    ``x - 2 pi``, exact by Sterbenz's lemma; for ``-2 pi < x < 0`` it is ``x + 2 pi``:
-    the common cases skip the libm call.
-    """
-    if 0.0 < x < _TWO_PI:
-        return x
-    if _TWO_PI <= x < 2.0 * _TWO_PI:
-        return x - _TWO_PI
-    if -_TWO_PI < x < 0.0:
-        return x + _TWO_PI
-    rem = np.fmod(x, _TWO_PI)
-    if rem == 0.0:
-        return 0.0
-    if rem < 0.0:
-        return rem + _TWO_PI
-    return rem
-
-
-@_jit
-def trig_roots(
-    a: float, b: float, c: float, free: float, trig_tol: float, eps: float, free_tol: float
-) -> tuple[int, float, float]:
-    """Roots of ``a cos t + b sin t = c``: ``(count, t_low, t_high)``, count 0, 1 or 2.
-
-    The rules of :func:`optik.analytic._base.angles` then :func:`optik.trig.solve_trig`
-    (its tolerance ``trig_tol`` is :data:`optik.trig.TRIG_TOL`):
-
-    - ``|a|, |b| <= eps * scale`` (``scale = max(|a|, |b|, |c|, 1)``): the joint is free,
-      ``(1, free, free)``, when ``|c| <= free_tol * scale``, else no root;
-    - ``r^2 = a^2 + b^2 <= trig_tol``: ``(1, 0, 0)`` when ``c^2 <= trig_tol`` (solve_trig's
-      free value), else none;
-    - otherwise ``gap = (r^2 - c^2) / max(r^2, 1)``, formed without cancellation:
-      ``gap < -trig_tol`` none; ``|gap| <= trig_tol`` one tangent root
-      ``atan2(b, a) + atan2(0, c)``; else ``atan2(b, a) +- atan2(sqrt(r^2 - c^2), c)``,
-      both wrapped into (-pi, pi] and returned in ascending order.
-    """
-    scale = max(abs(a), abs(b), abs(c), 1.0)
-    if abs(a) <= eps * scale and abs(b) <= eps * scale:
-        if abs(c) <= free_tol * scale:
-            return 1, free, free
-        return 0, 0.0, 0.0
-    r = math.sqrt(a * a + b * b)  # hypot's value without its libm call (O(1) coefficients)
-    if r * r <= trig_tol:
-        if c * c <= trig_tol:
-            return 1, 0.0, 0.0
-        return 0, 0.0, 0.0
-    ac = abs(c)
-    if r >= 1.0:
-        rho = ac / r
-        gap = (1.0 - rho) * (1.0 + rho)
-        root = r * math.sqrt(gap) if gap > 0.0 else 0.0
-    else:
-        gap = (r - ac) * (r + ac)
-        root = math.sqrt(gap) if gap > 0.0 else 0.0
-    if gap < -trig_tol:
-        return 0, 0.0, 0.0
-    # atan2(+0, a) is 0 or pi: skip the libm call when b is +0 (a constant b = 0 is common).
-    if b == 0.0 and math.copysign(1.0, b) > 0.0:
-        phi = 0.0 if a > 0.0 else math.pi
-    else:
-        phi = math.atan2(b, a)
-    if gap <= trig_tol:
-        t = _wrap_angle(phi + math.atan2(0.0, c))  # tangent: the root is taken as 0
-        return 1, t, t
-    psi = math.atan2(root, c)
-    t1 = _wrap_angle(phi + psi)
-    t2 = _wrap_angle(phi - psi)
-    if t1 < t2:
-        return 2, t1, t2
-    return 2, t2, t1
 
 
 @_jit
@@ -892,50 +726,6 @@ def candidates(
 
 
 # ---------------------------------------------------------------------- validation
-@_jit
-def pose_defect(T: np.ndarray, k: int, rot_tol: float, row_tol: float) -> int:
-    """0 when ``T[k]`` is a valid 4x4 pose, else its first defect (the checks of ``as_pose``).
-
-    1: a NaN or infinite entry; 2: last row differs from ``(0, 0, 0, 1)`` by more than
-    ``row_tol``; 3: ``max |R^T R - I| > rot_tol`` or ``|det R - 1| > 10 rot_tol`` (the
-    formulas of :func:`optik.spatial.check_rotation` for one 3x3).
-    """
-    for i in range(4):
-        for j in range(4):
-            if not math.isfinite(T[k, i, j]):
-                return 1
-    bottom = max(abs(T[k, 3, 0]), abs(T[k, 3, 1]), abs(T[k, 3, 2]), abs(T[k, 3, 3] - 1.0))
-    if bottom > row_tol:
-        return 2
-    a, b, c = T[k, 0, 0], T[k, 0, 1], T[k, 0, 2]
-    d, e, f = T[k, 1, 0], T[k, 1, 1], T[k, 1, 2]
-    g, h, i = T[k, 2, 0], T[k, 2, 1], T[k, 2, 2]
-    err = max(
-        abs(a * a + d * d + g * g - 1.0),
-        abs(b * b + e * e + h * h - 1.0),
-        abs(c * c + f * f + i * i - 1.0),
-        abs(a * b + d * e + g * h),
-        abs(a * c + d * f + g * i),
-        abs(b * c + e * f + h * i),
-    )
-    det = a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)
-    if err > rot_tol or abs(det - 1.0) > 10.0 * rot_tol:
-        return 3
-    return 0
-
-
-@_jit
-def first_bad_pose(T: np.ndarray, rot_tol: float, row_tol: float) -> int:
-    """Index of the first invalid pose of a batch ``T`` (N, 4, 4), or -1 if none is.
-
-    Each pose is checked by :func:`pose_defect`.
-    """
-    for k in range(T.shape[0]):
-        if pose_defect(T, k, rot_tol, row_tol) != 0:
-            return k
-    return -1
-
-
 # ---------------------------------------------------------------------- pipeline
 @_jit
 def _fk_shared(params: np.ndarray, block: np.ndarray, r: int, pre: np.ndarray, depth: int) -> int:
@@ -1017,7 +807,7 @@ def _wrap_row(params: np.ndarray, rows: np.ndarray, r: int, ref: np.ndarray, kr:
             continue
         lower = params[_LOWER + j]
         upper = params[_UPPER + j]
-        base = ref[kr, j] + _mod_two_pi(rows[r, j] - ref[kr, j] + math.pi) - math.pi
+        base = ref[kr, j] + mod_two_pi(rows[r, j] - ref[kr, j] + math.pi) - math.pi
         if abs(ref[kr, j] - base) <= math.pi and lower <= base <= upper:
             # The usual case, without divisions: |ref - base| <= pi makes k_near below
             # exactly 0 (|x / 2 pi| <= 1/2 rounds half to even to 0), and a representative

@@ -17,48 +17,11 @@ import numba as nb
 import numpy as np
 
 from optik._kernels import fk_jacobian_work
+from optik._math import cholesky_solve, log_rotation
 from optik._nrt import borrowed
 from optik.solvers._starts import start_into, table_order
 
 _jit = nb.njit(cache=True, nogil=True, error_model="numpy")
-
-
-@_jit
-def _log_rotation(R: np.ndarray, out: np.ndarray) -> None:
-    """Rotation vector of the 3x3 rotation ``R`` into ``out`` (3,), stable near 0 and pi."""
-    vx = 0.5 * (R[2, 1] - R[1, 2])
-    vy = 0.5 * (R[0, 2] - R[2, 0])
-    vz = 0.5 * (R[1, 0] - R[0, 1])
-    s = np.sqrt(vx * vx + vy * vy + vz * vz)
-    c = 0.5 * (R[0, 0] + R[1, 1] + R[2, 2] - 1.0)
-    theta = np.arctan2(s, c)
-    if theta < 1e-6:
-        k = 1.0 + theta * theta / 6.0
-        out[0] = vx * k
-        out[1] = vy * k
-        out[2] = vz * k
-        return
-    if theta < np.pi - 1e-3:
-        k = theta / s
-        out[0] = vx * k
-        out[1] = vy * k
-        out[2] = vz * k
-        return
-    # Near pi the skew part vanishes; the axis comes from the symmetric part.
-    best = 0
-    for i in range(1, 3):
-        if R[i, i] > R[best, best]:
-            best = i
-    for i in range(3):
-        out[i] = 0.5 * (R[i, best] + R[best, i])
-    out[best] = R[best, best] - c
-    norm = np.sqrt(out[0] ** 2 + out[1] ** 2 + out[2] ** 2)
-    if norm <= 0.0:
-        norm = 1.0
-    sign = 1.0 if out[0] * vx + out[1] * vy + out[2] * vz >= 0.0 else -1.0
-    k = sign * theta / norm
-    for i in range(3):
-        out[i] *= k
 
 
 @_jit
@@ -78,45 +41,11 @@ def task_error(
         for c in range(3):
             M[r, c] = target[r, 0] * T[c, 0] + target[r, 1] * T[c, 1] + target[r, 2] * T[c, 2]
     w = M[:, 3]
-    _log_rotation(M[:, :3], w)
+    log_rotation(M[:, :3], w)
     e[3] = w[0]
     e[4] = w[1]
     e[5] = w[2]
     return position, np.sqrt(w[0] ** 2 + w[1] ** 2 + w[2] ** 2)
-
-
-@_jit
-def _cholesky_solve(A: np.ndarray, b: np.ndarray, x: np.ndarray, L: np.ndarray) -> bool:
-    """Solve SPD ``A x = b`` by Cholesky (``L`` is n x (n + 1) scratch); False if not SPD.
-
-    The last column of ``L`` keeps the reciprocals of the diagonal, so the factorisation
-    and both triangular solves multiply instead of dividing (n divisions in all).
-    """
-    n = A.shape[0]
-    for i in range(n):
-        for j in range(i + 1):
-            s = A[i, j]
-            for k in range(j):
-                s -= L[i, k] * L[j, k]
-            if i == j:
-                if s <= 0.0:
-                    return False
-                d = np.sqrt(s)
-                L[i, i] = d
-                L[i, n] = 1.0 / d
-            else:
-                L[i, j] = s * L[j, n]
-    for i in range(n):
-        s = b[i]
-        for k in range(i):
-            s -= L[i, k] * x[k]
-        x[i] = s * L[i, n]
-    for i in range(n - 1, -1, -1):
-        s = x[i]
-        for k in range(i + 1, n):
-            s -= L[k, i] * x[k]
-        x[i] = s * L[i, n]
-    return True
 
 
 @_jit
@@ -282,7 +211,7 @@ def lm_attempt(
                 A[a, b] = s
                 A[b, a] = s
             A[a, a] += lam
-        if not _cholesky_solve(A, g, dq, L):
+        if not cholesky_solve(A, g, dq, L):
             scale *= 10.0
             continue
         # Joints resting on a bound whose step points outward would be clamped back: fix
@@ -296,7 +225,7 @@ def lm_attempt(
                     A[b, i] = 0.0
                 A[i, i] = 1.0
                 g[i] = 0.0
-        if blocked and not _cholesky_solve(A, g, dq, L):
+        if blocked and not cholesky_solve(A, g, dq, L):
             scale *= 10.0
             continue
         for i in range(dof):
