@@ -176,6 +176,24 @@ def check_length_array(name: str, array: FloatArray) -> FloatArray:
     return array
 
 
+def finite_length_array(
+    name: str, value: Any, trailing: tuple[int, ...], batch: bool = False
+) -> FloatArray:
+    """:func:`finite_array` whose entries are also bounded by :data:`MAX_LENGTH_M`.
+
+    For joint values and coordinates: a quick test accepts the common case, the exact
+    checks run only to name a bad entry.
+
+    Raises:
+        ShapeError, ArgumentError, NonFiniteError: as :func:`finite_array`, and
+            ArgumentError for an entry of magnitude above :data:`MAX_LENGTH_M`.
+    """
+    array = _shaped(name, value, trailing, batch)
+    if _all_within(array, MAX_LENGTH_M):
+        return array
+    return check_length_array(name, check_finite(name, array))
+
+
 def _has_bool(value: Any) -> bool:
     """Whether a nested list/tuple holds a bool (numpy casts ``[True, 0.5]`` silently)."""
     try:
@@ -222,8 +240,29 @@ def as_float_array(name: str, value: Any) -> FloatArray:
         raise ArgumentError(name, value, "an array of real numbers") from exc
 
 
+_SMALL = 64  # below this many entries a Python loop beats a numpy call's overhead
+
+
+def _all_within(array: FloatArray, bound: float) -> bool:
+    """Whether every entry is finite with magnitude <= ``bound`` (a quick, exact test).
+
+    Large arrays use one dot product: a sum of squares that stays <= ``bound**2`` proves
+    it; a larger one (a NaN, an inf, an overflow or many big entries) returns False and
+    leaves the exact diagnosis to the caller.
+    """
+    if array.size <= _SMALL:
+        return all(-bound <= x <= bound for x in array.reshape(-1).tolist())
+    flat = array.reshape(-1)
+    with np.errstate(over="ignore", invalid="ignore"):  # an inf result is the answer
+        return float(np.dot(flat, flat)) <= bound * bound
+
+
 def check_finite(name: str, array: FloatArray) -> FloatArray:
     """Raise :class:`NonFiniteError` naming the first NaN/inf entry of ``array``."""
+    # The quick test proves the common case (all finite and below 1e150); the exact
+    # test runs only when it fails.
+    if array.dtype == np.float64 and _all_within(array, 1e150):
+        return array
     if not np.isfinite(array).all():
         bad = np.argwhere(~np.isfinite(array))[0]
         raise NonFiniteError(name, tuple(int(i) for i in bad))
@@ -246,6 +285,10 @@ def finite_array(
         ArgumentError: not an array of real numbers.
         NonFiniteError: a NaN or infinite entry.
     """
+    return check_finite(name, _shaped(name, value, trailing, batch))
+
+
+def _shaped(name: str, value: Any, trailing: tuple[int, ...], batch: bool) -> FloatArray:
     array = as_float_array(name, value)
     nd = len(trailing)
     ok = array.shape == trailing or (batch and array.ndim == nd + 1 and array.shape[1:] == trailing)
@@ -253,4 +296,4 @@ def finite_array(
         dims = ", ".join(str(t) for t in trailing)
         expected = f"({dims})" + (f" or (N, {dims})" if batch else "")
         raise ShapeError(name, expected, array.shape)
-    return check_finite(name, array)
+    return array

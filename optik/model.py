@@ -31,7 +31,7 @@ from optik._checks import (
     check_length,
     check_length_array,
     check_real,
-    finite_array,
+    finite_length_array,
 )
 from optik.errors import ArgumentError, InvalidLimitsError, ModelError, OptikError, ShapeError
 from optik.limits import limit_violation, resolve_limits, within_limits
@@ -531,7 +531,7 @@ class Robot:
         :data:`~optik._checks.MAX_LENGTH_M` (rad or m): beyond it a prismatic joint's
         translation would overflow the solvers' squared distances.
         """
-        return check_length_array(name, finite_array(name, q, (self.dof,), batch=True))
+        return finite_length_array(name, q, (self.dof,), batch=True)
 
     def _theta(self, q: FloatArray) -> FloatArray:
         if self._identity_coupling:

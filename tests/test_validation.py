@@ -169,6 +169,24 @@ def test_as_float_array_ragged_and_accepted() -> None:
         finite_array("target", np.eye(4, dtype=complex), (4, 4))
 
 
+@pytest.mark.parametrize("n", [3, 200])  # both sides of the quick test's size switch
+def test_quick_tests_are_exact(n: int) -> None:
+    from optik._checks import check_finite, finite_length_array
+
+    big = np.full(n, 1e200)
+    assert check_finite("x", big) is big  # finite, however large
+    for bad in (NAN, INF, -INF):
+        values = np.zeros(n)
+        values[n - 1] = bad
+        with pytest.raises(OptikError, match=rf"x: values must be finite.*\({n - 1},\)"):
+            check_finite("x", values)
+    edge = np.full((n, 1), MAX_LENGTH_M)  # every entry at the bound: accepted
+    assert finite_length_array("q", edge, (1,), batch=True) is not None
+    edge[n // 2, 0] = -MAX_LENGTH_M * (1 + 1e-15)
+    with pytest.raises(ArgumentError, match=rf"q\[{n // 2}, 0\]: expected a length"):
+        finite_length_array("q", edge, (1,), batch=True)
+
+
 def test_complex_q_is_rejected_not_truncated() -> None:
     with pytest.raises(ArgumentError, match="q: expected a real array"):
         PLANAR.fk([0.1 + 0.5j, 0.2])
