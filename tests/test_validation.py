@@ -639,7 +639,7 @@ def test_reachability_arguments() -> None:
 # ====================================================================== hostile values
 TIME_LIMIT_S = 10.0  # a hard stop per case: a hang fails the test instead of blocking it
 FUZZ = settings(
-    max_examples=200,
+    max_examples=max(200, settings().max_examples),  # the optik-long profile asks for more
     deadline=timedelta(seconds=3),  # per example; the cases here take milliseconds
     suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
 )
