@@ -245,7 +245,10 @@ def _check_rows(rows: Any) -> list[Any]:
 def _check_frame(name: str, value: Any) -> FloatArray:
     """A base or tool pose: a proper 4x4 transform whose translation is a valid length."""
     T = as_pose(name, value)
-    check_length_array(f"{name} translation", T[:3, 3])
+    try:
+        check_length_array(f"{name} translation", T[:3, 3])
+    except ArgumentError as exc:
+        raise ModelError(str(exc)) from exc
     return T
 
 

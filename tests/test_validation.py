@@ -274,7 +274,7 @@ def test_mimic_mapping_checked() -> None:
 
 @pytest.mark.parametrize("which", ["base", "tool"])
 def test_base_and_tool_translation_bounded(which: str) -> None:
-    with pytest.raises(ArgumentError, match=rf"{which} translation\[0\]: expected a length"):
+    with pytest.raises(ModelError, match=rf"{which} translation\[0\]: expected a length"):
         Robot.from_dh(_rows(), **{which: _pose(1e154)})
     with pytest.raises(ArgumentError, match=rf"{which}: expected a real array"):
         Robot.from_dh(_rows(), **{which: EYE.astype(complex)})
