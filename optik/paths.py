@@ -96,6 +96,11 @@ def line(start: Any, end: Any, step: float) -> FloatArray:
 
     Orientation is slerped; the number of samples is ``ceil(length / step) + 1`` (at least
     2), both ends included. For a pure rotation (zero length) ``step`` applies in radians.
+
+    Raises:
+        OptikError: a pose that is not a rigid transform (or is complex, boolean, ...), a
+            coordinate beyond ``MAX_LENGTH_M``, a ``step`` that is not a positive finite
+            number, or more than :data:`MAX_PATH_SAMPLES` samples.
     """
     step = _step(step)
     T0 = _endpoint("start", start)
@@ -115,6 +120,11 @@ def arc(start: Any, end: Any, center: Any, step: float, *, long_way: bool = Fals
 
     Both ends must lie at the same distance from ``center`` (to 1e-9 relative); the arc
     is the shorter one unless ``long_way``. Orientation is slerped along the arc.
+
+    Raises:
+        OptikError: a pose that is not a rigid transform (or is complex, boolean, ...), a
+            coordinate beyond ``MAX_LENGTH_M``, a ``step`` that is not a positive finite
+            number, or more than :data:`MAX_PATH_SAMPLES` samples.
     """
     step = _step(step)
     long_way = check_bool("long_way", long_way)
@@ -140,6 +150,11 @@ def circle(start: Any, center: Any, normal: Any, step: float) -> FloatArray:
 
     The orientation turns with the circle (the start rotation carried about ``normal``);
     the last sample coincides with the first.
+
+    Raises:
+        OptikError: a pose that is not a rigid transform (or is complex, boolean, ...), a
+            coordinate beyond ``MAX_LENGTH_M``, a ``step`` that is not a positive finite
+            number, or more than :data:`MAX_PATH_SAMPLES` samples.
     """
     step = _step(step)
     T0 = _endpoint("start", start)
