@@ -1,27 +1,268 @@
-"""Input validation shared by every layer: shapes and finiteness, with optik errors."""
+"""Input validation shared by every layer: types, ranges, shapes and finiteness.
+
+Every public entry point checks its arguments here, so that bad input raises an
+:class:`~optik.errors.OptikError` naming the argument and showing the value, never a
+bare ``TypeError``, a NaN or a silently changed answer:
+
+- :func:`check_real`, :func:`check_int`, :func:`check_bool`, :func:`check_choice` and
+  :func:`check_length` for scalars (a ``bool`` is never taken for a number, nor the
+  string ``"false"`` for a boolean);
+- :func:`as_float_array`, :func:`check_finite`, :func:`finite_array` and
+  :func:`check_length_array` for arrays (complex, bool, string and object arrays of
+  non-numbers are rejected, never cast).
+
+Lengths are bounded by :data:`MAX_LENGTH_M`.
+"""
 
 from __future__ import annotations
 
+import math
+import numbers
+from collections.abc import Collection
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from optik.errors import NonFiniteError, ShapeError
+from optik.errors import ArgumentError, NonFiniteError, ShapeError
 
 FloatArray = NDArray[np.float64]
 
+MAX_LENGTH_M = 1e9
+"""Largest accepted magnitude of a length (m).
+
+Applies to DH ``a`` and ``d``, URDF origins, tool and base translations, prismatic joint
+ranges and joint values, path and target coordinates. The solvers form squared distances
+and sums of squares of lengths, which overflow to ``inf`` near 1e154 m; 1e9 m (beyond the
+Moon's orbit) leaves a wide margin for those products and for sums over long chains,
+while every real arm is far inside it. At 1e9 m a float64 still resolves 1e-7 m.
+"""
+
+_NUMERIC_KINDS = "fiu"
+
+
+def _is_real_scalar(value: Any) -> bool:
+    """A real number that is not a bool (Python or numpy)."""
+    return isinstance(value, numbers.Real) and not isinstance(value, bool | np.bool_)
+
+
+def check_real(
+    name: str,
+    value: Any,
+    *,
+    allow_nan: bool = False,
+    allow_inf: bool = False,
+    positive: bool = False,
+    nonnegative: bool = False,
+    minimum: float | None = None,
+    maximum: float | None = None,
+) -> float:
+    """Return ``value`` as a float after checking it is a real number in range.
+
+    Args:
+        name: argument name used in error messages.
+        value: an ``int``, ``float`` or numpy real scalar (or a 0-d real array); ``bool``,
+            complex, strings and ``None`` are rejected.
+        allow_nan: accept NaN.
+        allow_inf: accept ``+inf`` and ``-inf``.
+        positive: require ``value > 0``.
+        nonnegative: require ``value >= 0``.
+        minimum: require ``value >= minimum``.
+        maximum: require ``value <= maximum``.
+
+    Raises:
+        ArgumentError: wrong type or out of range; the message names ``name`` and shows
+            the value.
+    """
+    raw = value
+    if isinstance(value, np.ndarray) and value.ndim == 0 and value.dtype.kind in _NUMERIC_KINDS:
+        value = value.item()
+    if not _is_real_scalar(value):
+        raise ArgumentError(name, raw, "a real number")
+    try:
+        number = float(value)
+    except (OverflowError, TypeError, ValueError) as exc:
+        raise ArgumentError(name, raw, "a real number representable as a float") from exc
+    if math.isnan(number) and not allow_nan:
+        raise ArgumentError(name, raw, "a number, not NaN")
+    if math.isinf(number) and not allow_inf:
+        raise ArgumentError(name, raw, "a finite number")
+    if not math.isnan(number):
+        if positive and not number > 0:
+            raise ArgumentError(name, raw, "a positive number")
+        if nonnegative and not number >= 0:
+            raise ArgumentError(name, raw, "a number >= 0")
+        if minimum is not None and number < minimum:
+            raise ArgumentError(name, raw, f"a number >= {minimum:g}")
+        if maximum is not None and number > maximum:
+            raise ArgumentError(name, raw, f"a number <= {maximum:g}")
+    return number
+
+
+def check_int(
+    name: str, value: Any, *, minimum: int | None = None, maximum: int | None = None
+) -> int:
+    """Return ``value`` as an int after checking it is an integer in ``[minimum, maximum]``.
+
+    A float with an integral value (``3.0``) is accepted; ``bool``, a float with a
+    fractional part, NaN, infinity and strings are rejected.
+
+    Raises:
+        ArgumentError: wrong type or out of range.
+    """
+    raw = value
+    if isinstance(value, np.ndarray) and value.ndim == 0 and value.dtype.kind in _NUMERIC_KINDS:
+        value = value.item()
+    if isinstance(value, numbers.Integral) and not isinstance(value, bool | np.bool_):
+        number = int(value)
+    elif _is_real_scalar(value) and math.isfinite(float(value)) and float(value).is_integer():
+        number = int(float(value))
+    else:
+        raise ArgumentError(name, raw, "an integer")
+    if minimum is not None and number < minimum:
+        raise ArgumentError(name, raw, f"an integer >= {minimum}")
+    if maximum is not None and number > maximum:
+        raise ArgumentError(name, raw, f"an integer <= {maximum}")
+    return number
+
+
+def check_bool(name: str, value: Any) -> bool:
+    """Return ``value`` if it is a real boolean (``True``/``False``, or a numpy bool).
+
+    Strings such as ``"false"`` and integers such as ``0`` are rejected: a truthiness
+    test would take ``"false"`` for true.
+
+    Raises:
+        ArgumentError: not a boolean.
+    """
+    if not isinstance(value, bool | np.bool_):
+        raise ArgumentError(name, value, "true or false (a boolean)")
+    return bool(value)
+
+
+def check_choice(name: str, value: Any, options: Collection[str]) -> str:
+    """Return ``value`` if it is one of the strings ``options``.
+
+    Raises:
+        ArgumentError: not a string, or not among ``options`` (listed in the message).
+    """
+    if not isinstance(value, str) or value not in options:
+        listed = ", ".join(repr(o) for o in options)
+        raise ArgumentError(name, value, f"one of {listed}")
+    return value
+
+
+def check_length(name: str, value: Any, *, nonnegative: bool = False) -> float:
+    """A finite length (m) of magnitude at most :data:`MAX_LENGTH_M`.
+
+    Raises:
+        ArgumentError: not a real number, not finite, or too large.
+    """
+    number = check_real(name, value, nonnegative=nonnegative)
+    if abs(number) > MAX_LENGTH_M:
+        raise ArgumentError(name, value, f"a length of magnitude <= {MAX_LENGTH_M:g} m")
+    return number
+
+
+def check_length_array(name: str, array: FloatArray) -> FloatArray:
+    """Raise unless every entry of a finite array has magnitude <= :data:`MAX_LENGTH_M`."""
+    if array.size and float(np.max(np.abs(array))) > MAX_LENGTH_M:
+        index = tuple(int(i) for i in np.unravel_index(np.argmax(np.abs(array)), array.shape))
+        raise ArgumentError(
+            f"{name}{list(index)}" if index else name,
+            float(array[index]),
+            f"a length of magnitude <= {MAX_LENGTH_M:g} m",
+        )
+    return array
+
+
+def finite_length_array(
+    name: str, value: Any, trailing: tuple[int, ...], batch: bool = False
+) -> FloatArray:
+    """:func:`finite_array` whose entries are also bounded by :data:`MAX_LENGTH_M`.
+
+    For joint values and coordinates: a quick test accepts the common case, the exact
+    checks run only to name a bad entry.
+
+    Raises:
+        ShapeError, ArgumentError, NonFiniteError: as :func:`finite_array`, and
+            ArgumentError for an entry of magnitude above :data:`MAX_LENGTH_M`.
+    """
+    array = _shaped(name, value, trailing, batch)
+    if _all_within(array, MAX_LENGTH_M):
+        return array
+    return check_length_array(name, check_finite(name, array))
+
+
+def _has_bool(value: Any) -> bool:
+    """Whether a nested list/tuple holds a bool (numpy casts ``[True, 0.5]`` silently)."""
+    try:
+        items = np.asarray(value, dtype=object).ravel()
+    except (TypeError, ValueError):
+        return False
+    return any(isinstance(item, bool | np.bool_) for item in items.tolist())
+
 
 def as_float_array(name: str, value: Any) -> FloatArray:
-    """Convert ``value`` to a float64 array, raising :class:`ShapeError` for ragged input."""
+    """Convert ``value`` to a float64 array, rejecting what is not an array of reals.
+
+    Integer and float inputs convert; NaN and infinities pass (see :func:`check_finite`).
+
+    Raises:
+        ShapeError: ragged input (rows of different lengths).
+        ArgumentError: ``None``, complex, boolean, string or datetime input, or an object
+            array holding something other than real numbers.
+    """
+    if value is None:
+        raise ArgumentError(name, value, "a numeric array")
     try:
-        return np.asarray(value, dtype=np.float64)
+        array = value if isinstance(value, np.ndarray) else np.asarray(value)
     except (TypeError, ValueError) as exc:
-        raise ShapeError(name, "a numeric array", ()) from exc
+        raise ShapeError(name, "regular (rows of equal length, not ragged)", ()) from exc
+    kind = array.dtype.kind
+    if kind == "c":
+        raise ArgumentError(name, value, "a real array (complex values are not accepted)")
+    if kind == "b":
+        raise ArgumentError(name, value, "a numeric array (booleans are not numbers here)")
+    if kind == "O":
+        items = array.ravel().tolist()
+        if not all(_is_real_scalar(item) for item in items):
+            if any(isinstance(item, list | tuple | np.ndarray) for item in items):
+                raise ShapeError(name, "regular (rows of equal length, not ragged)", array.shape)
+            raise ArgumentError(name, value, "an array of real numbers")
+    elif kind not in _NUMERIC_KINDS:
+        raise ArgumentError(name, value, "a numeric array")
+    elif not isinstance(value, np.ndarray) and array.size and _has_bool(value):
+        raise ArgumentError(name, value, "a numeric array (booleans are not numbers here)")
+    try:
+        return np.asarray(array, dtype=np.float64)
+    except (OverflowError, TypeError, ValueError) as exc:
+        raise ArgumentError(name, value, "an array of real numbers") from exc
+
+
+_SMALL = 64  # below this many entries a Python loop beats a numpy call's overhead
+
+
+def _all_within(array: FloatArray, bound: float) -> bool:
+    """Whether every entry is finite with magnitude <= ``bound`` (a quick, exact test).
+
+    Large arrays use one dot product: a sum of squares that stays <= ``bound**2`` proves
+    it; a larger one (a NaN, an inf, an overflow or many big entries) returns False and
+    leaves the exact diagnosis to the caller.
+    """
+    if array.size <= _SMALL:
+        return all(-bound <= x <= bound for x in array.reshape(-1).tolist())
+    flat = array.reshape(-1)
+    with np.errstate(over="ignore", invalid="ignore"):  # an inf result is the answer
+        return float(np.dot(flat, flat)) <= bound * bound
 
 
 def check_finite(name: str, array: FloatArray) -> FloatArray:
     """Raise :class:`NonFiniteError` naming the first NaN/inf entry of ``array``."""
+    # The quick test proves the common case (all finite and below 1e150); the exact
+    # test runs only when it fails.
+    if array.dtype == np.float64 and _all_within(array, 1e150):
+        return array
     if not np.isfinite(array).all():
         bad = np.argwhere(~np.isfinite(array))[0]
         raise NonFiniteError(name, tuple(int(i) for i in bad))
@@ -35,10 +276,19 @@ def finite_array(
 
     Args:
         name: argument name used in error messages.
-        value: array-like input.
+        value: array-like input (see :func:`as_float_array` for what is rejected).
         trailing: required trailing shape, e.g. ``(4, 4)``.
         batch: also accept one leading batch axis.
+
+    Raises:
+        ShapeError: wrong shape or ragged input.
+        ArgumentError: not an array of real numbers.
+        NonFiniteError: a NaN or infinite entry.
     """
+    return check_finite(name, _shaped(name, value, trailing, batch))
+
+
+def _shaped(name: str, value: Any, trailing: tuple[int, ...], batch: bool) -> FloatArray:
     array = as_float_array(name, value)
     nd = len(trailing)
     ok = array.shape == trailing or (batch and array.ndim == nd + 1 and array.shape[1:] == trailing)
@@ -46,4 +296,4 @@ def finite_array(
         dims = ", ".join(str(t) for t in trailing)
         expected = f"({dims})" + (f" or (N, {dims})" if batch else "")
         raise ShapeError(name, expected, array.shape)
-    return check_finite(name, array)
+    return array

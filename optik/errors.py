@@ -149,3 +149,27 @@ class ResultsFileError(OptikError):
         self.line = line
         self.detail = message
         super().__init__(f"{path}, line {line}: {message}")
+
+
+class ArgumentError(OptikError):
+    """An argument has the wrong type or a value outside its allowed range.
+
+    Attributes:
+        name: the argument's name.
+        value: the value given.
+        expected: what the argument must be, in words.
+    """
+
+    def __init__(self, name: str, value: Any, expected: str) -> None:
+        self.name = name
+        self.value = value
+        self.expected = expected
+        super().__init__(f"{name}: expected {expected}, got {_show(value)}")
+
+
+def _show(value: Any, limit: int = 80) -> str:
+    """``repr`` of ``value`` with its type, cut to ``limit`` characters (arrays can be huge)."""
+    text = repr(value)
+    if len(text) > limit:
+        text = text[: limit - 3] + "..."
+    return f"{text} ({type(value).__name__})"

@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 
-from optik._checks import FloatArray
+from optik._checks import MAX_LENGTH_M, FloatArray
 from optik.errors import InvalidLimitsError, ModelError
 
 ROLE_LIMITS_RAD: dict[str, tuple[float, float]] = {
@@ -45,7 +45,8 @@ def resolve_limits(
     Raises:
         ModelError: unknown role, a prismatic joint without limits, a joint with neither
             limits nor role, or a continuous prismatic joint.
-        InvalidLimitsError: NaN, lower > upper, or infinite limits on a bounded joint.
+        InvalidLimitsError: NaN, lower > upper, infinite limits on a bounded joint, a
+            limit that is not a number, or a prismatic limit beyond ``MAX_LENGTH_M``.
     """
     if role is not None and role not in ROLE_LIMITS_RAD:
         raise ModelError(
@@ -67,12 +68,20 @@ def resolve_limits(
         return ROLE_LIMITS_RAD[role]
     if lower is None or upper is None:
         raise ModelError(f"joint {joint!r}: states only one of lower/upper")
+    if isinstance(lower, str) or isinstance(upper, str):
+        raise InvalidLimitsError(joint, lower, upper, "limits must be numbers, not strings")
     try:
         lo, hi = float(lower), float(upper)
-    except (TypeError, ValueError) as exc:
+    except (TypeError, ValueError, OverflowError) as exc:
         raise InvalidLimitsError(joint, lower, upper, "limits must be numbers") from exc
+    if isinstance(lower, bool) or isinstance(upper, bool):
+        raise InvalidLimitsError(joint, lower, upper, "limits must be numbers, not booleans")
     if math.isnan(lo) or math.isnan(hi):
         raise InvalidLimitsError(joint, lo, hi, "NaN limit")
+    if kind == "prismatic" and max(abs(lo), abs(hi)) > MAX_LENGTH_M and math.isfinite(lo + hi):
+        raise InvalidLimitsError(
+            joint, lo, hi, f"a prismatic range must lie within +-{MAX_LENGTH_M:g} m"
+        )
     if lo > hi:
         raise InvalidLimitsError(joint, lo, hi)
     if (math.isinf(lo) or math.isinf(hi)) and (

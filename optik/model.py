@@ -22,9 +22,19 @@ from typing import Any, TypeVar
 import numpy as np
 
 from optik import _kernels
-from optik._checks import FloatArray, as_float_array, check_finite, finite_array
+from optik._checks import (
+    MAX_LENGTH_M,
+    FloatArray,
+    as_float_array,
+    check_bool,
+    check_finite,
+    check_length,
+    check_length_array,
+    check_real,
+    finite_length_array,
+)
 from optik.chain import Chain, ChainLink, JointKind, Mimic, read_only
-from optik.errors import InvalidLimitsError, ModelError, ShapeError
+from optik.errors import ArgumentError, InvalidLimitsError, ModelError, OptikError, ShapeError
 from optik.limits import limit_violation, resolve_limits, within_limits
 from optik.spatial import as_pose, rot_x, rot_z, transform
 
@@ -111,26 +121,122 @@ def _finite_multiplier(name: str, mimic: Mimic) -> float:
     return number
 
 
+def _row_field(label: str, key: str, check: Any, value: Any) -> Any:
+    """Run one validator on a DH row's field, reporting a failure as a ModelError."""
+    try:
+        return check(key, value)
+    except OptikError as exc:
+        raise ModelError(f"{label}: {exc}") from exc
+
+
+def _optional_str(name: str, value: Any) -> str | None:
+    if value is not None and (not isinstance(value, str) or not value):
+        raise ArgumentError(name, value, "a non-empty string or None")
+    return value
+
+
+def _limit(joint: str, lower: Any, upper: Any) -> tuple[float | None, float | None]:
+    # NaN and infinite limits pass here: resolve_limits rejects them naming the joint.
+    out = []
+    for key, value in (("lower", lower), ("upper", upper)):
+        try:
+            out.append(
+                None if value is None else check_real(key, value, allow_nan=True, allow_inf=True)
+            )
+        except OptikError as exc:
+            raise InvalidLimitsError(joint, lower, upper, str(exc)) from exc
+    return out[0], out[1]
+
+
+def _mimic(label: str, value: Any) -> Mimic | None:
+    if value is None:
+        return None
+    if isinstance(value, Mapping):
+        unknown = sorted(map(str, set(value) - {"joint", "multiplier"}))
+        if unknown or "joint" not in value:
+            raise ModelError(
+                f"{label}: mimic must be {{joint = <name>, multiplier = <x>}}, "
+                f"got keys {sorted(map(str, value))}"
+            )
+        value = Mimic(value["joint"], value.get("multiplier", 1.0))
+    if not isinstance(value, Mimic):
+        raise ModelError(f"{label}: mimic must be a Mimic or a mapping, got {value!r}")
+    joint = _row_field(label, "mimic.joint", _optional_str, value.joint)
+    if joint is None:
+        raise ModelError(f"{label}: mimic.joint must name a joint")
+    multiplier = _row_field(label, "mimic.multiplier", check_real, value.multiplier)
+    return Mimic(joint, multiplier)
+
+
 def _as_dh_joint(row: Any, index: int) -> DHJoint:
+    """Validate one DH row (a :class:`DHJoint` or a mapping of its fields).
+
+    Every field is checked, a :class:`DHJoint` built directly included: ``a`` and ``d``
+    are lengths (finite, at most :data:`~optik._checks.MAX_LENGTH_M`), ``alpha`` and
+    ``theta`` finite angles, ``kind`` a known joint type, ``continuous`` a real bool,
+    limits real numbers (or ``None``), ``name`` and ``role`` strings (or ``None``).
+
+    Raises:
+        ModelError: naming the row, the joint and the field
+            (:class:`~optik.errors.InvalidLimitsError` for a limit).
+    """
     if isinstance(row, DHJoint):
-        return row
-    if not isinstance(row, Mapping):
+        data = dict(row.__dict__)
+    elif isinstance(row, Mapping):
+        allowed = set(DHJoint.__dataclass_fields__) | {"type"}
+        unknown = sorted(map(str, set(row) - allowed))
+        if unknown:
+            raise ModelError(f"DH row {index}: unknown keys {unknown}")
+        data = dict(row)
+        if "type" in data:
+            if "kind" in data:
+                raise ModelError(f"DH row {index}: give either 'type' or 'kind', not both")
+            data["kind"] = data.pop("type")
+    else:
         raise ModelError(f"DH row {index}: expected a mapping or DHJoint, got {type(row).__name__}")
-    allowed = set(DHJoint.__dataclass_fields__) | {"type"}
-    unknown = set(row) - allowed
-    if unknown:
-        raise ModelError(f"DH row {index}: unknown keys {sorted(unknown)}")
-    data = dict(row)
-    if "type" in data:
-        data["kind"] = data.pop("type")
-    mimic = data.get("mimic")
-    if isinstance(mimic, Mapping):
-        data["mimic"] = Mimic(**mimic)
-    for key in ("a", "alpha", "d", "theta"):
-        value = data.get(key, 0.0)
-        if not isinstance(value, int | float) or not math.isfinite(value):
-            raise ModelError(f"DH row {index}: {key} must be a finite number, got {value!r}")
-    return DHJoint(**data)
+    out: dict[str, Any] = {}
+    out["name"] = _row_field(f"DH row {index}", "name", _optional_str, data.get("name"))
+    joint = out["name"] or f"j{index + 1}"
+    label = f"DH row {index} (joint {joint!r})"
+    kind = data.get("kind", "revolute")
+    if not isinstance(kind, str) or kind not in _KINDS:
+        raise ModelError(f"{label}: unknown joint type {kind!r} (expected {_KINDS})")
+    out["kind"] = kind
+    for key in ("a", "d"):
+        out[key] = _row_field(label, key, check_length, data.get(key, 0.0))
+    for key in ("alpha", "theta"):
+        out[key] = _row_field(label, key, check_real, data.get(key, 0.0))
+    out["role"] = _row_field(label, "role", _optional_str, data.get("role"))
+    out["lower"], out["upper"] = _limit(joint, data.get("lower"), data.get("upper"))
+    out["continuous"] = _row_field(label, "continuous", check_bool, data.get("continuous", False))
+    out["mimic"] = _mimic(label, data.get("mimic"))
+    return DHJoint(**out)
+
+
+def _check_rows(rows: Any) -> list[Any]:
+    """The DH rows as a list; anything but a sequence of rows is a ModelError."""
+    if isinstance(rows, str | bytes | Mapping | DHJoint) or not isinstance(rows, Sequence):
+        raise ModelError(
+            f"rows: expected a sequence of DH rows (DHJoint or mappings), got {rows!r:.80}"
+        )
+    return list(rows)
+
+
+def _check_frame(name: str, value: Any) -> FloatArray:
+    """A base or tool pose: a proper 4x4 transform whose translation is a valid length."""
+    T = as_pose(name, value)
+    try:
+        check_length_array(f"{name} translation", T[:3, 3])
+    except ArgumentError as exc:
+        raise ModelError(str(exc)) from exc
+    return T
+
+
+def _check_names(name: Any, analytic: Any) -> None:
+    if not isinstance(name, str) or not name:
+        raise ModelError(f"name: expected a non-empty string, got {name!r}")
+    if analytic is not None and not isinstance(analytic, str):
+        raise ModelError(f"analytic: expected a family name or None, got {analytic!r}")
 
 
 def _check_kind(name: str, kind: str) -> None:
@@ -315,7 +421,10 @@ class Robot:
         tool: Any,
         analytic: str | None,
     ) -> Robot:
-        dh_rows = [_as_dh_joint(row, i) for i, row in enumerate(rows)]
+        _check_names(name, analytic)
+        dh_rows = [_as_dh_joint(row, i) for i, row in enumerate(_check_rows(rows))]
+        base = None if base is None else _check_frame("base", base)
+        tool = None if tool is None else _check_frame("tool", tool)
         if limits is not None:
             actuated = [i for i, row in enumerate(dh_rows) if row.mimic is None]
             lim = finite_or_inf_limits(limits, len(actuated))
@@ -353,8 +462,12 @@ class Robot:
         """
         from optik.urdf import parse_urdf_chain
 
+        if name is not None:
+            _check_names(name, analytic)
+        elif analytic is not None:
+            _check_names("robot", analytic)
         robot_name, links, T_last_tip = parse_urdf_chain(source, base_link, tip_link)
-        T_tip_tool = np.eye(4) if tool is None else as_pose("tool", tool)
+        T_tip_tool = np.eye(4) if tool is None else _check_frame("tool", tool)
         return cls(
             links,
             name=name or robot_name,
@@ -417,8 +530,13 @@ class Robot:
 
     # ------------------------------------------------------------------ kinematics
     def check_q(self, q: Any, name: str = "q") -> FloatArray:
-        """Validate a configuration ``(dof,)`` or batch ``(N, dof)``; returns float64."""
-        return finite_array(name, q, (self.dof,), batch=True)
+        """Validate a configuration ``(dof,)`` or batch ``(N, dof)``; returns float64.
+
+        Entries must be finite and of magnitude at most
+        :data:`~optik._checks.MAX_LENGTH_M` (rad or m): beyond it a prismatic joint's
+        translation would overflow the solvers' squared distances.
+        """
+        return finite_length_array(name, q, (self.dof,), batch=True)
 
     def _theta(self, q: FloatArray) -> FloatArray:
         if self._identity_coupling:
@@ -475,7 +593,9 @@ class Robot:
         """A copy of this robot with other joint limits (dof,) each; kinematics shared.
 
         Raises:
-            InvalidLimitsError: NaN, or ``lower > upper`` for some joint.
+            InvalidLimitsError: NaN, ``lower > upper`` for some joint, or a prismatic
+                limit that is infinite or beyond :data:`~optik._checks.MAX_LENGTH_M`.
+            ArgumentError: complex, boolean or non-numeric limits.
             ShapeError: wrong shapes.
         """
         lo = as_float_array("lower", lower)
@@ -487,6 +607,7 @@ class Robot:
         for joint, a, b in zip(self.joints, lo, hi, strict=True):
             if math.isnan(a) or math.isnan(b) or a > b:
                 raise InvalidLimitsError(joint.name, float(a), float(b))
+            _check_limit_magnitude(joint.name, joint.kind, float(a), float(b))
             joints.append(Joint(joint.name, joint.kind, float(a), float(b), joint.role))
         clone = copy.copy(self)
         clone.joints = tuple(joints)
@@ -557,6 +678,14 @@ def _build_chain(robot: Robot) -> Chain:
         robot.lower,
         robot.upper,
     )
+
+
+def _check_limit_magnitude(joint: str, kind: str, lower: float, upper: float) -> None:
+    """A prismatic range must be finite and within :data:`~optik._checks.MAX_LENGTH_M`."""
+    if kind == "prismatic" and not (abs(lower) <= MAX_LENGTH_M and abs(upper) <= MAX_LENGTH_M):
+        raise InvalidLimitsError(
+            joint, lower, upper, f"a prismatic range must lie within +-{MAX_LENGTH_M:g} m"
+        )
 
 
 def finite_or_inf_limits(limits: Any, dof: int) -> FloatArray:

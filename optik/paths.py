@@ -6,24 +6,38 @@ interpolated by slerp (constant angular rate about one axis).
 
 File formats (see docs/planning.md):
 
-- CSV: a header line, then one waypoint per line: ``x,y,z`` (position only) or
-  ``x,y,z,roll,pitch,yaw`` (rad, the URDF ``rpy`` convention); lengths in m.
+- CSV: the header line ``x,y,z`` (position only) or ``x,y,z,roll,pitch,yaw`` (rad, the
+  URDF ``rpy`` convention), then one waypoint per line; lengths in m. Any other first
+  line is an error (a missing header would otherwise cost the first waypoint).
 - NPZ: an array ``poses`` (N, 4, 4), or ``positions`` (N, 3).
 - TOML: ``positions = [[x, y, z], ...]`` and optionally ``rpy = [[r, p, y], ...]``, with
-  optional ``length_unit`` / ``angle_unit`` as in problem files.
+  optional ``length_unit`` / ``angle_unit`` as in problem files; any other key is an
+  error.
+
+The primitives check their arguments (poses, a positive finite ``step``) and refuse to
+produce more than :data:`MAX_PATH_SAMPLES` samples. Coordinates beyond
+:data:`~optik._checks.MAX_LENGTH_M` are rejected everywhere.
 """
 
 from __future__ import annotations
 
 import csv
 import math
+import os
 import sys
+import zipfile
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from optik._checks import FloatArray, finite_array
+from optik._checks import (
+    FloatArray,
+    check_bool,
+    check_length_array,
+    check_real,
+    finite_array,
+)
 from optik.errors import OptikError, ShapeError
 from optik.spatial import as_pose, exp_so3, log_so3, rpy_to_matrix, transform
 
@@ -37,10 +51,38 @@ class PathFileError(OptikError):
     """A path file cannot be read; the message names the file and the problem."""
 
 
+MAX_PATH_SAMPLES = 10_000_000
+"""Most samples a primitive may produce (10 million poses are 1.3 GB of float64)."""
+
+CSV_HEADERS = (("x", "y", "z"), ("x", "y", "z", "roll", "pitch", "yaw"))
+"""The accepted header lines of a path CSV (case and spaces around names ignored)."""
+
+_TOML_KEYS = {"positions", "rpy", "length_unit", "angle_unit"}
+
+
 def _samples(length: float, step: float) -> int:
-    if not (math.isfinite(step) and step > 0):
-        raise OptikError(f"step must be positive and finite, got {step!r}")
-    return max(math.ceil(length / step - 1e-9), 1) + 1
+    """Sample count ``ceil(length / step) + 1`` (at least 2), capped by MAX_PATH_SAMPLES."""
+    ratio = length / step
+    if not ratio <= MAX_PATH_SAMPLES - 1:
+        raise OptikError(
+            f"step: {step!r} over a length of {length:.6g} asks for more than "
+            f"{MAX_PATH_SAMPLES:,} samples; use a larger step"
+        )
+    return max(math.ceil(ratio - 1e-9), 1) + 1
+
+
+def _check_poses(name: str, poses: FloatArray) -> FloatArray:
+    """Path coordinates (m) must lie within ``MAX_LENGTH_M``; returns ``poses``."""
+    check_length_array(f"{name} translation", poses[..., :3, 3])
+    return poses
+
+
+def _endpoint(name: str, value: Any) -> FloatArray:
+    return _check_poses(name, as_pose(name, value))
+
+
+def _step(step: Any) -> float:
+    return check_real("step", step, positive=True)
 
 
 def slerp(R0: FloatArray, R1: FloatArray, s: FloatArray) -> FloatArray:
@@ -54,9 +96,15 @@ def line(start: Any, end: Any, step: float) -> FloatArray:
 
     Orientation is slerped; the number of samples is ``ceil(length / step) + 1`` (at least
     2), both ends included. For a pure rotation (zero length) ``step`` applies in radians.
+
+    Raises:
+        OptikError: a pose that is not a rigid transform (or is complex, boolean, ...), a
+            coordinate beyond ``MAX_LENGTH_M``, a ``step`` that is not a positive finite
+            number, or more than :data:`MAX_PATH_SAMPLES` samples.
     """
-    T0 = as_pose("start", start)
-    T1 = as_pose("end", end)
+    step = _step(step)
+    T0 = _endpoint("start", start)
+    T1 = _endpoint("end", end)
     length = float(np.linalg.norm(T1[:3, 3] - T0[:3, 3]))
     angle = float(np.linalg.norm(log_so3(T0[:3, :3].T @ T1[:3, :3])))
     s = np.linspace(0.0, 1.0, _samples(max(length, angle if length == 0 else 0.0), step))
@@ -72,10 +120,17 @@ def arc(start: Any, end: Any, center: Any, step: float, *, long_way: bool = Fals
 
     Both ends must lie at the same distance from ``center`` (to 1e-9 relative); the arc
     is the shorter one unless ``long_way``. Orientation is slerped along the arc.
+
+    Raises:
+        OptikError: a pose that is not a rigid transform (or is complex, boolean, ...), a
+            coordinate beyond ``MAX_LENGTH_M``, a ``step`` that is not a positive finite
+            number, or more than :data:`MAX_PATH_SAMPLES` samples.
     """
-    T0 = as_pose("start", start)
-    T1 = as_pose("end", end)
-    c = finite_array("center", center, (3,))
+    step = _step(step)
+    long_way = check_bool("long_way", long_way)
+    T0 = _endpoint("start", start)
+    T1 = _endpoint("end", end)
+    c = check_length_array("center", finite_array("center", center, (3,)))
     u, v = T0[:3, 3] - c, T1[:3, 3] - c
     radius = float(np.linalg.norm(u))
     if radius == 0.0 or abs(float(np.linalg.norm(v)) - radius) > 1e-9 * max(radius, 1.0):
@@ -95,14 +150,22 @@ def circle(start: Any, center: Any, normal: Any, step: float) -> FloatArray:
 
     The orientation turns with the circle (the start rotation carried about ``normal``);
     the last sample coincides with the first.
+
+    Raises:
+        OptikError: a pose that is not a rigid transform (or is complex, boolean, ...), a
+            coordinate beyond ``MAX_LENGTH_M``, a ``step`` that is not a positive finite
+            number, or more than :data:`MAX_PATH_SAMPLES` samples.
     """
-    T0 = as_pose("start", start)
-    c = finite_array("center", center, (3,))
+    step = _step(step)
+    T0 = _endpoint("start", start)
+    c = check_length_array("center", finite_array("center", center, (3,)))
     n = finite_array("normal", normal, (3,))
-    norm = float(np.linalg.norm(n))
-    if norm == 0.0:
+    largest = float(np.max(np.abs(n)))
+    if largest == 0.0:
         raise OptikError("circle: normal must be non-zero")
-    axis = n / norm
+    # Scale first: the norm of (1e300, 1e300, 0) overflows, that of (1e-300, 0, 0) underflows.
+    axis = n / largest
+    axis = axis / np.linalg.norm(axis)
     T1 = T0.copy()
     return _sweep(T0, T1, c, axis, 2 * math.pi, step, carry_rotation=True)
 
@@ -144,9 +207,14 @@ def read_path(path: str | Path) -> tuple[FloatArray, str]:
     ``mode`` is ``"pose"`` when the file gives orientations, else ``"position"``.
 
     Raises:
-        PathFileError: missing file, unknown extension, or malformed content (the message
-            names the file and the line or key).
+        PathFileError: ``path`` not a path, missing or unreadable file, not UTF-8,
+            unknown extension, or malformed content: a CSV whose first line is not one of
+            :data:`CSV_HEADERS`, a TOML key other than ``positions``, ``rpy``,
+            ``length_unit``, ``angle_unit``, a coordinate beyond ``MAX_LENGTH_M`` (the
+            message names the file and the line or key).
     """
+    if not isinstance(path, str | os.PathLike) or isinstance(path, bytes):
+        raise PathFileError(f"path: expected a file path, got {path!r:.80}")
     file = Path(path)
     if not file.is_file():
         raise PathFileError(f"{file}: file not found")
@@ -158,10 +226,14 @@ def read_path(path: str | Path) -> tuple[FloatArray, str]:
             return _read_npz(file)
         if suffix == ".toml":
             return _read_toml(file)
+    except UnicodeDecodeError as exc:
+        raise PathFileError(f"{file}: not a UTF-8 text file ({exc})") from exc
     except (ShapeError, ValueError) as exc:
         if isinstance(exc, PathFileError):
             raise
         raise PathFileError(f"{file}: {exc}") from exc
+    except (OSError, EOFError, zipfile.BadZipFile) as exc:
+        raise PathFileError(f"{file}: cannot read the file ({exc})") from exc
     raise PathFileError(f"{file}: unknown path format {suffix!r} (expected .csv, .npz, .toml)")
 
 
@@ -170,11 +242,14 @@ def _read_csv(file: Path) -> tuple[FloatArray, str]:
         rows = [row for row in csv.reader(handle) if row and not row[0].startswith("#")]
     if len(rows) < 2:
         raise PathFileError(f"{file}: expected a header line and at least one waypoint")
-    width = len(rows[0])
-    if width not in (3, 6):
+    header = tuple(cell.strip().lower() for cell in rows[0])
+    if header not in CSV_HEADERS:
+        # A first line of numbers would otherwise be taken for a header and lost.
         raise PathFileError(
-            f"{file}: header must have 3 (x,y,z) or 6 (x,y,z,roll,pitch,yaw) columns"
+            f"{file}: line 1 must be the header 'x,y,z' or 'x,y,z,roll,pitch,yaw', "
+            f"got {','.join(rows[0])!r}"
         )
+    width = len(header)
     values = np.empty((len(rows) - 1, width))
     for k, row in enumerate(rows[1:], start=2):
         if len(row) != width:
@@ -185,6 +260,7 @@ def _read_csv(file: Path) -> tuple[FloatArray, str]:
             raise PathFileError(f"{file}: line {k}: {exc}") from exc
     if not np.all(np.isfinite(values)):
         raise PathFileError(f"{file}: NaN or infinite value")
+    check_length_array("positions", values[:, :3])
     rpy = values[:, 3:6] if width == 6 else None
     return _positions_to_poses(values[:, :3], rpy), "pose" if width == 6 else "position"
 
@@ -192,9 +268,10 @@ def _read_csv(file: Path) -> tuple[FloatArray, str]:
 def _read_npz(file: Path) -> tuple[FloatArray, str]:
     with np.load(file) as data:
         if "poses" in data:
-            return as_pose("poses", data["poses"], batch=True).copy(), "pose"
+            return _check_poses("poses", as_pose("poses", data["poses"], batch=True).copy()), "pose"
         if "positions" in data:
             positions = finite_array("positions", data["positions"], (3,), batch=True)
+            check_length_array("positions", positions)
             return _positions_to_poses(np.atleast_2d(positions), None), "position"
     raise PathFileError(f"{file}: expected an array named 'poses' (N, 4, 4) or 'positions' (N, 3)")
 
@@ -206,13 +283,25 @@ def _read_toml(file: Path) -> tuple[FloatArray, str]:
         data = tomllib.loads(file.read_text(encoding="utf-8"))
     except tomllib.TOMLDecodeError as exc:
         raise PathFileError(f"{file}: not valid TOML: {exc}") from exc
-    length = LENGTH_UNITS.get(data.get("length_unit", "m"))
-    angle = ANGLE_UNITS.get(data.get("angle_unit", "rad"))
-    if length is None or angle is None:
-        raise PathFileError(f"{file}: unknown length_unit or angle_unit")
+    unknown = sorted(set(data) - _TOML_KEYS)
+    if unknown:
+        raise PathFileError(
+            f"{file}: unknown key {unknown[0]!r} (allowed: {', '.join(sorted(_TOML_KEYS))})"
+        )
+    units = []
+    for key, table, default in (
+        ("length_unit", LENGTH_UNITS, "m"),
+        ("angle_unit", ANGLE_UNITS, "rad"),
+    ):
+        value = data.get(key, default)
+        if not isinstance(value, str) or value not in table:
+            raise PathFileError(f"{file}: {key} must be one of {sorted(table)}, got {value!r}")
+        units.append(table[value])
+    length, angle = units
     if "positions" not in data:
         raise PathFileError(f"{file}: missing 'positions'")
     positions = finite_array("positions", data["positions"], (3,), batch=True) * length
+    check_length_array("positions", positions)
     rpy = None
     if "rpy" in data:
         rpy = finite_array("rpy", data["rpy"], (3,), batch=True) * angle

@@ -23,13 +23,22 @@ from typing import Any
 
 import numpy as np
 
-from optik._checks import FloatArray, as_float_array
+from optik._checks import (
+    FloatArray,
+    as_float_array,
+    check_bool,
+    check_choice,
+    check_int,
+    check_length_array,
+    check_real,
+    finite_array,
+)
 from optik._files import write_atomic_with
 from optik.analytic import analytic_ik, family_of, wrap_into_limits
 from optik.errors import OptikError, ShapeError
 from optik.ik import solve_ik, solve_ik_batch
 from optik.model import Robot
-from optik.spatial import as_pose
+from optik.spatial import as_pose, check_rotation
 
 PLAN_STATUSES = ("ok", "unreachable", "outside_limits", "near_singular", "discontinuity")
 _SWITCH_PENALTY = 1e6
@@ -324,6 +333,21 @@ def _choose(
     return choice
 
 
+MAX_RESTARTS = 10_000
+"""Largest ``restarts`` accepted by :func:`plan_path` and :func:`reachability`."""
+
+MAX_CANDIDATES = 10_000
+"""Largest ``max_candidates`` accepted by :func:`plan_path`."""
+
+MAX_SEED = 2**32 - 1
+"""Largest ``seed`` accepted (seeds are non-negative; ``seed + k`` seeds waypoint ``k``)."""
+
+
+def _check_robot(robot: Any) -> None:
+    if not isinstance(robot, Robot):
+        raise OptikError(f"robot: expected an optik.Robot, got {type(robot).__name__}")
+
+
 def plan_path(
     robot: Robot,
     path: Any,
@@ -360,14 +384,27 @@ def plan_path(
 
     Returns:
         A :class:`PathPlan` with one row and one status per input waypoint.
+
+    Raises:
+        OptikError: an option of the wrong type or out of range (``max_joint_step`` and
+            ``tol`` positive and finite, ``limit_margin`` and ``singular_threshold`` >= 0,
+            ``restarts`` in [0, MAX_RESTARTS], ``seed`` in [0, MAX_SEED],
+            ``max_candidates`` in [1, MAX_CANDIDATES], ``greedy`` a bool), a malformed
+            path, or coordinates beyond :data:`~optik._checks.MAX_LENGTH_M`.
     """
+    _check_robot(robot)
+    if mode is not None:
+        check_choice("mode", mode, ("pose", "position"))
+    max_joint_step = check_real("max_joint_step", max_joint_step, positive=True)
+    limit_margin = check_real("limit_margin", limit_margin, nonnegative=True)
+    tol = check_real("tol", tol, positive=True)
+    restarts = check_int("restarts", restarts, minimum=0, maximum=MAX_RESTARTS)
+    seed = check_int("seed", seed, minimum=0, maximum=MAX_SEED)
+    singular_threshold = check_real("singular_threshold", singular_threshold, nonnegative=True)
+    max_candidates = check_int("max_candidates", max_candidates, minimum=1, maximum=MAX_CANDIDATES)
+    greedy = check_bool("greedy", greedy)
     poses, mode = _as_path(path, mode)
-    if mode not in ("pose", "position"):
-        raise OptikError(f"mode must be 'pose' or 'position', got {mode!r}")
-    if not (max_joint_step > 0 and math.isfinite(max_joint_step)):
-        raise OptikError(f"max_joint_step must be positive and finite, got {max_joint_step!r}")
-    if not (limit_margin >= 0 and math.isfinite(limit_margin)):
-        raise OptikError(f"limit_margin must be >= 0, got {limit_margin!r}")
+    check_length_array("path translation", poses[:, :3, 3])
     finite = np.isfinite(robot.lower)
     lower = np.where(finite, robot.lower + limit_margin, robot.lower)
     upper = np.where(finite, robot.upper - limit_margin, robot.upper)
@@ -467,12 +504,25 @@ def reachability(
     or full pose with the given ``orientation``, a 3x3 rotation shared by all points), each
     answer verified by FK. A point the numeric search misses within ``restarts`` is
     reported unreachable without proof: raise ``restarts`` to search harder.
+
+    Raises:
+        OptikError: ``points`` not finite (N, 3) within
+            :data:`~optik._checks.MAX_LENGTH_M`, ``orientation`` not a rotation, ``tol``
+            not positive and finite, ``restarts`` not in [0, MAX_RESTARTS] or ``seed`` not
+            in [0, MAX_SEED].
     """
+    _check_robot(robot)
+    tol = check_real("tol", tol, positive=True)
+    restarts = check_int("restarts", restarts, minimum=0, maximum=MAX_RESTARTS)
+    seed = check_int("seed", seed, minimum=0, maximum=MAX_SEED)
+    if orientation is not None:
+        check_rotation("orientation", finite_array("orientation", orientation, (3, 3)))
     P = as_float_array("points", points)
     if P.ndim != 2 or P.shape[1] != 3:
         raise ShapeError("points", "(N, 3)", P.shape)
     if not np.all(np.isfinite(P)):
         raise OptikError("points: values must be finite")
+    check_length_array("points", P)
     center, radius = robot.reach_sphere
     far = np.linalg.norm(P - center, axis=1) > radius
     Q = np.full((len(P), robot.dof), np.nan)

@@ -8,6 +8,7 @@ the field of the first problem it finds.
 from __future__ import annotations
 
 import math
+import os
 import sys
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -16,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from optik._checks import FloatArray
+from optik._checks import MAX_LENGTH_M, FloatArray
 from optik.errors import OptikError, ProblemFileError
 from optik.model import DHJoint, Mimic, Robot
 from optik.spatial import rpy_to_matrix, transform
@@ -135,6 +136,27 @@ class _Reader:
             raise self.fail(table, name, f"expected a finite number, got {value!r}")
         return value
 
+    def length(
+        self, data: Mapping[str, Any], table: str, name: str, scale: float, default: float = 0.0
+    ) -> float:
+        """A length field in SI units (``scale`` converts the file's unit to m), bounded."""
+        value = self.number(data, table, name, default) * scale
+        if abs(value) > MAX_LENGTH_M:
+            raise self.fail(table, name, f"{value:g} m is beyond the {MAX_LENGTH_M:g} m bound")
+        return value
+
+    def lengths(
+        self, data: Mapping[str, Any], table: str, name: str, size: int, scale: float
+    ) -> FloatArray:
+        """A vector of lengths in SI units, each bounded by ``MAX_LENGTH_M``."""
+        out = self.vector(data, table, name, size) * scale
+        for i, value in enumerate(out.tolist()):
+            if abs(value) > MAX_LENGTH_M:
+                raise self.fail(
+                    table, f"{name}[{i}]", f"{value:g} m is beyond the {MAX_LENGTH_M:g} m bound"
+                )
+        return out
+
     def vector(self, data: Mapping[str, Any], table: str, name: str, size: int) -> FloatArray:
         value = data.get(name)
         if not isinstance(value, list) or len(value) != size:
@@ -184,7 +206,7 @@ def _frame(reader: _Reader, data: Any, table: str, length: float, angle: float) 
     if not isinstance(data, Mapping):
         raise reader.fail(table, "", "must be a table with translation and/or rpy")
     reader.check_keys(data, table, {"translation", "rpy"})
-    p = reader.vector(data, table, "translation", 3) * length if "translation" in data else None
+    p = reader.lengths(data, table, "translation", 3, length) if "translation" in data else None
     rpy = reader.vector(data, table, "rpy", 3) * angle if "rpy" in data else np.zeros(3)
     return transform(rpy_to_matrix(*rpy), p)
 
@@ -205,7 +227,12 @@ def _joint(
     bounds: list[float | None] = []
     for key in ("lower", "upper"):
         if key in data:
-            bounds.append(reader.number(data, table, key, allow_inf=True) * limit_scale)
+            bound = reader.number(data, table, key, allow_inf=True) * limit_scale
+            if kind == "prismatic" and abs(bound) > MAX_LENGTH_M:
+                raise reader.fail(
+                    table, key, f"a prismatic range must lie within +-{MAX_LENGTH_M:g} m"
+                )
+            bounds.append(bound)
         else:
             bounds.append(None)
     continuous = data.get("continuous", False)
@@ -214,18 +241,20 @@ def _joint(
     mimic = None
     if "mimic" in data:
         m = data["mimic"]
-        if not isinstance(m, Mapping) or "joint" not in m:
+        if not isinstance(m, Mapping):
             raise reader.fail(table, "mimic", "expected { joint = <name>, multiplier = <x> }")
         reader.check_keys(m, f"{table}.mimic", {"joint", "multiplier"})
+        if "joint" not in m:
+            raise reader.fail(table, "mimic", "expected { joint = <name>, multiplier = <x> }")
         mimic = Mimic(
             reader.string(m, f"{table}.mimic", "joint"),
             reader.number(m, f"{table}.mimic", "multiplier", 1.0),
         )
     del modified  # the row format is the same for both conventions
     return DHJoint(
-        a=reader.number(data, table, "a", 0.0) * length,
+        a=reader.length(data, table, "a", length),
         alpha=reader.number(data, table, "alpha", 0.0) * angle,
-        d=reader.number(data, table, "d", 0.0) * length,
+        d=reader.length(data, table, "d", length),
         theta=reader.number(data, table, "theta", 0.0) * angle,
         kind=kind,  # type: ignore[arg-type]
         name=name,
@@ -285,7 +314,7 @@ def _robot(reader: _Reader, data: Mapping[str, Any], base_dir: Path) -> tuple[Ro
 def _pose_from(
     reader: _Reader, data: Mapping[str, Any], table: str, length: float, angle: float
 ) -> tuple[str, FloatArray]:
-    position = reader.vector(data, table, "position", 3) * length
+    position = reader.lengths(data, table, "position", 3, length)
     if "rpy" in data:
         R = rpy_to_matrix(*(reader.vector(data, table, "rpy", 3) * angle))
         return "pose", transform(R, position)
@@ -357,18 +386,31 @@ def load_problem(path: str | Path) -> Problem:
         path: a ``.toml`` file, or the name of a built-in problem (e.g. ``"puma560"``).
 
     Raises:
-        ProblemFileError: the file is missing, not TOML, or has a bad field; the message
-            names the file, the table and the field.
+        ProblemFileError: ``path`` is not a path, the file is missing, unreadable, not
+            UTF-8 or not TOML, has an unknown key in any table, or has a bad field (a
+            ``continuous`` that is not a TOML boolean, a length beyond
+            :data:`~optik._checks.MAX_LENGTH_M`, ...); the message names the file, the table
+            and the field.
     """
+    if not isinstance(path, str | os.PathLike) or isinstance(path, bytes):
+        raise ProblemFileError(
+            repr(path), "", "", "path: expected a file path or the name of a built-in problem"
+        )
     file = Path(path)
-    if not file.is_file() and file.suffix == "" and (PROBLEMS_DIR / f"{path}.toml").is_file():
-        file = PROBLEMS_DIR / f"{path}.toml"
+    if not file.is_file() and file.suffix == "" and (PROBLEMS_DIR / f"{file}.toml").is_file():
+        file = PROBLEMS_DIR / f"{file}.toml"
     reader = _Reader(str(file))
     if not file.is_file():
         raise reader.fail("", "", "file not found")
     try:
-        data = tomllib.loads(file.read_text(encoding="utf-8"))
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        text = file.read_text(encoding="utf-8")
+    except UnicodeDecodeError as exc:
+        raise reader.fail("", "", f"not a UTF-8 text file: {exc}") from exc
+    except OSError as exc:
+        raise reader.fail("", "", f"cannot read the file: {exc}") from exc
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
         raise reader.fail("", "", f"not valid TOML: {exc}") from exc
     reader.check_keys(data, "", {"robot", "targets", "paths", "description"})
     robot, source = _robot(reader, data, file.parent)

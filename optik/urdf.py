@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from optik._checks import FloatArray
+from optik._checks import MAX_LENGTH_M, FloatArray
 from optik.chain import ChainLink
 from optik.errors import URDFError
 from optik.spatial import rpy_to_matrix, transform
@@ -41,6 +41,11 @@ def _origin(joint: ET.Element, jname: str) -> FloatArray:
         return np.eye(4)
     xyz = _floats(element.get("xyz"), 3, f"joint {jname!r} origin xyz", (0.0, 0.0, 0.0))
     rpy = _floats(element.get("rpy"), 3, f"joint {jname!r} origin rpy", (0.0, 0.0, 0.0))
+    if float(np.max(np.abs(xyz))) > MAX_LENGTH_M:
+        raise URDFError(
+            f"joint {jname!r} origin xyz: {element.get('xyz')!r} has a coordinate beyond "
+            f"{MAX_LENGTH_M:g} m"
+        )
     return transform(rpy_to_matrix(*rpy), xyz)
 
 
@@ -64,11 +69,20 @@ def _read_root(source: str | Path) -> ET.Element:
     text: str
     if isinstance(source, Path) or (isinstance(source, str) and "<" not in source):
         path = Path(source)
-        if not path.is_file():
-            raise URDFError(f"URDF file not found: {path}")
-        text = path.read_text(encoding="utf-8")
-    else:
+        try:
+            if not path.is_file():
+                raise URDFError(f"URDF file not found: {path}")
+            text = path.read_text(encoding="utf-8")
+        except UnicodeDecodeError as exc:
+            raise URDFError(f"{path}: not a UTF-8 text file ({exc})") from exc
+        except (OSError, ValueError) as exc:
+            raise URDFError(f"{path}: cannot read the URDF file ({exc})") from exc
+    elif isinstance(source, str):
         text = source
+    else:
+        raise URDFError(
+            f"source: expected a URDF path or XML text, got {type(source).__name__} {source!r:.80}"
+        )
     try:
         root = ET.fromstring(text)
     except ET.ParseError as exc:
@@ -76,6 +90,53 @@ def _read_root(source: str | Path) -> ET.Element:
     if root.tag != "robot":
         raise URDFError(f"URDF root element is <{root.tag}>, expected <robot>")
     return root
+
+
+def _parent_joints(root: ET.Element) -> dict[str, ET.Element]:
+    """The joint whose child each link is; a link with two parents or a self-loop is an error."""
+    by_child: dict[str, ET.Element] = {}
+    for joint in root.findall("joint"):
+        jname = joint.get("name")
+        child = joint.find("child")
+        parent = joint.find("parent")
+        if child is None or child.get("link") is None:
+            raise URDFError(f"joint {jname!r} has no <child link=...>")
+        if parent is None or parent.get("link") is None:
+            raise URDFError(f"joint {jname!r} has no <parent link=...>")
+        link = str(child.get("link"))
+        if link == parent.get("link"):
+            raise URDFError(f"joint {jname!r} connects link {link!r} to itself")
+        if link in by_child:
+            first = by_child[link].get("name")
+            raise URDFError(
+                f"link {link!r} has two parent joints, {first!r} and {jname!r}: "
+                "a URDF describes a tree"
+            )
+        by_child[link] = joint
+    return by_child
+
+
+def _path_to(by_child: dict[str, ET.Element], base_link: str, tip_link: str) -> list[ET.Element]:
+    """The joints from ``base_link`` to ``tip_link``, found by walking up from the tip.
+
+    Every link has at most one parent joint, so the walk is unique; a link seen twice
+    means a cycle, which is reported instead of looped over.
+    """
+    path: list[ET.Element] = []
+    seen = {tip_link}
+    link = tip_link
+    while link != base_link:
+        joint = by_child.get(link)
+        if joint is None:
+            raise URDFError(f"no kinematic path from {base_link!r} to {tip_link!r}")
+        path.append(joint)
+        link = str(joint.find("parent").get("link"))  # type: ignore[union-attr]
+        if link in seen:
+            names = [str(j.get("name")) for j in path]
+            raise URDFError(f"the joints {names} form a cycle through link {link!r}")
+        seen.add(link)
+    path.reverse()
+    return path
 
 
 def parse_urdf_chain(
@@ -90,34 +151,20 @@ def parse_urdf_chain(
         aligned with z by a constant rotation before it and its inverse after it.
 
     Raises:
-        URDFError: unreadable file, unknown links, no path between the links, a mimic,
-            floating or planar joint on the path, a zero axis, or missing limits.
+        URDFError: unreadable or non-UTF-8 file, unknown links, no path between the
+            links, a link with two parent joints, a joint whose parent is its child, a
+            cycle, a mimic, floating or planar joint on the path, a zero axis, missing
+            limits, or a length beyond :data:`~optik._checks.MAX_LENGTH_M`.
     """
+    for what, value in (("base_link", base_link), ("tip_link", tip_link)):
+        if not isinstance(value, str):
+            raise URDFError(f"{what}: expected a link name, got {value!r}")
     root = _read_root(source)
     links = {el.get("name") for el in root.findall("link")}
     for link in (base_link, tip_link):
         if link not in links:
             raise URDFError(f"link {link!r} not in the URDF (links: {sorted(map(str, links))})")
-    by_child: dict[str, ET.Element] = {}
-    for joint in root.findall("joint"):
-        child = joint.find("child")
-        if child is None or child.get("link") is None:
-            raise URDFError(f"joint {joint.get('name')!r} has no <child link=...>")
-        by_child[str(child.get("link"))] = joint
-
-    path: list[ET.Element] = []
-    link = tip_link
-    while link != base_link:
-        found = by_child.get(link)
-        if found is None:
-            raise URDFError(f"no kinematic path from {base_link!r} to {tip_link!r}")
-        joint = found
-        path.append(joint)
-        parent = joint.find("parent")
-        if parent is None or parent.get("link") is None:
-            raise URDFError(f"joint {joint.get('name')!r} has no <parent link=...>")
-        link = str(parent.get("link"))
-    path.reverse()
+    path = _path_to(_parent_joints(root), base_link, tip_link)
 
     chain: list[ChainLink] = []
     pending = np.eye(4)  # fixed transforms since the last moving joint
@@ -141,10 +188,12 @@ def parse_urdf_chain(
             f"joint {jname!r} axis",
             (1.0, 0.0, 0.0),
         )
-        norm = float(np.linalg.norm(axis))
-        if norm < 1e-12:
+        # Scale by the largest entry first: the norm of (1e300, 1e300, 0) would overflow.
+        largest = float(np.max(np.abs(axis)))
+        if largest == 0.0:
             raise URDFError(f"joint {jname!r}: axis is zero")
-        align = _align_z(axis / norm)
+        axis = axis / largest
+        align = _align_z(axis / float(np.linalg.norm(axis)))
         lower = upper = None
         continuous = jtype == "continuous"
         if not continuous:
@@ -153,6 +202,11 @@ def parse_urdf_chain(
                 raise URDFError(f"joint {jname!r}: a {jtype} joint needs <limit lower upper>")
             lower = float(_floats(limit.get("lower"), 1, f"joint {jname!r} lower", (0.0,))[0])
             upper = float(_floats(limit.get("upper"), 1, f"joint {jname!r} upper", (0.0,))[0])
+            if jtype == "prismatic" and max(abs(lower), abs(upper)) > MAX_LENGTH_M:
+                raise URDFError(
+                    f"joint {jname!r}: prismatic range [{lower:g}, {upper:g}] m goes beyond "
+                    f"{MAX_LENGTH_M:g} m"
+                )
         before = pending @ origin @ align
         chain.append(
             ChainLink(

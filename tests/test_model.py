@@ -273,7 +273,9 @@ def test_empty_chain() -> None:
 def test_unknown_row_key_and_bad_parameter() -> None:
     with pytest.raises(ModelError, match=r"DH row 1: unknown keys \['length'\]"):
         Robot.from_dh(_arm(length=3.0))
-    with pytest.raises(ModelError, match=r"DH row 1: a must be a finite number"):
+    with pytest.raises(
+        ModelError, match=r"DH row 1 \(joint 'elbow'\): a: expected a number, not NaN"
+    ):
         Robot.from_dh(_arm(a=math.nan))
     with pytest.raises(ModelError, match=r"DH row 0: expected a mapping or DHJoint, got list"):
         Robot.from_dh([[0.0, 0.1, 0.2, 0.3]])
