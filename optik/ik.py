@@ -23,7 +23,7 @@ from typing import Any
 import numba
 import numpy as np
 
-from optik._checks import FloatArray, finite_array
+from optik._checks import FloatArray, check_choice, check_int, check_real, finite_array
 from optik.analytic import AnalyticFamily, analytic_ik, family_of
 from optik.errors import JointLimitError, OptikError, ShapeError
 from optik.limits import LIMIT_TOLERANCE
@@ -104,16 +104,6 @@ def _check_q0(robot: Robot, q0: Any) -> FloatArray:
     return np.clip(q, robot.lower, robot.upper)
 
 
-def _is_int(value: Any) -> bool:
-    return isinstance(value, int | np.integer) and not isinstance(value, bool | np.bool_)
-
-
-def _is_real(value: Any) -> bool:
-    return isinstance(value, int | float | np.integer | np.floating) and not isinstance(
-        value, bool | np.bool_
-    )
-
-
 def _check_options(
     mode: Any,
     tol: Any,
@@ -124,22 +114,16 @@ def _check_options(
     seed: Any = 0,
 ) -> None:
     """Validate the keywords shared by :func:`solve_ik` and :func:`solve_ik_batch`."""
-    if not isinstance(mode, str) or mode not in ("pose", "position"):
-        raise OptikError(f"mode must be 'pose' or 'position', got {mode!r}")
-    if not (_is_real(tol) and math.isfinite(tol) and tol > 0):
-        raise OptikError(f"tol must be a positive finite number (m and rad), got {tol!r}")
-    if not isinstance(warm_start, str) or warm_start not in ("analytic", "q0"):
-        raise OptikError(f"warm_start must be 'analytic' or 'q0', got {warm_start!r}")
-    if timeout_s is not None and not (_is_real(timeout_s) and timeout_s > 0):
-        raise OptikError(f"timeout_s must be a positive number of seconds, got {timeout_s!r}")
-    if restarts is not None and not (_is_int(restarts) and 0 <= restarts <= UNLIMITED_RESTARTS):
-        raise OptikError(
-            f"restarts must be an integer from 0 to {UNLIMITED_RESTARTS}, got {restarts!r}"
-        )
-    if max_iter is not None and not (_is_int(max_iter) and 1 <= max_iter <= 10**9):
-        raise OptikError(f"max_iter must be an integer from 1 to 10**9, got {max_iter!r}")
-    if not (_is_int(seed) and 0 <= seed <= MAX_SEED):
-        raise OptikError(f"seed must be an integer from 0 to 2**63 - 1, got {seed!r}")
+    check_choice("mode", mode, ("pose", "position"))
+    check_real("tol", tol, positive=True)
+    check_choice("warm_start", warm_start, ("analytic", "q0"))
+    if timeout_s is not None:
+        check_real("timeout_s", timeout_s, positive=True, allow_inf=True)
+    if restarts is not None:
+        check_int("restarts", restarts, minimum=0, maximum=UNLIMITED_RESTARTS)
+    if max_iter is not None:
+        check_int("max_iter", max_iter, minimum=1, maximum=10**9)
+    check_int("seed", seed, minimum=0, maximum=MAX_SEED)
 
 
 def _check_threads(threads: Any) -> int:

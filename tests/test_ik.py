@@ -260,7 +260,7 @@ def test_batch_of_zero_targets() -> None:
         {"timeout_s": "1"},
         {"timeout_s": math.nan},
         {"tol": True},
-        {"restarts": 2.0},
+        {"restarts": 2.5},
         {"solver": ["dls"]},
     ],
 )
