@@ -20,38 +20,6 @@ from optik._math import pose_error
 _jit = nb.njit(cache=True, nogil=True, error_model="numpy")
 
 
-@_jit
-def _apply_motion(T: np.ndarray, prismatic: bool, t: float) -> None:
-    """``T <- T @ M(t)`` in place (only the columns that change)."""
-    if prismatic:
-        for r in range(3):
-            T[r, 3] += t * T[r, 2]
-    else:
-        c = np.cos(t)
-        s = np.sin(t)
-        for r in range(3):
-            x = T[r, 0]
-            y = T[r, 1]
-            T[r, 0] = c * x + s * y
-            T[r, 1] = -s * x + c * y
-
-
-@_jit
-def _right_multiply(T: np.ndarray, K: np.ndarray, out: np.ndarray) -> None:
-    """``out <- T @ K`` for rigid transforms (bottom rows ``0 0 0 1``)."""
-    for r in range(3):
-        t0 = T[r, 0]
-        t1 = T[r, 1]
-        t2 = T[r, 2]
-        for c in range(4):
-            out[r, c] = t0 * K[0, c] + t1 * K[1, c] + t2 * K[2, c]
-        out[r, 3] += T[r, 3]
-    out[3, 0] = 0.0
-    out[3, 1] = 0.0
-    out[3, 2] = 0.0
-    out[3, 3] = 1.0
-
-
 @nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _chain_step(
     a: tuple[float, float, float, float, float, float, float, float, float, float, float, float],
@@ -231,19 +199,23 @@ def joint_frames(
     """Frames 0..n and the tool, base-relative: (n + 2, 4, 4).
 
     Frame 0 is ``T_base``; link frame ``i`` is the frame after motion ``i`` times its
-    link offset ``E[i - 1]``; the last entry is the tool.
+    link offset ``E[i - 1]``; the last entry is the tool. The same chain step as
+    :func:`fk_into`, taken twice per joint: once onto ``E`` (the link frame), once onto
+    ``K`` (the running transform).
     """
     n = prismatic.shape[0]
     out = np.empty((n + 2, 4, 4))
-    T = K[0].copy()
     out[0] = T_base
-    tmp = np.empty((4, 4))
+    a00, a01, a02, a03 = K[0, 0, 0], K[0, 0, 1], K[0, 0, 2], K[0, 0, 3]
+    a10, a11, a12, a13 = K[0, 1, 0], K[0, 1, 1], K[0, 1, 2], K[0, 1, 3]
+    a20, a21, a22, a23 = K[0, 2, 0], K[0, 2, 1], K[0, 2, 2], K[0, 2, 3]
     for i in range(n):
-        _apply_motion(T, prismatic[i], theta[i])
-        _right_multiply(T, E[i], out[i + 1])
-        _right_multiply(T, K[i + 1], tmp)
-        T[:, :] = tmp
-    out[n + 1] = T
+        running = (a00, a01, a02, a03, a10, a11, a12, a13, a20, a21, a22, a23)
+        _store(_chain_step(running, prismatic[i], theta[i], E, i), out[i + 1])
+        a00, a01, a02, a03, a10, a11, a12, a13, a20, a21, a22, a23 = _chain_step(
+            running, prismatic[i], theta[i], K, i + 1
+        )
+    _store((a00, a01, a02, a03, a10, a11, a12, a13, a20, a21, a22, a23), out[n + 1])
     return out
 
 
