@@ -15,7 +15,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from optik._math import pose_error
+from optik.task import task_error
 
 _jit = nb.njit(cache=True, nogil=True, error_model="numpy")
 
@@ -229,19 +229,21 @@ def pose_errors_into(
     upper: np.ndarray,
     Q: np.ndarray,
     targets: np.ndarray,
-    pose: bool,
+    task: np.ndarray,
     out: np.ndarray,
 ) -> None:
     """Verify configurations ``Q`` (N, dof) against ``targets`` (N or 1, 4, 4) from FK.
 
-    Row ``k`` of ``out`` (N, 3) gets the position error ``||p(q) - p*||`` (m), the
-    orientation error ``angle(R*^T R(q))`` (rad, the robust ``atan2`` form of
-    :func:`optik.spatial.rotation_angle`; 0 when ``pose`` is False) and the largest
+    Row ``k`` of ``out`` (N, 3) gets the task's judged position error (m) and
+    orientation error (rad) (:func:`optik.task.task_error`: for a full pose
+    ``||p(q) - p*||`` and the robust ``atan2`` angle of ``R*^T R(q)``) and the largest
     excursion beyond a limit (rad or m, 0 inside). A row with a non-finite entry gets
     ``inf`` for all three.
     """
     N = Q.shape[0]
     T = np.empty((4, 4))
+    e = np.empty(6)
+    M = np.empty((3, 4))
     single = targets.shape[0] == 1
     for k in range(N):
         q = Q[k]
@@ -258,9 +260,9 @@ def pose_errors_into(
             fk_into(K, prismatic, q, T)
         else:
             fk_into(K, prismatic, C @ q, T)
-        position, orientation = pose_error(T, targets[0] if single else targets[k])
+        position, orientation = task_error(T, targets[0] if single else targets[k], task, e, M)
         out[k, 0] = position
-        out[k, 1] = orientation if pose else 0.0
+        out[k, 1] = orientation
         worst = 0.0
         for i in range(q.shape[0]):
             worst = max(worst, lower[i] - q[i], q[i] - upper[i])

@@ -35,6 +35,7 @@ from optik.solvers._lm_kernel import lm_solve_batch, lm_solve_batch_serial
 from optik.solvers._seeds import seed_table, start_sequence
 from optik.solvers.iterative import DLSSolver
 from optik.spatial import as_pose
+from optik.task import make_task
 from optik.verify import verify, verify_one
 
 AUTO_NUMERIC_SOLVER = "dls"
@@ -66,10 +67,15 @@ class IKResult:
 
     Attributes:
         q: joint vector (dof,), rad / m (the best attempt when unsuccessful).
-        success: both pose errors within ``tol`` and every joint inside its limits.
+        success: both errors within the task's tolerances and every joint inside its
+            limits.
         status: one of :data:`STATUSES`.
-        position_error: ``||p(q) - p*||`` (m), from forward kinematics.
-        orientation_error: rotation angle of ``R*^T R(q)`` (rad); 0 in position mode.
+        position_error: the task's position error from forward kinematics (m): ``||p(q) -
+            p*||``, over the constrained target axes when weights free some
+            (:mod:`optik.task`).
+        orientation_error: the task's orientation error (rad): the angle of ``R*^T R(q)``,
+            the angle between the tool axis and the target's in ``axis`` mode, 0 without
+            orientation.
         limit_violation: largest excursion beyond a limit (rad or m); 0 inside.
         iterations: solver iterations over all attempts.
         restarts: attempts after the first.
@@ -114,8 +120,6 @@ def _check_options(
     seed: Any = 0,
 ) -> None:
     """Validate the keywords shared by :func:`solve_ik` and :func:`solve_ik_batch`."""
-    check_choice("mode", mode, ("pose", "position"))
-    check_real("tol", tol, positive=True)
     check_choice("warm_start", warm_start, ("analytic", "q0"))
     if timeout_s is not None:
         check_real("timeout_s", timeout_s, positive=True, allow_inf=True)
@@ -152,9 +156,7 @@ def _result(
     message: str,
     claim: bool | None,
 ) -> IKResult:
-    position, orientation, violation, success = verify_one(
-        robot, q, query.target, query.mode, query.tol
-    )
+    position, orientation, violation, success = verify_one(robot, q, query.target, query.spec)
     return IKResult(
         q=q,
         success=success,
@@ -201,9 +203,9 @@ def _closed_form_proof(
     outside = analytic_ik(robot, query.target, query.mode, q_ref=q_start, within_limits=False)
     given = [np.clip(q, robot.lower, robot.upper) for q in outside] or [q_start]
     numeric = get_solver(AUTO_NUMERIC_SOLVER)
-    sequence = start_sequence(robot, query.target, query.mode, given, seed)
+    sequence = start_sequence(robot, query.target, query.spec, given, seed)
     run = numeric.run(query, sequence, numeric.default_max_iter, CROSS_CHECK_RESTARTS, math.inf)
-    found = verify_one(robot, run.q, query.target, query.mode, query.tol)[3]
+    found = verify_one(robot, run.q, query.target, query.spec)[3]
     if found:
         return _result(
             robot,
@@ -242,10 +244,12 @@ def solve_ik(
     target: Any,
     *,
     mode: str = "pose",
+    axis: str = "z",
+    weights: Any = None,
     solver: str = "auto",
     q0: Any = None,
     warm_start: str = "analytic",
-    tol: float = 1e-6,
+    tol: float | tuple[float, float] = 1e-6,
     max_iter: int | None = None,
     timeout_s: float | None = None,
     restarts: int | None = None,
@@ -258,8 +262,13 @@ def solve_ik(
         target: world pose of the tool (``mode="pose"``): a 4x4, a ``(p, R)`` pair or a
             mapping of :func:`optik.pose`'s keywords (e.g. ``{"position": p,
             "quat_wxyz": q}``); in position mode also a 3-vector (metres). See
-            :func:`optik.as_target_pose`.
-        mode: ``"pose"`` or ``"position"``.
+            :func:`optik.as_target_pose`. ``"orientation"`` and ``"axis"`` take a pose too.
+        mode: ``"pose"``, ``"position"``, ``"orientation"`` or ``"axis"`` (the tool axis
+            ``axis`` points along the target's same axis; the rotation about it is free):
+            see :mod:`optik.task`.
+        axis: ``"x"``, ``"y"`` or ``"z"``, the tool axis of ``mode="axis"``.
+        weights: (6,) >= 0 on ``[x, y, z, rx, ry, rz]`` in the target frame (0 frees that
+            axis); the modes are shortcuts for weights (:func:`optik.task.make_task`).
         solver: a name from :func:`optik.available_solvers`, or ``"auto"`` (the closed
             form when the robot has one, else :data:`AUTO_NUMERIC_SOLVER`).
         q0: initial guess (dof,) inside the limits (outside raises
@@ -268,7 +277,8 @@ def solve_ik(
             closed-form branches are ordered by their distance to mid-limits.
         warm_start: ``"analytic"`` (closed-form branches as starting points when a family
             exists) or ``"q0"`` (ignore the closed form).
-        tol: position (m) and orientation (rad) tolerance of success.
+        tol: tolerance of success for both errors, or ``(position_tol_m,
+            orientation_tol_rad)``; the errors judged are the task's (:mod:`optik.task`).
         max_iter: iterations per attempt (default: the solver's own).
         timeout_s: wall-time budget (s) for all attempts; ``inf`` means no time limit
             (the restart budget then stays :data:`DEFAULT_RESTARTS`). Compilation on a
@@ -290,18 +300,26 @@ def solve_ik(
     if not isinstance(robot, Robot):
         raise OptikError(f"robot must be an optik.Robot, got {type(robot).__name__}")
     _check_options(mode, tol, warm_start, timeout_s, restarts, max_iter, seed)
+    task = make_task(mode, axis=axis, weights=weights, tol=tol)
     if not isinstance(solver, str):
         raise OptikError(f"solver must be a solver name (str), got {solver!r}")
-    T_target = as_target_pose(target, mode)
+    T_target = as_target_pose(target, "position" if task.mode == "position" else "pose")
     q_start = _check_q0(robot, q0)
     numeric: IKSolver | None = None if solver == "auto" else get_solver(solver)
-    query = IKQuery(robot, T_target, mode, float(tol))
+    if numeric is not None and numeric.plain_tasks_only and not task.is_pose_or_position:
+        raise OptikError(
+            f"solver {solver!r} takes a full pose or a point with unit weights; for mode "
+            f"{task.mode!r} with weights {task.weights.tolist()} use 'dls', 'pinv' or "
+            "'transpose'"
+        )
+    mode = task.mode
+    query = IKQuery(robot, T_target, mode, task.position_tol, task)
     # timeout_s=inf is "no time limit": the restart budget then stays finite.
     deadline = start_time + float(timeout_s) if timeout_s is not None else math.inf
 
     starts: list[FloatArray] = []
     family = family_of(robot) if warm_start == "analytic" else None
-    if family is not None and _family_solves(robot, family, mode):
+    if family is not None and task.is_pose_or_position and _family_solves(robot, family, mode):
         branches = analytic_ik(robot, T_target, mode, q_ref=q_start)
         if not branches:
             return _closed_form_proof(robot, query, q_start, start_time, int(seed))
@@ -321,7 +339,8 @@ def solve_ik(
         starts = branches
     # No closed form: the reach sphere still proves a target unreachable.
     centre, radius = robot.reach_sphere
-    if float(np.linalg.norm(T_target[:3, 3] - centre)) > radius + tol:
+    distance = float(np.linalg.norm(T_target[:3, 3] - centre))
+    if task.constrains_position and distance > radius + task.position_tol:
         return _result(
             robot,
             q_start,
@@ -332,7 +351,7 @@ def solve_ik(
             restarts=0,
             solver="reach",
             message=(
-                f"the target lies {float(np.linalg.norm(T_target[:3, 3] - centre)):.6g} m from "
+                f"the target lies {distance:.6g} m from "
                 f"the reach sphere's centre, beyond its radius {radius:.6g} m"
             ),
             claim=None,
@@ -347,7 +366,7 @@ def solve_ik(
         last = UNLIMITED_RESTARTS if math.isfinite(deadline) else DEFAULT_RESTARTS
     if not starts and q0 is not None:
         starts = [q_start]
-    sequence = start_sequence(robot, T_target, mode, starts, int(seed))
+    sequence = start_sequence(robot, T_target, task, starts, int(seed))
     run = numeric.run(query, sequence, int(iterations_per_attempt), last, deadline)
     return _result(
         robot,
@@ -424,8 +443,10 @@ def solve_ik_batch(
     targets: Any,
     *,
     mode: str = "pose",
+    axis: str = "z",
+    weights: Any = None,
     q0: Any = None,
-    tol: float = 1e-6,
+    tol: float | tuple[float, float] = 1e-6,
     max_iter: int = 100,
     restarts: int = DEFAULT_RESTARTS,
     seed: int = 0,
@@ -442,9 +463,12 @@ def solve_ik_batch(
         robot: the robot.
         targets: (N, 4, 4) world poses (in position mode only translations count; an
             (N, 3) array of positions is accepted too); N may be 0.
-        mode: ``"pose"`` or ``"position"``.
+        mode: ``"pose"``, ``"position"``, ``"orientation"`` or ``"axis"``
+            (:func:`solve_ik`).
+        axis: the tool axis of ``mode="axis"``.
+        weights: (6,) task weights in the target frame (:func:`solve_ik`).
         q0: shared initial guess (dof,).
-        tol: position (m) and orientation (rad) tolerance.
+        tol: one tolerance, or ``(position_tol_m, orientation_tol_rad)``.
         max_iter: iterations per attempt.
         restarts: attempts after the first.
         seed: base seed of the restarts.
@@ -456,6 +480,8 @@ def solve_ik_batch(
     if not isinstance(robot, Robot):
         raise OptikError(f"robot must be an optik.Robot, got {type(robot).__name__}")
     _check_options(mode, tol, "q0", None, restarts, max_iter, seed)
+    task = make_task(mode, axis=axis, weights=weights, tol=tol)
+    mode = "position" if task.mode == "position" else "pose"  # the targets' form
     if seed > MAX_SEED - 2**40:  # target k uses seed + k
         raise OptikError(f"seed must be at most 2**63 - 2**40 in a batch, got {seed!r}")
     threads = _check_threads(threads)
@@ -468,7 +494,9 @@ def solve_ik_batch(
     centre, radius = robot.reach_sphere
     with np.errstate(over="ignore"):  # a target 1e154 m away is simply unreachable
         distance = np.linalg.norm(poses[:, :3, 3] - centre, axis=1)
-    reachable = distance <= radius * (1 + 1e-9) + 1e-12
+    reachable = distance <= radius * (1 + 1e-9) + task.position_tol
+    if not task.constrains_position:  # a freed position axis: the sphere proves nothing
+        reachable = np.isfinite(distance) | np.ones(N, dtype=bool)
     rows = np.flatnonzero(reachable)
     table = seed_table(robot)
     given = q_start.reshape(1, -1) if q0 is not None else np.empty((0, robot.dof))
@@ -484,13 +512,13 @@ def solve_ik_batch(
             # Target k keeps the stream seed + k whatever slice it falls in.
             Qp, it, u, _ = kernel(
                 K, prismatic, C, identity, lower, upper, np.ascontiguousarray(poses[part]),
-                mode == "pose", given, *table, float(tol), int(max_iter), DLSSolver.w_bias,
+                task.packed, given, *table, int(max_iter), DLSSolver.w_bias,
                 int(restarts), part.astype(np.int64) + int(seed),
             )  # fmt: skip
             Q[part], iterations[part], used[part] = Qp, it, u
     finally:
         numba.set_num_threads(previous_threads)
-    verdict = verify(robot, Q, poses, mode, float(tol))
+    verdict = verify(robot, Q, poses, task)
     status = np.where(verdict.success, "converged", np.where(reachable, "max_iter", "unreachable"))
     return IKBatchResult(
         Q,

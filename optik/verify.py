@@ -19,6 +19,7 @@ from optik._checks import FloatArray
 from optik._kernels import pose_errors_into
 from optik.limits import LIMIT_TOLERANCE
 from optik.model import Robot
+from optik.task import Task, as_task
 
 
 class Verdict(NamedTuple):
@@ -30,14 +31,15 @@ class Verdict(NamedTuple):
     success: np.ndarray
 
 
-def pose_errors(robot: Robot, Q: FloatArray, targets: FloatArray, mode: str) -> FloatArray:
+def pose_errors(robot: Robot, Q: FloatArray, targets: FloatArray, mode: str | Task) -> FloatArray:
     """(N, 3) position error (m), orientation error (rad) and limit violation of ``Q``.
 
     Args:
         robot: the robot.
         Q: (N, dof) or (dof,) configurations (rad, m); a row with NaN or inf gets inf.
         targets: (N, 4, 4) or one (4, 4) world pose of the tool for every row.
-        mode: ``"pose"``, or ``"position"`` (orientation error 0).
+        mode: a :class:`optik.task.Task` or a mode name; the errors are the task's judged
+            errors (:mod:`optik.task`: e.g. 0 orientation error for a point).
     """
     Q2 = np.ascontiguousarray(np.asarray(Q, dtype=np.float64).reshape(-1, robot.dof))
     T = np.ascontiguousarray(np.asarray(targets, dtype=np.float64).reshape(-1, 4, 4))
@@ -45,26 +47,42 @@ def pose_errors(robot: Robot, Q: FloatArray, targets: FloatArray, mode: str) -> 
     chain = robot.chain
     pose_errors_into(
         chain.K, chain.prismatic, chain.C, chain.identity, chain.lower, chain.upper,
-        Q2, T, mode == "pose", out,
+        Q2, T, as_task(mode).packed, out,
     )  # fmt: skip
     return out
 
 
-def verify(robot: Robot, Q: FloatArray, targets: FloatArray, mode: str, tol: float) -> Verdict:
-    """:func:`pose_errors` and the success mask (both errors <= ``tol``, inside the limits)."""
-    errors = pose_errors(robot, Q, targets, mode)
+def verify(
+    robot: Robot, Q: FloatArray, targets: FloatArray, mode: str | Task, tol: float = 1e-6
+) -> Verdict:
+    """:func:`pose_errors` and the success mask.
+
+    Success: both errors within the task's tolerances and inside the limits; ``tol``
+    applies when ``mode`` is a name.
+    """
+    task = as_task(mode, tol)
+    errors = pose_errors(robot, Q, targets, task)
     position, orientation, violation = errors[:, 0], errors[:, 1], errors[:, 2]
-    success = (position <= tol) & (orientation <= tol) & (violation <= LIMIT_TOLERANCE)
+    success = (
+        (position <= task.position_tol)
+        & (orientation <= task.orientation_tol)
+        & (violation <= LIMIT_TOLERANCE)
+    )
     return Verdict(position, orientation, violation, success)
 
 
 def verify_one(
-    robot: Robot, q: FloatArray, target: FloatArray, mode: str, tol: float
+    robot: Robot, q: FloatArray, target: FloatArray, mode: str | Task, tol: float = 1e-6
 ) -> tuple[float, float, float, bool]:
     """:func:`verify` of one configuration: ``(position, orientation, violation, success)``."""
-    errors = pose_errors(robot, q, target, mode)[0]
+    task = as_task(mode, tol)
+    errors = pose_errors(robot, q, target, task)[0]
     position, orientation, violation = float(errors[0]), float(errors[1]), float(errors[2])
-    success = position <= tol and orientation <= tol and violation <= LIMIT_TOLERANCE
+    success = (
+        position <= task.position_tol
+        and orientation <= task.orientation_tol
+        and violation <= LIMIT_TOLERANCE
+    )
     return position, orientation, violation, success
 
 

@@ -26,6 +26,7 @@ from optik.solvers._lm_kernel import (
 from optik.solvers._seeds import seed_table
 from optik.solvers._starts import table_order
 from optik.solvers.iterative import DLSSolver
+from optik.task import make_task
 
 
 def _dispatchers() -> dict[int, tuple[str, CPUDispatcher]]:
@@ -78,9 +79,10 @@ def _attempt(
 ) -> tuple[int, bool]:
     q = np.array(q0, dtype=float)
     scratch = workspace(robot.chain.n, robot.dof)
+    task = make_task("pose" if pose else "position", tol=tol)
     it, ok, _, _ = lm_attempt(
-        *robot.chain.kernel_args(), target, pose, q, tol, 100, DLSSolver.w_bias, window, ratio,
-        scratch,
+        *robot.chain.kernel_args(), target, task.packed, q, 100, DLSSolver.w_bias, window,
+        ratio, scratch,
     )  # fmt: skip
     return it, ok
 
@@ -119,11 +121,12 @@ def test_first_attempts_use_the_quick_stall_rule() -> None:
     differs = 0
     for _ in range(40):
         target = panda.fk(rng.uniform(panda.lower, panda.upper))
-        order = table_order(table.features, table.centroids, table.offsets, target, True)
+        task = make_task("pose", tol=1e-6)
+        order = table_order(table.features, table.centroids, table.offsets, target, task.features)
         start = table.q[order[0]]
         _, total, ran, ok, _, _ = lm_solve_restarts(
-            *panda.chain.kernel_args(), target, True, np.empty((0, panda.dof)), order, table.q,
-            1e-6, 100, DLSSolver.w_bias, 0, 0, 0,
+            *panda.chain.kernel_args(), target, task.packed, np.empty((0, panda.dof)), order,
+            table.q, 100, DLSSolver.w_bias, 0, 0, 0,
         )  # fmt: skip
         quick = _attempt(panda, target, start, QUICK_WINDOW, QUICK_RATIO, 1e-6)
         patient = _attempt(panda, target, start, STALL_WINDOW, STALL_RATIO, 1e-6)

@@ -193,7 +193,7 @@ def test_bad_input_raises_optik_errors() -> None:
     with pytest.raises(OptikError, match="tol"):
         optik.solve_ik(puma, T, tol=0.0)
     with pytest.raises(OptikError, match="mode"):
-        optik.solve_ik(puma, T, mode="orientation")
+        optik.solve_ik(puma, T, mode="twist")
     with pytest.raises(OptikError, match="warm_start"):
         optik.solve_ik(puma, T, warm_start="magic")
     with pytest.raises(TypeError):

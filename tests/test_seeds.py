@@ -13,6 +13,7 @@ from optik.solvers._seeds import (
     seed_table,
 )
 from optik.solvers._starts import table_candidates
+from optik.task import make_task
 
 
 def test_table_entries_are_in_limits_and_their_features_are_their_poses() -> None:
@@ -57,8 +58,9 @@ def test_candidates_are_the_nearest_cluster_with_exact_distances(
         target = panda.fk(rng.uniform(panda.lower, panda.upper))
         f = pose_features(target[None])[0]
         for pose, width in ((True, 12), (False, 3)):
+            mask = make_task("pose" if pose else "position").features
             index, d = table_candidates(
-                table.features, table.centroids, table.offsets, target, pose
+                table.features, table.centroids, table.offsets, target, mask
             )
             cluster = np.argmin(np.sum((centres[:, :width] - f[:width]) ** 2, axis=1))
             members = np.arange(table.offsets[cluster], table.offsets[cluster + 1])

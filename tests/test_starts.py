@@ -29,7 +29,7 @@ def test_sequence_order_given_then_table_then_alternating_draws() -> None:
     given = np.stack([panda.mid_limits, panda.mid_limits + 0.1])
     seq = start_sequence(panda, target, "pose", given, seed=3)
     table = seed_table(panda)
-    order = table_order(table.features, table.centroids, table.offsets, target, True)
+    order = table_order(table.features, table.centroids, table.offsets, target, np.ones(12))
     assert np.array_equal(seq.start(0), given[0]) and np.array_equal(seq.start(1), given[1])
     for j in range(TABLE_FIRST):
         assert np.array_equal(seq.start(2 + j), table.q[order[j]])

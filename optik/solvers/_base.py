@@ -25,7 +25,7 @@ from optik.errors import OptikError, SolverError, UnknownSolverError
 from optik.model import Robot
 from optik.programs.diff_qp import DiffIKProgram, QPSolution
 from optik.solvers._starts import StartSequence
-from optik.spatial import log_so3
+from optik.task import Task, as_task, task_error, task_errors_of, task_rows
 from optik.verify import verify_one
 
 
@@ -35,26 +35,53 @@ class IKQuery:
 
     Attributes:
         robot: the robot.
-        target: 4x4 world pose of the tool; in position mode only its translation counts.
-        mode: ``"pose"`` or ``"position"``.
-        tol: position (m) and orientation (rad) tolerance of success.
+        target: 4x4 world pose of the tool (a point uses only its translation).
+        mode: the task's mode (``"pose"``, ``"position"``, ``"orientation"``, ``"axis"``).
+        tol: the position tolerance (m); the orientation tolerance is the task's.
+        task: the task (:mod:`optik.task`); default: ``mode`` with ``tol`` for both errors.
     """
 
     robot: Robot
     target: FloatArray
     mode: str
     tol: float
+    task: Task | None = None
+
+    @property
+    def spec(self) -> Task:
+        """The task this query solves."""
+        return self.task if self.task is not None else as_task(self.mode, self.tol)
 
     def error_vector(self, T: FloatArray) -> FloatArray:
-        """Task-space error towards the target: (3,) or (6,) = [p* - p; log(R* R^T)]."""
-        dp = self.target[:3, 3] - T[:3, 3]
-        if self.mode == "position":
-            return dp
-        return np.concatenate([dp, log_so3(self.target[:3, :3] @ T[:3, :3].T)])
+        """The task residual towards the target at pose ``T``: (3,) for a point, else (6,).
+
+        ``[p* - p; log(R* R^T)]`` for a full pose with unit weights; weighted and in the
+        target frame otherwise (:func:`optik.task.task_error`).
+        """
+        task = self.spec
+        e = np.empty(6)
+        task_error(np.ascontiguousarray(T, dtype=np.float64), self.target, task.packed, e,
+                   np.empty((3, 4)))  # fmt: skip
+        return e[:3].copy() if task.packed[10] == 2.0 else e
 
     def task_rows(self, J: FloatArray) -> FloatArray:
-        """The Jacobian rows this mode constrains: linear only, or all six."""
-        return J[:3] if self.mode == "position" else J
+        """The task's Jacobian rows for the world-frame Jacobian ``J`` (6, dof) (a copy)."""
+        rows = np.array(J, dtype=np.float64, order="C")
+        m = task_rows(rows, self.target, self.spec.packed)
+        return rows[:m]
+
+    def errors(self, T: FloatArray) -> tuple[float, float]:
+        """The judged (position, orientation) errors of pose ``T`` (:mod:`optik.task`)."""
+        position, orientation = task_errors_of(
+            np.ascontiguousarray(T, dtype=np.float64), self.target, self.spec.packed
+        )
+        return float(position), float(orientation)
+
+    def converged(self, T: FloatArray) -> bool:
+        """Both judged errors within the task's tolerances."""
+        position, orientation = self.errors(T)
+        task = self.spec
+        return position <= task.position_tol and orientation <= task.orientation_tol
 
 
 @dataclass
@@ -110,6 +137,9 @@ class IKSolver(ABC):
     name: str = ""
     kind: str = "iterative"
     default_max_iter: int = 100
+    plain_tasks_only: bool = False
+    """Whether the solver takes only a full pose or a point with unit weights (the QP and
+    CasADi forms of weighted and axis tasks are not built yet)."""
 
     @classmethod
     def is_available(cls) -> bool:
@@ -159,7 +189,7 @@ class IKSolver(ABC):
                     best = output
                 continue
             position, orientation, violation, ok = verify_one(
-                query.robot, output.q, query.target, query.mode, query.tol
+                query.robot, output.q, query.target, query.spec
             )
             error = position + orientation + violation
             if best is None or best.failed or error < best_error:

@@ -17,35 +17,12 @@ import numba as nb
 import numpy as np
 
 from optik._kernels import fk_jacobian_work
-from optik._math import cholesky_solve, log_rotation
+from optik._math import cholesky_solve
 from optik._nrt import borrowed
 from optik.solvers._starts import start_into, table_order
+from optik.task import task_converged, task_error, task_features, task_rows
 
 _jit = nb.njit(cache=True, nogil=True, error_model="numpy")
-
-
-@_jit
-def task_error(
-    T: np.ndarray, target: np.ndarray, pose: bool, e: np.ndarray, M: np.ndarray
-) -> tuple[float, float]:
-    """Fill ``e`` with ``[p* - p; log(R* R^T)]`` (or the position part); return both norms.
-
-    ``M`` is 3x4 scratch space (the relative rotation and the rotation vector).
-    """
-    for r in range(3):
-        e[r] = target[r, 3] - T[r, 3]
-    position = np.sqrt(e[0] ** 2 + e[1] ** 2 + e[2] ** 2)
-    if not pose:
-        return position, 0.0
-    for r in range(3):
-        for c in range(3):
-            M[r, c] = target[r, 0] * T[c, 0] + target[r, 1] * T[c, 1] + target[r, 2] * T[c, 2]
-    w = M[:, 3]
-    log_rotation(M[:, :3], w)
-    e[3] = w[0]
-    e[4] = w[1]
-    e[5] = w[2]
-    return position, np.sqrt(w[0] ** 2 + w[1] ** 2 + w[2] ** 2)
 
 
 @_jit
@@ -56,7 +33,7 @@ def _evaluate(
     identity: bool,
     q: np.ndarray,
     target: np.ndarray,
-    pose: bool,
+    task: np.ndarray,
     T: np.ndarray,
     Jc: np.ndarray,
     J: np.ndarray,
@@ -64,14 +41,18 @@ def _evaluate(
     work: np.ndarray,
     M: np.ndarray,
 ) -> tuple[float, float]:
-    """FK, Jacobian (in q) and task error at ``q``; returns (position, orientation) errors."""
+    """FK, the task's Jacobian rows (in q) and residual at ``q``.
+
+    Returns the judged (position, orientation) errors (:mod:`optik.task`).
+    """
     if identity:
         fk_jacobian_work(K, prismatic, q, T, J, work)
     else:
         theta = C @ q
         fk_jacobian_work(K, prismatic, theta, T, Jc, work)
         J[:, :] = Jc @ C
-    return task_error(T, target, pose, e, M)
+    task_rows(J, target, task)
+    return task_error(T, target, task, e, M)
 
 
 MIN_DAMPING_SCALE = 1e-6
@@ -138,9 +119,8 @@ def lm_attempt(
     lower: np.ndarray,
     upper: np.ndarray,
     target: np.ndarray,
-    pose: bool,
+    task: np.ndarray,
     q_inout: np.ndarray,
-    tol: float,
     max_iter: int,
     w_bias: float,
     window: int,
@@ -155,7 +135,8 @@ def lm_attempt(
 
     Returns:
         ``(iterations, converged, position_error, orientation_error)``; ``converged``
-        means both errors are at most ``tol`` (m, rad) with ``q`` inside the limits.
+        means both judged errors are within the task's tolerances (:mod:`optik.task`),
+        with ``q`` inside the limits.
     """
     # Borrowed views (optik._nrt): the iteration passes these arrays to helpers many
     # times; their owners are this call's arguments.
@@ -165,6 +146,7 @@ def lm_attempt(
     lower = borrowed(lower)
     upper = borrowed(upper)
     target = borrowed(target)
+    task = borrowed(task)
     q = borrowed(q_inout)
     T = borrowed(scratch[0])
     J = borrowed(scratch[1])
@@ -182,17 +164,17 @@ def lm_attempt(
     L = borrowed(scratch[13])
     history = borrowed(scratch[14])
     dof = q.shape[0]
-    m = 6 if pose else 3
+    m = 3 if task[10] == 2.0 else 6  # optik.task: a plain point uses three rows
     for i in range(dof):
         q[i] = min(max(q[i], lower[i]), upper[i])
-    pos, rot = _evaluate(K, prismatic, C, identity, q, target, pose, T, Jc, J, e, work, M)
+    pos, rot = _evaluate(K, prismatic, C, identity, q, target, task, T, Jc, J, e, work, M)
     E = 0.0
     for r in range(m):
         E += e[r] * e[r]
     scale = 1.0
     it = 0
     while it < max_iter:
-        if pos <= tol and rot <= tol:
+        if task_converged(pos, rot, task):
             return it, True, pos, rot
         if it >= window and E > STALL_FLOOR and ratio * history[(it - window) % 16] < E:
             break
@@ -231,7 +213,7 @@ def lm_attempt(
         for i in range(dof):
             q_new[i] = min(max(q[i] + dq[i], lower[i]), upper[i])
         pos_n, rot_n = _evaluate(
-            K, prismatic, C, identity, q_new, target, pose, T_new, Jc, J_new, e_new, work, M
+            K, prismatic, C, identity, q_new, target, task, T_new, Jc, J_new, e_new, work, M
         )
         E_new = 0.0
         for r in range(m):
@@ -249,7 +231,7 @@ def lm_attempt(
             scale *= 4.0
             if scale > 1e12:
                 break
-    return it, pos <= tol and rot <= tol, pos, rot
+    return it, task_converged(pos, rot, task), pos, rot
 
 
 @_jit
@@ -261,9 +243,8 @@ def lm_solve(
     lower: np.ndarray,
     upper: np.ndarray,
     target: np.ndarray,
-    pose: bool,
+    task: np.ndarray,
     q0: np.ndarray,
-    tol: float,
     max_iter: int,
     w_bias: float,
 ) -> tuple[np.ndarray, int, bool, float, float]:
@@ -276,7 +257,7 @@ def lm_solve(
     q = q0.copy()
     scratch = workspace(prismatic.shape[0], q0.shape[0])
     it, ok, pos, rot = lm_attempt(
-        K, prismatic, C, identity, lower, upper, target, pose, q, tol, max_iter, w_bias,
+        K, prismatic, C, identity, lower, upper, target, task, q, max_iter, w_bias,
         STALL_WINDOW, STALL_RATIO, scratch,
     )  # fmt: skip
     return q, it, ok, pos, rot
@@ -291,11 +272,10 @@ def lm_solve_restarts(
     lower: np.ndarray,
     upper: np.ndarray,
     target: np.ndarray,
-    pose: bool,
+    task: np.ndarray,
     given: np.ndarray,
     order: np.ndarray,
     table_q: np.ndarray,
-    tol: float,
     max_iter: int,
     w_bias: float,
     first: int,
@@ -330,7 +310,7 @@ def lm_solve_restarts(
         start_into(attempt, given, order, table_q, lower, upper, seed, q)
         quick = attempt < QUICK_ATTEMPTS
         it, ok, pos, rot = lm_attempt(
-            K, prismatic, C, identity, lower, upper, target, pose, q, tol, max_iter, w_bias,
+            K, prismatic, C, identity, lower, upper, target, task, q, max_iter, w_bias,
             QUICK_WINDOW if quick else STALL_WINDOW, QUICK_RATIO if quick else STALL_RATIO,
             scratch,
         )  # fmt: skip
@@ -354,13 +334,12 @@ def _solve_target(
     lower: np.ndarray,
     upper: np.ndarray,
     targets: np.ndarray,
-    pose: bool,
+    task: np.ndarray,
     given: np.ndarray,
     table_q: np.ndarray,
     table_features: np.ndarray,
     table_centroids: np.ndarray,
     table_offsets: np.ndarray,
-    tol: float,
     max_iter: int,
     w_bias: float,
     restarts: int,
@@ -371,10 +350,12 @@ def _solve_target(
     ok: np.ndarray,
 ) -> None:
     """Row ``k`` of a batch: :func:`lm_solve_restarts` with the random stream ``seeds[k]``."""
-    order = table_order(table_features, table_centroids, table_offsets, targets[k], pose)
+    order = table_order(
+        table_features, table_centroids, table_offsets, targets[k], task_features(task)
+    )
     q, it, u, good, _, _ = lm_solve_restarts(
-        K, prismatic, C, identity, lower, upper, targets[k], pose, given, order, table_q,
-        tol, max_iter, w_bias, 0, restarts, seeds[k],
+        K, prismatic, C, identity, lower, upper, targets[k], task, given, order, table_q,
+        max_iter, w_bias, 0, restarts, seeds[k],
     )  # fmt: skip
     Q[k] = q
     iters[k] = it
@@ -396,13 +377,12 @@ def lm_solve_batch(
     lower: np.ndarray,
     upper: np.ndarray,
     targets: np.ndarray,
-    pose: bool,
+    task: np.ndarray,
     given: np.ndarray,
     table_q: np.ndarray,
     table_features: np.ndarray,
     table_centroids: np.ndarray,
     table_offsets: np.ndarray,
-    tol: float,
     max_iter: int,
     w_bias: float,
     restarts: int,
@@ -430,11 +410,11 @@ def lm_solve_batch(
     table_q_, table_features_ = borrowed(table_q), borrowed(table_features)
     table_centroids_, table_offsets_ = borrowed(table_centroids), borrowed(table_offsets)
     Q_, iters_, used_, ok_ = borrowed(Q), borrowed(iters), borrowed(used), borrowed(ok)
-    seeds_ = borrowed(seeds)
+    seeds_, task_ = borrowed(seeds), borrowed(task)
     for k in nb.prange(N):
         _solve_target(
-            k, K_, prismatic_, C_, identity, lower_, upper_, targets_, pose, given_,
-            table_q_, table_features_, table_centroids_, table_offsets_, tol, max_iter, w_bias,
+            k, K_, prismatic_, C_, identity, lower_, upper_, targets_, task_, given_,
+            table_q_, table_features_, table_centroids_, table_offsets_, max_iter, w_bias,
             restarts, seeds_, Q_, iters_, used_, ok_,
         )  # fmt: skip
     return Q, iters, used, ok
@@ -449,13 +429,12 @@ def lm_solve_batch_serial(
     lower: np.ndarray,
     upper: np.ndarray,
     targets: np.ndarray,
-    pose: bool,
+    task: np.ndarray,
     given: np.ndarray,
     table_q: np.ndarray,
     table_features: np.ndarray,
     table_centroids: np.ndarray,
     table_offsets: np.ndarray,
-    tol: float,
     max_iter: int,
     w_bias: float,
     restarts: int,
@@ -469,8 +448,8 @@ def lm_solve_batch_serial(
     ok = np.empty(N, dtype=np.bool_)
     for k in range(N):
         _solve_target(
-            k, K, prismatic, C, identity, lower, upper, targets, pose, given, table_q,
-            table_features, table_centroids, table_offsets, tol, max_iter, w_bias, restarts,
+            k, K, prismatic, C, identity, lower, upper, targets, task, given, table_q,
+            table_features, table_centroids, table_offsets, max_iter, w_bias, restarts,
             seeds, Q, iters, used, ok,
         )  # fmt: skip
     return Q, iters, used, ok

@@ -19,6 +19,7 @@ import numpy as np
 from optik._checks import FloatArray
 from optik.model import Robot
 from optik.solvers._starts import ROTATION_WEIGHT, StartSequence, table_order
+from optik.task import Task, as_task
 
 TABLE_SIZE = 8192
 """Entries per robot. Measured on 20,000 random Panda poses (the quick stall rule of
@@ -115,7 +116,7 @@ def build_seed_table(
     return cached
 
 
-def nearest_seeds(robot: Robot, target: FloatArray, mode: str, count: int) -> FloatArray:
+def nearest_seeds(robot: Robot, target: FloatArray, mode: str | Task, count: int) -> FloatArray:
     """Up to ``count`` table configurations near ``target``, nearest first.
 
     The entries of the cluster whose centre is nearest (the starts the solvers take first
@@ -123,18 +124,24 @@ def nearest_seeds(robot: Robot, target: FloatArray, mode: str, count: int) -> Fl
     """
     table = seed_table(robot)
     order = table_order(
-        table.features, table.centroids, table.offsets, np.asarray(target, float), mode == "pose"
-    )
+        table.features, table.centroids, table.offsets, np.asarray(target, float),
+        as_task(mode).features,
+    )  # fmt: skip
     return table.q[order[:count]]
 
 
 def start_sequence(
-    robot: Robot, target: FloatArray, mode: str, given: FloatArray | list[FloatArray], seed: int
+    robot: Robot,
+    target: FloatArray,
+    mode: str | Task,
+    given: FloatArray | list[FloatArray],
+    seed: int,
 ) -> StartSequence:
     """The starts of one query (:mod:`optik.solvers._starts`): ``given``, table, draws."""
     table = seed_table(robot)
     order = table_order(
-        table.features, table.centroids, table.offsets, np.asarray(target, float), mode == "pose"
-    )
+        table.features, table.centroids, table.offsets, np.asarray(target, float),
+        as_task(mode).features,
+    )  # fmt: skip
     G = np.asarray(given, dtype=np.float64).reshape(-1, robot.dof)
     return StartSequence(G, order, table.q, robot.lower, robot.upper, seed)

@@ -120,25 +120,32 @@ def _pop_nearest(distances: np.ndarray) -> int:
 
 @_jit
 def table_candidates(
-    features: np.ndarray, centroids: np.ndarray, offsets: np.ndarray, target: np.ndarray, pose: bool
+    features: np.ndarray,
+    centroids: np.ndarray,
+    offsets: np.ndarray,
+    target: np.ndarray,
+    mask: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray]:
     """The seed-table entries of the cluster nearest ``target``, with their distances.
 
     ``features`` (12, M) and ``centroids`` (12, C) are pose features (position, then
     ``sqrt(ROTATION_WEIGHT) R`` row by row: :func:`optik.solvers._seeds.pose_features`),
-    so squared distances are ``||p_i - p*||^2 + w ||R_i - R*||_F^2``; position mode
-    compares the first three only. Returns ``(indices (k,), squared distances (k,))``;
-    both are empty when no distance is finite (a target whose coordinates overflow).
+    so squared distances are ``||p_i - p*||^2 + w ||R_i - R*||_F^2`` over the features
+    that ``mask`` (12,) marks with 1 (:func:`optik.task.task_features`: all twelve for a
+    full pose, the first three for a point, the tool axis's column for ``axis``).
+    Returns ``(indices (k,), squared distances (k,))``; both are empty when no distance
+    is finite (a target whose coordinates overflow).
     Loops run over contiguous rows of one feature, which vectorise.
     """
     features = borrowed(features)
     centroids = borrowed(centroids)
-    width = 12 if pose else 3
     f = np.empty(12)
     for j in range(12):
         f[j] = target[j, 3] if j < 3 else SQRT_ROTATION_WEIGHT * target[(j - 3) // 3, (j - 3) % 3]
     to_centre = np.zeros(centroids.shape[1])
-    for j in range(width):
+    for j in range(12):
+        if mask[j] == 0.0:
+            continue
         row = centroids[j]
         for c in range(row.shape[0]):
             x = row[c] - f[j]
@@ -152,7 +159,9 @@ def table_candidates(
     for t in range(n):
         index[t] = lo + t
     distances = np.zeros(n)
-    for j in range(width):
+    for j in range(12):
+        if mask[j] == 0.0:
+            continue
         row = features[j, lo : lo + n]
         for t in range(n):
             x = row[t] - f[j]
@@ -162,10 +171,14 @@ def table_candidates(
 
 @_jit
 def table_order(
-    features: np.ndarray, centroids: np.ndarray, offsets: np.ndarray, target: np.ndarray, pose: bool
+    features: np.ndarray,
+    centroids: np.ndarray,
+    offsets: np.ndarray,
+    target: np.ndarray,
+    mask: np.ndarray,
 ) -> np.ndarray:
     """Indices of the table entries nearest ``target`` (its nearest cluster), nearest first."""
-    index, distances = table_candidates(features, centroids, offsets, target, pose)
+    index, distances = table_candidates(features, centroids, offsets, target, mask)
     return index[np.argsort(distances, kind="mergesort")]
 
 

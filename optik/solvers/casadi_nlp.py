@@ -44,6 +44,8 @@ class CasadiNLPSolver(IKSolver):
     (``stats()["success"]``).
     """
 
+    plain_tasks_only = True
+
     kind = "nlp"
     default_max_iter = 200
     #: Weight ``mu`` of the proximal term (m^2 per rad^2) on redundant tasks (ipopt only).

@@ -17,12 +17,6 @@ from optik.solvers._lm_kernel import lm_solve, lm_solve_restarts
 from optik.solvers._starts import StartSequence
 
 
-def _errors(query: IKQuery, e: FloatArray) -> tuple[float, float]:
-    position = float(np.linalg.norm(e[:3]))
-    orientation = float(np.linalg.norm(e[3:])) if e.shape[0] > 3 else 0.0
-    return position, orientation
-
-
 class _JacobianIteration(IKSolver):
     """Shared loop: ``q <- clip(q + step(J, e))`` until both errors are within ``tol``."""
 
@@ -42,8 +36,7 @@ class _JacobianIteration(IKSolver):
         for it in range(max_iter + 1):
             T, J = robot.fk_jacobian(q)
             e = query.error_vector(T)
-            position, orientation = _errors(query, e)
-            if position <= query.tol and orientation <= query.tol:
+            if query.converged(T):
                 return SolverOutput(q, it, True, "converged")
             if it == max_iter:
                 return SolverOutput(q, it, False, "max_iter")
@@ -112,9 +105,8 @@ class DLSSolver(IKSolver):
         q, it, ok, _, _ = lm_solve(
             *robot.chain.kernel_args(),
             query.target,
-            query.mode == "pose",
+            query.spec.packed,
             np.ascontiguousarray(q0, dtype=float),
-            float(query.tol),
             int(max_iter),
             self.w_bias,
         )
@@ -148,8 +140,8 @@ class DLSSolver(IKSolver):
         while True:
             hi = min(first + size - 1, last)
             q, it, ran, ok, pos, rot = lm_solve_restarts(
-                K, prismatic, C, identity, lower, upper, query.target, query.mode == "pose",
-                starts.given, starts.order, starts.table_q, float(query.tol), int(max_iter),
+                K, prismatic, C, identity, lower, upper, query.target, query.spec.packed,
+                starts.given, starts.order, starts.table_q, int(max_iter),
                 self.w_bias, first, hi, starts.seed,
             )  # fmt: skip
             total += int(it)

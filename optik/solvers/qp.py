@@ -181,6 +181,7 @@ class QPStepSolver(IKSolver):
 
     kind = "qp"
     default_max_iter = 100
+    plain_tasks_only = True
     #: Initial damping ``lambda`` (task units per joint unit).
     initial_damping: float = 1e-2
     #: Smallest damping (keeps the QP strictly convex for redundant arms).

@@ -1,0 +1,174 @@
+"""Tasks beyond a full pose: tool axis (5-D), orientation only, per-axis weights, two tolerances.
+
+Every success is re-verified here from FK, not from the result's fields.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import optik
+from optik.errors import OptikError
+from optik.problems import load_problem
+from optik.solvers import IKQuery
+from optik.spatial import rot_x, rot_z, rotation_angle
+from optik.task import make_task
+
+ROBOTS = ["panda", "ur5", "puma560"]
+
+
+def _axis_angle(a: np.ndarray, b: np.ndarray) -> float:
+    return math.atan2(float(np.linalg.norm(np.cross(a, b))), float(a @ b))
+
+
+def _in_limits(robot: optik.Robot, q: np.ndarray) -> bool:
+    return bool(np.all(q >= robot.lower - 1e-12) and np.all(q <= robot.upper + 1e-12))
+
+
+@pytest.mark.parametrize("name", ROBOTS)
+def test_axis_mode_places_the_tool_axis(name: str) -> None:
+    robot = load_problem(name).robot
+    rng = np.random.default_rng(7)
+    solved = 0
+    n = 150
+    for _ in range(n):
+        T = robot.fk(rng.uniform(robot.lower, robot.upper))
+        T[:3, :3] = T[:3, :3] @ rot_z(rng.uniform(-math.pi, math.pi))  # a roll the arm may lack
+        res = optik.solve_ik(robot, T, mode="axis")
+        F = robot.fk(res.q)
+        ok = (
+            np.linalg.norm(F[:3, 3] - T[:3, 3]) <= 1e-6
+            and _axis_angle(F[:3, 2], T[:3, 2]) <= 1e-6
+            and _in_limits(robot, res.q)
+        )
+        assert ok == res.success  # the result's verdict is the independent one
+        solved += ok
+    assert solved >= 0.99 * n
+
+
+def test_axis_mode_other_axes_and_orientation_error_reported() -> None:
+    panda = load_problem("panda").robot
+    rng = np.random.default_rng(3)
+    for axis, column in (("x", 0), ("y", 1)):
+        T = panda.fk(rng.uniform(panda.lower, panda.upper))
+        T[:3, :3] = T[:3, :3] @ (rot_x(0.7) if axis == "x" else np.eye(3))
+        res = optik.solve_ik(panda, T, mode="axis", axis=axis)
+        assert res.success
+        F = panda.fk(res.q)
+        assert _axis_angle(F[:3, column], T[:3, column]) <= 1e-6
+        assert res.orientation_error == pytest.approx(
+            _axis_angle(F[:3, column], T[:3, column]), abs=1e-9
+        )
+
+
+def test_orientation_mode_ignores_the_position() -> None:
+    panda = load_problem("panda").robot
+    rng = np.random.default_rng(5)
+    for _ in range(50):
+        T = panda.fk(rng.uniform(panda.lower, panda.upper))
+        T[:3, 3] += 10.0  # far outside the reach: only the rotation counts
+        res = optik.solve_ik(panda, T, mode="orientation")
+        assert res.success and res.position_error == 0.0
+        assert rotation_angle(panda.fk(res.q)[:3, :3].T @ T[:3, :3]) <= 1e-6
+
+
+def test_weights_free_the_insertion_depth() -> None:
+    panda = load_problem("panda").robot
+    rng = np.random.default_rng(9)
+    for _ in range(50):
+        T = panda.fk(rng.uniform(panda.lower, panda.upper))
+        T[:3, 3] += T[:3, 2] * rng.uniform(-0.05, 0.05)  # slide along the target's z
+        res = optik.solve_ik(panda, T, weights=[1, 1, 0, 1, 1, 1])
+        F = panda.fk(res.q)
+        d = T[:3, :3].T @ (F[:3, 3] - T[:3, 3])
+        assert res.success and math.hypot(d[0], d[1]) <= 1e-6
+        assert rotation_angle(F[:3, :3].T @ T[:3, :3]) <= 1e-6
+
+
+def test_two_tolerances() -> None:
+    panda = load_problem("panda").robot
+    T = panda.fk(panda.mid_limits + 0.3)
+    loose = optik.solve_ik(panda, T, tol=(1e-3, 1e-2), q0=panda.mid_limits)
+    assert loose.success
+    assert loose.position_error <= 1e-3 and loose.orientation_error <= 1e-2
+    tight = optik.solve_ik(panda, T, tol=(1e-9, 1e-9), q0=panda.mid_limits)
+    assert tight.success and tight.position_error <= 1e-9
+
+
+def test_pinv_takes_tasks_and_qp_says_it_cannot() -> None:
+    panda = load_problem("panda").robot
+    T = panda.fk(panda.mid_limits + 0.2)
+    T[:3, :3] = T[:3, :3] @ rot_z(1.0)
+    res = optik.solve_ik(panda, T, mode="axis", solver="pinv", q0=panda.mid_limits)
+    assert res.success and _axis_angle(panda.fk(res.q)[:3, 2], T[:3, 2]) <= 1e-6
+    with pytest.raises(OptikError, match="unit weights"):
+        optik.solve_ik(panda, T, mode="axis", solver="qp:osqp")
+
+
+def test_batch_takes_the_task() -> None:
+    ur5 = load_problem("ur5").robot
+    rng = np.random.default_rng(1)
+    T = ur5.fk(rng.uniform(ur5.lower, ur5.upper, (100, 6)))
+    T[:, :3, :3] = T[:, :3, :3] @ rot_z(0.5)
+    res = optik.solve_ik_batch(ur5, T, mode="axis")
+    F = ur5.fk(res.q)
+    angles = [_axis_angle(F[k, :3, 2], T[k, :3, 2]) for k in range(100)]
+    ok = (np.linalg.norm(F[:, :3, 3] - T[:, :3, 3], axis=1) <= 1e-6) & (np.array(angles) <= 1e-6)
+    assert np.array_equal(ok, res.success) and ok.mean() >= 0.99
+
+
+@pytest.mark.parametrize(
+    ("mode", "weights"),
+    [("pose", [2, 1, 0.5, 1, 3, 1]), ("axis", None), ("pose", [1, 0, 1, 1, 1, 0])],
+)
+def test_task_rows_are_the_residual_jacobian(mode: str, weights: list[float] | None) -> None:
+    # At the answer the residual e(q) = (target - current) has de/dq = -rows: finite
+    # differences of the residual against the task's Jacobian rows.
+    panda = load_problem("panda").robot
+    q = panda.mid_limits + 0.25
+    T = panda.fk(q)
+    task = make_task(mode, weights=weights)
+    query = IKQuery(panda, T, task.mode, 1e-6, task)
+    rows = query.task_rows(panda.jacobian(q))
+    h = 1e-7
+    fd = np.empty_like(rows)
+    for j in range(panda.dof):
+        dq = np.zeros(panda.dof)
+        dq[j] = h
+        e_plus = query.error_vector(panda.fk(q + dq))
+        e_minus = query.error_vector(panda.fk(q - dq))
+        fd[:, j] = -(e_plus - e_minus) / (2 * h)
+    np.testing.assert_allclose(rows, fd, atol=1e-6)
+
+
+@pytest.mark.parametrize(
+    "kwargs",
+    [
+        {"weights": [1, 1, 1, math.nan, 1, 1]},
+        {"weights": [1, 1, 1, -1, 1, 1]},
+        {"weights": [1, 1, 1, 0, 0, 1]},
+        {"weights": [1, 1, 1]},
+        {"weights": [0, 0, 0, 0, 0, 0]},
+        {"mode": "position", "weights": [1, 1, 1, 1, 1, 1]},
+        {"axis": "w", "mode": "axis"},
+        {"tol": (1e-6,)},
+        {"tol": (1e-6, -1.0)},
+        {"mode": "volume"},
+    ],
+)
+def test_bad_tasks_name_the_field(kwargs: dict[str, object]) -> None:
+    panda = load_problem("panda").robot
+    field = next(iter(kwargs))
+    with pytest.raises(OptikError, match=field):
+        optik.solve_ik(panda, panda.fk(panda.mid_limits), **kwargs)  # type: ignore[arg-type]
+
+
+def test_weight_pattern_chooses_the_mode() -> None:
+    assert make_task(weights=[1, 1, 1, 1, 0, 1]).mode == "axis"
+    assert make_task(weights=[1, 1, 1, 1, 0, 1]).axis == 1
+    assert make_task(weights=[0, 0, 0, 1, 1, 1]).mode == "orientation"
+    assert make_task(weights=[1, 1, 0, 0, 0, 0]).mode == "position"
+    assert make_task("pose").is_pose_or_position and not make_task("axis").is_pose_or_position
