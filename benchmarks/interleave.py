@@ -13,7 +13,9 @@ its tree (an installed ``optik`` must not stand in for it). First one untimed wa
 per tree and benchmark fills that tree's numba cache, so that compilation is excluded;
 then ``--rounds`` rounds, each running the trees one after the other (``--order
 alternate``: old then new in every round; ``abba``: the order flips every round), so that
-the load of a shared machine falls on both alike.
+the load of a shared machine falls on both alike; ``--order parallel`` runs both trees at
+the same time in each round instead (the same load at the same moment, but the two runs
+share the cores: see benchmarks/README.md).
 
 Every figure is a time per query in µs (lower is faster); batch rows also give the
 throughput (queries per second = 1e6 / µs). Per figure the report gives the median over
@@ -71,6 +73,7 @@ BENCHES: dict[str, tuple[str, tuple[str, ...]]] = {
         ("--single", "500", "--batch", "20000", "--repeat", "9"),
     ),
 }  # fmt: skip
+ORDERS = ("alternate", "abba", "parallel")
 DEFAULT_ROUNDS = 7
 DEFAULT_THRESHOLD = 0.05
 
@@ -140,12 +143,17 @@ def answer_note(answers: dict[str, tuple[Any, Any]]) -> str:
 
 
 def round_order(rounds: int, order: str) -> list[tuple[str, str]]:
-    """The labels of the runs of each round: ``alternate`` old first, ``abba`` flips."""
-    if order not in ("alternate", "abba"):
-        raise ValueError(f"order must be 'alternate' or 'abba', got {order!r}")
+    """The labels of each round in the order their runs start.
+
+    ``alternate``: old first in every round; ``abba`` and ``parallel``: new first in every
+    other round (in ``parallel`` the first started is a few ms ahead, which must fall on
+    neither tree in particular).
+    """
+    if order not in ORDERS:
+        raise ValueError(f"order must be one of {ORDERS}, got {order!r}")
     out = []
     for r in range(rounds):
-        flip = order == "abba" and r % 2 == 1
+        flip = order != "alternate" and r % 2 == 1
         out.append(("new", "old") if flip else ("old", "new"))
     return out
 
@@ -186,55 +194,84 @@ def load_line() -> str:
     return f"{one:.2f}, {five:.2f}, {fifteen:.2f} (1, 5, 15 min; {os.cpu_count()} cores)"
 
 
-def run_once(
-    python: str,
-    script: Path,
-    args: Sequence[str],
-    tree: Tree,
-    out_dir: Path,
-    tag: str,
-    timeout: float,
-) -> tuple[dict[str, Any], float]:
-    """One benchmark run against one tree in a fresh subprocess; its figures and wall time.
+@dataclass
+class Run:
+    """One benchmark run against one tree, in a fresh subprocess.
 
     ``PYTHONPATH`` is the tree alone, so the tree's ``optik`` shadows any installed one;
     the figures record which package was imported, and it must be the tree's.
     """
-    figures = out_dir / f"{tag}.json"
-    log = out_dir / f"{tag}.log"
-    env = dict(os.environ)
-    env["PYTHONPATH"] = str(tree.path)
-    cmd = [python, str(script), *args, "--json", str(figures)]
-    t0 = time.perf_counter()
-    with log.open("w", encoding="utf-8") as f:
-        f.write("$ PYTHONPATH=" + shlex.quote(str(tree.path)) + " " + shlex.join(cmd) + "\n")
-        f.flush()
-        try:
-            proc = subprocess.run(
-                cmd,
-                cwd=tree.path,
-                env=env,
-                stdout=f,
-                stderr=subprocess.STDOUT,
-                timeout=timeout,
-                check=False,
+
+    python: str
+    script: Path
+    args: Sequence[str]
+    tree: Tree
+    out_dir: Path
+    tag: str
+    timeout: float
+    proc: subprocess.Popen[bytes] | None = None
+    started: float = 0.0
+
+    @property
+    def figures(self) -> Path:
+        """The run's ``--json`` file."""
+        return self.out_dir / f"{self.tag}.json"
+
+    @property
+    def log(self) -> Path:
+        """The run's standard output and error."""
+        return self.out_dir / f"{self.tag}.log"
+
+    def start(self) -> None:
+        """Start the subprocess (its output goes to the log)."""
+        env = dict(os.environ)
+        env["PYTHONPATH"] = str(self.tree.path)
+        cmd = [self.python, str(self.script), *self.args, "--json", str(self.figures)]
+        with self.log.open("w", encoding="utf-8") as f:
+            f.write(f"$ PYTHONPATH={shlex.quote(str(self.tree.path))} {shlex.join(cmd)}\n")
+        self.started = time.perf_counter()
+        with self.log.open("a", encoding="utf-8") as f:
+            self.proc = subprocess.Popen(
+                cmd, cwd=self.tree.path, env=env, stdout=f, stderr=subprocess.STDOUT
             )
+
+    def finish(self) -> tuple[dict[str, Any], float]:
+        """Wait for the subprocess; its figures and wall time (s)."""
+        assert self.proc is not None, "start() first"
+        try:
+            code = self.proc.wait(timeout=max(self.timeout - self.elapsed(), 0.1))
         except subprocess.TimeoutExpired as exc:
-            raise HarnessError(f"{tag}: no answer after {timeout:g} s (log: {log})") from exc
-    wall = time.perf_counter() - t0
-    if proc.returncode != 0 or not figures.is_file():
-        tail = "\n".join(log.read_text(encoding="utf-8", errors="replace").splitlines()[-15:])
-        raise HarnessError(
-            f"{tag}: {script.name} against {tree.path} exited with {proc.returncode}"
-            f" (log: {log}); last lines:\n{tail}"
-        )
-    data = json.loads(figures.read_text(encoding="utf-8"))
-    imported = Path(data.get("meta", {}).get("optik_path", "?")).resolve()
-    if not imported.is_relative_to(tree.path):
-        raise HarnessError(
-            f"{tag}: the run imported optik from {imported}, not from the tree {tree.path}"
-        )
-    return data, wall
+            self.proc.kill()
+            self.proc.wait()
+            raise HarnessError(
+                f"{self.tag}: no answer after {self.timeout:g} s (log: {self.log})"
+            ) from exc
+        wall = self.elapsed()
+        if code != 0 or not self.figures.is_file():
+            text = self.log.read_text(encoding="utf-8", errors="replace")
+            tail = "\n".join(text.splitlines()[-15:])
+            raise HarnessError(
+                f"{self.tag}: {self.script.name} against {self.tree.path} exited with {code}"
+                f" (log: {self.log}); last lines:\n{tail}"
+            )
+        data: dict[str, Any] = json.loads(self.figures.read_text(encoding="utf-8"))
+        imported = Path(data.get("meta", {}).get("optik_path", "?")).resolve()
+        if not imported.is_relative_to(self.tree.path):
+            raise HarnessError(
+                f"{self.tag}: the run imported optik from {imported}, "
+                f"not from the tree {self.tree.path}"
+            )
+        return data, wall
+
+    def elapsed(self) -> float:
+        """Seconds since the start."""
+        return time.perf_counter() - self.started
+
+    def stop(self) -> None:
+        """End the subprocess if it still runs (after another run of its round failed)."""
+        if self.proc is not None and self.proc.poll() is None:
+            self.proc.kill()
+            self.proc.wait()
 
 
 def collect(
@@ -289,7 +326,8 @@ def print_report(
     """The report: header lines, then one table row per figure."""
     print("# optik interleaved benchmark: new / old\n")
     for key, value in header.items():
-        print(f"- {key}: {value}")
+        if key != "warning":  # printed after the table, where it is read
+            print(f"- {key}: {value}")
     print(
         "\nTime per query in µs (lower is faster); batch rows also give queries/s. ratio = "
         "median new / median old (> 1: new slower); spread = min - max of the per-round "
@@ -354,9 +392,11 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     )
     p.add_argument(
         "--order",
-        choices=("alternate", "abba"),
+        choices=ORDERS,
         default="alternate",
-        help="alternate: old, new in every round; abba: the order flips every round",
+        help="alternate: old, new in every round; abba: the order flips every round; "
+        "parallel: both trees at the same time in every round, the first started flipping "
+        "(see benchmarks/README.md)",
     )
     p.add_argument(
         "--peers",
@@ -457,27 +497,47 @@ def main(argv: Sequence[str] | None = None) -> int:
         out_dir.mkdir(parents=True, exist_ok=True)
         plan = round_order(args.rounds, args.order)
 
-        def run(bench: str, label: str, tag: str) -> dict[str, Any]:
-            loads.append(os.getloadavg()[0])
-            data, wall = run_once(
-                args.python,
-                script_for(bench, label),
-                bench_args(bench),
-                trees[label],
-                out_dir,
-                tag,
-                args.timeout,
-            )
-            walls.setdefault(f"{bench} {label}", []).append(wall)
-            print(f"  {tag}: {wall:.1f} s", file=sys.stderr)
-            return data
+        def run(bench: str, labels: Sequence[str], prefix: str) -> list[dict[str, Any]]:
+            """Run ``bench`` for each tree label, one after the other or all at once."""
+            runs = [
+                Run(
+                    args.python,
+                    script_for(bench, label),
+                    bench_args(bench),
+                    trees[label],
+                    out_dir,
+                    f"{prefix}-{bench}-{label}",
+                    args.timeout,
+                )
+                for label in labels
+            ]
+            together = args.order == "parallel" and not prefix.startswith("warmup")
+            out = []
+            try:
+                if together:
+                    loads.append(os.getloadavg()[0])
+                    for r in runs:
+                        r.start()
+                for label, r in zip(labels, runs, strict=True):
+                    if not together:
+                        loads.append(os.getloadavg()[0])
+                        r.start()
+                    data, wall = r.finish()
+                    walls.setdefault(f"{bench} {label}", []).append(wall)
+                    print(f"  {r.tag}: {wall:.1f} s", file=sys.stderr)
+                    out.append(data)
+            finally:
+                for r in runs:
+                    r.stop()
+            return out
 
         try:
             print("warm-up (untimed, fills each tree's numba cache):", file=sys.stderr)
             for bench in args.bench:
-                for label in ("old", "new"):
-                    run(bench, label, f"warmup-{bench}-{label}")
+                run(bench, ("old", "new"), "warmup")
             per_round = sum(statistics.median(w) for w in walls.values())
+            if args.order == "parallel":
+                per_round /= 2
             print(
                 f"{args.rounds} rounds of about {per_round:.0f} s each "
                 f"(about {args.rounds * per_round / 60:.1f} min; from the warm-up runs, an upper "
@@ -488,8 +548,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             for r, labels in enumerate(plan, start=1):
                 print(f"round {r}/{args.rounds}:", file=sys.stderr)
                 for bench in args.bench:
-                    for label in labels:
-                        data = run(bench, label, f"round{r}-{bench}-{label}")
+                    for label, data in zip(labels, run(bench, labels, f"round{r}"), strict=True):
                         collect(series, bench, label, data)
         except HarnessError as exc:
             print(f"error: {exc}", file=sys.stderr)
