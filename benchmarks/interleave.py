@@ -13,9 +13,7 @@ its tree (an installed ``optik`` must not stand in for it). First one untimed wa
 per tree and benchmark fills that tree's numba cache, so that compilation is excluded;
 then ``--rounds`` rounds, each running the trees one after the other (``--order
 alternate``: old then new in every round; ``abba``: the order flips every round), so that
-the load of a shared machine falls on both alike; ``--order parallel`` runs both trees at
-the same time in each round instead (the same load at the same moment, but the two runs
-share the cores: see benchmarks/README.md).
+the load of a shared machine falls on both alike.
 
 Every figure is a time per query in µs (lower is faster); batch rows also give the
 throughput (queries per second = 1e6 / µs). Per figure the report gives the median over
@@ -73,7 +71,7 @@ BENCHES: dict[str, tuple[str, tuple[str, ...]]] = {
         ("--single", "500", "--batch", "20000", "--repeat", "9"),
     ),
 }  # fmt: skip
-ORDERS = ("alternate", "abba", "parallel")
+ORDERS = ("alternate", "abba")
 DEFAULT_ROUNDS = 7
 DEFAULT_THRESHOLD = 0.05
 
@@ -143,11 +141,9 @@ def answer_note(answers: dict[str, tuple[Any, Any]]) -> str:
 
 
 def round_order(rounds: int, order: str) -> list[tuple[str, str]]:
-    """The labels of each round in the order their runs start.
+    """The labels of each round in the order its runs go.
 
-    ``alternate``: old first in every round; ``abba`` and ``parallel``: new first in every
-    other round (in ``parallel`` the first started is a few ms ahead, which must fall on
-    neither tree in particular).
+    ``alternate``: old first in every round; ``abba``: new first in every other round.
     """
     if order not in ORDERS:
         raise ValueError(f"order must be one of {ORDERS}, got {order!r}")
@@ -268,7 +264,7 @@ class Run:
         return time.perf_counter() - self.started
 
     def stop(self) -> None:
-        """End the subprocess if it still runs (after another run of its round failed)."""
+        """End the subprocess if it still runs (after an interrupt)."""
         if self.proc is not None and self.proc.poll() is None:
             self.proc.kill()
             self.proc.wait()
@@ -394,9 +390,7 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
         "--order",
         choices=ORDERS,
         default="alternate",
-        help="alternate: old, new in every round; abba: the order flips every round; "
-        "parallel: both trees at the same time in every round, the first started flipping "
-        "(see benchmarks/README.md)",
+        help="alternate: old, new in every round; abba: the order flips every round",
     )
     p.add_argument(
         "--peers",
@@ -498,7 +492,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         plan = round_order(args.rounds, args.order)
 
         def run(bench: str, labels: Sequence[str], prefix: str) -> list[dict[str, Any]]:
-            """Run ``bench`` for each tree label, one after the other or all at once."""
+            """Run ``bench`` for each tree label, one after the other."""
             runs = [
                 Run(
                     args.python,
@@ -511,17 +505,11 @@ def main(argv: Sequence[str] | None = None) -> int:
                 )
                 for label in labels
             ]
-            together = args.order == "parallel" and not prefix.startswith("warmup")
             out = []
             try:
-                if together:
-                    loads.append(os.getloadavg()[0])
-                    for r in runs:
-                        r.start()
                 for label, r in zip(labels, runs, strict=True):
-                    if not together:
-                        loads.append(os.getloadavg()[0])
-                        r.start()
+                    loads.append(os.getloadavg()[0])
+                    r.start()
                     data, wall = r.finish()
                     walls.setdefault(f"{bench} {label}", []).append(wall)
                     print(f"  {r.tag}: {wall:.1f} s", file=sys.stderr)
@@ -536,8 +524,6 @@ def main(argv: Sequence[str] | None = None) -> int:
             for bench in args.bench:
                 run(bench, ("old", "new"), "warmup")
             per_round = sum(statistics.median(w) for w in walls.values())
-            if args.order == "parallel":
-                per_round /= 2
             print(
                 f"{args.rounds} rounds of about {per_round:.0f} s each "
                 f"(about {args.rounds * per_round / 60:.1f} min; from the warm-up runs, an upper "
