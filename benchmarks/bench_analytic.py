@@ -1,6 +1,7 @@
 """Speed of closed-form IK: optik's ``analytic_ik`` / ``analytic_ik_batch`` against EAIK.
 
-Run: ``python benchmarks/bench_analytic.py [--single 500] [--batch 20000] [--repeat 9]``
+Run: ``python benchmarks/bench_analytic.py [--single 500] [--batch 20000] [--repeat 9]
+[--no-peers] [--json FIGURES.json]``
 
 For the Puma 560 and the UR5 (problems/*.toml) it times, after a warm-up:
 
@@ -18,7 +19,10 @@ Load from other processes shifts every timing, so optik and EAIK alternate withi
 timed run and the table gives medians over runs, the ratio of the medians, and the
 one-minute load average read before and after. Targets (from the issue): a single call no
 slower than EAIK's; a batch at >= 200,000 poses per second. The branch counts are compared
-too: optik without limits against EAIK's non-least-squares solutions.
+too: optik without limits against EAIK's non-least-squares solutions. ``--no-peers``
+leaves EAIK out; ``--json`` writes the figures (median seconds per pose of each row) in the
+shape that ``interleave.py`` reads (see ``_record.py``). Only optik's public names are
+used, so that this script can time the package of another source tree.
 No assertions: speed is reported, never tested.
 """
 
@@ -31,27 +35,36 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
 import argparse  # noqa: E402
+import datetime  # noqa: E402
 import math  # noqa: E402
 import platform  # noqa: E402
 import statistics  # noqa: E402
+import sys  # noqa: E402
 import time  # noqa: E402
 from collections.abc import Callable, Sequence  # noqa: E402
 from dataclasses import dataclass, field  # noqa: E402
+from pathlib import Path  # noqa: E402
 from typing import Any  # noqa: E402
 
+import _record  # noqa: E402
 import numba  # noqa: E402
 import numpy as np  # noqa: E402
 from numpy.typing import NDArray  # noqa: E402
 
-from optik.analytic import analytic_ik, analytic_ik_batch  # noqa: E402
-from optik.model import Robot  # noqa: E402
-from optik.problems import load_problem  # noqa: E402
-from optik.spatial import invert_transform  # noqa: E402
+from optik import Robot, analytic_ik, analytic_ik_batch, load_problem  # noqa: E402
 
 Array = NDArray[np.float64]
 ROBOTS = ("puma560", "ur5")
 SINGLE_TARGET_FACTOR = 1.0  # optik single call / EAIK single call must be <= this
 BATCH_TARGET = 200_000.0  # poses per second
+
+
+def invert_transform(T: Array) -> Array:
+    """Inverse of a rigid transform, ``[R^T, -R^T p]`` (written here: no private import)."""
+    out = np.eye(4)
+    out[:3, :3] = T[:3, :3].T
+    out[:3, 3] = -T[:3, :3].T @ T[:3, 3]
+    return out
 
 
 # ---------------------------------------------------------------------- EAIK
@@ -154,6 +167,7 @@ class Row:
     reference: Series | None = None
     target: str = ""
     met: bool | None = None
+    count: int = 0
 
     def value(self, seconds: float) -> float:
         """µs per pose for single calls, poses per second for batches."""
@@ -206,16 +220,12 @@ def branch_agreement(robot: Robot, bot: Any, poses: Array) -> tuple[int, int, fl
     return same, len(poses), worst
 
 
-def run(name: str, single: int, batch: int, repeat: int) -> tuple[list[Row], str]:
+def run(name: str, single: int, batch: int, repeat: int, peers: bool) -> tuple[list[Row], str]:
     """Time one robot; returns its table rows and a line on branch agreement."""
     robot = load_problem(name).robot
-    bot = eaik_robot(robot)
+    bot = eaik_robot(robot) if peers else None
     poses = random_poses(robot, single, seed=0)
     big = random_poses(robot, batch, seed=1)
-    T_base_inv = invert_transform(robot.T_world_base)
-    T_tool_inv = invert_transform(robot.T_flange_tool)
-    poses_0 = [T_base_inv @ T @ T_tool_inv for T in poses]  # EAIK: flange in frame 0
-    big_0 = [T_base_inv @ T @ T_tool_inv for T in big]
 
     def optik_single() -> None:
         for T in poses:
@@ -231,6 +241,10 @@ def run(name: str, single: int, batch: int, repeat: int) -> tuple[list[Row], str
     }
     batches: dict[str, Callable[[], object]] = {"optik": lambda: analytic_ik_batch(robot, big)}
     if bot is not None:
+        T_base_inv = invert_transform(robot.T_world_base)
+        T_tool_inv = invert_transform(robot.T_flange_tool)
+        poses_0 = [T_base_inv @ T @ T_tool_inv for T in poses]  # EAIK: flange in frame 0
+        big_0 = [T_base_inv @ T @ T_tool_inv for T in big]
 
         def eaik_single() -> None:
             for T in poses_0:
@@ -250,18 +264,23 @@ def run(name: str, single: int, batch: int, repeat: int) -> tuple[list[Row], str
     rows = [
         Row(name, "analytic_ik (limits, FK-verified)", s["optik"], False, e_s,
             f"<= EAIK x{SINGLE_TARGET_FACTOR:g}",
-            None if e_s is None else s["optik"].median <= SINGLE_TARGET_FACTOR * e_s.median),
-        Row(name, "analytic_ik (no limits, FK-verified)", s["optik_all"], False, e_s),
+            None if e_s is None else s["optik"].median <= SINGLE_TARGET_FACTOR * e_s.median,
+            single),
+        Row(name, "analytic_ik (no limits, FK-verified)", s["optik_all"], False, e_s,
+            count=single),
         Row(name, f"analytic_ik_batch, N = {batch:,}", b["optik"], True, e_b,
-            f">= {BATCH_TARGET:,.0f}/s", 1.0 / b["optik"].median >= BATCH_TARGET),
+            f">= {BATCH_TARGET:,.0f}/s", 1.0 / b["optik"].median >= BATCH_TARGET, batch),
     ]  # fmt: skip
     if e_s is not None and e_b is not None:
         rows += [
-            Row(name, "EAIK IK (no limits, not verified)", e_s, False),
-            Row(name, "EAIK IK, then reading .Q and .is_LS", s["eaik_read"], False),
-            Row(name, f"EAIK IK_batched, 1 thread, N = {batch:,}", e_b, True),
-        ]
+            Row(name, "EAIK IK (no limits, not verified)", e_s, False, count=single),
+            Row(name, "EAIK IK, then reading .Q and .is_LS", s["eaik_read"], False,
+                count=single),
+            Row(name, f"EAIK IK_batched, 1 thread, N = {batch:,}", e_b, True, count=batch),
+        ]  # fmt: skip
     note = f"{name}: EAIK not available or not comparable"
+    if not peers:
+        note = f"{name}: EAIK not run (--no-peers)"
     if bot is not None:
         same, total, worst = branch_agreement(robot, bot, poses[: min(200, single)])
         note = (
@@ -278,9 +297,21 @@ def main(argv: Sequence[str] | None = None) -> None:
     parser.add_argument("--batch", type=int, default=20_000, help="poses per batch")
     parser.add_argument("--repeat", type=int, default=9, help="timed runs (median)")
     parser.add_argument("--robots", nargs="+", default=list(ROBOTS), help="problem names")
+    parser.add_argument(
+        "--peers",
+        action=argparse.BooleanOptionalAction,
+        default=True,
+        help="time EAIK beside optik when it imports (default: yes)",
+    )
+    parser.add_argument(
+        "--json",
+        type=Path,
+        help="write the figures (median seconds per pose of each row) to this file, as "
+        "interleave.py reads them",
+    )
     args = parser.parse_args(argv)
 
-    version = eaik_version()
+    version = eaik_version() if args.peers else None
     print(
         f"optik closed-form IK benchmark; python {platform.python_version()}, numpy "
         f"{np.__version__}, numba {numba.__version__}, EAIK {version or 'not installed'}, "
@@ -290,7 +321,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     rows: list[Row] = []
     notes: list[str] = []
     for name in args.robots:
-        robot_rows, note = run(name, args.single, args.batch, args.repeat)
+        robot_rows, note = run(name, args.single, args.batch, args.repeat, args.peers)
         rows += robot_rows
         notes.append(note)
     load_after = os.getloadavg()[0]
@@ -305,8 +336,30 @@ def main(argv: Sequence[str] | None = None) -> None:
     print("vs EAIK: optik median time / EAIK median time for the same poses (< 1: faster)")
     for note in notes:
         print(note)
-    if version is None:
+    if version is None and args.peers:
         print("EAIK is not installed: pip install eaik (the 'bench' extra) to compare")
+    if args.json:
+        meta = {
+            "command": "python benchmarks/bench_analytic.py "
+            + " ".join(sys.argv[1:] if argv is None else argv),
+            "date_utc": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+            **_record.optik_source(),
+            "load_before": f"load average: {load_before:.2f}",
+            "load_after": f"load average: {load_after:.2f}",
+            "eaik": version or "not run",
+        }
+        metrics = [
+            _record.metric(
+                f"{r.robot}: {r.operation}",
+                "batch" if r.batch else "single",
+                r.series.median,
+                r.count,
+                runs_s=list(r.series.runs),
+            )
+            for r in rows
+        ]
+        _record.write_json(args.json, "bench_analytic.py", meta, metrics)
+        print(f"figures: {args.json}")
 
 
 if __name__ == "__main__":

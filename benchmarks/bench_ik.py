@@ -16,7 +16,9 @@ so that the load of the machine falls on all of them alike. Slow methods (``pinv
 Output: the long table (one row per robot and method: settings, n, success rate, median
 and p95 time per query, mean iterations), then the summaries (ratios optik / RTB), with
 the versions, the hardware and the load (``uptime``) recorded. ``--out`` writes every
-query as a row (CSV, or JSON with the metadata and the summary).
+query as a row (CSV, or JSON with the metadata and the summary); ``--json`` writes only the
+figures (median time per query of each row, batch wall / n) in the shape that
+``interleave.py`` reads (see ``_record.py``).
 """
 
 from __future__ import annotations
@@ -53,11 +55,11 @@ from numpy.typing import NDArray  # noqa: E402
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import _peers  # noqa: E402
+import _record  # noqa: E402
 
 import optik  # noqa: E402
 
 Array = NDArray[np.float64]
-REPO = Path(__file__).resolve().parent.parent
 DEFAULT_ROBOTS = ("puma560", "ur5", "panda")
 DEFAULT_SOLVERS = ("auto", "dls", "pinv", "qp:osqp", "qp:proxqp", "casadi:ipopt")
 SLOW_SOLVERS = ("pinv", "transpose", "qp:", "casadi:")
@@ -99,6 +101,7 @@ class Method:
     rows: list[dict[str, Any]] = field(default_factory=list)
     spent: float = 0.0
     stopped: str = ""
+    batch_walls: list[float] = field(default_factory=list)
 
 
 # ---------------------------------------------------------------- verification
@@ -148,24 +151,6 @@ def cpu_model() -> str:
     except OSError:
         pass
     return platform.processor() or "?"
-
-
-def git_revision() -> str:
-    """Short commit of the optik checkout, with ``+dirty`` for local changes."""
-    try:
-        rev = subprocess.run(
-            ["git", "rev-parse", "--short", "HEAD"],
-            cwd=REPO,
-            capture_output=True,
-            text=True,
-            check=True,
-        ).stdout.strip()
-        dirty = subprocess.run(
-            ["git", "status", "--porcelain"], cwd=REPO, capture_output=True, text=True, check=True
-        ).stdout.strip()
-        return rev + ("+dirty" if dirty else "")
-    except (OSError, subprocess.CalledProcessError):
-        return "?"
 
 
 def numba_layer() -> str:
@@ -368,7 +353,8 @@ def bench_batch(
         len(targets),
         lambda T, q: (None, None, ""),
     )
-    walls, result = [], None
+    walls: list[float] = []
+    result = None
     try:
         optik.solve_ik_batch(robot, targets[:WARMUP], tol=args.tol, seed=args.seed, threads=threads)
         for _ in range(max(args.batch_repeat, 1)):
@@ -396,6 +382,7 @@ def bench_batch(
         method.times.append(per_query)
     method.n_note = f"{len(targets) / wall:,.0f} solves/s (time = batch wall / n)"
     method.stopped = "batch"
+    method.batch_walls = walls
     return method
 
 
@@ -506,6 +493,28 @@ def ratios(results: list[tuple[str, Method]]) -> list[dict[str, Any]]:
     return out
 
 
+def figures(results: list[tuple[str, Method]]) -> list[dict[str, Any]]:
+    """The ``--json`` figures: per row, median seconds per query (batch: wall / n)."""
+    out = []
+    for key, method in results:
+        s = summarize(key, method)
+        if not method.rows:
+            continue
+        batch = method.stopped == "batch"
+        out.append(
+            _record.metric(
+                f"{key}: {method.name}",
+                "batch" if batch else "single",
+                s["median_us"] * 1e-6,
+                s["n"],
+                runs_s=[w / s["n"] for w in method.batch_walls] if batch else None,
+                success_rate=s["success_rate"],
+                mean_iterations=s["mean_iterations"],
+            )
+        )
+    return out
+
+
 def write_out(
     path: Path,
     rows: list[dict[str, Any]],
@@ -604,6 +613,12 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
         help="time budget per robot and method; a method past it stops",
     )
     p.add_argument("--out", type=Path, help="write every query to this .csv or .json")
+    p.add_argument(
+        "--json",
+        type=Path,
+        help="write the figures (median time per query of each row, batch wall / n) to this "
+        "file, as interleave.py reads them",
+    )
     args = p.parse_args(argv)
     args.robots = [r for r in args.robots.split(",") if r]
     args.solvers = [s for s in args.solvers.split(",") if s]
@@ -639,10 +654,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     load_after = load_average()
 
     summary = [summarize(key, m) for key, m in results]
+    source = _record.optik_source()
     meta = {
         "command": command,
         "date_utc": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
-        "optik_commit": git_revision(),
+        "optik_commit": source["optik_commit"],
+        "optik_path": source["optik_path"],
         "cpu": cpu_model(),
         "cores": os.cpu_count(),
         "platform": platform.platform(),
@@ -662,6 +679,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         "command",
         "date_utc",
         "optik_commit",
+        "optik_path",
         "cpu",
         "cores",
         "numba_threading_layer",
@@ -687,6 +705,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.out:
         write_out(args.out, [r for _, m in results for r in m.rows], meta, summary, ratio_rows)
         print(f"\nraw rows: {args.out}")
+    if args.json:
+        _record.write_json(args.json, "bench_ik.py", meta, figures(results))
+        print(f"figures: {args.json}")
     return 0
 
 
