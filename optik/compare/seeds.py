@@ -21,6 +21,7 @@ from optik.errors import OptikError
 from optik.problems import Problem, load_problem
 from optik.solvers import IKQuery
 from optik.solvers._base import now
+from optik.verify import verify_one
 
 __all__ = [
     "CHAPTER_TABLE_2",
@@ -93,9 +94,10 @@ def _position_row(
     """
     robot = problem.robot
     target = problem.targets[target_id]
-    position = float(np.linalg.norm(robot.fk(q)[:3, 3] - target.position))
-    violation = float(robot.limit_violation(q))
-    ok = position <= target.tolerance and (violation <= 1e-12 or not check_limits)
+    position, _, violation, within = verify_one(
+        robot, q, target.pose, "position", target.tolerance
+    )
+    ok = within or (not check_limits and position <= target.tolerance)
     return problem_row(
         kind,
         problem,
