@@ -26,6 +26,7 @@ from optik._checks import FloatArray
 from optik.programs.casadi_qp import ConicProgram, build_conic
 from optik.programs.diff_qp import DiffIKProgram, QPSolution
 from optik.solvers._base import StepBackend, register_solver
+from optik.solvers.qp import BACKEND_OPTIONS
 
 __all__ = [
     "CANDIDATE_PLUGINS",
@@ -58,18 +59,7 @@ CONIC_OPTIONS: Final[dict[str, dict[str, Any]]] = {
     },
     # OSQP 1.0 inside CasADi, set as the qpsolvers backend (see optik.solvers.qp): 1e-10,
     # no Ruiz scaling (programs come equilibrated), no polishing (it prints to stdout).
-    "osqp": {
-        "osqp": {
-            "verbose": False,
-            "eps_abs": 1e-10,
-            "eps_rel": 0.0,
-            "eps_prim_inf": 1e-10,
-            "eps_dual_inf": 1e-10,
-            "scaling": 0,
-            "polishing": False,
-            "max_iter": 100_000,
-        }
-    },
+    "osqp": {"osqp": {"verbose": False, **BACKEND_OPTIONS["osqp"]}},
     "proxqp": {"proxqp": {"eps_abs": 1e-12, "eps_rel": 0.0, "verbose": False, "max_iter": 10_000}},
     "qpoases": {"printLevel": "none", "terminationTolerance": 1e-12},
     "daqp": {"daqp": {"primal_tol": 1e-12, "dual_tol": 1e-12}},
