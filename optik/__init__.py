@@ -7,7 +7,7 @@ against closed forms, with analytic IK as the warm start.
 from optik.analytic import AnalyticBatch, analytic_ik, analytic_ik_batch
 from optik.diffik import diff_ik
 from optik.errors import OptikError
-from optik.ik import IKBatchResult, IKResult, solve_ik, solve_ik_batch
+from optik.ik import IKBatchResult, IKResult, solve_ik, solve_ik_all, solve_ik_batch
 from optik.linalg import generalized_inverse, least_squares, min_norm
 from optik.model import DHJoint, Joint, Mimic, Robot
 from optik.planning import PathPlan, Reachability, plan_path, reachability
@@ -53,6 +53,7 @@ __all__ = [
     "pose",
     "reachability",
     "solve_ik",
+    "solve_ik_all",
     "solve_ik_batch",
     "solve_trig",
     "to_position_rotation",

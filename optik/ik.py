@@ -17,6 +17,7 @@ copied from a backend.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -25,12 +26,13 @@ import numpy as np
 
 from optik._checks import FloatArray, check_choice, check_int, check_real, finite_array
 from optik.analytic import AnalyticFamily, analytic_ik, family_of
+from optik.chain import read_only
 from optik.errors import JointLimitError, OptikError, ShapeError
 from optik.limits import LIMIT_TOLERANCE
 from optik.model import Robot
 from optik.poses import as_target_pose
 from optik.solvers import get_solver
-from optik.solvers._base import IKQuery, IKSolver, now
+from optik.solvers._base import IKQuery, IKSolver, RunOutput, now
 from optik.solvers._lm_kernel import lm_solve_batch, lm_solve_batch_serial
 from optik.solvers._seeds import seed_table, start_sequence
 from optik.solvers.iterative import DLSSolver
@@ -254,6 +256,9 @@ def solve_ik(
     timeout_s: float | None = None,
     restarts: int | None = None,
     seed: int = 0,
+    frozen: Mapping[str, float] | None = None,
+    limit_margin: float = 0.0,
+    select: str = "first",
 ) -> IKResult:
     """Solve IK for one target, with hard joint limits.
 
@@ -288,6 +293,13 @@ def solve_ik(
         seed: seed of the restart sequence, 0 to 2**63 - 1 (results are deterministic
             for a seed, and the same with and without ``timeout_s`` until it cuts the run
             short: :mod:`optik.solvers._starts`).
+        frozen: ``{joint name: value}`` (rad or m): joints held at these values, which
+            must lie inside their limits.
+        limit_margin: distance (rad or m) kept free inside every finite limit (hard; not
+            more than half a joint's range). Frozen joints are exempt.
+        select: ``"first"`` (the first verified answer) or ``"nearest"`` (the verified
+            answer nearest ``q0`` among all found within ``restarts`` / ``timeout_s``;
+            with a closed form, the branch nearest ``q0``).
 
     Returns:
         An :class:`IKResult`; a well-formed query that cannot be solved gives
@@ -296,6 +308,222 @@ def solve_ik(
     Raises:
         OptikError: malformed target, ``q0``, options, or an unknown solver name.
     """
+    plan = _plan(
+        robot, target, mode, axis, weights, solver, q0, warm_start, tol, max_iter,
+        timeout_s, restarts, seed, frozen, limit_margin,
+    )  # fmt: skip
+    check_choice("select", select, ("first", "nearest"))
+    if plan.early is not None:
+        return plan.early
+    if plan.branches and plan.numeric is None:
+        return _result(
+            robot,
+            plan.branches[0],
+            plan.query,
+            plan.start_time,
+            status_if_failed="max_iter",
+            iterations=0,
+            restarts=0,
+            solver="analytic",
+            message="",
+            claim=None,
+        )
+    numeric = plan.numeric or get_solver(AUTO_NUMERIC_SOLVER)
+    if select == "first":
+        run = numeric.run(plan.query, plan.starts, plan.max_iter, plan.last, plan.deadline)
+        return _result(
+            robot,
+            run.q,
+            plan.query,
+            plan.start_time,
+            status_if_failed=run.status_if_failed,
+            iterations=run.iterations,
+            restarts=run.restarts,
+            solver=numeric.name,
+            message=run.message,
+            claim=run.converged,
+        )
+    found, last_run = _collect(plan, numeric, want=None, min_separation=0.0)
+    if not found:
+        return _result(
+            robot,
+            last_run.q,
+            plan.query,
+            plan.start_time,
+            status_if_failed=last_run.status_if_failed,
+            iterations=last_run.iterations,
+            restarts=last_run.restarts,
+            solver=numeric.name,
+            message=last_run.message,
+            claim=last_run.converged,
+        )
+    nearest = min(found, key=lambda f: float(np.linalg.norm(f[0] - plan.q_start)))
+    return _result(
+        robot,
+        nearest[0],
+        plan.query,
+        plan.start_time,
+        status_if_failed="max_iter",
+        iterations=last_run.iterations,
+        restarts=last_run.restarts,
+        solver=numeric.name,
+        message="",
+        claim=True,
+    )
+
+
+def solve_ik_all(
+    robot: Robot,
+    target: Any,
+    *,
+    k: int = 8,
+    min_separation: float = 0.1,
+    mode: str = "pose",
+    axis: str = "z",
+    weights: Any = None,
+    solver: str = "auto",
+    q0: Any = None,
+    warm_start: str = "analytic",
+    tol: float | tuple[float, float] = 1e-6,
+    max_iter: int | None = None,
+    timeout_s: float | None = None,
+    restarts: int | None = None,
+    seed: int = 0,
+    frozen: Mapping[str, float] | None = None,
+    limit_margin: float = 0.0,
+) -> list[IKResult]:
+    """Up to ``k`` distinct verified IK answers for one target, nearest ``q0`` first.
+
+    With a closed form (``solver="auto"`` and a family that solves the task) these are the
+    in-limit branches; otherwise the numeric solver's restarts are collected until ``k``
+    answers pairwise at least ``min_separation`` apart (Euclidean, rad / m) are found or
+    ``restarts`` / ``timeout_s`` runs out. Each is verified like :func:`solve_ik`'s.
+
+    Args:
+        robot: the robot.
+        target: as in :func:`solve_ik`.
+        k: most answers to return (>= 1).
+        min_separation: smallest distance between two answers (rad / m, >= 0).
+        mode: see :func:`solve_ik`; so are ``axis`` to ``limit_margin``.
+        axis: see :func:`solve_ik`.
+        weights: see :func:`solve_ik`.
+        solver: see :func:`solve_ik`.
+        q0: see :func:`solve_ik`; answers are sorted by their distance to it.
+        warm_start: see :func:`solve_ik`.
+        tol: see :func:`solve_ik`.
+        max_iter: see :func:`solve_ik`.
+        timeout_s: see :func:`solve_ik`.
+        restarts: see :func:`solve_ik`.
+        seed: see :func:`solve_ik`.
+        frozen: see :func:`solve_ik`.
+        limit_margin: see :func:`solve_ik`.
+
+    Returns:
+        A list of successful :class:`IKResult` (possibly empty: use :func:`solve_ik` for
+        the status of a target without an answer).
+    """
+    count = check_int("k", k, minimum=1, maximum=10**6)
+    separation = check_real("min_separation", min_separation, nonnegative=True)
+    plan = _plan(
+        robot, target, mode, axis, weights, solver, q0, warm_start, tol, max_iter,
+        timeout_s, restarts, seed, frozen, limit_margin,
+    )  # fmt: skip
+    if plan.early is not None:
+        return [plan.early] if plan.early.success else []
+    if plan.branches and plan.numeric is None:
+        found = _distinct([(q, 0, 0) for q in plan.branches], separation)
+        solver_name = "analytic"
+    else:
+        numeric = plan.numeric or get_solver(AUTO_NUMERIC_SOLVER)
+        found, _ = _collect(plan, numeric, want=count, min_separation=separation)
+        solver_name = numeric.name
+    found.sort(key=lambda f: float(np.linalg.norm(f[0] - plan.q_start)))
+    results = [
+        _result(
+            robot,
+            q,
+            plan.query,
+            plan.start_time,
+            status_if_failed="max_iter",
+            iterations=iterations,
+            restarts=used,
+            solver=solver_name,
+            message="",
+            claim=None if solver_name == "analytic" else True,
+        )
+        for q, iterations, used in found[:count]
+    ]
+    return [r for r in results if r.success]
+
+
+@dataclass
+class _Plan:
+    """A validated query and what the solvers need to run it."""
+
+    query: IKQuery
+    q_start: FloatArray
+    numeric: IKSolver | None
+    branches: list[FloatArray]
+    starts: Any
+    max_iter: int
+    last: int
+    deadline: float
+    start_time: float
+    early: IKResult | None
+
+
+def _bounds(robot: Robot, frozen: Any, limit_margin: Any) -> tuple[FloatArray, FloatArray] | None:
+    """The box of ``frozen`` joints and ``limit_margin`` (``None``: the plain limits)."""
+    margin = check_real("limit_margin", limit_margin, nonnegative=True)
+    if frozen is None:
+        frozen = {}
+    if not isinstance(frozen, Mapping):
+        raise OptikError(f"frozen must map joint names to values, got {frozen!r}")
+    if margin == 0.0 and not frozen:
+        return None
+    lower = robot.lower.copy()
+    upper = robot.upper.copy()
+    for i, joint in enumerate(robot.joints):
+        if not (math.isfinite(joint.lower) and math.isfinite(joint.upper)):
+            continue
+        if 2.0 * margin > joint.upper - joint.lower:
+            raise OptikError(
+                f"limit_margin {margin:g} is wider than half the range of joint "
+                f"{joint.name!r} ({joint.upper - joint.lower:g})"
+            )
+        lower[i] += margin
+        upper[i] -= margin
+    names = robot.joint_names
+    for name, value in frozen.items():
+        if name not in names:
+            raise OptikError(f"frozen: {name!r} is not a joint of {robot.name!r} ({names})")
+        i = names.index(name)
+        v = check_real(f"frozen[{name!r}]", value)
+        joint = robot.joints[i]
+        if not joint.lower - LIMIT_TOLERANCE <= v <= joint.upper + LIMIT_TOLERANCE:
+            raise JointLimitError(name, v, joint.lower, joint.upper)
+        lower[i] = upper[i] = min(max(v, joint.lower), joint.upper)
+    return read_only(lower), read_only(upper)
+
+
+def _plan(
+    robot: Any,
+    target: Any,
+    mode: Any,
+    axis: Any,
+    weights: Any,
+    solver: Any,
+    q0: Any,
+    warm_start: Any,
+    tol: Any,
+    max_iter: Any,
+    timeout_s: Any,
+    restarts: Any,
+    seed: Any,
+    frozen: Any,
+    limit_margin: Any,
+) -> _Plan:
+    """Validate a query, run the closed form and the proofs; the rest is for a solver."""
     start_time = now()
     if not isinstance(robot, Robot):
         raise OptikError(f"robot must be an optik.Robot, got {type(robot).__name__}")
@@ -305,43 +533,57 @@ def solve_ik(
         raise OptikError(f"solver must be a solver name (str), got {solver!r}")
     T_target = as_target_pose(target, "position" if task.mode == "position" else "pose")
     q_start = _check_q0(robot, q0)
+    bounds = _bounds(robot, frozen, limit_margin)
     numeric: IKSolver | None = None if solver == "auto" else get_solver(solver)
-    if numeric is not None and numeric.plain_tasks_only and not task.is_pose_or_position:
+    plain = task.is_pose_or_position and bounds is None
+    if numeric is not None and numeric.plain_tasks_only and not plain:
         raise OptikError(
-            f"solver {solver!r} takes a full pose or a point with unit weights; for mode "
-            f"{task.mode!r} with weights {task.weights.tolist()} use 'dls', 'pinv' or "
-            "'transpose'"
+            f"solver {solver!r} takes a full pose or a point with unit weights inside "
+            f"the plain limits; for mode {task.mode!r} with weights "
+            f"{task.weights.tolist()}, frozen joints or a limit margin use 'dls', "
+            "'pinv' or 'transpose'"
         )
-    mode = task.mode
-    query = IKQuery(robot, T_target, mode, task.position_tol, task)
+    query = IKQuery(robot, T_target, task.mode, task.position_tol, task, bounds)
+    if bounds is not None:
+        q_start = np.clip(q_start, bounds[0], bounds[1])
     # timeout_s=inf is "no time limit": the restart budget then stays finite.
     deadline = start_time + float(timeout_s) if timeout_s is not None else math.inf
+    iterations = int(max_iter) if max_iter is not None else 0
+    if restarts is not None:
+        last = int(restarts)
+    else:
+        last = UNLIMITED_RESTARTS if math.isfinite(deadline) else DEFAULT_RESTARTS
 
-    starts: list[FloatArray] = []
+    def plan(
+        starts_given: list[FloatArray],
+        branches: list[FloatArray],
+        early: IKResult | None = None,
+    ) -> _Plan:
+        solver_for_run = numeric or get_solver(AUTO_NUMERIC_SOLVER)
+        sequence = start_sequence(robot, T_target, task, starts_given, int(seed), bounds)
+        per_attempt = iterations or solver_for_run.default_max_iter
+        return _Plan(
+            query, q_start, numeric, branches, sequence, per_attempt, last, deadline,
+            start_time, early,
+        )  # fmt: skip
+
     family = family_of(robot) if warm_start == "analytic" else None
-    if family is not None and task.is_pose_or_position and _family_solves(robot, family, mode):
-        branches = analytic_ik(robot, T_target, mode, q_ref=q_start)
+    if family is not None and task.is_pose_or_position and _family_solves(robot, family, task.mode):
+        branches = analytic_ik(robot, T_target, task.mode, q_ref=q_start)
+        if bounds is not None:
+            branches = [b for b in branches if np.all(b >= bounds[0]) and np.all(b <= bounds[1])]
+            # The closed form cannot prove anything about the narrowed box: search it.
+            if not branches:
+                given = analytic_ik(robot, T_target, task.mode, q_ref=q_start) or [q_start]
+                return plan([np.clip(b, bounds[0], bounds[1]) for b in given], [])
         if not branches:
-            return _closed_form_proof(robot, query, q_start, start_time, int(seed))
-        if numeric is None:
-            return _result(
-                robot,
-                branches[0],
-                query,
-                start_time,
-                status_if_failed="max_iter",
-                iterations=0,
-                restarts=0,
-                solver="analytic",
-                message="",
-                claim=None,
-            )
-        starts = branches
+            return plan([], [], _closed_form_proof(robot, query, q_start, start_time, int(seed)))
+        return plan(branches, branches)
     # No closed form: the reach sphere still proves a target unreachable.
     centre, radius = robot.reach_sphere
     distance = float(np.linalg.norm(T_target[:3, 3] - centre))
     if task.constrains_position and distance > radius + task.position_tol:
-        return _result(
+        early = _result(
             robot,
             q_start,
             query,
@@ -356,30 +598,49 @@ def solve_ik(
             ),
             claim=None,
         )
+        return plan([], [], early)
+    return plan([q_start] if q0 is not None else [], [])
 
-    if numeric is None:
-        numeric = get_solver(AUTO_NUMERIC_SOLVER)
-    iterations_per_attempt = max_iter if max_iter is not None else numeric.default_max_iter
-    if restarts is not None:
-        last = int(restarts)
-    else:
-        last = UNLIMITED_RESTARTS if math.isfinite(deadline) else DEFAULT_RESTARTS
-    if not starts and q0 is not None:
-        starts = [q_start]
-    sequence = start_sequence(robot, T_target, task, starts, int(seed))
-    run = numeric.run(query, sequence, int(iterations_per_attempt), last, deadline)
-    return _result(
-        robot,
-        run.q,
-        query,
-        start_time,
-        status_if_failed=run.status_if_failed,
-        iterations=run.iterations,
-        restarts=run.restarts,
-        solver=numeric.name,
-        message=run.message,
-        claim=run.converged,
-    )
+
+def _distinct(
+    found: list[tuple[FloatArray, int, int]], separation: float
+) -> list[tuple[FloatArray, int, int]]:
+    """The answers at least ``separation`` from every earlier one, in order."""
+    kept: list[tuple[FloatArray, int, int]] = []
+    for item in found:
+        distances = [float(np.linalg.norm(item[0] - other[0])) for other in kept]
+        if all(d >= separation and d > 0.0 for d in distances):
+            kept.append(item)
+    return kept
+
+
+def _collect(
+    plan: _Plan, numeric: IKSolver, want: int | None, min_separation: float
+) -> tuple[list[tuple[FloatArray, int, int]], RunOutput]:
+    """Verified answers from successive runs over the start sequence (see the callers).
+
+    Returns the distinct answers ``(q, iterations so far, restarts so far)`` and the last
+    run's output.
+    """
+    found: list[tuple[FloatArray, int, int]] = []
+    first = 0
+    iterations = 0
+    run: RunOutput | None = None
+    while first <= plan.last:
+        run = numeric.run(
+            plan.query, plan.starts, plan.max_iter, plan.last, plan.deadline, start=first
+        )
+        iterations += run.iterations
+        first += run.restarts + 1
+        if verify_one(plan.query.robot, run.q, plan.query.target, plan.query.spec)[3]:
+            found = _distinct([*found, (run.q, iterations, first - 1)], min_separation)
+            if want is not None and len(found) >= want:
+                break
+        if not run.converged or now() > plan.deadline:
+            break
+    if run is None:  # pragma: no cover - the budget always admits one attempt
+        raise OptikError("no IK attempt ran")
+    return found, run
 
 
 BATCH_STATUSES = ("converged", "unreachable", "max_iter")

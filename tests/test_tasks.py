@@ -172,3 +172,103 @@ def test_weight_pattern_chooses_the_mode() -> None:
     assert make_task(weights=[0, 0, 0, 1, 1, 1]).mode == "orientation"
     assert make_task(weights=[1, 1, 0, 0, 0, 0]).mode == "position"
     assert make_task("pose").is_pose_or_position and not make_task("axis").is_pose_or_position
+
+
+def test_frozen_joints_are_held() -> None:
+    panda = load_problem("panda").robot
+    rng = np.random.default_rng(21)
+    name = panda.joint_names[2]
+    solved = 0
+    for _ in range(60):
+        q = rng.uniform(panda.lower, panda.upper)
+        T = panda.fk(q)
+        res = optik.solve_ik(panda, T, frozen={name: float(q[2])})
+        assert res.q[2] == q[2]  # held exactly, in every answer (the box is closed there)
+        if res.success:
+            p = np.linalg.norm(panda.fk(res.q)[:3, 3] - T[:3, 3])
+            assert p <= 1e-6 and rotation_angle(panda.fk(res.q)[:3, :3].T @ T[:3, :3]) <= 1e-6
+            solved += 1
+    assert solved >= 0.95 * 60
+
+
+def test_frozen_joint_on_a_closed_form_robot() -> None:
+    puma = load_problem("puma560").robot
+    q = puma.mid_limits + 0.2
+    res = optik.solve_ik(puma, puma.fk(q), frozen={puma.joint_names[0]: float(q[0])})
+    assert res.success and res.q[0] == q[0]
+
+
+def test_limit_margin_keeps_clear_of_the_limits() -> None:
+    panda = load_problem("panda").robot
+    rng = np.random.default_rng(4)
+    margin = 0.05
+    lower, upper = panda.lower + margin, panda.upper - margin
+    for _ in range(40):
+        T = panda.fk(rng.uniform(lower + 0.1, upper - 0.1))
+        res = optik.solve_ik(panda, T, limit_margin=margin)
+        assert res.success
+        assert np.all(res.q >= lower - 1e-12) and np.all(res.q <= upper + 1e-12)
+
+
+def test_select_nearest_is_no_farther_than_the_first() -> None:
+    panda = load_problem("panda").robot
+    rng = np.random.default_rng(8)
+    for _ in range(10):
+        q0 = rng.uniform(panda.lower, panda.upper)
+        T = panda.fk(rng.uniform(panda.lower, panda.upper))
+        first = optik.solve_ik(panda, T, q0=q0, restarts=30)
+        nearest = optik.solve_ik(panda, T, q0=q0, restarts=30, select="nearest")
+        if first.success:
+            assert nearest.success
+            assert np.linalg.norm(nearest.q - q0) <= np.linalg.norm(first.q - q0) + 1e-12
+
+
+@pytest.mark.parametrize("name", ["puma560", "ur5"])
+def test_solve_ik_all_finds_every_in_limit_branch(name: str) -> None:
+    robot = load_problem(name).robot
+    rng = np.random.default_rng(12)
+    for _ in range(10):
+        T = robot.fk(rng.uniform(robot.lower, robot.upper))
+        branches = optik.analytic_ik(robot, T)
+        sols = optik.solve_ik_all(robot, T, k=16, min_separation=1e-6)
+        assert len(sols) == len(branches)
+        for s in sols:
+            assert any(np.max(np.abs(s.q - b)) < 1e-12 for b in branches)
+            assert np.linalg.norm(robot.fk(s.q)[:3, 3] - T[:3, 3]) <= 1e-6
+
+
+def test_solve_ik_all_numeric_answers_are_distinct_and_verified() -> None:
+    panda = load_problem("panda").robot
+    T = panda.fk(panda.mid_limits + 0.3)
+    sols = optik.solve_ik_all(panda, T, k=4, min_separation=0.2, restarts=200)
+    assert 2 <= len(sols) <= 4
+    for i, a in enumerate(sols):
+        F = panda.fk(a.q)
+        assert np.linalg.norm(F[:3, 3] - T[:3, 3]) <= 1e-6
+        assert rotation_angle(F[:3, :3].T @ T[:3, :3]) <= 1e-6
+        for b in sols[i + 1 :]:
+            assert np.linalg.norm(a.q - b.q) >= 0.2
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "field"),
+    [
+        ({"frozen": {"nope": 0.0}}, "frozen"),
+        ({"frozen": {"panda_joint1": 10.0}}, "panda_joint1"),
+        ({"frozen": [("panda_joint1", 0.0)]}, "frozen"),
+        ({"limit_margin": 3.0}, "limit_margin"),
+        ({"limit_margin": -0.1}, "limit_margin"),
+        ({"select": "best"}, "select"),
+        ({"frozen": {"panda_joint1": 0.0}, "solver": "qp:osqp"}, "frozen"),
+    ],
+)
+def test_bad_frozen_margin_select(kwargs: dict[str, object], field: str) -> None:
+    panda = load_problem("panda").robot
+    with pytest.raises(OptikError, match=field):
+        optik.solve_ik(panda, panda.fk(panda.mid_limits), **kwargs)  # type: ignore[arg-type]
+
+
+def test_solve_ik_all_bad_k() -> None:
+    panda = load_problem("panda").robot
+    with pytest.raises(OptikError, match="k"):
+        optik.solve_ik_all(panda, panda.fk(panda.mid_limits), k=0)

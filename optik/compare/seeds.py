@@ -94,9 +94,7 @@ def _position_row(
     """
     robot = problem.robot
     target = problem.targets[target_id]
-    position, _, violation, within = verify_one(
-        robot, q, target.pose, "position", target.tolerance
-    )
+    position, _, violation, within = verify_one(robot, q, target.pose, "position", target.tolerance)
     ok = within or (not check_limits and position <= target.tolerance)
     return problem_row(
         kind,

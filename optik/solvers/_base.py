@@ -39,6 +39,9 @@ class IKQuery:
         mode: the task's mode (``"pose"``, ``"position"``, ``"orientation"``, ``"axis"``).
         tol: the position tolerance (m); the orientation tolerance is the task's.
         task: the task (:mod:`optik.task`); default: ``mode`` with ``tol`` for both errors.
+        bounds: ``(lower, upper)`` (dof,) each, the box the solver keeps ``q`` in: the
+            joint limits narrowed by ``limit_margin`` and closed on frozen joints
+            (default: the robot's limits). Success is still judged against the limits.
     """
 
     robot: Robot
@@ -46,6 +49,17 @@ class IKQuery:
     mode: str
     tol: float
     task: Task | None = None
+    bounds: tuple[FloatArray, FloatArray] | None = None
+
+    @property
+    def lower(self) -> FloatArray:
+        """The lower bound (dof,) the solver keeps ``q`` above."""
+        return self.robot.lower if self.bounds is None else self.bounds[0]
+
+    @property
+    def upper(self) -> FloatArray:
+        """The upper bound (dof,) the solver keeps ``q`` below."""
+        return self.robot.upper if self.bounds is None else self.bounds[1]
 
     @property
     def spec(self) -> Task:
@@ -138,8 +152,9 @@ class IKSolver(ABC):
     kind: str = "iterative"
     default_max_iter: int = 100
     plain_tasks_only: bool = False
-    """Whether the solver takes only a full pose or a point with unit weights (the QP and
-    CasADi forms of weighted and axis tasks are not built yet)."""
+    """Whether the solver takes only a full pose or a point with unit weights inside the
+    plain joint limits (the QP and CasADi forms of weighted and axis tasks, frozen joints
+    and limit margins are not built yet)."""
 
     @classmethod
     def is_available(cls) -> bool:
@@ -157,8 +172,9 @@ class IKSolver(ABC):
         max_iter: int,
         last: int,
         deadline: float,
+        start: int = 0,
     ) -> RunOutput:
-        """Attempts from starts ``0..last`` until one is verified, or the deadline passes.
+        """Attempts from starts ``start..last`` until one is verified, or the deadline passes.
 
         Each attempt's answer is verified from FK (:func:`optik.verify.verify_one`); the
         first verified one is returned, else the one with the smallest sum of errors.
@@ -167,18 +183,18 @@ class IKSolver(ABC):
         best: SolverOutput | None = None
         best_error = math.inf
         total_iterations = 0
-        attempts = 0
+        attempts = start
         timed_out = False
         all_failed = True
         while attempts <= last:
-            if attempts > 0 and now() > deadline:
+            if attempts > start and now() > deadline:
                 timed_out = True
                 break
-            start = starts.start(attempts)
+            q0 = starts.start(attempts)
             try:
-                output = self.solve(query, start, max_iter, deadline)
+                output = self.solve(query, q0, max_iter, deadline)
             except Exception as exc:  # a backend crash becomes a status, with its text
-                best = SolverOutput(start, 0, False, f"{type(exc).__name__}: {exc}", failed=True)
+                best = SolverOutput(q0, 0, False, f"{type(exc).__name__}: {exc}", failed=True)
                 attempts += 1
                 break
             attempts += 1
@@ -203,7 +219,12 @@ class IKSolver(ABC):
             raise SolverError(self.name, "no IK attempt ran")
         status = "solver_failed" if all_failed else ("timeout" if timed_out else "max_iter")
         return RunOutput(
-            best.q, total_iterations, max(attempts - 1, 0), best.converged, best.message, status
+            best.q,
+            total_iterations,
+            max(attempts - 1 - start, 0),
+            best.converged,
+            best.message,
+            status,
         )
 
 

@@ -136,12 +136,17 @@ def start_sequence(
     mode: str | Task,
     given: FloatArray | list[FloatArray],
     seed: int,
+    bounds: tuple[FloatArray, FloatArray] | None = None,
 ) -> StartSequence:
-    """The starts of one query (:mod:`optik.solvers._starts`): ``given``, table, draws."""
+    """The starts of one query (:mod:`optik.solvers._starts`): ``given``, table, draws.
+
+    ``bounds`` (default: the robot's limits) is the box the draws fill.
+    """
     table = seed_table(robot)
     order = table_order(
         table.features, table.centroids, table.offsets, np.asarray(target, float),
         as_task(mode).features,
     )  # fmt: skip
     G = np.asarray(given, dtype=np.float64).reshape(-1, robot.dof)
-    return StartSequence(G, order, table.q, robot.lower, robot.upper, seed)
+    lower, upper = (robot.lower, robot.upper) if bounds is None else bounds
+    return StartSequence(G, order, table.q, lower, upper, seed)

@@ -32,7 +32,8 @@ class _JacobianIteration(IKSolver):
     def solve(self, query: IKQuery, q0: FloatArray, max_iter: int, deadline: float) -> SolverOutput:
         """Iterate the Jacobian update from ``q0`` (see the class docstring)."""
         robot = query.robot
-        q = np.clip(q0, robot.lower, robot.upper)
+        lower, upper = query.lower, query.upper
+        q = np.clip(q0, lower, upper)
         for it in range(max_iter + 1):
             T, J = robot.fk_jacobian(q)
             e = query.error_vector(T)
@@ -45,7 +46,7 @@ class _JacobianIteration(IKSolver):
             dq = self.direction(query.task_rows(J), e)
             if not np.all(np.isfinite(dq)):
                 return SolverOutput(q, it, False, "non-finite step", failed=True)
-            q = np.clip(q + self.step * dq, robot.lower, robot.upper)
+            q = np.clip(q + self.step * dq, lower, upper)
         return SolverOutput(q, max_iter, False, "max_iter")  # pragma: no cover
 
 
@@ -102,8 +103,14 @@ class DLSSolver(IKSolver):
     def solve(self, query: IKQuery, q0: FloatArray, max_iter: int, deadline: float) -> SolverOutput:
         """Run the compiled projected LM from ``q0``."""
         robot = query.robot
+        K, prismatic, C, identity, _, _ = robot.chain.kernel_args()
         q, it, ok, _, _ = lm_solve(
-            *robot.chain.kernel_args(),
+            K,
+            prismatic,
+            C,
+            identity,
+            query.lower,
+            query.upper,
             query.target,
             query.spec.packed,
             np.ascontiguousarray(q0, dtype=float),
@@ -119,6 +126,7 @@ class DLSSolver(IKSolver):
         max_iter: int,
         last: int,
         deadline: float,
+        start: int = 0,
     ) -> RunOutput:
         """:meth:`IKSolver.run` in the compiled kernel, in slices of attempts.
 
@@ -130,10 +138,11 @@ class DLSSolver(IKSolver):
         hold :data:`UNTIMED_SLICE` attempts.
         """
         robot = query.robot
-        K, prismatic, C, identity, lower, upper = robot.chain.kernel_args()
+        K, prismatic, C, identity, _, _ = robot.chain.kernel_args()
+        lower, upper = query.lower, query.upper
         timed = math.isfinite(deadline)
         size = 1 if timed else UNTIMED_SLICE
-        first = 0
+        first = start
         total = 0
         best_q: FloatArray | None = None
         best_error = math.inf
@@ -146,15 +155,17 @@ class DLSSolver(IKSolver):
             )  # fmt: skip
             total += int(it)
             if ok:
-                return RunOutput(q, total, first + int(ran) - 1, True, "converged", "max_iter")
+                used = first + int(ran) - 1 - start
+                return RunOutput(q, total, used, True, "converged", "max_iter")
             if best_q is None or pos + rot < best_error:
                 best_q, best_error = q, pos + rot
             first = hi + 1
             if first > last:
-                return RunOutput(best_q, total, last, False, "stalled or max_iter", "max_iter")
+                used = last - start
+                return RunOutput(best_q, total, used, False, "stalled or max_iter", "max_iter")
             if now() > deadline:
                 message = "stalled or max_iter"
-                return RunOutput(best_q, total, first - 1, False, message, "timeout")
+                return RunOutput(best_q, total, first - 1 - start, False, message, "timeout")
             if timed:
                 size = min(2 * size, TIMED_SLICE)
 
