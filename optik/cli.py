@@ -16,6 +16,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import sys
 import traceback
 from collections.abc import Sequence
@@ -25,6 +26,7 @@ from typing import Any, NoReturn
 import numpy as np
 
 from optik import __version__
+from optik._checks import MAX_LENGTH_M
 from optik._files import prepare_folder
 from optik._progress import Progress
 from optik.compare import AGREEMENT_TOL, RunConfig
@@ -95,6 +97,57 @@ def non_negative_int(text: str) -> int:
     return int(_number(text, int, lambda v: v >= 0, "an integer >= 0"))
 
 
+#: Largest ``--seed`` (the planner's bound, so that one seed works for every command).
+MAX_SEED = 2**32 - 1
+#: Largest ``-n`` of ``optik report`` (targets per robot).
+MAX_TARGETS = 1_000_000
+
+
+def length_float(text: str) -> float:
+    """An argparse type: a finite length within +-MAX_LENGTH_M (m)."""
+    return float(
+        _number(
+            text,
+            float,
+            lambda v: abs(v) <= MAX_LENGTH_M,
+            f"a length in m within +-{MAX_LENGTH_M:g}",
+        )
+    )
+
+
+def path_text(text: str) -> str:
+    """An argparse type: a file or folder path the system can look up (it may not exist).
+
+    A path with a NUL byte, a name too long for the file system or a symlink loop is a
+    usage error here, rather than an ``OSError`` deep in a reader.
+    """
+    if not text:
+        raise argparse.ArgumentTypeError("expected a path or name, got ''")
+    try:
+        os.stat(text)
+    except (FileNotFoundError, NotADirectoryError):
+        pass  # a missing file is reported by the command, with what it expected
+    except ValueError as exc:  # an embedded NUL byte
+        raise argparse.ArgumentTypeError(f"not a usable path {text!r:.80}: {exc}") from None
+    except OSError as exc:
+        raise argparse.ArgumentTypeError(
+            f"not a usable path {text!r:.80}: {exc.strerror or exc}"
+        ) from None
+    return text
+
+
+def seed_int(text: str) -> int:
+    """An argparse type: a seed, an integer in [0, :data:`MAX_SEED`]."""
+    return int(_number(text, int, lambda v: 0 <= v <= MAX_SEED, f"an integer in [0, {MAX_SEED}]"))
+
+
+def count_int(text: str) -> int:
+    """An argparse type: a number of targets, an integer in [0, :data:`MAX_TARGETS`]."""
+    return int(
+        _number(text, int, lambda v: 0 <= v <= MAX_TARGETS, f"an integer in [0, {MAX_TARGETS}]")
+    )
+
+
 def _json_value(value: Any) -> Any:
     """``value`` with every non-finite float as ``None`` (JSON has no inf or NaN)."""
     if isinstance(value, float):
@@ -149,6 +202,14 @@ def _builtin_names() -> str:
     return ", ".join(p.stem for p in builtin_problems())
 
 
+def _exists(path: Path) -> bool:
+    """Whether ``path`` exists; a name the system cannot look up (too long) does not."""
+    try:
+        return path.exists()
+    except (OSError, ValueError):
+        return False
+
+
 def named_problem(name: str) -> Problem:
     """A built-in problem by name, or a problem file; an unknown name lists the built-ins.
 
@@ -157,12 +218,14 @@ def named_problem(name: str) -> Problem:
             or any :class:`~optik.errors.ProblemFileError` of the file.
     """
     file = Path(name)
-    if not file.exists() and not (file.suffix == "" and (PROBLEMS_DIR / f"{name}.toml").is_file()):
-        raise OptikError(
-            f"no problem file or built-in problem named {name!r:.200} "
-            f"(built-in problems: {_builtin_names()}; or give --urdf FILE or --dh FILE)"
-        )
-    return load_problem(name)
+    if _exists(file) or (file.suffix == "" and _exists(PROBLEMS_DIR / f"{name}.toml")):
+        return load_problem(name)
+    if file.suffix or len(file.parts) > 1:  # a path, not a name
+        raise OptikError(f"{name}: file not found (built-in problems: {_builtin_names()})")
+    raise OptikError(
+        f"no problem file or built-in problem named {name!r:.200} "
+        f"(built-in problems: {_builtin_names()}; or give --urdf FILE or --dh FILE)"
+    )
 
 
 def _chains_hint(urdf: Path) -> str:
@@ -205,10 +268,11 @@ def dh_problem(file: str) -> Problem:
 
 
 def _robot_choice(args: argparse.Namespace, positional: str = "PROBLEM") -> list[str]:
+    named = args.problems if positional == "--problems" else args.problem
     given = [
         flag
         for flag, value in (
-            (positional, getattr(args, "problem", None)),
+            (positional, named),
             ("--urdf", args.urdf),
             ("--dh", args.dh),
         )
@@ -247,6 +311,7 @@ def _add_robot_arguments(p: argparse.ArgumentParser, *, positional: bool = True)
             "problem",
             nargs="?",
             metavar="PROBLEM",
+            type=path_text,
             help="a built-in problem name or a problem file (.toml); no unit (the file "
             "names its units). Or give --urdf or --dh instead",
         )
@@ -254,6 +319,7 @@ def _add_robot_arguments(p: argparse.ArgumentParser, *, positional: bool = True)
     group.add_argument(
         "--urdf",
         metavar="FILE",
+        type=path_text,
         help="a URDF file (its lengths in m, angles in rad), with --base and --tip",
     )
     group.add_argument(
@@ -265,6 +331,7 @@ def _add_robot_arguments(p: argparse.ArgumentParser, *, positional: bool = True)
     group.add_argument(
         "--dh",
         metavar="FILE",
+        type=path_text,
         help="a DH table: a .toml [robot] table with [[robot.joints]] rows (convention dh "
         "or mdh); units as the file names them (length_unit, angle_unit; default m, rad)",
     )
@@ -331,7 +398,7 @@ def _target_from_args(problem: Problem, args: argparse.Namespace) -> tuple[np.nd
     orientation = _orientation_flag(args)
     if args.target is not None:
         if args.position is not None or orientation is not None:
-            given = args.position is not None and "--position" or orientation
+            given = "--position" if args.position is not None else orientation
             raise OptikError(f"--target NAME takes its pose from the problem; drop {given}")
         target = _named(problem, problem.targets, "target", args.target)
         return target.pose, args.mode or target.mode
@@ -359,33 +426,47 @@ def _cmd_robot(args: argparse.Namespace) -> int:
     if (args.base is not None or args.tip is not None) and not is_urdf:
         raise OptikError(f"--base and --tip name links of a URDF (.urdf, .xml), not of {file}")
     if not is_urdf:
-        problem = named_problem(args.file) if not file.is_file() else load_robot(file)
-        robot = problem.robot
-        print(f"robot {robot.name} ({robot.convention} convention, {problem.path})")
-        if problem.source:
-            print(f"source: {problem.source}")
+        return _describe_robot_file(args.file)
+    return _describe_urdf(file, args.base, args.tip)
+
+
+def _describe_robot_file(name: str) -> int:
+    problem = named_problem(name) if not Path(name).is_file() else load_robot(name)
+    robot = problem.robot
+    details = robot_text(robot)  # fails (a declared family that does not fit) first
+    print(f"robot {robot.name} ({robot.convention} convention, {problem.path})")
+    if problem.source:
+        print(f"source: {problem.source}")
+    if robot.convention == "urdf":
+        print("links: see the URDF file the problem names (optik robot FILE.urdf)")
+    else:
         print(f"links: a {robot.convention.upper()} table names no links (frames 0..{robot.dof})")
-        print(f"chain: base -> tool  ({robot.dof} joints)")
-        print(robot_text(robot))
-        return EXIT_OK
+    print(f"chain: base -> tool  ({robot.dof} joints)")
+    print(details)
+    return EXIT_OK
+
+
+def _describe_urdf(file: Path, base: str | None, tip: str | None) -> int:
     tree = read_urdf_tree(file)
+    robot: Robot | None = None
+    if base is not None or tip is not None:
+        if base is None or tip is None:
+            raise OptikError("give both --base LINK and --tip LINK (or neither)")
+    elif len(tree.chains) == 1:
+        base, tip = tree.chains[0].base, tree.chains[0].tip
+    if base is not None and tip is not None:
+        robot = Robot.from_urdf(file, base, tip)  # fails before anything is printed
+    details = robot_text(robot) if robot is not None else ""
     print(f"robot {tree.name} (URDF {file})")
     print(f"links ({len(tree.links)}): " + ", ".join(tree.links))
     print("chains (root -> leaf):")
     for chain in tree.chains:
         print(f"  {chain.text()}")
-    if args.base is None and args.tip is None:
-        if len(tree.chains) != 1:
-            print("pick a chain with --base LINK --tip LINK to see its joints")
-            return EXIT_OK
-        base, tip = tree.chains[0].base, tree.chains[0].tip
-    elif args.base is None or args.tip is None:
-        raise OptikError("give both --base LINK and --tip LINK (or neither)")
-    else:
-        base, tip = args.base, args.tip
-    robot = Robot.from_urdf(file, base, tip)
+    if robot is None:
+        print("pick a chain with --base LINK --tip LINK to see its joints")
+        return EXIT_OK
     print(f"chain {base} -> {tip}: {robot.dof} moving joints")
-    print(robot_text(robot))
+    print(details)
     return EXIT_OK
 
 
@@ -533,7 +614,7 @@ def _add_solve_command(sub: Any) -> None:
     target.add_argument(
         "--position",
         nargs=3,
-        type=finite_float,
+        type=length_float,
         metavar=("X", "Y", "Z"),
         help="target position of the tool, m",
     )
@@ -562,9 +643,7 @@ def _add_solve_command(sub: Any) -> None:
     p.add_argument(
         "--timeout-ms", type=positive_float, metavar="MS", help="time budget of the solver, ms"
     )
-    p.add_argument(
-        "--seed", type=non_negative_int, default=0, help="seed of the restarts (no unit)"
-    )
+    p.add_argument("--seed", type=seed_int, default=0, help="seed of the restarts (no unit)")
     p.add_argument(
         "--json", action="store_true", help="print the result as one JSON object (no unit)"
     )
@@ -589,12 +668,13 @@ def _add_plan_command(sub: Any) -> None:
     source.add_argument(
         "--path",
         metavar="FILE",
+        type=path_text,
         help="path file (.csv, .npz, .toml; positions in m, rpy in rad; see docs/planning.md)",
     )
     source.add_argument(
         "--line",
         nargs=6,
-        type=finite_float,
+        type=length_float,
         metavar=("X0", "Y0", "Z0", "X1", "Y1", "Z1"),
         help="a straight line between two positions, m",
     )
@@ -627,13 +707,12 @@ def _add_plan_command(sub: Any) -> None:
         metavar="Q",
         help="current configuration, one value per joint: rad (revolute) or m (prismatic)",
     )
-    p.add_argument(
-        "--seed", type=non_negative_int, default=0, help="seed of the restarts (no unit)"
-    )
+    p.add_argument("--seed", type=seed_int, default=0, help="seed of the restarts (no unit)")
     p.add_argument(
         "--out",
         default="optik-plan",
         metavar="DIR",
+        type=path_text,
         help="output folder (no unit; default ./optik-plan)",
     )
     p.set_defaults(func=_cmd_plan)
@@ -654,6 +733,7 @@ def _add_robot_command(sub: Any) -> None:
     p.add_argument(
         "file",
         metavar="FILE",
+        type=path_text,
         help="a URDF (.urdf, .xml), a problem file or DH table (.toml), or a built-in "
         "problem name; no unit",
     )
@@ -758,6 +838,7 @@ def add_report_command(subparsers: Any) -> argparse.ArgumentParser:
         "--problems",
         nargs="+",
         metavar="PROBLEM",
+        type=path_text,
         help="problem names or files (no unit; default: all built-ins)",
     )
     _add_robot_arguments(p, positional=False)
@@ -771,13 +852,13 @@ def add_report_command(subparsers: Any) -> argparse.ArgumentParser:
     )
     p.add_argument(
         "-n",
-        type=non_negative_int,
+        type=count_int,
         default=None,
         help=f"targets per robot (no unit; default {DEFAULT_N}; quick 5)",
     )
     p.add_argument(
         "--seed",
-        type=non_negative_int,
+        type=seed_int,
         default=0,
         help="seed of the targets (no unit; default 0)",
     )
@@ -801,6 +882,7 @@ def add_report_command(subparsers: Any) -> argparse.ArgumentParser:
         "--out",
         default="optik-report",
         metavar="DIR",
+        type=path_text,
         help="output folder (no unit; default optik-report)",
     )
     p.add_argument(
@@ -845,7 +927,11 @@ def build_parser() -> argparse.ArgumentParser:
         "  optik problems\n  optik problems puma560 problems/ur5.toml\n",
     )
     p.add_argument(
-        "problems", nargs="*", metavar="PROBLEM", help="problem files or built-in names (no unit)"
+        "problems",
+        nargs="*",
+        metavar="PROBLEM",
+        type=path_text,
+        help="problem files or built-in names (no unit)",
     )
     p.set_defaults(func=_cmd_problems)
     _add_robot_command(sub)

@@ -106,7 +106,9 @@ def test_plan_with_urdf_writes_a_plan_of_every_waypoint(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     argv = ["plan", *PANDA_CHAIN, "--line", "0.4", "-0.05", "0.5", "0.4", "0.05", "0.5"]
-    assert main([*argv, "--step", "0.05", "--rpy-deg", "180", "0", "0", "--out", str(tmp_path)]) == 0
+    assert (
+        main([*argv, "--step", "0.05", "--rpy-deg", "180", "0", "0", "--out", str(tmp_path)]) == 0
+    )
     out = capsys.readouterr().out
     assert out.startswith("panda: ") and "/3 waypoints solved" in out
     data = np.load(tmp_path / "plan.npz")
@@ -286,7 +288,9 @@ def test_solve_orientation_options_match_scipy(
 ) -> None:
     robot, T = _puma_target()
     position = [f"{v:.17g}" for v in T[:3, 3]]
-    data = _solve_json(["puma560", "--position", *position, *_orientation_args(option, T[:3, :3])], capsys)
+    data = _solve_json(
+        ["puma560", "--position", *position, *_orientation_args(option, T[:3, :3])], capsys
+    )
     assert data["success"]
     np.testing.assert_allclose(robot.fk(np.array(data["q"])), T, atol=1e-6)
 
