@@ -603,7 +603,7 @@ def _add_solve_command(sub: Any) -> None:
         "Solve one IK query and print the joint values (rad, with degrees alongside; m for "
         "prismatic joints), the errors and the solver's own time. An unsolved target prints "
         "its status and the errors of the best attempt, no joint values, and exits 1.",
-        "  optik solve puma560 --target ready\n"
+        "  optik solve dobot_magician --target part1\n"
         "  optik solve planar_2r --position 1 1 0\n"
         "  optik solve --urdf problems/panda.urdf --base panda_link0 --tip panda_hand \\\n"
         "      --position 0.4 0.1 0.5 --rpy-deg 180 0 0\n",
