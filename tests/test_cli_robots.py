@@ -132,14 +132,20 @@ def test_report_with_urdf_runs_on_that_robot(
     assert len(ik_rows) == 1 and ik_rows[0].startswith("ik,panda,")
 
 
-def test_dh_table_file_for_solve(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    table = tmp_path / "two_link.toml"
+def _two_link(folder: Path) -> Path:
+    """A DH table without a ``source``: two links of 0.5 and 0.25 m, limits +-170 deg."""
+    table = folder / "two_link.toml"
     table.write_text(
         '[robot]\nname = "two_link"\nangle_unit = "deg"\n'
         "[[robot.joints]]\na = 0.5\nlower = -170\nupper = 170\n"
         "[[robot.joints]]\na = 0.25\nlower = -170\nupper = 170\n",
         encoding="utf-8",
     )
+    return table
+
+
+def test_dh_table_file_for_solve(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    table = _two_link(tmp_path)
     q = np.radians([30.0, 45.0])
     x = 0.5 * math.cos(q[0]) + 0.25 * math.cos(q.sum())
     y = 0.5 * math.sin(q[0]) + 0.25 * math.sin(q.sum())
@@ -151,6 +157,30 @@ def test_dh_table_file_for_solve(tmp_path: Path, capsys: pytest.CaptureFixture[s
         0.5 * math.sin(q_found[0]) + 0.25 * math.sin(q_found.sum()),
     ]
     np.testing.assert_allclose(p, [x, y], atol=1e-6)
+
+
+def test_robot_of_a_dh_table(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    table = _two_link(tmp_path)
+    assert main(["robot", str(table)]) == 0
+    out = capsys.readouterr().out
+    assert f"source: robot file {table}" in out
+    assert "chain: base -> tool  (2 joints)" in out
+    limit = f"{math.radians(170):.6g} rad (170 deg)"
+    assert out.count(limit) == 2
+    assert out.rstrip().endswith("closed-form family: planar_2r")
+
+
+def test_report_with_dh_runs_on_that_robot(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    table = _two_link(tmp_path)
+    out = tmp_path / "out"
+    argv = ["report", "--quick", "-n", "2", "--solvers", "dls", "--dh", str(table)]
+    assert main([*argv, "--out", str(out)]) == 0
+    capsys.readouterr()
+    rows = (out / "results.csv").read_text(encoding="utf-8").splitlines()
+    ik_rows = [r for r in rows if r.startswith("ik,")]
+    assert len(ik_rows) == 2 and all(r.startswith("ik,two_link,") for r in ik_rows)
 
 
 def test_dh_refuses_a_urdf_convention_file(
