@@ -18,6 +18,7 @@ import json
 import math
 import os
 import sys
+import textwrap
 import traceback
 from collections.abc import Sequence
 from pathlib import Path
@@ -338,7 +339,8 @@ def _add_robot_arguments(p: argparse.ArgumentParser, *, positional: bool = True)
 
 
 # ---------------------------------------------------------------------------- poses
-def _add_orientation_arguments(p: argparse.ArgumentParser, what: str) -> None:
+def _add_orientation_arguments(p: Any, what: str) -> None:
+    """One of --rpy, --rpy-deg, --quat-wxyz, --quat-xyzw on ``p`` (a parser or a group)."""
     group = p.add_mutually_exclusive_group()
     group.add_argument(
         "--rpy",
@@ -589,7 +591,7 @@ def _command(sub: Any, name: str, summary: str, description: str, examples: str)
     return sub.add_parser(
         name,
         help=summary,
-        description=description,
+        description=textwrap.fill(description, 88),
         epilog="examples:\n" + examples,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
@@ -618,7 +620,7 @@ def _add_solve_command(sub: Any) -> None:
         metavar=("X", "Y", "Z"),
         help="target position of the tool, m",
     )
-    _add_orientation_arguments(p, "target orientation (a full pose)")
+    _add_orientation_arguments(target, "target orientation (a full pose)")
     p.add_argument(
         "--mode",
         choices=["pose", "position"],
@@ -664,7 +666,8 @@ def _add_plan_command(sub: Any) -> None:
         "      --line 0.4 -0.2 0.5 0.4 0.2 0.5 --rpy-deg 180 0 0 --out panda-plan\n",
     )
     _add_robot_arguments(p)
-    source = p.add_argument_group("path (one of)").add_mutually_exclusive_group()
+    path_group = p.add_argument_group("path (one of --path, --line, --problem-path)")
+    source = path_group.add_mutually_exclusive_group()
     source.add_argument(
         "--path",
         metavar="FILE",
@@ -687,7 +690,7 @@ def _add_plan_command(sub: Any) -> None:
         default=0.01,
         help="sampling step of --line, m (default 0.01)",
     )
-    _add_orientation_arguments(p, "constant orientation along --line (a pose path)")
+    _add_orientation_arguments(path_group, "constant orientation along --line (a pose path)")
     p.add_argument(
         "--max-joint-step",
         type=positive_float,
@@ -904,9 +907,12 @@ def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the ``optik`` command."""
     parser = _Parser(
         prog="optik",
-        description="Optimization-based inverse kinematics for robot arms. Units: SI (m, "
-        "rad, s) in files, arrays and options; an option in another unit names it "
-        "(--rpy-deg, --timeout-ms).",
+        description=textwrap.fill(
+            "Optimization-based inverse kinematics for robot arms. Units: SI (m, rad, s) in "
+            "files, arrays and options; an option in another unit names it (--rpy-deg, "
+            "--timeout-ms).",
+            88,
+        ),
         epilog="examples:\n  optik problems\n  optik robot problems/panda.urdf\n"
         "  optik solve planar_2r --position 1 1 0\n  optik report --quick\n",
         formatter_class=argparse.RawDescriptionHelpFormatter,
