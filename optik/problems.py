@@ -414,17 +414,25 @@ def load_robot(path: str | Path) -> Problem:
     return _load(path, default_source="")
 
 
+def _is_file(path: Path) -> bool:
+    """``path.is_file()``, false for a path the system cannot look up (too long, NUL)."""
+    try:
+        return path.is_file()
+    except (OSError, ValueError):
+        return False
+
+
 def _load(path: str | Path, default_source: str | None) -> Problem:
     if not isinstance(path, str | os.PathLike) or isinstance(path, bytes):
         raise ProblemFileError(
             repr(path), "", "", "path: expected a file path or the name of a built-in problem"
         )
     file = Path(path)
-    if not file.is_file() and file.suffix == "" and (PROBLEMS_DIR / f"{file}.toml").is_file():
+    if not _is_file(file) and file.suffix == "" and _is_file(PROBLEMS_DIR / f"{file}.toml"):
         file = PROBLEMS_DIR / f"{file}.toml"
     reader = _Reader(str(file))
-    if not file.is_file():
-        raise reader.fail("", "", "file not found")
+    if not _is_file(file):
+        raise reader.fail("", "", "file not found (or a path the system cannot look up)")
     try:
         text = file.read_text(encoding="utf-8")
     except UnicodeDecodeError as exc:
