@@ -362,6 +362,7 @@ def plan_path(
     singular_threshold: float = 1e-3,
     max_candidates: int = 32,
     greedy: bool = False,
+    progress: Callable[[int, int], object] | None = None,
 ) -> PathPlan:
     """Turn a Cartesian path into a continuous joint path inside the limits.
 
@@ -381,6 +382,8 @@ def plan_path(
         max_candidates: candidates kept per waypoint.
         greedy: choose, at each waypoint, the candidate nearest the previous choice (no
             look-ahead): the naive baseline the optimal plan is compared with.
+        progress: called as ``progress(done, total)`` after each waypoint's candidates are
+            found (``optik plan`` draws its progress bar with it).
 
     Returns:
         A :class:`PathPlan` with one row and one status per input waypoint.
@@ -423,6 +426,8 @@ def plan_path(
         layer = finder.find(poses[k], seeds, k)
         layers.append(layer)
         seeds = layer if layer else ([start] if start is not None else [])
+        if progress is not None:
+            progress(k + 1, n)
     choice = _choose(layers, max_joint_step, greedy, start)
 
     dof = robot.dof

@@ -266,14 +266,16 @@ def _joint(
     )
 
 
-def _robot(reader: _Reader, data: Mapping[str, Any], base_dir: Path) -> tuple[Robot, str]:
+def _robot(
+    reader: _Reader, data: Mapping[str, Any], base_dir: Path, default_source: str | None = None
+) -> tuple[Robot, str]:
     robot = reader.table(data, "", "robot")
     reader.check_keys(robot, "robot", _ROBOT_KEYS)
     name = reader.string(robot, "robot", "name")
     convention = reader.choice(robot, "robot", "convention", CONVENTIONS, "dh")
     length = LENGTH_UNITS[reader.choice(robot, "robot", "length_unit", LENGTH_UNITS, "m")]
     angle = ANGLE_UNITS[reader.choice(robot, "robot", "angle_unit", ANGLE_UNITS, "rad")]
-    source = reader.string(robot, "robot", "source")
+    source = reader.string(robot, "robot", "source", default_source)
     analytic = robot.get("analytic")
     if analytic is not None and not isinstance(analytic, str):
         raise reader.fail("robot", "analytic", f"expected a family name, got {analytic!r}")
@@ -392,16 +394,45 @@ def load_problem(path: str | Path) -> Problem:
             :data:`~optik._checks.MAX_LENGTH_M`, ...); the message names the file, the table
             and the field.
     """
+    return _load(path, default_source=None)
+
+
+def load_robot(path: str | Path) -> Problem:
+    """Read a robot file: a problem file whose ``[robot]`` table may omit ``source``.
+
+    A DH table for ``optik --dh FILE`` is such a file: a ``[robot]`` table (``name``,
+    ``convention = "dh"`` or ``"mdh"``, units, ``base``, ``tool``) and its
+    ``[[robot.joints]]`` rows, exactly as in a problem file; targets and paths are read if
+    present. A missing ``source`` reads as ``"robot file <path>"``.
+
+    Args:
+        path: a ``.toml`` file, or the name of a built-in problem.
+
+    Raises:
+        ProblemFileError: as :func:`load_problem`.
+    """
+    return _load(path, default_source="")
+
+
+def _is_file(path: Path) -> bool:
+    """``path.is_file()``, false for a path the system cannot look up (too long, NUL)."""
+    try:
+        return path.is_file()
+    except (OSError, ValueError):
+        return False
+
+
+def _load(path: str | Path, default_source: str | None) -> Problem:
     if not isinstance(path, str | os.PathLike) or isinstance(path, bytes):
         raise ProblemFileError(
             repr(path), "", "", "path: expected a file path or the name of a built-in problem"
         )
     file = Path(path)
-    if not file.is_file() and file.suffix == "" and (PROBLEMS_DIR / f"{file}.toml").is_file():
+    if not _is_file(file) and file.suffix == "" and _is_file(PROBLEMS_DIR / f"{file}.toml"):
         file = PROBLEMS_DIR / f"{file}.toml"
     reader = _Reader(str(file))
-    if not file.is_file():
-        raise reader.fail("", "", "file not found")
+    if not _is_file(file):
+        raise reader.fail("", "", "file not found (or a path the system cannot look up)")
     try:
         text = file.read_text(encoding="utf-8")
     except UnicodeDecodeError as exc:
@@ -413,7 +444,9 @@ def load_problem(path: str | Path) -> Problem:
     except tomllib.TOMLDecodeError as exc:
         raise reader.fail("", "", f"not valid TOML: {exc}") from exc
     reader.check_keys(data, "", {"robot", "targets", "paths", "description"})
-    robot, source = _robot(reader, data, file.parent)
+    if default_source is not None:
+        default_source = f"robot file {file}"
+    robot, source = _robot(reader, data, file.parent, default_source)
     robot_table = data["robot"]
     length = LENGTH_UNITS[robot_table.get("length_unit", "m")]
     angle = ANGLE_UNITS[robot_table.get("angle_unit", "rad")]

@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
 from optik._checks import FloatArray
 from optik.compare.results import Key, ResultRow, settings_json
 from optik.errors import OptikError
+from optik.problems import Problem
 from optik.solvers import available_solvers
 
 __all__ = ["RunConfig", "RunStats", "ik_settings"]
@@ -20,7 +21,8 @@ class RunConfig:
     """What a comparison run covers.
 
     Attributes:
-        problems: problem names or files for the full-IK section.
+        problems: problem names or files for the full-IK section, or loaded
+            :class:`~optik.problems.Problem` objects (a robot given by its URDF or DH table).
         solvers: solver names for the full-IK section (``"auto"`` allowed).
         n: targets per robot.
         seed: seed of the targets (and of each solve's restarts).
@@ -36,7 +38,7 @@ class RunConfig:
         seeds: run the seed 001 and seed 003 sections.
     """
 
-    problems: tuple[str, ...]
+    problems: tuple[str | Problem, ...]
     solvers: tuple[str, ...]
     n: int = 20
     seed: int = 0
@@ -44,7 +46,7 @@ class RunConfig:
     timeout_s: float = 1.0
     mode: str = "pose"
     caps: Mapping[str, int] = field(default_factory=dict)
-    closed_form_problems: tuple[str, ...] | None = None
+    closed_form_problems: tuple[str | Problem, ...] | None = None
     closed_form_configs: int = 3
     step_backends: tuple[str, ...] | None = None
     seeds: bool = True
@@ -71,9 +73,19 @@ class RunConfig:
 
     def to_dict(self) -> dict[str, Any]:
         """The configuration as plain JSON-able data (recorded in ``summary.json``)."""
-        data = asdict(self)
+        data = asdict(replace(self, problems=(), closed_form_problems=None))
         data["caps"] = dict(self.caps)
+        # A loaded problem is recorded by its file (or name): a Robot is not JSON.
+        data["problems"] = [_problem_label(p) for p in self.problems]
+        if self.closed_form_problems is not None:
+            data["closed_form_problems"] = [_problem_label(p) for p in self.closed_form_problems]
         return data
+
+
+def _problem_label(problem: str | Problem) -> str:
+    if isinstance(problem, str):
+        return problem
+    return str(problem.path) if problem.path is not None else problem.name
 
 
 def ik_settings(config: RunConfig, solver: str) -> str:

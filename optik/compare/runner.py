@@ -44,6 +44,10 @@ class _Task:
     warm_up: Callable[[], object] | None = None
 
 
+def _problem(problem: str | Problem) -> Problem:
+    return problem if isinstance(problem, Problem) else load_problem(problem)
+
+
 def _ik_tasks(config: RunConfig, problems: Sequence[Problem]) -> Iterator[_Task]:
     for problem in problems:
         robot = problem.robot
@@ -168,11 +172,11 @@ def run(
     Returns:
         A :class:`RunStats`; seed 003's trajectory is recomputed when its row was skipped.
     """
-    problems = [load_problem(p) for p in config.problems]
+    problems = [_problem(p) for p in config.problems]
     cf_names = (
         config.problems if config.closed_form_problems is None else config.closed_form_problems
     )
-    cf_problems = [load_problem(p) for p in cf_names]
+    cf_problems = [_problem(p) for p in cf_names]
     backends = step_backends() if config.step_backends is None else config.step_backends
     trajectory: list[FloatArray] = []
     tasks: list[_Task] = []
