@@ -1,0 +1,357 @@
+"""Closed-form families found from the joint axes: URDF and modified-DH robots.
+
+The makers' URDFs come from the ``example-robot-data`` package (the ``test`` extra);
+the tests that read them are skipped, with the reason, when it is absent.
+"""
+
+from __future__ import annotations
+
+import importlib.metadata
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from optik import Robot, load_problem, solve_ik
+from optik.analytic import (
+    FAMILIES,
+    analytic_ik,
+    detect_family,
+    explain_family,
+    family_of,
+    match_families,
+)
+from optik.analytic.geometry import (
+    DHModel,
+    NoTable,
+    dh_fk,
+    equivalent_dh,
+    joint_axes,
+)
+from optik.errors import AnalyticIKError
+from optik.problems import builtin_problems
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def _robots_dir() -> Path | None:
+    try:
+        dist = importlib.metadata.distribution("example-robot-data")
+    except importlib.metadata.PackageNotFoundError:
+        return None
+    path = Path(str(dist.locate_file("cmeel.prefix/share/example-robot-data/robots")))
+    return path if path.is_dir() else None
+
+
+ROBOTS_DIR = _robots_dir()
+needs_erd = pytest.mark.skipif(
+    ROBOTS_DIR is None,
+    reason="example-robot-data is not installed (pip install 'optik[test]'): "
+    "the makers' URDFs are not available",
+)
+UR_MODELS = ("ur3", "ur5", "ur10")
+
+
+def _ur_path(model: str) -> Path:
+    assert ROBOTS_DIR is not None
+    return ROBOTS_DIR / "ur_description" / "urdf" / f"{model}_robot.urdf"
+
+
+def _ur(model: str, **kwargs: object) -> Robot:
+    return Robot.from_urdf(_ur_path(model), "base_link", "tool0", **kwargs)  # type: ignore[arg-type]
+
+
+def _wrapped_distance(a: np.ndarray, b: np.ndarray) -> float:
+    """Max-abs angle difference after wrapping into (-pi, pi]."""
+    return float(np.max(np.abs(np.remainder(a - b + math.pi, 2 * math.pi) - math.pi)))
+
+
+def _check_branches(robot: Robot, n: int, seed: int) -> None:
+    """On ``n`` in-limit configurations: the source is a branch; every branch round-trips."""
+    rng = np.random.default_rng(seed)
+    Q = rng.uniform(robot.lower, robot.upper, (n, robot.dof))
+    T = robot.fk(Q)
+    for q, target in zip(Q, T, strict=True):
+        branches = analytic_ik(robot, target)
+        assert branches, f"no branch for q = {q}"
+        assert min(_wrapped_distance(b, q) for b in branches) < 1e-9
+        for b in branches:
+            assert robot.within_limits(b)
+            T_b = robot.fk(b)
+            assert np.max(np.abs(T_b - target)) < 1e-10
+
+
+# ---------------------------------------------------------------------- makers' URDFs
+@needs_erd
+@pytest.mark.parametrize("model", UR_MODELS)
+def test_ur_urdfs_get_the_ur_closed_form(model: str) -> None:
+    robot = _ur(model)
+    assert robot.convention == "urdf"
+    family = family_of(robot)
+    assert family is FAMILIES["ur"]
+    ur = next(m for m in match_families(robot) if m.family == "ur")
+    assert ur.fits and ur.source == "joint axes"
+    _check_branches(robot, 200, seed=len(model))
+    rng = np.random.default_rng(7)
+    for q in rng.uniform(robot.lower, robot.upper, (3, 6)):
+        res = solve_ik(robot, robot.fk(q), solver="auto")
+        assert res.success and res.solver == "analytic"
+
+
+@needs_erd
+def test_ur5_urdf_equals_the_ur5_problem_up_to_base_and_tool() -> None:
+    """The table found from the URDF has the UR5's published lengths (independent data)."""
+    model = FAMILIES["ur"].model(_ur("ur5"))
+    rows = model.rows
+    assert [round(r.a, 6) for r in rows] == [0.0, 0.425, 0.39225, 0.0, 0.0, 0.0]
+    # h = d2 + d3 + d4: the offset along the parallel axes, 0.13585 - 0.1197 + 0.093 m.
+    assert math.isclose(rows[1].d + rows[2].d + rows[3].d, 0.10915, abs_tol=1e-12)
+    assert math.isclose(rows[4].d, 0.09465, abs_tol=1e-12)
+    assert math.isclose(rows[5].d, 0.0823, abs_tol=1e-12)
+
+
+@needs_erd
+def test_declared_family_is_checked_when_built() -> None:
+    assert family_of(_ur("ur5", analytic="ur")) is FAMILIES["ur"]
+    with pytest.raises(AnalyticIKError, match="axis 6 misses the point of axes 4, 5"):
+        _ur("ur5", analytic="spherical_wrist")
+
+
+@needs_erd
+def test_flipped_parallel_axis_is_declined_with_the_reason() -> None:
+    """Elbow axis reversed: the twist becomes 180 deg, which needs q -> -q: no UR fit."""
+    text = _ur_path("ur5").read_text()
+    head, tail = text.split('<joint name="elbow_joint"', 1)
+    tail = tail.replace('<axis xyz="0 1 0"/>', '<axis xyz="0 -1 0"/>', 1)
+    robot = Robot.from_urdf(head + '<joint name="elbow_joint"' + tail, "base_link", "tool0")
+    assert family_of(robot) is None
+    reason = FAMILIES["ur"].explain(robot)
+    assert reason is not None and "alpha2 = 180 deg" in reason
+
+
+@needs_erd
+def test_near_miss_axes_are_declined_by_the_fk_proof() -> None:
+    """A wrist tilted by 1e-10 rad: within the angle tolerance, but no exact table."""
+    text = _ur_path("ur5").read_text()
+    head, tail = text.split('<joint name="wrist_2_joint"', 1)
+    tail = tail.replace('rpy="0.0 0.0 0.0"', 'rpy="1e-10 0.0 0.0"', 1)
+    robot = Robot.from_urdf(head + '<joint name="wrist_2_joint"' + tail, "base_link", "tool0")
+    with pytest.raises(NoTable, match="reproduces the robot's FK only to"):
+        equivalent_dh(robot, (1, 0, 0, 1, -1))
+    assert family_of(robot) is None
+    assert "reproduces the robot's FK only to" in (FAMILIES["ur"].explain(robot) or "")
+
+
+# ---------------------------------------------------------------------- built-ins
+BEFORE = {
+    "dobot_magician": "dobot",
+    "jumbo_drill_6dof": "spherical_wrist",
+    "jumbo_spherical_arm": "spherical_rrp",
+    "panda": None,
+    "planar_2r": "planar_2r",
+    "puma560": "spherical_wrist",
+    "stanford_arm": "spherical_wrist",
+    "ur5": "ur",
+}
+"""The families detected in every built-in problem before detection from the axes."""
+
+
+def test_builtin_problems_detect_the_same_families() -> None:
+    found = {}
+    for path in builtin_problems():
+        robot = load_problem(path).robot
+        detected = detect_family(robot)
+        declared = family_of(robot)
+        found[path.stem] = detected.name if detected else None
+        assert (declared.name if declared else None) == found[path.stem]
+        if declared is not None and declared.kernel:
+            # Robots built from standard DH keep their own rows (and packed parameters).
+            assert declared.model(robot).source == "dh rows"
+    assert found == BEFORE
+
+
+def test_panda_urdf_explains_why_there_is_no_family() -> None:
+    robot = Robot.from_urdf(REPO / "problems" / "panda.urdf", "panda_link0", "panda_hand")
+    text = explain_family(robot)
+    assert text.splitlines()[0].endswith("no closed-form family")
+    assert "ur: 7 joints (the family takes 6)" in text
+    with pytest.raises(AnalyticIKError, match="7 joints"):
+        Robot.from_urdf(
+            REPO / "problems" / "panda.urdf", "panda_link0", "panda_hand", analytic="ur"
+        )
+
+
+# ---------------------------------------------------------------------- modified DH, URDF
+def _rz(t: float) -> np.ndarray:
+    c, s = math.cos(t), math.sin(t)
+    return np.array([[c, -s, 0, 0], [s, c, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1.0]])
+
+
+def _rx(t: float) -> np.ndarray:
+    c, s = math.cos(t), math.sin(t)
+    return np.array([[1, 0, 0, 0], [0, c, -s, 0], [0, s, c, 0], [0, 0, 0, 1.0]])
+
+
+def _trans(x: float, y: float, z: float) -> np.ndarray:
+    T = np.eye(4)
+    T[:3, 3] = (x, y, z)
+    return T
+
+
+def _puma_as_mdh() -> tuple[Robot, Robot]:
+    """The Puma 560 and the same arm as modified-DH rows (Craig), shifted alphas and a's."""
+    puma = load_problem("puma560").robot
+    assert puma.dh is not None
+    rows = []
+    for i, r in enumerate(puma.dh):
+        prev = puma.dh[i - 1] if i else None
+        rows.append(
+            {
+                "alpha": prev.alpha if prev else 0.0,
+                "a": prev.a if prev else 0.0,
+                "theta": r.theta,
+                "d": r.d,
+                "lower": float(puma.lower[i]),
+                "upper": float(puma.upper[i]),
+            }
+        )
+    last = puma.dh[-1]
+    tool = _trans(last.a, 0, 0) @ _rx(last.alpha) @ puma.T_flange_tool
+    mdh = Robot.from_mdh(rows, name="puma_mdh", base=puma.T_world_base, tool=tool)
+    return puma, mdh
+
+
+def test_modified_dh_puma_gets_the_spherical_wrist_branches() -> None:
+    puma, mdh = _puma_as_mdh()
+    rng = np.random.default_rng(3)
+    Q = rng.uniform(puma.lower, puma.upper, (50, 6))
+    assert np.max(np.abs(mdh.fk(Q) - puma.fk(Q))) < 1e-12  # the same arm (independent)
+    assert family_of(mdh) is FAMILIES["spherical_wrist"]
+    assert FAMILIES["spherical_wrist"].model(mdh).source == "joint axes"
+    _check_branches(mdh, 100, seed=4)
+    # The same branch set as the standard-DH Puma, pose by pose.
+    for target in puma.fk(Q[:20]):
+        a = analytic_ik(puma, target)
+        b = analytic_ik(mdh, target)
+        assert len(a) == len(b)
+        for qa in a:
+            assert min(float(np.max(np.abs(qa - qb))) for qb in b) < 1e-9
+
+
+def _rpy(T: np.ndarray) -> tuple[float, float, float]:
+    """URDF roll-pitch-yaw of ``T``'s rotation (R = Rz(y) Ry(p) Rx(r))."""
+    R = T[:3, :3]
+    pitch = math.atan2(-R[2, 0], math.hypot(R[0, 0], R[1, 0]))
+    roll = math.atan2(R[2, 1], R[2, 2])
+    yaw = math.atan2(R[1, 0], R[0, 0])
+    return roll, pitch, yaw
+
+
+def _origin(T: np.ndarray) -> str:
+    xyz = " ".join(repr(float(v)) for v in T[:3, 3])
+    rpy = " ".join(repr(v) for v in _rpy(T))
+    return f'<origin xyz="{xyz}" rpy="{rpy}"/>'
+
+
+def _puma_urdf() -> tuple[str, Robot]:
+    """A URDF of the Puma: joints 1 and 4 counted the other way (axis -z), joint 2's frame
+    turned by pi about x (axis -z again, the same physical axis), a fixed joint splitting
+    link 3."""
+    puma = load_problem("puma560").robot
+    assert puma.dh is not None
+    links = ["<link name='l0'/>"]
+    joints = []
+    before = np.eye(4)  # the standard DH link transform before joint i's motion
+    for i, r in enumerate(puma.dh):
+        origin = before @ _rz(r.theta) @ _trans(0, 0, r.d)
+        axis = "0 0 1"
+        lower, upper = float(puma.lower[i]), float(puma.upper[i])
+        if i in (0, 3):
+            # Reversed axis: q_urdf = -q_dh, so the range is mirrored.
+            axis = "0 0 -1"
+            lower, upper = -upper, -lower
+        if i == 1:
+            # The frame turned by pi about x, so its -z is the DH z.
+            origin = origin @ _rx(math.pi)
+            axis = "0 0 -1"
+        parent = f"l{i}" if i != 3 else "l3b"
+        joints.append(
+            f'<joint name="j{i + 1}" type="revolute"><parent link="{parent}"/>'
+            f'<child link="l{i + 1}"/>{_origin(origin)}<axis xyz="{axis}"/>'
+            f'<limit lower="{lower!r}" upper="{upper!r}" effort="1" '
+            f'velocity="1"/></joint>'
+        )
+        links.append(f"<link name='l{i + 1}'/>")
+        after = _trans(r.a, 0, 0) @ _rx(r.alpha)
+        before = (_rx(math.pi) if i == 1 else np.eye(4)) @ after
+        if i == 2:
+            half = _trans(0.01, -0.02, 0.03) @ _rz(0.4)
+            joints.append(
+                f'<joint name="split" type="fixed"><parent link="l3"/><child link="l3b"/>'
+                f"{_origin(half)}</joint>"
+            )
+            links.append("<link name='l3b'/>")
+            before = np.linalg.inv(half) @ before
+    joints.append(
+        f'<joint name="flange" type="fixed"><parent link="l6"/><child link="tip"/>'
+        f"{_origin(before)}</joint>"
+    )
+    links.append("<link name='tip'/>")
+    return "<robot name='puma_urdf'>" + "".join(links + joints) + "</robot>", puma
+
+
+def test_urdf_written_from_the_puma_dh_gets_the_spherical_wrist() -> None:
+    text, puma = _puma_urdf()
+    robot = Robot.from_urdf(text, "l0", "tip")
+    rng = np.random.default_rng(5)
+    Q = rng.uniform(puma.lower, puma.upper, (30, 6))
+    flip = np.array([-1.0, 1, 1, -1, 1, 1])
+    # The same arm with joints 1 and 4 counted the other way (independent check).
+    assert np.max(np.abs(robot.fk(Q * flip) - puma.fk(Q))) < 1e-12
+    assert family_of(robot) is FAMILIES["spherical_wrist"]
+    lo = np.minimum(puma.lower * flip, puma.upper * flip)
+    hi = np.maximum(puma.lower * flip, puma.upper * flip)
+    assert np.array_equal(robot.lower, lo) and np.array_equal(robot.upper, hi)
+    _check_branches(robot, 100, seed=6)
+
+
+# ---------------------------------------------------------------------- the construction
+@pytest.mark.parametrize("seed", range(5))
+def test_equivalent_table_of_random_arms_reproduces_fk(seed: int) -> None:
+    """Random skew, intersecting and parallel axes: the table's FK is the robot's."""
+    rng = np.random.default_rng(seed)
+    rows = []
+    for i in range(6):
+        kind = rng.integers(3)
+        alpha = [0.0, math.pi / 2, float(rng.uniform(-3, 3))][kind]
+        a = 0.0 if i % 2 else float(rng.uniform(-0.5, 0.5))
+        rows.append(
+            {
+                "a": a,
+                "alpha": alpha,
+                "d": float(rng.uniform(-0.3, 0.3)),
+                "theta": float(rng.uniform(-3, 3)),
+                "role": "arm",
+            }
+        )
+    base = _trans(*rng.uniform(-1, 1, 3)) @ _rz(float(rng.uniform(-3, 3))) @ _rx(0.3)
+    robot = Robot.from_mdh(rows, base=base, tool=_trans(0.1, 0.2, 0.3) @ _rx(1.0))
+    model = equivalent_dh(robot, (1, -1, 1, -1, 1))
+    assert isinstance(model, DHModel) and model.source == "joint axes"
+    Q = rng.uniform(-math.pi, math.pi, (40, 6))
+    for q, T in zip(Q, robot.fk(Q), strict=True):
+        assert np.max(np.abs(dh_fk(model, q) - T)) < 1e-12
+    # Each DH z axis is the joint's axis, with the joint's direction.
+    axes = joint_axes(robot)
+    F = model.T_world_0
+    for i, row in enumerate(model.rows):
+        assert np.allclose(F[:3, 2], axes.directions[i], atol=1e-12)
+        F = (
+            F
+            @ _trans(0, 0, 0)
+            @ _rz(row.theta)
+            @ _trans(0, 0, row.d)
+            @ _trans(row.a, 0, 0)
+            @ _rx(row.alpha)
+        )
