@@ -210,4 +210,4 @@ def fit_model(
 
 def deg(angle: float) -> str:
     """``angle`` (rad) in degrees, for messages."""
-    return f"{math.degrees(angle):.6g} deg"
+    return f"{math.degrees(angle):.12g} deg"
