@@ -6,8 +6,11 @@ the tests that read them are skipped, with the reason, when it is absent.
 
 from __future__ import annotations
 
+import contextlib
 import importlib.metadata
+import io
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -126,7 +129,7 @@ def test_flipped_parallel_axis_is_declined_with_the_reason() -> None:
     robot = Robot.from_urdf(head + '<joint name="elbow_joint"' + tail, "base_link", "tool0")
     assert family_of(robot) is None
     reason = FAMILIES["ur"].explain(robot)
-    assert reason is not None and "alpha2 = 180 deg" in reason
+    assert reason is not None and "alpha2 = 180 deg" in reason and "q -> -q" in reason
 
 
 @needs_erd
@@ -357,3 +360,21 @@ def test_equivalent_table_of_random_arms_reproduces_fk(seed: int) -> None:
             @ _trans(row.a, 0, 0)
             @ _rx(row.alpha)
         )
+
+
+@pytest.mark.parametrize("index", [0, 1])
+def test_docs_examples_print_what_the_page_shows(
+    index: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The Python blocks of docs/analytic.md, each followed by its printed output."""
+    text = (REPO / "docs" / "analytic.md").read_text(encoding="utf-8")
+    pairs = re.findall(r"```python\n(.*?)```\s*```text\n(.*?)```", text, flags=re.S)
+    assert len(pairs) == 2
+    code, shown = pairs[index]
+    if "example-robot-data" in code and ROBOTS_DIR is None:
+        pytest.skip("example-robot-data is not installed: the UR5 example cannot run")
+    monkeypatch.chdir(REPO)
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        exec(compile(code, "docs/analytic.md", "exec"), {"__name__": "__doc__"})
+    assert out.getvalue() == shown

@@ -208,6 +208,13 @@ def fit_model(
     return rows_reason(model.rows) or model
 
 
+def opposite(alpha: float) -> str:
+    """A note for a twist of 180 deg: parallel axes of opposite directions."""
+    if abs(abs(alpha) - math.pi) < 1e-12:
+        return "; they are parallel but opposite, which would take q -> -q"
+    return ""
+
+
 def deg(angle: float) -> str:
     """``angle`` (rad) in degrees, for messages."""
     return f"{math.degrees(angle):.12g} deg"

@@ -39,6 +39,7 @@ from optik.analytic._base import (
     deg,
     fit_model,
     is_right_angle,
+    opposite,
     register,
 )
 from optik.analytic.geometry import DHModel
@@ -60,7 +61,10 @@ def _arm_reason(rows: tuple[DHJoint, ...]) -> str | None:
     if not is_right_angle(r1.alpha):
         return f"alpha1 = {deg(r1.alpha)}, needs +-90 deg (axes 1 and 2 perpendicular)"
     if r3.kind == "revolute" and not _zero(r2.alpha):
-        return f"alpha2 = {deg(r2.alpha)}, needs 0 (axes 2 and 3 parallel, same direction)"
+        return (
+            f"alpha2 = {deg(r2.alpha)}, needs 0 (axes 2 and 3 parallel, same direction)"
+            f"{opposite(r2.alpha)}"
+        )
     if r3.kind == "prismatic" and not is_right_angle(r2.alpha):
         return f"alpha2 = {deg(r2.alpha)}, needs +-90 deg (joint 3 sliding across axis 2)"
     return None

@@ -30,7 +30,7 @@ import math
 
 from optik._checks import FloatArray
 from optik.analytic import _compiled
-from optik.analytic._base import AnalyticFamily, deg, fit_model, register
+from optik.analytic._base import AnalyticFamily, deg, fit_model, opposite, register
 from optik.analytic.geometry import DHModel
 from optik.errors import AnalyticIKError
 from optik.model import DHJoint, Robot
@@ -62,7 +62,10 @@ def rows_reason(rows: tuple[DHJoint, ...]) -> str | None:
             return f"joint {i + 1} is not an independent revolute joint"
     for i, (r, a) in enumerate(zip(rows, _ALPHAS_DEG, strict=True)):
         if abs(r.alpha - math.radians(a)) >= 1e-12:
-            return f"alpha{i + 1} = {deg(r.alpha)}, needs {a:g} deg ({_ALPHA_MEANING[i]})"
+            return (
+                f"alpha{i + 1} = {deg(r.alpha)}, needs {a:g} deg ({_ALPHA_MEANING[i]})"
+                f"{opposite(r.alpha)}"
+            )
     for i, meaning in _A_MEANING.items():
         if abs(rows[i].a) >= 1e-12:
             return f"a{i + 1} = {rows[i].a:.6g} m, needs 0 ({meaning})"
