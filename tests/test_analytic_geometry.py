@@ -204,9 +204,9 @@ def _trans(x: float, y: float, z: float) -> np.ndarray:
     return T
 
 
-def _puma_as_mdh() -> tuple[Robot, Robot]:
-    """The Puma 560 and the same arm as modified-DH rows (Craig), shifted alphas and a's."""
-    puma = load_problem("puma560").robot
+def _as_mdh(problem: str) -> tuple[Robot, Robot]:
+    """A built-in DH arm and the same arm as modified-DH rows (Craig: shifted alphas, a's)."""
+    puma = load_problem(problem).robot
     assert puma.dh is not None
     rows = []
     for i, r in enumerate(puma.dh):
@@ -223,17 +223,18 @@ def _puma_as_mdh() -> tuple[Robot, Robot]:
         )
     last = puma.dh[-1]
     tool = _trans(last.a, 0, 0) @ _rx(last.alpha) @ puma.T_flange_tool
-    mdh = Robot.from_mdh(rows, name="puma_mdh", base=puma.T_world_base, tool=tool)
+    mdh = Robot.from_mdh(rows, name=f"{problem}_mdh", base=puma.T_world_base, tool=tool)
     return puma, mdh
 
 
-def test_modified_dh_puma_gets_the_spherical_wrist_branches() -> None:
-    puma, mdh = _puma_as_mdh()
+@pytest.mark.parametrize(("problem", "family"), [("puma560", "spherical_wrist"), ("ur5", "ur")])
+def test_modified_dh_arms_get_their_family_branches(problem: str, family: str) -> None:
+    puma, mdh = _as_mdh(problem)
     rng = np.random.default_rng(3)
     Q = rng.uniform(puma.lower, puma.upper, (50, 6))
     assert np.max(np.abs(mdh.fk(Q) - puma.fk(Q))) < 1e-12  # the same arm (independent)
-    assert family_of(mdh) is FAMILIES["spherical_wrist"]
-    assert FAMILIES["spherical_wrist"].model(mdh).source == "joint axes"
+    assert family_of(mdh) is FAMILIES[family]
+    assert FAMILIES[family].model(mdh).source == "joint axes"
     _check_branches(mdh, 100, seed=4)
     # The same branch set as the standard-DH Puma, pose by pose.
     for target in puma.fk(Q[:20]):
@@ -322,6 +323,21 @@ def test_urdf_written_from_the_puma_dh_gets_the_spherical_wrist() -> None:
 
 
 # ---------------------------------------------------------------------- the construction
+@pytest.mark.parametrize("problem", ["puma560", "ur5"])
+def test_raw_candidates_of_a_table_from_the_axes_take_the_robots_frame_0(problem: str) -> None:
+    """``candidates`` gets the flange target in the robot's frame 0, as for DH robots."""
+    _, plain = _as_mdh(problem)
+    assert plain.dh is not None
+    base = _trans(0.2, -0.1, 0.4) @ _rz(0.7) @ _rx(0.2)
+    mdh = Robot.from_mdh(plain.dh, base=base, tool=plain.T_flange_tool)
+    family = family_of(mdh)
+    assert family is not None
+    q = np.array([0.3, -0.4, 0.5, 0.6, -0.7, 0.8])
+    T_0 = np.linalg.inv(mdh.T_world_base) @ mdh.fk(q) @ np.linalg.inv(mdh.T_flange_tool)
+    raw = family.candidates(mdh, T_0, "pose", mdh.mid_limits)
+    assert min(_wrapped_distance(np.asarray(b), q) for b in raw) < 1e-9
+
+
 @pytest.mark.parametrize("seed", range(5))
 def test_equivalent_table_of_random_arms_reproduces_fk(seed: int) -> None:
     """Random skew, intersecting and parallel axes: the table's FK is the robot's."""

@@ -7,10 +7,13 @@ from abc import ABC, abstractmethod
 from collections.abc import Callable
 from typing import ClassVar, NamedTuple
 
+import numpy as np
+
 from optik._checks import FloatArray
 from optik._math import trig_roots
 from optik.analytic.geometry import DHModel, NoTable, equivalent_dh, revolute_chain_reason
 from optik.model import DHJoint, Robot
+from optik.spatial import invert_transform
 from optik.trig import TRIG_TOL
 
 SINGULAR_EPS = 1e-12
@@ -206,6 +209,23 @@ def fit_model(
     except NoTable as exc:
         return str(exc)
     return rows_reason(model.rows) or model
+
+
+def table_target(robot: Robot, model: DHModel, T_0_target: FloatArray) -> FloatArray:
+    """A flange target in the robot's frame 0 as the target of ``model``'s last frame.
+
+    ``T_0_target`` is what :meth:`AnalyticFamily.candidates` receives (base and tool
+    removed); a table built from the joint axes has its own frame 0 and last frame. For
+    a robot's own DH rows it is returned as it is.
+    """
+    if model.source == "dh rows":
+        return T_0_target
+    T_world_flange = robot.T_world_base @ T_0_target
+    T_world_tool = T_world_flange @ robot.T_flange_tool
+    return np.asarray(
+        invert_transform(model.T_world_0) @ T_world_tool @ invert_transform(model.T_n_tool),
+        dtype=float,
+    )
 
 
 def opposite(alpha: float) -> str:

@@ -41,6 +41,7 @@ from optik.analytic._base import (
     is_right_angle,
     opposite,
     register,
+    table_target,
 )
 from optik.analytic.geometry import DHModel
 from optik.errors import AnalyticIKError
@@ -124,6 +125,7 @@ class SphericalWrist(AnalyticFamily):
         self, robot: Robot, T_0_target: FloatArray, mode: str, q_ref: FloatArray
     ) -> list[FloatArray]:
         """Up to eight branches: two shoulders x two elbows x two wrists."""
+        T = table_target(robot, self.model(robot), T_0_target)
         return _compiled.raw_candidates(
-            _compiled.spherical_wrist_candidates, robot, self.kernel, T_0_target, q_ref
+            _compiled.spherical_wrist_candidates, robot, self.kernel, T, q_ref
         )

@@ -30,7 +30,14 @@ import math
 
 from optik._checks import FloatArray
 from optik.analytic import _compiled
-from optik.analytic._base import AnalyticFamily, deg, fit_model, opposite, register
+from optik.analytic._base import (
+    AnalyticFamily,
+    deg,
+    fit_model,
+    opposite,
+    register,
+    table_target,
+)
 from optik.analytic.geometry import DHModel
 from optik.errors import AnalyticIKError
 from optik.model import DHJoint, Robot
@@ -104,6 +111,5 @@ class URArm(AnalyticFamily):
         self, robot: Robot, T_0_target: FloatArray, mode: str, q_ref: FloatArray
     ) -> list[FloatArray]:
         """Up to eight branches: two shoulders x two wrists x two elbows."""
-        return _compiled.raw_candidates(
-            _compiled.ur_candidates, robot, self.kernel, T_0_target, q_ref
-        )
+        T = table_target(robot, self.model(robot), T_0_target)
+        return _compiled.raw_candidates(_compiled.ur_candidates, robot, self.kernel, T, q_ref)
