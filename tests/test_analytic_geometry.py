@@ -20,6 +20,7 @@ from optik import Robot, load_problem, solve_ik
 from optik.analytic import (
     FAMILIES,
     analytic_ik,
+    analytic_ik_batch,
     detect_family,
     explain_family,
     family_of,
@@ -394,3 +395,16 @@ def test_docs_examples_print_what_the_page_shows(
     with contextlib.redirect_stdout(out):
         exec(compile(code, "docs/analytic.md", "exec"), {"__name__": "__doc__"})
     assert out.getvalue() == shown
+
+
+def test_batch_of_a_table_from_the_axes_equals_single_calls() -> None:
+    """``analytic_ik_batch`` runs the same packed table as ``analytic_ik``."""
+    _, mdh = _as_mdh("ur5")
+    rng = np.random.default_rng(11)
+    T = mdh.fk(rng.uniform(mdh.lower, mdh.upper, (40, 6)))
+    batch = analytic_ik_batch(mdh, T)
+    for i, target in enumerate(T):
+        single = analytic_ik(mdh, target)
+        assert int(batch.counts[i]) == len(single)
+        for a, b in zip(batch.branches(i), single, strict=True):
+            assert np.array_equal(a, b)
