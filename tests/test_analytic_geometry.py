@@ -32,7 +32,7 @@ from optik.analytic.geometry import (
     equivalent_dh,
     joint_axes,
 )
-from optik.errors import AnalyticIKError
+from optik.errors import AnalyticIKError, ProblemFileError
 from optik.problems import builtin_problems
 
 REPO = Path(__file__).resolve().parents[1]
@@ -408,3 +408,24 @@ def test_batch_of_a_table_from_the_axes_equals_single_calls() -> None:
         assert int(batch.counts[i]) == len(single)
         for a, b in zip(batch.branches(i), single, strict=True):
             assert np.array_equal(a, b)
+
+
+def test_problem_file_declaring_a_family_that_does_not_fit_fails_to_load(tmp_path: Path) -> None:
+    text = (REPO / "problems" / "planar_2r.toml").read_text(encoding="utf-8")
+    path = tmp_path / "wrong.toml"
+    path.write_text(text.replace('analytic = "planar_2r"', 'analytic = "ur"'), encoding="utf-8")
+    with pytest.raises(ProblemFileError, match=r"'analytic'.*does not fit family 'ur': 2 joints"):
+        load_problem(path)
+
+
+def test_urdf_problem_file_declaring_a_family_that_does_not_fit_fails_to_load(
+    tmp_path: Path,
+) -> None:
+    (tmp_path / "panda.urdf").write_bytes((REPO / "problems" / "panda.urdf").read_bytes())
+    (tmp_path / "arm.toml").write_text(
+        '[robot]\nname = "panda_urdf"\nconvention = "urdf"\nurdf = "panda.urdf"\n'
+        'base_link = "panda_link0"\ntip_link = "panda_hand"\nanalytic = "ur"\nsource = "test"\n',
+        encoding="utf-8",
+    )
+    with pytest.raises(ProblemFileError, match=r"'analytic'.*'ur': 7 joints"):
+        load_problem(tmp_path / "arm.toml")
