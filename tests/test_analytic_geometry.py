@@ -429,3 +429,89 @@ def test_urdf_problem_file_declaring_a_family_that_does_not_fit_fails_to_load(
     )
     with pytest.raises(ProblemFileError, match=r"'analytic'.*'ur': 7 joints"):
         load_problem(tmp_path / "arm.toml")
+
+
+def _random_rotation(rng: np.random.Generator) -> np.ndarray:
+    """A uniformly random 4x4 rotation (QR of a Gaussian matrix, det +1)."""
+    Qm, Rm = np.linalg.qr(rng.normal(size=(3, 3)))
+    Qm = Qm @ np.diag(np.sign(np.diag(Rm)))
+    if np.linalg.det(Qm) < 0:
+        Qm[:, 0] = -Qm[:, 0]
+    T = np.eye(4)
+    T[:3, :3] = Qm
+    return T
+
+
+def _random_urdf(problem: str, flips: tuple[int, ...], seed: int) -> tuple[str, Robot, np.ndarray]:
+    """A built-in DH arm written as a URDF with random link frames.
+
+    Link ``i``'s frame is the DH frame after joint ``i``'s motion times a random
+    ``G_i = Tz(t) R`` (any orientation, origin anywhere on the axis), so each joint's axis
+    is a random direction in its URDF frame; joints in ``flips`` turn about the reversed
+    axis (``q_urdf = -q_dh``, limits mirrored). Returns the URDF, the DH robot and the
+    signs ``s`` with ``fk_urdf(s * q) = fk_dh(q)``.
+    """
+    dh = load_problem(problem).robot
+    assert dh.dh is not None
+    rng = np.random.default_rng(seed)
+    signs = np.array([-1.0 if i + 1 in flips else 1.0 for i in range(6)])
+    G_prev = np.eye(4)
+    X_prev = dh.T_world_base
+    links = ["<link name='l0'/>"]
+    joints = []
+    for i, r in enumerate(dh.dh):
+        G = _trans(0, 0, float(rng.uniform(-0.2, 0.2))) @ _random_rotation(rng)
+        origin = np.linalg.inv(G_prev) @ X_prev @ _rz(r.theta) @ G
+        axis = signs[i] * G[:3, :3].T @ np.array([0.0, 0.0, 1.0])
+        lo, hi = float(dh.lower[i]), float(dh.upper[i])
+        if signs[i] < 0:
+            lo, hi = -hi, -lo
+        joints.append(
+            f'<joint name="j{i + 1}" type="revolute"><parent link="l{i}"/>'
+            f'<child link="l{i + 1}"/>{_origin(origin)}'
+            f'<axis xyz="{" ".join(repr(float(v)) for v in axis)}"/>'
+            f'<limit lower="{lo!r}" upper="{hi!r}" effort="1" velocity="1"/></joint>'
+        )
+        links.append(f"<link name='l{i + 1}'/>")
+        G_prev = G
+        X_prev = _trans(0, 0, r.d) @ _trans(r.a, 0, 0) @ _rx(r.alpha)
+    tip = np.linalg.inv(G_prev) @ X_prev @ dh.T_flange_tool
+    joints.append(
+        f'<joint name="tip" type="fixed"><parent link="l6"/><child link="tip"/>'
+        f"{_origin(tip)}</joint>"
+    )
+    links.append("<link name='tip'/>")
+    return "<robot name='random'>" + "".join(links + joints) + "</robot>", dh, signs
+
+
+@pytest.mark.parametrize(
+    ("problem", "family", "flips"),
+    [
+        ("ur5", "ur", ()),
+        ("ur5", "ur", (1, 5)),
+        ("ur5", "ur", (2, 3, 4, 6)),
+        ("puma560", "spherical_wrist", (1, 4, 6)),
+        ("puma560", "spherical_wrist", (2, 3, 5)),
+    ],
+)
+def test_random_urdf_frames_and_reversed_axes_keep_the_family(
+    problem: str, family: str, flips: tuple[int, ...]
+) -> None:
+    """Any URDF frames, and reversed axes that keep parallel axes alike, are absorbed."""
+    for seed in range(3):
+        text, dh, signs = _random_urdf(problem, flips, seed)
+        robot = Robot.from_urdf(text, "l0", "tip")
+        Q = np.random.default_rng(seed).uniform(dh.lower, dh.upper, (20, 6))
+        assert np.max(np.abs(robot.fk(Q * signs) - dh.fk(Q))) < 1e-12  # independent
+        assert family_of(robot) is FAMILIES[family], explain_family(robot)
+        _check_branches(robot, 40, seed=seed)
+
+
+@pytest.mark.parametrize(("problem", "flips"), [("ur5", (3,)), ("puma560", (2,))])
+def test_random_urdf_with_one_reversed_parallel_axis_is_declined(
+    problem: str, flips: tuple[int, ...]
+) -> None:
+    text, _, _ = _random_urdf(problem, flips, 0)
+    robot = Robot.from_urdf(text, "l0", "tip")
+    assert family_of(robot) is None
+    assert "q -> -q" in explain_family(robot)
