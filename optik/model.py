@@ -366,6 +366,12 @@ class Robot:
             np.all(coupling == np.eye(n))
         )
         self._cache: dict[Callable[[Robot], Any], Any] = {}
+        if analytic is not None:
+            # A declared closed-form family must fit when the robot is built, not first
+            # fail inside solve_ik (AnalyticIKError names the relation that fails).
+            from optik.analytic import family_of
+
+            family_of(self)
 
     # ------------------------------------------------------------------ constructors
     @classmethod

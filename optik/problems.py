@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from optik._checks import MAX_LENGTH_M, FloatArray
-from optik.errors import OptikError, ProblemFileError
+from optik.errors import AnalyticIKError, OptikError, ProblemFileError
 from optik.model import DHJoint, Mimic, Robot
 from optik.spatial import rpy_to_matrix, transform
 
@@ -294,6 +294,8 @@ def _robot(
                 model = Robot.from_urdf(
                     urdf, base_link, tip_link, name=name, tool=tool, analytic=analytic
                 )
+            except AnalyticIKError as exc:  # the declared family does not fit
+                raise reader.fail("robot", "analytic", str(exc)) from exc
             except OptikError as exc:
                 raise reader.fail("robot", "urdf", str(exc)) from exc
             if base is not None:
@@ -309,6 +311,8 @@ def _robot(
         return build(rows, name=name, base=base, tool=tool, analytic=analytic), source
     except ProblemFileError:
         raise
+    except AnalyticIKError as exc:  # the declared family does not fit
+        raise reader.fail("robot", "analytic", str(exc)) from exc
     except OptikError as exc:
         raise reader.fail("robot", "joints", str(exc)) from exc
 

@@ -183,12 +183,11 @@ def test_family_detection_and_errors() -> None:
         analytic_ik(panda, panda.fk(panda.mid_limits))
     with pytest.raises(AnalyticIKError, match="solves mode"):
         analytic_ik(puma, [0.3, 0.2, 0.5], mode="position")
-    wrong = Robot.from_dh([{"a": 1.0, "role": "arm"}, {"a": 1.0, "role": "arm"}], analytic="ur")
-    with pytest.raises(AnalyticIKError, match="does not fit"):
-        analytic_ik(wrong, [1.0, 1.0, 0.0], mode="position")
-    unknown = Robot.from_dh([{"a": 1.0, "role": "arm"}], analytic="nope")
+    # A declared family is checked when the robot is built, with the reason.
+    with pytest.raises(AnalyticIKError, match=r"does not fit family 'ur': 2 joints"):
+        Robot.from_dh([{"a": 1.0, "role": "arm"}, {"a": 1.0, "role": "arm"}], analytic="ur")
     with pytest.raises(AnalyticIKError, match="unknown analytic family"):
-        analytic_ik(unknown, [1.0, 0.0, 0.0], mode="position")
+        Robot.from_dh([{"a": 1.0, "role": "arm"}], analytic="nope")
 
 
 def test_bad_targets_raise_optik_errors() -> None:

@@ -34,6 +34,9 @@ from optik.analytic._base import (
     FAMILIES,
     VERIFY_TOLERANCE,
     AnalyticFamily,
+    FamilyMatch,
+    explain_family,
+    match_families,
 )
 from optik.errors import AnalyticIKError, OptikError, ShapeError
 from optik.model import Robot
@@ -56,10 +59,13 @@ __all__ = [
     "VERIFY_TOLERANCE",
     "AnalyticBatch",
     "AnalyticFamily",
+    "FamilyMatch",
     "analytic_ik",
     "analytic_ik_batch",
     "detect_family",
+    "explain_family",
     "family_of",
+    "match_families",
     "wrap_into_limits",
 ]
 
@@ -88,7 +94,8 @@ def family_of(robot: Robot) -> AnalyticFamily | None:
         )
     if not robot.cached(_declared_family_fits):
         raise AnalyticIKError(
-            f"robot {robot.name!r}: its joint structure does not fit family {family.name!r}"
+            f"robot {robot.name!r}: its joint structure does not fit family "
+            f"{family.name!r}: {family.explain(robot)}"
         )
     return family
 

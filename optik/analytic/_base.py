@@ -4,11 +4,16 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
-from typing import ClassVar
+from collections.abc import Callable
+from typing import ClassVar, NamedTuple
+
+import numpy as np
 
 from optik._checks import FloatArray
 from optik._math import trig_roots
+from optik.analytic.geometry import DHModel, NoTable, equivalent_dh, revolute_chain_reason
 from optik.model import DHJoint, Robot
+from optik.spatial import invert_transform
 from optik.trig import TRIG_TOL
 
 SINGULAR_EPS = 1e-12
@@ -47,6 +52,25 @@ class AnalyticFamily(ABC):
     def fits(self, robot: Robot) -> bool:
         """Whether this family's closed form applies to ``robot``."""
 
+    def explain(self, robot: Robot) -> str | None:
+        """Why this family does not fit ``robot`` (one line), or ``None`` when it fits.
+
+        The default, for families that read the robot's own standard DH rows; the
+        families that work from the joint axes say which relation fails.
+        """
+        if self.fits(robot):
+            return None
+        if robot.convention != "dh":
+            return f"reads standard DH rows; the robot was built from {robot.convention}"
+        return f"{robot.dof} joints: its DH rows do not have the family's structure"
+
+    def model(self, robot: Robot) -> DHModel:
+        """The DH table (and base and tool transforms) the compiled kernel solves.
+
+        Only for a compiled family (``kernel`` set) that fits ``robot``.
+        """
+        raise NotImplementedError(f"family {self.name!r} has no compiled kernel")
+
     @abstractmethod
     def candidates(
         self, robot: Robot, T_0_target: FloatArray, mode: str, q_ref: FloatArray
@@ -63,6 +87,61 @@ class AnalyticFamily(ABC):
 
 
 FAMILIES: dict[str, AnalyticFamily] = {}
+
+
+class FamilyMatch(NamedTuple):
+    """Whether one family fits a robot, and why not (:func:`match_families`).
+
+    Attributes:
+        family: the family's registered name.
+        fits: whether its closed form applies.
+        reason: ``""`` when it fits, else the first relation that fails (one line).
+        source: where the fitting table comes from: ``"dh rows"`` (the robot's own),
+            ``"joint axes"`` (built from the geometry) or ``""`` (not a compiled family
+            or no fit).
+    """
+
+    family: str
+    fits: bool
+    reason: str
+    source: str
+
+
+def match_families(robot: Robot) -> list[FamilyMatch]:
+    """Every registered family, in detection order, with whether and why it fits."""
+    matches = []
+    for family in FAMILIES.values():
+        reason = family.explain(robot)
+        source = family.model(robot).source if reason is None and family.kernel else ""
+        matches.append(FamilyMatch(family.name, reason is None, reason or "", source))
+    return matches
+
+
+def explain_family(robot: Robot) -> str:
+    """A readable account of the robot's closed-form family: which one, and why not others.
+
+    One line for the outcome (the declared family, the first detected one, or none),
+    then one line per registered family: ``fits`` (with the table's source) or the
+    relation that fails. Never raises for a well-formed robot: a declared family that
+    does not fit is reported, not raised.
+    """
+    matches = match_families(robot)
+    if robot.analytic is not None:
+        found = next((m for m in matches if m.family == robot.analytic), None)
+        if found is None:
+            head = f"declared family {robot.analytic!r} is not registered"
+        elif found.fits:
+            head = f"family {found.family!r} (declared)"
+        else:
+            head = f"declared family {found.family!r} does not fit: {found.reason}"
+    else:
+        first = next((m for m in matches if m.fits), None)
+        head = "no closed-form family" if first is None else f"family {first.family!r} (detected)"
+    lines = [f"robot {robot.name!r}: {head}"]
+    for m in matches:
+        status = f"fits ({m.source})" if m.fits and m.source else "fits" if m.fits else m.reason
+        lines.append(f"  {m.family}: {status}")
+    return "\n".join(lines)
 
 
 def register(family_cls: type[AnalyticFamily]) -> type[AnalyticFamily]:
@@ -99,3 +178,63 @@ def is_right_angle(alpha: float) -> int:
     if abs(alpha + math.pi / 2) < 1e-12:
         return -1
     return 0
+
+
+def fit_model(
+    robot: Robot,
+    rows_reason: Callable[[tuple[DHJoint, ...]], str | None],
+    signs: tuple[int, ...],
+) -> DHModel | str:
+    """The DH table a six-joint family solves ``robot`` with, or why there is none.
+
+    The robot's own standard DH rows when they fit (``rows_reason`` returns ``None``);
+    else, for a chain of six revolute joints without coupling, the equivalent table
+    built from its joint axes (:func:`optik.analytic.geometry.equivalent_dh`, ``signs``
+    choosing the signs of the twists), proved by FK, when that fits.
+
+    Args:
+        robot: the robot.
+        rows_reason: the family's test of a DH table: ``None`` or why it does not fit.
+        signs: the twist signs the family's table wants (see ``equivalent_dh``).
+    """
+    if robot.convention == "dh" and robot.dh is not None:
+        own = rows_reason(robot.dh)
+        if own is None and robot.chain.identity:
+            return DHModel(robot.dh, robot.T_world_base, robot.T_flange_tool, "dh rows")
+    reason = revolute_chain_reason(robot, 6)
+    if reason is not None:
+        return reason
+    try:
+        model = equivalent_dh(robot, signs)
+    except NoTable as exc:
+        return str(exc)
+    return rows_reason(model.rows) or model
+
+
+def table_target(robot: Robot, model: DHModel, T_0_target: FloatArray) -> FloatArray:
+    """A flange target in the robot's frame 0 as the target of ``model``'s last frame.
+
+    ``T_0_target`` is what :meth:`AnalyticFamily.candidates` receives (base and tool
+    removed); a table built from the joint axes has its own frame 0 and last frame. For
+    a robot's own DH rows it is returned as it is.
+    """
+    if model.source == "dh rows":
+        return T_0_target
+    T_world_flange = robot.T_world_base @ T_0_target
+    T_world_tool = T_world_flange @ robot.T_flange_tool
+    return np.asarray(
+        invert_transform(model.T_world_0) @ T_world_tool @ invert_transform(model.T_n_tool),
+        dtype=float,
+    )
+
+
+def opposite(alpha: float) -> str:
+    """A note for a twist of 180 deg: parallel axes of opposite directions."""
+    if abs(abs(alpha) - math.pi) < 1e-12:
+        return "; they are parallel but opposite, which would take q -> -q"
+    return ""
+
+
+def deg(angle: float) -> str:
+    """``angle`` (rad) in degrees, for messages."""
+    return f"{math.degrees(angle):.12g} deg"

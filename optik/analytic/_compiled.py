@@ -39,6 +39,7 @@ Every kernel is serial (``nogil``): callers may run them from several threads.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
 import numba as nb
@@ -55,10 +56,10 @@ from optik._math import (
 )
 from optik.analytic._base import (
     DUPLICATE_TOLERANCE,
+    FAMILIES,
     FREE_RHS_TOL,
     SINGULAR_EPS,
     VERIFY_TOLERANCE,
-    dh_rows,
     is_right_angle,
 )
 from optik.limits import LIMIT_TOLERANCE
@@ -66,7 +67,7 @@ from optik.spatial import ROTATION_TOLERANCE, invert_transform
 from optik.trig import TRIG_TOL
 
 if TYPE_CHECKING:
-    from optik.model import Robot
+    from optik.model import DHJoint, Robot
 
 _jit = nb.njit(cache=True, nogil=True, error_model="numpy")
 
@@ -127,15 +128,14 @@ _TWO_PI = 2.0 * math.pi
 
 
 # ---------------------------------------------------------------------- packing (Python)
-def pack_dh(robot: Robot) -> FloatArray:
-    """The robot's standard DH rows as a (dof, 8) array, columns :data:`DH_COLUMNS`.
+def pack_dh(rows: Sequence[DHJoint]) -> FloatArray:
+    """Standard DH rows as a (dof, 8) array, columns :data:`DH_COLUMNS`.
 
     ``a, alpha, d, theta`` (m, rad; ``theta`` is the revolute offset, ``d`` the prismatic
     one), ``is_prismatic`` (0 or 1), then derived constants the kernels would otherwise
     recompute at every call: ``cos alpha``, ``sin alpha`` and ``right``
     (:func:`optik.analytic._base.is_right_angle`: +1 / -1 for alpha = +-90 deg, else 0).
     """
-    rows = dh_rows(robot)
     return np.array(
         [
             [
@@ -164,17 +164,23 @@ def pack_params(robot: Robot, family: int) -> FloatArray:
     per robot (a :class:`~optik.Robot` does not change after construction;
     ``Robot.with_limits`` starts a fresh cache).
 
+    The DH rows and the two transforms are the family's table of the robot
+    (``AnalyticFamily.model``): the robot's own standard DH rows with its base and tool,
+    or the equivalent table built from its joint axes with the world pose of its frame 0
+    (stored as ``T_base_world``) and the tool in its last frame (``T_tool_flange``).
+
     Args:
-        robot: a robot of a compiled family (six joints, standard DH, no coupling).
+        robot: a robot of a compiled family (six joints, no coupling) that fits it.
         family: the family id (:data:`SPHERICAL_WRIST` or :data:`UR`).
     """
+    model = next(f for f in FAMILIES.values() if f.kernel == family).model(robot)
     params = np.empty(_N_PARAMS)
     params[_FAMILY] = family
-    params[_DH:_LOWER] = pack_dh(robot).reshape(-1)
+    params[_DH:_LOWER] = pack_dh(model.rows).reshape(-1)
     params[_LOWER:_UPPER] = robot.lower
     params[_UPPER:_BASE_INV] = robot.upper
-    params[_BASE_INV:_TOOL_INV] = invert_transform(robot.T_world_base).reshape(-1)
-    params[_TOOL_INV:_MID] = invert_transform(robot.T_flange_tool).reshape(-1)
+    params[_BASE_INV:_TOOL_INV] = invert_transform(model.T_world_0).reshape(-1)
+    params[_TOOL_INV:_MID] = invert_transform(model.T_n_tool).reshape(-1)
     params[_MID:_CHAIN] = robot.mid_limits
     params[_CHAIN:_TOLS] = robot.chain.K[:, :3, :].reshape(-1)
     params[_TOLS:] = (
