@@ -87,6 +87,11 @@ class Joint:
 
 
 T_cached = TypeVar("T_cached")
+
+DECLARED_FAMILY_CHECKS: list[Callable[[Robot], object]] = []
+"""Checks run when a robot declares a closed-form family (``analytic=``). The closed-form
+layer (:mod:`optik.analytic`, which imports this module) adds its own on import, so the
+model never imports it back."""
 _ChainLink = ChainLink  # the DH and URDF readers build these
 
 
@@ -369,9 +374,8 @@ class Robot:
         if analytic is not None:
             # A declared closed-form family must fit when the robot is built, not first
             # fail inside solve_ik (AnalyticIKError names the relation that fails).
-            from optik.analytic import family_of
-
-            family_of(self)
+            for check in DECLARED_FAMILY_CHECKS:
+                check(self)
 
     # ------------------------------------------------------------------ constructors
     @classmethod

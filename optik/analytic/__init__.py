@@ -39,7 +39,7 @@ from optik.analytic._base import (
     match_families,
 )
 from optik.errors import AnalyticIKError, OptikError, ShapeError
-from optik.model import Robot
+from optik.model import DECLARED_FAMILY_CHECKS, Robot
 from optik.poses import as_target_pose
 from optik.spatial import as_pose, invert_transform, rotation_angle
 
@@ -444,3 +444,6 @@ def analytic_ik_batch(
         if branches:
             Q[k, : len(branches)] = branches
     return AnalyticBatch(Q, counts)
+
+
+DECLARED_FAMILY_CHECKS.append(family_of)
