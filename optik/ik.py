@@ -35,6 +35,7 @@ from optik.solvers import get_solver
 from optik.solvers._base import IKQuery, IKSolver, RunOutput, now
 from optik.solvers._lm_kernel import lm_solve_batch, lm_solve_batch_serial
 from optik.solvers._seeds import seed_table, start_sequence
+from optik.solvers._starts import StartSequence
 from optik.solvers.iterative import DLSSolver
 from optik.spatial import as_pose
 from optik.task import make_task
@@ -464,12 +465,25 @@ class _Plan:
     q_start: FloatArray
     numeric: IKSolver | None
     branches: list[FloatArray]
-    starts: Any
+    given: list[FloatArray]
+    seed: int
     max_iter: int
     last: int
     deadline: float
     start_time: float
     early: IKResult | None
+
+    @property
+    def starts(self) -> StartSequence:
+        """The query's start sequence, built when a solver first needs it."""
+        sequence = self.__dict__.get("_starts")
+        if sequence is None:
+            query = self.query
+            sequence = start_sequence(
+                query.robot, query.target, query.spec, self.given, self.seed, query.bounds
+            )
+            self.__dict__["_starts"] = sequence
+        return sequence
 
 
 def _bounds(robot: Robot, frozen: Any, limit_margin: Any) -> tuple[FloatArray, FloatArray] | None:
@@ -560,11 +574,10 @@ def _plan(
         early: IKResult | None = None,
     ) -> _Plan:
         solver_for_run = numeric or get_solver(AUTO_NUMERIC_SOLVER)
-        sequence = start_sequence(robot, T_target, task, starts_given, int(seed), bounds)
         per_attempt = iterations or solver_for_run.default_max_iter
         return _Plan(
-            query, q_start, numeric, branches, sequence, per_attempt, last, deadline,
-            start_time, early,
+            query, q_start, numeric, branches, starts_given, int(seed), per_attempt, last,
+            deadline, start_time, early,
         )  # fmt: skip
 
     family = family_of(robot) if warm_start == "analytic" else None

@@ -527,12 +527,8 @@ class Robot:
 
     @property
     def mid_limits(self) -> FloatArray:
-        """Middle of each joint's range (0 for a continuous joint)."""
-        mid = [
-            0.5 * (lo + hi) if math.isfinite(lo) and math.isfinite(hi) else 0.0
-            for lo, hi in zip(self.lower.tolist(), self.upper.tolist(), strict=True)
-        ]
-        return np.array(mid)
+        """Middle of each joint's range (0 for a continuous joint); a new array."""
+        return self.cached(_mid_limits).copy()
 
     def __repr__(self) -> str:
         kinds = "".join("P" if j.kind == "prismatic" else "R" for j in self.joints)
@@ -636,6 +632,10 @@ class Robot:
         shoulder sits on the base axis), that point does not move with the first joint and
         the ball is centred there, which is much tighter. Points outside are unreachable.
         """
+        centre, radius = self.cached(_reach_sphere)
+        return centre.copy(), radius
+
+    def _reach_sphere_uncached(self) -> tuple[FloatArray, float]:
         lengths = np.linalg.norm(self._K[:, :3, 3], axis=1)
         strokes = np.zeros(len(self._prismatic))
         for i, prismatic in enumerate(self._prismatic):
@@ -675,6 +675,18 @@ class Robot:
     def within_limits(self, q: Any, tol: float = 1e-12) -> bool | FloatArray:
         """Whether ``q`` (or each row) respects the limits up to ``tol``."""
         return within_limits(self.check_q(q), self.lower, self.upper, tol)
+
+
+def _mid_limits(robot: Robot) -> FloatArray:
+    mid = [
+        0.5 * (lo + hi) if math.isfinite(lo) and math.isfinite(hi) else 0.0
+        for lo, hi in zip(robot.lower.tolist(), robot.upper.tolist(), strict=True)
+    ]
+    return np.array(mid)
+
+
+def _reach_sphere(robot: Robot) -> tuple[FloatArray, float]:
+    return robot._reach_sphere_uncached()
 
 
 def _build_chain(robot: Robot) -> Chain:

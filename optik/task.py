@@ -117,6 +117,22 @@ def make_task(mode: Any = "pose", *, axis: Any = "z", weights: Any = None, tol: 
         OptikError: an unknown mode or axis, weights with NaN, infinities, negative
             entries or an unsupported rotational pattern, a non-positive tolerance.
     """
+    if weights is None and type(mode) is str and type(axis) is str and type(tol) in (float, int):
+        key = (mode, axis, type(tol), tol)  # the type keeps True apart from 1
+        cached = _PLAIN_TASKS.get(key)
+        if cached is None:
+            cached = _make_task(mode, axis, weights, tol)
+            if len(_PLAIN_TASKS) < 1024:
+                _PLAIN_TASKS[key] = cached
+        return cached
+    return _make_task(mode, axis, weights, tol)
+
+
+_PLAIN_TASKS: dict[tuple[Any, ...], Task] = {}
+
+
+def _make_task(mode: Any, axis: Any, weights: Any, tol: Any) -> Task:
+    """:func:`make_task` without the cache of tasks without weights."""
     check_choice("mode", mode, MODES)
     axis_name = check_choice("axis", axis, AXES)
     position_tol, orientation_tol = _parse_tol(tol)

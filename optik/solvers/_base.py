@@ -337,10 +337,16 @@ def get_solver(name: str, kind: str = "ik") -> Any:
             backend that is not installed; the message lists the installed names.
     """
     _check_kind(kind)
+    provider = _REGISTRY.get(name, {}).get(kind) if isinstance(name, str) else None
+    if provider is not None and provider.available():
+        key = (name, kind)
+        if key not in _INSTANCES:
+            _INSTANCES[key] = provider.factory()
+        return _INSTANCES[key]
+    # Only an error lists the installed names (probing every backend is slow).
     listed = (["auto"] if kind == "ik" else []) + available_solvers(kind)
     if not isinstance(name, str):
         raise UnknownSolverError(repr(name), listed)
-    provider = _REGISTRY.get(name, {}).get(kind)
     if provider is None:
         other = [k for k in _REGISTRY.get(name, {}) if k != kind]
         hint = (
@@ -350,14 +356,7 @@ def get_solver(name: str, kind: str = "ik") -> Any:
             else ""
         )
         raise UnknownSolverError(name, listed, hint)
-    if not provider.available():
-        raise UnknownSolverError(
-            name, listed, provider.install_hint or "Its backend is not installed."
-        )
-    key = (name, kind)
-    if key not in _INSTANCES:
-        _INSTANCES[key] = provider.factory()
-    return _INSTANCES[key]
+    raise UnknownSolverError(name, listed, provider.install_hint or "Its backend is not installed.")
 
 
 def now() -> float:
