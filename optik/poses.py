@@ -295,7 +295,7 @@ def _convention(name: str, convention: Any) -> str:
             'required: name the roll-pitch-yaw convention, e.g. rpy_convention="urdf" '
             "(R = Rz(yaw) Ry(pitch) Rx(roll))",
         )
-    if convention not in _SCIPY_SEQUENCE:
+    if not isinstance(convention, str) or convention not in _SCIPY_SEQUENCE:
         known = "; ".join(f"{key!r}: {meaning}" for key, meaning in RPY_CONVENTIONS.items())
         raise PoseArgumentError(name, f"unknown convention {convention!r}; known: {known}")
     return _SCIPY_SEQUENCE[str(convention)]
@@ -478,9 +478,9 @@ def as_target_pose(
         InvalidQuaternionError: a zero quaternion or one too far from unit norm.
         InvalidRotationError: a rotation that is not a proper rotation.
     """
-    if mode not in _MODES:
+    if not isinstance(mode, str) or mode not in _MODES:
         raise PoseArgumentError("mode", f'expected "pose" or "position", got {mode!r}')
-    if type(value) is np.ndarray:  # the common case first, without the checks below
+    if type(value) is np.ndarray and value.dtype.kind == "f":  # the common case first
         T = _from_array(name, value, mode, batch)
     elif isinstance(value, Mapping):
         T = _from_mapping(name, value, mode)
