@@ -72,15 +72,17 @@ def clip_into_limits(robot: Robot, name: str, q: Any) -> FloatArray:
     """
     array = finite_array(name, q, (robot.dof,))
     lower, upper = robot.lower, robot.upper
+    # A loop over Python floats beats numpy's per-call overhead for a few joints.
     # ``lower - tol <= q <= upper + tol`` as written (not ``|clip(q) - q| <= tol``, whose
     # subtraction rounds): a value exactly at the tolerance is accepted.
-    beyond = (array < lower - Q_CLIP_TOLERANCE) | (array > upper + Q_CLIP_TOLERANCE)
-    if beyond.any():
-        i = int(np.argmax(beyond))
-        raise JointLimitError(
-            robot.joints[i].name, float(array[i]), float(lower[i]), float(upper[i])
-        )
-    return np.clip(array, lower, upper)
+    inside = True
+    values = zip(array.tolist(), lower.tolist(), upper.tolist(), strict=True)
+    for i, (x, lo, hi) in enumerate(values):
+        if not lo <= x <= hi:
+            if not lo - Q_CLIP_TOLERANCE <= x <= hi + Q_CLIP_TOLERANCE:
+                raise JointLimitError(robot.joints[i].name, x, lo, hi)
+            inside = False
+    return array.copy() if inside else np.clip(array, lower, upper)
 
 
 def diff_ik_solvers() -> list[str]:
