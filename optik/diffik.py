@@ -18,8 +18,9 @@ from typing import Any, Final
 
 import numpy as np
 
-from optik._checks import FloatArray, check_bool, check_real, finite_array
+from optik._checks import MAX_LENGTH_M, FloatArray, check_bool, check_real, finite_array
 from optik.errors import (
+    ArgumentError,
     JointLimitError,
     NonFiniteError,
     NoSolutionError,
@@ -246,6 +247,8 @@ def diff_ik(
         JointLimitError: with ``limits``, a joint of ``q`` beyond its limits by more
             than :data:`~optik.limits.Q_CLIP_TOLERANCE`.
         ShapeError, NonFiniteError: bad ``q``, ``twist`` or ``velocity_limits``.
+        ArgumentError: an entry of ``twist * dt`` beyond
+            :data:`~optik._checks.MAX_LENGTH_M` (1e9, m or rad).
         OptikError: a non-``Robot``; ``dt`` not a number > 0, ``limits`` not a bool,
             ``limit_gain`` outside (0, 1], a bad ``damping``, ``objective`` or ``rows``.
     """
@@ -260,8 +263,14 @@ def diff_ik(
     twist_arr = finite_array("twist", twist, (6,))
     # A measured q a hair outside a limit is clipped onto it (a servo loop's reading).
     q_arr = clip_into_limits(robot, "q", q) if limits else finite_array("q", q, (robot.dof,))
-    with np.errstate(over="ignore"):  # an overflow to inf is reported as non-finite v
+    with np.errstate(over="ignore"):  # an overflow to inf is rejected just below
         v = twist_arr * step
+    if not np.all(np.abs(v) <= MAX_LENGTH_M):
+        # One step of 1e9 m is no servo command, and the program's products would overflow.
+        i = int(np.argmax(~(np.abs(v) <= MAX_LENGTH_M)))
+        raise ArgumentError(
+            f"twist[{i}] * dt", float(v[i]), f"a step of magnitude <= {MAX_LENGTH_M:g}"
+        )
     program = build_program(
         robot,
         q_arr,

@@ -322,7 +322,7 @@ def _svd_solve(
         U, s, Vt = np.linalg.svd(A, full_matrices=False)
     except np.linalg.LinAlgError as exc:  # pragma: no cover - LAPACK non-convergence
         raise SingularMatrixError(float("inf"), f"SVD did not converge ({exc})") from exc
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         kappa = np.where(s[:, -1] > 0.0, s[:, 0] / s[:, -1], np.inf)
         if lam2 == 0.0:
             if np.any(kappa > max_condition):
@@ -411,7 +411,7 @@ def _lu_solve(
 def _condition_flat(A: FloatArray) -> FloatArray:
     """``cond_2`` of each matrix of a flat stack (N, m, n), ``inf`` when rank deficient."""
     s = np.linalg.svd(A, compute_uv=False)
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         kappa: FloatArray = np.where(s[:, -1] > 0.0, s[:, 0] / s[:, -1], np.inf)
     return kappa
 

@@ -275,7 +275,8 @@ def _rotation_matrix(name: str, value: Any) -> FloatArray:
 def _quaternion_matrix(name: str, value: Any, scalar_first: bool) -> FloatArray:
     """Rotation matrix of a near-unit quaternion (4,) or (N, 4), in the named order."""
     q = _batch_of("a quaternion", name, value, (4,), "(4,) or (N, 4)")
-    norm = np.linalg.norm(q, axis=-1)
+    with np.errstate(over="ignore"):  # an entry of 1e200 gives norm inf: rejected below
+        norm = np.linalg.norm(q, axis=-1)
     bad = np.abs(norm - 1.0) > QUAT_NORM_TOLERANCE
     if np.any(bad):
         k = int(np.argmax(bad)) if q.ndim == 2 else None

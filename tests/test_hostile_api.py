@@ -277,6 +277,25 @@ def test_diff_ik_options_are_typed_errors() -> None:
             optik.diff_ik(PUMA, q, np.zeros(6), **options)
 
 
+def test_diff_ik_step_beyond_length_bound() -> None:
+    """A twist of 1e300 m/s is a step of 1e298 m: rejected, not handed to a QP backend."""
+    twist = np.array([1e300, 0.0, 0.0, 0.0, 0.0, 0.0])
+    with pytest.raises(OptikError, match=r"twist\[0\] \* dt: expected a step"):
+        optik.diff_ik(PUMA, PUMA.mid_limits, twist, dt=0.01)
+    twist[0] = 1e11  # 1e9 m in one step of 0.01 s: at the bound, still accepted
+    dq = optik.diff_ik(PUMA, PUMA.mid_limits, twist, dt=0.01, objective="least_squares")
+    assert _finite(dq)
+
+
+@pytest.mark.filterwarnings("error::RuntimeWarning")
+def test_python_family_far_target_is_unreachable_without_overflow() -> None:
+    """The planar family squares coordinates: 1e300 m is ruled out before (reach sphere)."""
+    for x in (1e155, 1e300, -1e300):
+        assert optik.analytic_ik(PLANAR, [x, 0.0, 0.0], "position") == []
+        assert optik.analytic_ik_batch(PLANAR, [[x, 0.0, 0.0]], "position").counts.tolist() == [0]
+    assert optik.analytic_ik(PLANAR, [1.0, 0.5, 0.0], "position")  # a reachable point still solves
+
+
 # ====================================================================== q0 tolerance
 def _at_limit(robot: optik.Robot, joint: int, excess: float) -> np.ndarray:
     q = robot.mid_limits.copy()
@@ -429,7 +448,7 @@ def test_hostile_analytic_ik(
 
 @FUZZ
 @given(
-    target=st.one_of(hostile_array(np.array([1.0, 0.5])), hostile_pose(_pose(1.0, 0.5))),
+    target=st.one_of(hostile_array(np.array([1.0, 0.5, 0.0])), hostile_pose(_pose(1.0, 0.5))),
     q_ref=st.one_of(st.none(), hostile_array(np.full(2, 0.1))),
     batch=st.booleans(),
 )

@@ -241,6 +241,8 @@ def analytic_ik(
     T_target = as_target_pose(target, mode)
     sort = q_ref is not None
     ref = robot.mid_limits if q_ref is None else _check_ref(robot, q_ref)
+    if _beyond_reach(robot, T_target):
+        return []  # a proof, before the family's arithmetic could overflow (1e155 m)
     if mode == "position" and np.any(np.abs(robot.T_flange_tool[:3, 3]) > 0.0):
         raise AnalyticIKError(
             f"robot {robot.name!r}: position-only closed forms need a tool without offset"
@@ -250,6 +252,16 @@ def analytic_ik(
     )
     raw = family.candidates(robot, T_0_flange, mode, ref)
     return _finish(robot, raw, T_target, mode, ref, sort, within_limits)
+
+
+def _beyond_reach(robot: Robot, T_target: FloatArray) -> bool:
+    """Whether one coordinate alone puts the target outside the reach sphere.
+
+    Sound (the distance is at least the largest coordinate difference) and free of
+    squares, so a target 1e155 m away is ruled out without an overflow.
+    """
+    centre, radius = robot.reach_sphere
+    return bool(np.max(np.abs(T_target[:3, 3] - centre)) > radius * (1 + 1e-9) + 1e-12)
 
 
 def _compiled_plan(robot: Robot) -> tuple[FloatArray, FloatArray]:
