@@ -632,3 +632,11 @@ def test_hostile_robot_argument(warm: None, robot: Any, name: str) -> None:
     }
     for label, call in (*calls.items(), *(extra.items() if name == "solve_ik" else ())):
         _attempt(label, call)
+
+
+@FUZZ
+@given(kind=st.one_of(SCALARS, st.sampled_from(["ik", "step", "IK", ["step"]])))
+def test_hostile_available_solvers(kind: Any) -> None:
+    names = _attempt("available_solvers", lambda: optik.available_solvers(kind=kind))
+    if names is not None:
+        assert kind in ("ik", "step") and names and all(isinstance(n, str) for n in names)
