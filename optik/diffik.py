@@ -18,14 +18,17 @@ from typing import Any, Final
 
 import numpy as np
 
-from optik._checks import FloatArray, finite_array
+from optik._checks import MAX_LENGTH_M, FloatArray, check_bool, check_real, finite_array
 from optik.errors import (
+    ArgumentError,
+    JointLimitError,
     NonFiniteError,
     NoSolutionError,
     OptikError,
     SolverError,
     UnknownSolverError,
 )
+from optik.limits import Q_CLIP_TOLERANCE
 from optik.model import Robot
 from optik.programs.diff_qp import DiffIKProgram, Objective, QPSolution, build_program
 from optik.solvers import StepBackend, available_solvers, get_solver, registered_solvers
@@ -34,6 +37,7 @@ __all__ = [
     "FEASIBILITY_ATOL",
     "FEASIBILITY_RTOL",
     "KKT_RTOL",
+    "clip_into_limits",
     "diff_ik",
     "diff_ik_solvers",
     "verify_step",
@@ -45,6 +49,41 @@ FEASIBILITY_RTOL: Final[float] = 1e-7
 FEASIBILITY_ATOL: Final[float] = 1e-12
 #: Relative tolerance on KKT stationarity (times the program's scale, see ``KKTReport``).
 KKT_RTOL: Final[float] = 1e-6
+
+
+def clip_into_limits(robot: Robot, name: str, q: Any) -> FloatArray:
+    """A given configuration (dof,) clipped onto the limits within a tolerance.
+
+    A measured configuration may lie a hair outside a limit: within
+    :data:`~optik.limits.Q_CLIP_TOLERANCE` (rad or m) of the limits it is clipped onto
+    them; beyond it the configuration is rejected.
+
+    Args:
+        robot: the robot whose limits apply.
+        name: argument name for messages (``"q0"``, ``"q"``).
+        q: configuration (dof,), rad or m.
+
+    Returns:
+        A new (dof,) float64 array inside ``[robot.lower, robot.upper]``.
+
+    Raises:
+        ShapeError, ArgumentError, NonFiniteError: not a finite real (dof,) array.
+        JointLimitError: a joint beyond its limits by more than the tolerance (the first
+            such joint is named).
+    """
+    array = finite_array(name, q, (robot.dof,))
+    lower, upper = robot.lower, robot.upper
+    # A loop over Python floats beats numpy's per-call overhead for a few joints.
+    # ``lower - tol <= q <= upper + tol`` as written (not ``|clip(q) - q| <= tol``, whose
+    # subtraction rounds): a value exactly at the tolerance is accepted.
+    inside = True
+    values = zip(array.tolist(), lower.tolist(), upper.tolist(), strict=True)
+    for i, (x, lo, hi) in enumerate(values):
+        if not lo <= x <= hi:
+            if not lo - Q_CLIP_TOLERANCE <= x <= hi + Q_CLIP_TOLERANCE:
+                raise JointLimitError(robot.joints[i].name, x, lo, hi)
+            inside = False
+    return array.copy() if inside else np.clip(array, lower, upper)
 
 
 def diff_ik_solvers() -> list[str]:
@@ -176,7 +215,9 @@ def diff_ik(
 
     Args:
         robot: the robot.
-        q: configuration (dof,), rad or m.
+        q: configuration (dof,), rad or m; with ``limits``, within
+            :data:`~optik.limits.Q_CLIP_TOLERANCE` of the limits (a measured
+            configuration a hair outside is clipped onto them).
         twist: tool twist (6,) in the world frame: linear velocity (m/s) then angular
             velocity (rad/s).
         dt: time step (s), > 0.
@@ -203,24 +244,37 @@ def diff_ik(
         SolverError: the backend failed (raised, returned nothing, or a point that fails
             optik's checks) on a program that has a solution.
         UnknownSolverError: unknown or uninstalled solver; the message lists the installed.
+        JointLimitError: with ``limits``, a joint of ``q`` beyond its limits by more
+            than :data:`~optik.limits.Q_CLIP_TOLERANCE`.
         ShapeError, NonFiniteError: bad ``q``, ``twist`` or ``velocity_limits``.
-        OptikError: ``dt <= 0``, ``limit_gain`` outside (0, 1], a bad ``damping`` or
-            ``objective``.
+        ArgumentError: an entry of ``twist * dt`` beyond
+            :data:`~optik._checks.MAX_LENGTH_M` (1e9, m or rad).
+        OptikError: a non-``Robot``; ``dt`` not a number > 0, ``limits`` not a bool,
+            ``limit_gain`` outside (0, 1], a bad ``damping``, ``objective`` or ``rows``.
     """
+    if not isinstance(robot, Robot):
+        raise OptikError(f"robot must be an optik.Robot, got {type(robot).__name__}")
     backend = _resolve(solver)
-    try:
-        step = float(dt)
-    except (TypeError, ValueError) as exc:
-        raise OptikError(f"dt must be a number of seconds, got {dt!r}") from exc
+    step = check_real("dt", dt, allow_nan=True, allow_inf=True)
     if not math.isfinite(step):
         raise NonFiniteError("dt")
-    if step <= 0.0:
-        raise OptikError(f"dt must be > 0, got {step}")
+    check_real("dt", step, positive=True)
+    check_bool("limits", limits)
     twist_arr = finite_array("twist", twist, (6,))
+    # A measured q a hair outside a limit is clipped onto it (a servo loop's reading).
+    q_arr = clip_into_limits(robot, "q", q) if limits else finite_array("q", q, (robot.dof,))
+    with np.errstate(over="ignore"):  # an overflow to inf is rejected just below
+        v = twist_arr * step
+    if not np.all(np.abs(v) <= MAX_LENGTH_M):
+        # One step of 1e9 m is no servo command, and the program's products would overflow.
+        i = int(np.argmax(~(np.abs(v) <= MAX_LENGTH_M)))
+        raise ArgumentError(
+            f"twist[{i}] * dt", float(v[i]), f"a step of magnitude <= {MAX_LENGTH_M:g}"
+        )
     program = build_program(
         robot,
-        q,
-        twist_arr * step,
+        q_arr,
+        v,
         objective=objective,
         dt=step,
         damping=damping,

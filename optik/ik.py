@@ -24,10 +24,18 @@ from typing import Any
 import numba
 import numpy as np
 
-from optik._checks import FloatArray, check_choice, check_int, check_real, finite_array
+from optik._checks import (
+    FloatArray,
+    as_float_array,
+    check_choice,
+    check_int,
+    check_real,
+    finite_array,
+)
 from optik.analytic import AnalyticFamily, analytic_ik, family_of
 from optik.chain import read_only
-from optik.errors import JointLimitError, OptikError, ShapeError
+from optik.diffik import clip_into_limits
+from optik.errors import ArgumentError, JointLimitError, OptikError, ShapeError
 from optik.limits import LIMIT_TOLERANCE
 from optik.model import Robot
 from optik.poses import as_target_pose
@@ -57,6 +65,11 @@ UNLIMITED_RESTARTS = 2**62
 BATCH_SLICE = 4096
 """Targets per compiled call of :func:`solve_ik_batch`: between calls Python lets a
 ``KeyboardInterrupt`` through."""
+
+MAX_ITERATIONS = 100_000
+"""Largest ``max_iter``: one attempt runs inside compiled code without looking at the
+clock, so its length must be bounded (100,000 LM iterations of a 7-dof arm take about
+0.1 s); the deadline is checked between attempts."""
 
 MAX_SEED = 2**63 - 1
 """Largest ``seed`` (the streams are 64-bit)."""
@@ -104,13 +117,10 @@ class IKResult:
 
 
 def _check_q0(robot: Robot, q0: Any) -> FloatArray:
+    """``q0`` as a (dof,) array inside the limits; see :func:`optik.diffik.clip_into_limits`."""
     if q0 is None:
         return robot.mid_limits
-    q = finite_array("q0", q0, (robot.dof,))
-    for i, joint in enumerate(robot.joints):
-        if not (joint.lower - LIMIT_TOLERANCE <= q[i] <= joint.upper + LIMIT_TOLERANCE):
-            raise JointLimitError(joint.name, float(q[i]), joint.lower, joint.upper)
-    return np.clip(q, robot.lower, robot.upper)
+    return clip_into_limits(robot, "q0", q0)
 
 
 def _check_options(
@@ -129,7 +139,7 @@ def _check_options(
     if restarts is not None:
         check_int("restarts", restarts, minimum=0, maximum=UNLIMITED_RESTARTS)
     if max_iter is not None:
-        check_int("max_iter", max_iter, minimum=1, maximum=10**9)
+        check_int("max_iter", max_iter, minimum=1, maximum=MAX_ITERATIONS)
     check_int("seed", seed, minimum=0, maximum=MAX_SEED)
 
 
@@ -138,12 +148,10 @@ def _check_threads(threads: Any) -> int:
     if threads is None:
         return int(numba.get_num_threads())
     available = int(numba.config.NUMBA_NUM_THREADS)  # type: ignore[attr-defined]
-    if not isinstance(threads, int) or isinstance(threads, bool) or not 1 <= threads <= available:
-        raise OptikError(
-            f"threads must be an integer from 1 to {available} (numba's NUMBA_NUM_THREADS), "
-            f"got {threads!r}"
-        )
-    return threads
+    if isinstance(threads, float):  # an integral float is not a thread count
+        raise ArgumentError("threads", threads, f"an integer from 1 to {available}")
+    # NUMBA_NUM_THREADS is numba's ceiling: set_num_threads refuses more.
+    return check_int("threads", threads, minimum=1, maximum=available)
 
 
 def _result(
@@ -277,15 +285,17 @@ def solve_ik(
             axis); the modes are shortcuts for weights (:func:`optik.task.make_task`).
         solver: a name from :func:`optik.available_solvers`, or ``"auto"`` (the closed
             form when the robot has one, else :data:`AUTO_NUMERIC_SOLVER`).
-        q0: initial guess (dof,) inside the limits (outside raises
-            :class:`~optik.errors.JointLimitError`; it is not clipped silently). Default:
+        q0: initial guess (dof,) inside the limits; within
+            :data:`~optik.limits.Q_CLIP_TOLERANCE` outside them it is clipped onto them,
+            beyond it raises :class:`~optik.errors.JointLimitError`. Default:
             none: numeric solvers start from the seed table's nearest entry, and
             closed-form branches are ordered by their distance to mid-limits.
         warm_start: ``"analytic"`` (closed-form branches as starting points when a family
             exists) or ``"q0"`` (ignore the closed form).
         tol: tolerance of success for both errors, or ``(position_tol_m,
             orientation_tol_rad)``; the errors judged are the task's (:mod:`optik.task`).
-        max_iter: iterations per attempt (default: the solver's own).
+        max_iter: iterations per attempt, 1 to :data:`MAX_ITERATIONS` (default: the
+            solver's own).
         timeout_s: wall-time budget (s) for all attempts; ``inf`` means no time limit
             (the restart budget then stays :data:`DEFAULT_RESTARTS`). Compilation on a
             first call in a fresh environment is counted too.
@@ -594,7 +604,8 @@ def _plan(
         return plan(branches, branches)
     # No closed form: the reach sphere still proves a target unreachable.
     centre, radius = robot.reach_sphere
-    distance = float(np.linalg.norm(T_target[:3, 3] - centre))
+    with np.errstate(over="ignore"):  # a target 1e155 m away is simply unreachable
+        distance = float(np.linalg.norm(T_target[:3, 3] - centre))
     if task.constrains_position and distance > radius + task.position_tol:
         early = _result(
             robot,
@@ -691,7 +702,7 @@ class IKBatchResult:
 
 def _batch_poses(targets: Any, mode: str) -> FloatArray:
     """(N, 4, 4) validated target poses (identity rotations in position mode)."""
-    array = np.asarray(targets) if not isinstance(targets, np.ndarray) else targets
+    array = as_float_array("targets", targets)  # rejects ragged, complex, bool, strings
     if array.ndim >= 1 and array.shape[0] == 0:
         expected = (3,) if (mode == "position" and array.ndim == 2) else (4, 4)
         return np.empty((0, 4, 4)) if array.shape[1:] in ((4, 4), expected) else _bad(array)

@@ -23,6 +23,16 @@ ROLE_LIMITS_RAD: dict[str, tuple[float, float]] = {
 LIMIT_TOLERANCE = 1e-12
 """Slack (rad or m) allowed on a bound when deciding whether ``q`` is inside the limits."""
 
+Q_CLIP_TOLERANCE = 1e-6
+"""How far (rad or m) a given configuration may lie outside a limit and still be used.
+
+A measured configuration (an encoder reading, the last state of a servo loop) can sit a
+hair beyond a limit. ``solve_ik``'s ``q0`` and ``diff_ik``'s ``q`` within this distance of
+the limits are clipped onto them; beyond it they raise
+:class:`~optik.errors.JointLimitError` naming the joint. 1e-6 rad is about 0.2 arcsec,
+finer than the resolution of a typical 20-bit joint encoder (6e-6 rad).
+"""
+
 
 def resolve_limits(
     joint: str,

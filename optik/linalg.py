@@ -59,7 +59,7 @@ import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
-from optik._checks import FloatArray, as_float_array, check_finite
+from optik._checks import FloatArray, as_float_array, check_finite, check_real
 from optik._math import cholesky_factor, cholesky_substitute
 from optik.errors import NonFiniteError, OptikError, ShapeError, SingularMatrixError
 
@@ -69,6 +69,7 @@ IndexArray = NDArray[np.intp]
 __all__ = [
     "GRAM_CONDITION_LIMIT",
     "MAX_CONDITION",
+    "MAX_DAMPING",
     "condition_number",
     "generalized_inverse",
     "generalized_solve",
@@ -82,6 +83,10 @@ __all__ = [
 #: :class:`~optik.errors.SingularMatrixError`. The orthogonal path's relative error is
 #: at most ``~10 cond(A) eps``, so 1e12 still guarantees ~3 significant digits.
 MAX_CONDITION: Final[float] = 1e12
+
+#: Largest accepted ``damping``: its square, added to the Gram matrix, must stay finite
+#: (it overflows near 1e154); 1e100 leaves room for the Gram entries themselves.
+MAX_DAMPING: Final[float] = 1e100
 
 #: Largest accepted upper bound on ``cond_2(G)`` of the Gram matrix ``G`` for the fast
 #: Gram path; beyond it the SVD path is used. Keeps the Gram path's relative error below
@@ -127,16 +132,18 @@ def _finite(name: str, array: FloatArray) -> FloatArray:
     return array
 
 
-def _check_scalars(damping: float, max_condition: float) -> float:
-    """Validate the keyword scalars; return ``damping**2`` (0 when it underflows)."""
-    lam = float(damping)
-    if not np.isfinite(lam):
+def _check_scalars(damping: Any, max_condition: Any) -> float:
+    """Validate the keyword scalars; return ``damping**2`` (0 when it underflows).
+
+    A damping so small that its square underflows (1e-300) is no damping; one whose
+    square overflows (above ~1e154) is rejected, as the damped Gram matrix would be
+    ``inf``.
+    """
+    lam = check_real("damping", damping, allow_nan=True, allow_inf=True)
+    if not math.isfinite(lam):
         raise NonFiniteError("damping")
-    if lam < 0.0:
-        raise OptikError(f"damping must be >= 0, got {lam!r}")
-    limit = float(max_condition)
-    if not (limit >= 1.0):  # also rejects NaN
-        raise OptikError(f"max_condition must be >= 1, got {limit!r}")
+    check_real("damping", lam, nonnegative=True, maximum=MAX_DAMPING)
+    check_real("max_condition", max_condition, minimum=1.0, allow_inf=True)
     return lam * lam
 
 
@@ -315,7 +322,7 @@ def _svd_solve(
         U, s, Vt = np.linalg.svd(A, full_matrices=False)
     except np.linalg.LinAlgError as exc:  # pragma: no cover - LAPACK non-convergence
         raise SingularMatrixError(float("inf"), f"SVD did not converge ({exc})") from exc
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         kappa = np.where(s[:, -1] > 0.0, s[:, 0] / s[:, -1], np.inf)
         if lam2 == 0.0:
             if np.any(kappa > max_condition):
@@ -329,7 +336,8 @@ def _svd_solve(
                 )
             f = 1.0 / s
         else:
-            f = s / (s * s + lam2)
+            # s / (s^2 + l^2) written so that s^2 cannot overflow (s > 1e154).
+            f = np.where(s > 0.0, 1.0 / (s + lam2 / s), 0.0)
     Ut = np.swapaxes(U, -1, -2)
     C = Ut if B is None else Ut @ B  # (N, r, k)
     X: FloatArray = np.swapaxes(Vt, -1, -2) @ (f[:, :, None] * C)
@@ -403,7 +411,7 @@ def _lu_solve(
 def _condition_flat(A: FloatArray) -> FloatArray:
     """``cond_2`` of each matrix of a flat stack (N, m, n), ``inf`` when rank deficient."""
     s = np.linalg.svd(A, compute_uv=False)
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         kappa: FloatArray = np.where(s[:, -1] > 0.0, s[:, 0] / s[:, -1], np.inf)
     return kappa
 
@@ -480,7 +488,8 @@ def min_norm(
         NonFiniteError: ``A``, ``b`` or ``damping`` holds NaN or infinity.
         SingularMatrixError: undamped and ``cond_2(A) > max_condition`` (rank deficient);
             its ``condition_number`` is the worst ``cond_2(A)`` in the stack.
-        OptikError: ``damping < 0`` or ``max_condition < 1``.
+        ArgumentError: ``damping`` is not a real number in ``[0, MAX_DAMPING]``, or
+            ``max_condition`` not a real number >= 1.
     """
     return _solve(A, b, damping, max_condition, "min_norm")
 
@@ -510,7 +519,8 @@ def least_squares(
         NonFiniteError: ``A``, ``b`` or ``damping`` holds NaN or infinity.
         SingularMatrixError: undamped and ``cond_2(A) > max_condition`` (rank deficient);
             its ``condition_number`` is the worst ``cond_2(A)`` in the stack.
-        OptikError: ``damping < 0`` or ``max_condition < 1``.
+        ArgumentError: ``damping`` is not a real number in ``[0, MAX_DAMPING]``, or
+            ``max_condition`` not a real number >= 1.
     """
     return _solve(A, b, damping, max_condition, "least_squares")
 
@@ -537,7 +547,8 @@ def solve_square(
         ShapeError: wrong shapes, or a non-square ``A`` undamped.
         NonFiniteError: ``A``, ``b`` or ``damping`` holds NaN or infinity.
         SingularMatrixError: undamped and ``cond_2(A) > max_condition``.
-        OptikError: ``damping < 0`` or ``max_condition < 1``.
+        ArgumentError: ``damping`` is not a real number in ``[0, MAX_DAMPING]``, or
+            ``max_condition`` not a real number >= 1.
     """
     return _solve(A, b, damping, max_condition, "square")
 
@@ -564,7 +575,8 @@ def generalized_solve(
         ShapeError: ``A`` or ``b`` has a wrong shape.
         NonFiniteError: ``A``, ``b`` or ``damping`` holds NaN or infinity.
         SingularMatrixError: undamped and ``cond_2(A) > max_condition``.
-        OptikError: ``damping < 0`` or ``max_condition < 1``.
+        ArgumentError: ``damping`` is not a real number in ``[0, MAX_DAMPING]``, or
+            ``max_condition`` not a real number >= 1.
     """
     return _solve(A, b, damping, max_condition, "any")
 
@@ -590,9 +602,10 @@ def generalized_inverse(
 
     Raises:
         ShapeError: ``A`` is not ``(..., m, n)`` with ``m, n >= 1``.
-        NonFiniteError: ``A`` or ``damping`` holds NaN or infinity.
+        NonFiniteError: ``A`` holds NaN or infinity.
         SingularMatrixError: undamped and ``cond_2(A) > max_condition``.
-        OptikError: ``damping < 0`` or ``max_condition < 1``.
+        ArgumentError: ``damping`` is not a real number in ``[0, MAX_DAMPING]``, or
+            ``max_condition`` not a real number >= 1.
     """
     return _solve(A, None, damping, max_condition, "any")
 

@@ -275,7 +275,8 @@ def _rotation_matrix(name: str, value: Any) -> FloatArray:
 def _quaternion_matrix(name: str, value: Any, scalar_first: bool) -> FloatArray:
     """Rotation matrix of a near-unit quaternion (4,) or (N, 4), in the named order."""
     q = _batch_of("a quaternion", name, value, (4,), "(4,) or (N, 4)")
-    norm = np.linalg.norm(q, axis=-1)
+    with np.errstate(over="ignore"):  # an entry of 1e200 gives norm inf: rejected below
+        norm = np.linalg.norm(q, axis=-1)
     bad = np.abs(norm - 1.0) > QUAT_NORM_TOLERANCE
     if np.any(bad):
         k = int(np.argmax(bad)) if q.ndim == 2 else None
@@ -295,7 +296,7 @@ def _convention(name: str, convention: Any) -> str:
             'required: name the roll-pitch-yaw convention, e.g. rpy_convention="urdf" '
             "(R = Rz(yaw) Ry(pitch) Rx(roll))",
         )
-    if convention not in _SCIPY_SEQUENCE:
+    if not isinstance(convention, str) or convention not in _SCIPY_SEQUENCE:
         known = "; ".join(f"{key!r}: {meaning}" for key, meaning in RPY_CONVENTIONS.items())
         raise PoseArgumentError(name, f"unknown convention {convention!r}; known: {known}")
     return _SCIPY_SEQUENCE[str(convention)]
@@ -478,9 +479,9 @@ def as_target_pose(
         InvalidQuaternionError: a zero quaternion or one too far from unit norm.
         InvalidRotationError: a rotation that is not a proper rotation.
     """
-    if mode not in _MODES:
+    if not isinstance(mode, str) or mode not in _MODES:
         raise PoseArgumentError("mode", f'expected "pose" or "position", got {mode!r}')
-    if type(value) is np.ndarray:  # the common case first, without the checks below
+    if type(value) is np.ndarray and value.dtype.kind == "f":  # the common case first
         T = _from_array(name, value, mode, batch)
     elif isinstance(value, Mapping):
         T = _from_mapping(name, value, mode)

@@ -39,8 +39,8 @@ from typing import Any, Final
 import numpy as np
 
 from optik import _math
-from optik._checks import FloatArray, as_float_array, check_finite
-from optik.errors import NonFiniteError, OptikError, ShapeError
+from optik._checks import FloatArray, as_float_array, check_finite, check_real
+from optik.errors import NonFiniteError, ShapeError
 
 __all__ = ["TRIG_TOL", "solve_trig", "solve_trig_batch", "solve_trig_zero", "wrap_angle"]
 
@@ -65,7 +65,9 @@ def wrap_angle(t: float) -> float:
 
 def _scalar(name: str, value: Any) -> float:
     """``value`` as a finite Python float, or an optik error."""
-    array = as_float_array(name, value)
+    if isinstance(value, float) and math.isfinite(value):
+        return value  # the common case, without the array round trip
+    array = as_float_array(name, value)  # rejects bool, complex, strings, None
     if array.shape != ():
         raise ShapeError(name, "() (a scalar)", array.shape)
     x = float(array)
@@ -74,11 +76,9 @@ def _scalar(name: str, value: Any) -> float:
     return x
 
 
-def _check_tol(tol: float) -> float:
-    value = float(tol)
-    if not (value >= 0.0) or not math.isfinite(value):  # also rejects NaN
-        raise OptikError(f"tol must be finite and >= 0, got {tol!r}")
-    return value
+def _check_tol(tol: Any) -> float:
+    """``tol`` as a finite float >= 0 (a bool, complex or string is an error)."""
+    return check_real("tol", tol, nonnegative=True)
 
 
 def solve_trig(
@@ -106,7 +106,8 @@ def solve_trig(
     Raises:
         ShapeError: an argument is not a scalar.
         NonFiniteError: an argument is NaN or infinite.
-        OptikError: ``tol`` is negative or not finite.
+        ArgumentError: ``tol`` is not a finite real number >= 0, or an argument is
+            not a real number (bool, complex, string).
     """
     a_f, b_f, c_f = _scalar("a", a), _scalar("b", b), _scalar("c", c)
     free = _math.wrap_angle(_scalar("free_value", free_value))
@@ -138,7 +139,8 @@ def solve_trig_zero(
     Raises:
         ShapeError: an argument is not a scalar.
         NonFiniteError: an argument is NaN or infinite.
-        OptikError: ``tol`` is negative or not finite.
+        ArgumentError: ``tol`` is not a finite real number >= 0, or an argument is
+            not a real number (bool, complex, string).
     """
     return solve_trig(a, b, 0.0, free_value=free_value, tol=tol)
 
@@ -168,7 +170,8 @@ def solve_trig_batch(
     Raises:
         ShapeError: the arguments do not broadcast together.
         NonFiniteError: an argument holds NaN or infinity.
-        OptikError: ``tol`` is negative or not finite.
+        ArgumentError: ``tol`` is not a finite real number >= 0, or an argument is
+            not a real number (bool, complex, string).
     """
     arrays = [
         check_finite(name, as_float_array(name, value))
@@ -181,8 +184,9 @@ def solve_trig_batch(
         raise ShapeError("a, b, c", f"shapes that broadcast together, not {shapes}", ()) from exc
     tol = _check_tol(tol)
 
+    # Copies: broadcast views are read-only (and numba warns about passing them).
     a_f, b_f, c_f, free = (
-        np.ascontiguousarray(x, dtype=np.float64).reshape(-1) for x in (a_arr, b_arr, c_arr, f_arr)
+        np.array(x, dtype=np.float64, order="C").reshape(-1) for x in (a_arr, b_arr, c_arr, f_arr)
     )
     out = np.empty((3, a_f.shape[0]))
     _math.trig_branches_batch(a_f, b_f, c_f, free, tol, out)

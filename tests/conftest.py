@@ -7,9 +7,12 @@ fresh ``numpy.random.Generator`` per test, and hypothesis runs derandomized.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import math
 import os
+import signal
+from collections.abc import Iterator
 from dataclasses import fields
 from pathlib import Path
 from typing import Any
@@ -258,3 +261,28 @@ def tiny_config(seeds: bool = False, **overrides: object) -> RunConfig:
 def without_timing(rows: list[ResultRow]) -> list[tuple[object, ...]]:
     """Rows as tuples without the wall time (the only field allowed to differ)."""
     return [tuple(getattr(r, f.name) for f in fields(r) if f.name != "time_s") for r in rows]
+
+
+# ---------------------------------------------------------------------- time limits
+class Hang(Exception):
+    """A call ran past its :func:`time_limit`."""
+
+
+@contextlib.contextmanager
+def time_limit(seconds: float) -> Iterator[None]:
+    """Interrupt the enclosed block with :class:`Hang` after ``seconds`` (SIGALRM).
+
+    Main thread only (as pytest runs tests, also under xdist); compiled code that holds
+    the interpreter is interrupted when it returns, so a hang there still fails.
+    """
+
+    def on_alarm(signum: int, frame: Any) -> None:
+        raise Hang(f"no answer within {seconds} s")
+
+    previous = signal.signal(signal.SIGALRM, on_alarm)
+    signal.setitimer(signal.ITIMER_REAL, seconds)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)

@@ -19,7 +19,7 @@ from typing import Any, NamedTuple, cast
 import numpy as np
 from numpy.typing import NDArray
 
-from optik._checks import FloatArray, as_float_array, check_finite, finite_array
+from optik._checks import FloatArray, as_float_array, check_bool, check_finite, finite_array
 from optik._math import first_bad_pose
 from optik.analytic import (  # noqa: F401
     _compiled,
@@ -140,9 +140,22 @@ def _plain(array: FloatArray) -> FloatArray:
     return np.array(array, dtype=np.float64, order="C")
 
 
+def _check_robot(robot: Any) -> None:
+    if not isinstance(robot, Robot):
+        raise OptikError(f"robot must be an optik.Robot, got {type(robot).__name__}")
+
+
+def _check_within(within_limits: Any) -> bool:
+    """``within_limits`` as a bool (a string ``"false"`` is not taken for true)."""
+    if within_limits is True or within_limits is False:  # the common case, ~30 ns
+        return within_limits
+    return check_bool("within_limits", within_limits)
+
+
 def _check_mode(robot: Robot, mode: str) -> AnalyticFamily:
     """The robot's family, checked to solve ``mode`` (the errors of :func:`analytic_ik`)."""
-    if mode not in ("pose", "position"):
+    _check_robot(robot)
+    if not isinstance(mode, str) or mode not in ("pose", "position"):
         raise AnalyticIKError(f"mode must be 'pose' or 'position', got {mode!r}")
     family = family_of(robot)
     if family is None:
@@ -177,7 +190,7 @@ def analytic_ik(
         q_ref: reference configuration (dof,): representatives of angles and joints left
             free at singularities are chosen nearest it, and branches are sorted by their
             distance to it. Default: mid-limits (branches then keep the family's order).
-        within_limits: drop branches outside the joint limits (default). With ``False``
+        within_limits: drop branches outside the joint limits (default; a bool). With ``False``
             they are kept (still wrapped into the limits where a 2 pi shift allows).
 
     Returns:
@@ -189,8 +202,11 @@ def analytic_ik(
             (e.g. position-only IK of a 6-dof arm, which has infinitely many solutions).
         OptikError: malformed target or ``q_ref``.
     """
+    if not isinstance(robot, Robot):
+        _check_robot(robot)
+    within_limits = _check_within(within_limits)
     plan = robot.cached_value(_compiled_plan)
-    if plan is not None and mode == "pose":
+    if plan is not None and type(mode) is str and mode == "pose":
         # The hot path (a compiled family, already found and checked to fit): a float64
         # C-contiguous (4, 4) target and (dof,) q_ref go to the kernel as they are; it
         # validates them (finite; last row and rotation as optik.spatial.as_pose).
@@ -232,6 +248,8 @@ def analytic_ik(
     T_target = as_target_pose(target, mode)
     sort = q_ref is not None
     ref = robot.mid_limits if q_ref is None else _check_ref(robot, q_ref)
+    if _beyond_reach(robot, T_target):
+        return []  # a proof, before the family's arithmetic could overflow (1e155 m)
     if mode == "position" and np.any(np.abs(robot.T_flange_tool[:3, 3]) > 0.0):
         raise AnalyticIKError(
             f"robot {robot.name!r}: position-only closed forms need a tool without offset"
@@ -241,6 +259,16 @@ def analytic_ik(
     )
     raw = family.candidates(robot, T_0_flange, mode, ref)
     return _finish(robot, raw, T_target, mode, ref, sort, within_limits)
+
+
+def _beyond_reach(robot: Robot, T_target: FloatArray) -> bool:
+    """Whether one coordinate alone puts the target outside the reach sphere.
+
+    Sound (the distance is at least the largest coordinate difference) and free of
+    squares, so a target 1e155 m away is ruled out without an overflow.
+    """
+    centre, radius = robot.reach_sphere
+    return bool(np.max(np.abs(T_target[:3, 3] - centre)) > radius * (1 + 1e-9) + 1e-12)
 
 
 def _compiled_plan(robot: Robot) -> tuple[FloatArray, FloatArray]:
@@ -409,6 +437,7 @@ def analytic_ik_batch(
         InvalidRotationError: a target whose rotation is not proper (first one named).
     """
     family = _check_mode(robot, mode)
+    within_limits = _check_within(within_limits)
     T = _batch_targets(targets, mode)
     N = T.shape[0]
     dof = robot.dof

@@ -50,13 +50,21 @@ import numpy as np
 import qpsolvers
 import scipy.optimize
 
-from optik._checks import FloatArray, as_float_array, check_finite, finite_array
+from optik._checks import (
+    FloatArray,
+    as_float_array,
+    check_finite,
+    check_int,
+    check_real,
+    finite_array,
+)
 from optik.errors import NonFiniteError, OptikError, ShapeError
 from optik.model import Robot
 
 __all__ = [
     "ALL_ROWS",
     "DEFAULT_DAMPING",
+    "MAX_DAMPING",
     "OBJECTIVES",
     "POSITION_ROWS",
     "DiffIKProgram",
@@ -76,6 +84,12 @@ OBJECTIVES: Final[tuple[str, ...]] = ("least_norm", "least_squares")
 
 #: Default damping ``lambda`` of the least-squares program (m/rad for linear rows).
 DEFAULT_DAMPING: Final[float] = 1e-3
+
+#: Largest accepted damping ``lambda``. The step shrinks like ``1 / lambda^2`` beyond the
+#: largest singular value of ``J`` (about 1 m/rad for an arm), so at 1e3 it is below 1e-6
+#: of the undamped one; larger values only scale ``P`` towards what QP backends cannot
+#: solve in bounded time (1e300 made one run for minutes).
+MAX_DAMPING: Final[float] = 1e3
 
 #: The six rows of the geometric Jacobian: linear x, y, z then angular x, y, z.
 ALL_ROWS: Final[tuple[int, ...]] = (0, 1, 2, 3, 4, 5)
@@ -374,16 +388,10 @@ def _check_rows(rows: Sequence[int] | None, v: FloatArray) -> tuple[tuple[int, .
         if v.shape == (3,):
             return POSITION_ROWS, v
         raise ShapeError("v", "(6,) or (3,) (or pass rows)", v.shape)
-    try:
-        picked = tuple(int(r) for r in rows)
-    except (TypeError, ValueError) as exc:
-        raise OptikError(f"rows must be a sequence of integers in 0..5, got {rows!r}") from exc
-    if (
-        not picked
-        or len(set(picked)) != len(picked)
-        or any(r < 0 or r > 5 for r in picked)
-        or any(int(r) != r for r in rows)
-    ):
+    if isinstance(rows, str | bytes) or not isinstance(rows, Sequence | np.ndarray):
+        raise OptikError(f"rows must be a sequence of integers in 0..5, got {rows!r}")
+    picked = tuple(check_int(f"rows[{i}]", r, minimum=0, maximum=5) for i, r in enumerate(rows))
+    if not picked or len(set(picked)) != len(picked):
         raise OptikError(f"rows must be distinct integers in 0..5, got {rows!r}")
     if v.shape == (len(picked),):
         return picked, v
@@ -416,15 +424,17 @@ def _check_weight(name: str, value: Any, size: int, definite: bool) -> FloatArra
     return sym
 
 
-def _check_positive(name: str, value: Any, allow_zero: bool = False) -> float:
-    try:
-        x = float(value)
-    except (TypeError, ValueError) as exc:
-        raise OptikError(f"{name} must be a number, got {value!r}") from exc
+def _check_positive(
+    name: str, value: Any, allow_zero: bool = False, maximum: float | None = None
+) -> float:
+    """A finite real number > 0 (``>= 0`` with ``allow_zero``), at most ``maximum``."""
+    x = check_real(name, value, allow_nan=True, allow_inf=True)  # bool, str, complex fail
     if not math.isfinite(x):
         raise NonFiniteError(name)
     if x < 0.0 or (x == 0.0 and not allow_zero):
         raise OptikError(f"{name} must be {'>= 0' if allow_zero else '> 0'}, got {x}")
+    if maximum is not None and x > maximum:
+        raise OptikError(f"{name} must be <= {maximum:g}, got {x}")
     return x
 
 
@@ -552,7 +562,11 @@ def build_program(
             raise OptikError("Wt applies to the least_squares objective only")
         lam = 0.0
     else:
-        lam = DEFAULT_DAMPING if damping is None else _check_positive("damping", damping, True)
+        lam = (
+            DEFAULT_DAMPING
+            if damping is None
+            else _check_positive("damping", damping, True, maximum=MAX_DAMPING)
+        )
     lb, ub = step_bounds(
         robot, q_arr, limits=limits, limit_gain=limit_gain, velocity_limits=velocity_limits, dt=dt
     )
