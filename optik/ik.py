@@ -71,6 +71,11 @@ MAX_ITERATIONS = 100_000
 clock, so its length must be bounded (100,000 LM iterations of a 7-dof arm take about
 0.1 s); the deadline is checked between attempts."""
 
+MAX_BATCH_RESTARTS = 10_000
+"""Largest ``restarts`` of :func:`solve_ik_batch`: a target's restarts run inside one
+compiled call, and the batch returns to Python (and Ctrl-C) only between slices of
+:data:`BATCH_SLICE` targets."""
+
 MAX_SEED = 2**63 - 1
 """Largest ``seed`` (the streams are 64-bit)."""
 
@@ -755,7 +760,7 @@ def solve_ik_batch(
         q0: shared initial guess (dof,).
         tol: one tolerance, or ``(position_tol_m, orientation_tol_rad)``.
         max_iter: iterations per attempt.
-        restarts: attempts after the first.
+        restarts: attempts after the first, 0 to :data:`MAX_BATCH_RESTARTS`.
         seed: base seed of the restarts.
         threads: worker threads (default: numba's current thread count,
             ``numba.get_num_threads()``); 1 solves on the calling thread. Batches smaller
@@ -765,6 +770,7 @@ def solve_ik_batch(
     if not isinstance(robot, Robot):
         raise OptikError(f"robot must be an optik.Robot, got {type(robot).__name__}")
     _check_options(mode, tol, "q0", None, restarts, max_iter, seed)
+    check_int("restarts", restarts, minimum=0, maximum=MAX_BATCH_RESTARTS)
     task = make_task(mode, axis=axis, weights=weights, tol=tol)
     mode = "position" if task.mode == "position" else "pose"  # the targets' form
     if seed > MAX_SEED - 2**40:  # target k uses seed + k

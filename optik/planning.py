@@ -40,7 +40,17 @@ from optik.ik import solve_ik, solve_ik_batch
 from optik.model import Robot
 from optik.spatial import as_pose, check_rotation
 
-PLAN_STATUSES = ("ok", "unreachable", "outside_limits", "near_singular", "discontinuity")
+PLAN_STATUSES = (
+    "ok",
+    "unreachable",
+    "outside_limits",
+    "not_found",
+    "near_singular",
+    "discontinuity",
+)
+"""Per-waypoint flags. ``unreachable`` and ``outside_limits`` are proved (the reach
+sphere, a closed form); ``not_found`` is a failure without proof: no answer was found,
+even with the limits lifted, but none is proved impossible (raise ``restarts``)."""
 _SWITCH_PENALTY = 1e6
 _DUPLICATE = 1e-7
 
@@ -261,7 +271,13 @@ class _CandidateFinder:
         return _dedupe(np.array(rows), self.limit) if rows else []
 
     def why_unsolved(self, T: FloatArray) -> str:
-        """``"outside_limits"`` if reachable with the limits lifted, else ``"unreachable"``."""
+        """Why a waypoint has no candidate: a proved status, or ``"not_found"``.
+
+        ``unreachable`` beyond the reach sphere or when the closed form has no branch even
+        outside the limits; ``outside_limits`` when an answer exists with the limits
+        lifted (or inside the limits but not inside the margin); otherwise
+        ``not_found``: the numeric search failed, which proves nothing.
+        """
         target = T if self.mode == "pose" else T[:3, 3]
         center, radius = self.robot.reach_sphere
         if float(np.linalg.norm(T[:3, 3] - center)) > radius:
@@ -280,7 +296,7 @@ class _CandidateFinder:
             np.where(prismatic, self.robot.upper, 2 * math.pi),
         )
         lifted = solve_ik(free, target, mode=self.mode, solver="dls", tol=self.tol, restarts=20)
-        return "outside_limits" if lifted.success else "unreachable"
+        return "outside_limits" if lifted.success else "not_found"
 
 
 def _choose(

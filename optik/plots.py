@@ -22,6 +22,7 @@ _FLAG_STYLE = {
     "near_singular": ("tab:orange", "^", "near singular"),
     "outside_limits": ("tab:purple", "s", "outside limits"),
     "unreachable": ("black", "o", "unreachable"),
+    "not_found": ("tab:gray", "d", "not found (no proof)"),
 }
 
 

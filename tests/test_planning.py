@@ -186,3 +186,17 @@ def test_reach_sphere_contains_every_tool_position(name: str, rng: np.random.Gen
     distance = np.linalg.norm(robot.fk(Q)[:, :3, 3] - center, axis=1)
     assert distance.max() <= radius + 1e-12
     assert distance.max() >= 0.75 * radius  # tight enough to prune, not a vacuous bound
+
+
+def test_unproven_failure_is_not_found_not_unreachable() -> None:
+    # A point inside the Panda's reach sphere that the arm cannot reach: no proof exists
+    # (no closed form, the sphere contains it), so the flag is not_found.
+    panda = load_problem("panda").robot
+    start = panda.fk(panda.mid_limits + 0.2)
+    beyond = start.copy()
+    beyond[:3, 3] = [0.0, 0.0, 1.33]
+    centre, radius = panda.reach_sphere
+    assert np.linalg.norm(beyond[:3, 3] - centre) < radius
+    plan = plan_path(panda, np.stack([start, beyond]), max_joint_step=3.0)
+    assert plan.status[0] == "ok"
+    assert plan.status[1] == "not_found"
