@@ -10,7 +10,7 @@ import pytest
 from optik.cli import build_parser
 
 ROOT = Path(__file__).resolve().parent.parent
-GUIDES = ["docs/getting-started.md", "docs/planning.md", "docs/tasks.md"]
+GUIDES = ["docs/getting-started.md", "docs/planning.md", "docs/tasks.md", "docs/your-robot.md"]
 
 
 def _python_blocks(path: Path) -> list[str]:
