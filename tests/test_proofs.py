@@ -127,3 +127,17 @@ def test_the_sweep_reaches_degenerate_poses() -> None:
             target = robot.fk(q) if mode == "pose" else robot.fk(q)[:3, 3]
             empty += not optik.analytic_ik(robot, target, mode)
     assert empty > 0
+
+
+def test_closed_form_recovers_a_branch_next_to_a_fold() -> None:
+    # q2 a hair from pi: the trig equation's tangent rule rounds q2 to pi, 1e-9 m off the
+    # target; the polish recovers the branch, verified here from FK.
+    robot = load_problem("planar_2r").robot
+    q = np.array([0.3, math.pi - 1e-9])
+    p = robot.fk(q)[:3, 3]
+    branches = optik.analytic_ik(robot, p, "position")
+    assert branches
+    for b in branches:
+        assert np.linalg.norm(robot.fk(b)[:3, 3] - p) <= 1e-9
+    batch = optik.analytic_ik_batch(robot, p[None], "position")
+    assert batch.counts[0] == len(branches)

@@ -38,6 +38,7 @@ from optik.analytic._base import (
     explain_family,
     match_families,
 )
+from optik.analytic._polish import polish
 from optik.errors import AnalyticIKError, OptikError, ShapeError
 from optik.model import DECLARED_FAMILY_CHECKS, Robot
 from optik.poses import as_target_pose
@@ -240,7 +241,8 @@ def analytic_ik(
             return [out[i] for i in range(n)]  # cheaper than list(out[:n]): no slice view
         if n < 0:
             _raise_input_error(robot, target, q_ref, n)
-        return []
+        family = cast(AnalyticFamily, family_of(robot))
+        return _degenerate(robot, family, target, mode, ref, q_ref is not None, within_limits)
     family = _check_mode(robot, mode)
     if family.kernel and mode == "pose":
         robot.cached(_compiled_plan)
@@ -258,7 +260,37 @@ def analytic_ik(
         invert_transform(robot.T_world_base) @ T_target @ invert_transform(robot.T_flange_tool)
     )
     raw = family.candidates(robot, T_0_flange, mode, ref)
-    return _finish(robot, raw, T_target, mode, ref, sort, within_limits)
+    branches = _finish(robot, raw, T_target, mode, ref, sort, within_limits)
+    if branches:
+        return branches
+    return _degenerate(robot, family, T_target, mode, ref, sort, within_limits, raw)
+
+
+def _degenerate(
+    robot: Robot,
+    family: AnalyticFamily,
+    T_target: FloatArray,
+    mode: str,
+    ref: FloatArray,
+    sort: bool,
+    within_limits: bool,
+    raw: list[FloatArray] | None = None,
+) -> list[FloatArray]:
+    """Branches the closed form's rounding lost at a degenerate pose (:mod:`._polish`).
+
+    Runs only when no branch passed the FK check: the raw candidates and the reference
+    are polished by Gauss–Newton, then wrapped, filtered and verified as usual.
+    """
+    if _beyond_reach(robot, T_target):
+        return []
+    if raw is None:
+        T_0_flange = (
+            invert_transform(robot.T_world_base) @ T_target @ invert_transform(robot.T_flange_tool)
+        )
+        raw = family.candidates(robot, T_0_flange, mode, ref)
+    starts = [*raw, ref]
+    polished = polish(robot, T_target, mode, starts, 0.1 * VERIFY_TOLERANCE)
+    return _finish(robot, polished, T_target, mode, ref, sort, within_limits)
 
 
 def _beyond_reach(robot: Robot, T_target: FloatArray) -> bool:
@@ -455,6 +487,14 @@ def analytic_ik_batch(
             _compiled.WITHIN_LIMITS if within_limits else 0
         )
         Q, counts = _compiled.solve_batch(params, T, ref, flags)
+        # Rows without a branch get the single call's polish (degenerate poses), so the
+        # batch gives what analytic_ik gives, target by target.
+        for row in np.flatnonzero(counts == 0).tolist():
+            ref_k = ref[0 if len(ref) == 1 else row]
+            found = _degenerate(robot, family, T[row], mode, ref_k, refs is not None, within_limits)
+            for b, q in enumerate(found[: Q.shape[1]]):
+                Q[row, b] = q
+            counts[row] = min(len(found), Q.shape[1])
         return AnalyticBatch(Q, counts)
     if mode == "position" and np.any(np.abs(robot.T_flange_tool[:3, 3]) > 0.0):
         raise AnalyticIKError(

@@ -1,0 +1,72 @@
+"""Newton polish of closed-form candidates at degenerate poses.
+
+At a singular pose (a wrist or an elbow aligned, a joint left free) a closed form's
+tangent and free-angle rules round a candidate by up to the rules' tolerances, which can
+exceed the FK check's 1e-9: the branch exists but is not returned. When a family returns
+no verified branch, :func:`polish` takes its raw candidates (and the reference) a few
+Gauss–Newton steps towards the target, with the pseudoinverse of the task Jacobian
+(rank-deficient Jacobians included); the results then go through the family's ordinary
+wrapping, limit filter and FK check, so nothing unverified is returned.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from optik._checks import FloatArray
+from optik.model import Robot
+from optik.task import make_task, task_error, task_rows
+
+POLISH_STEPS = 12
+"""Gauss–Newton steps per candidate (quadratic convergence from 1e-6 needs two or three;
+the rest serve rank-deficient Jacobians, where convergence is linear)."""
+
+MAX_STEP = 0.5
+"""Largest step (rad or m): a pseudoinverse step next to a singularity can be huge."""
+
+GIVE_UP = 1e-3
+"""A candidate still this far (m or rad) from the target after three steps is dropped:
+the polish refines near-solutions, it does not search."""
+
+
+def polish(
+    robot: Robot, target: FloatArray, mode: str, starts: list[FloatArray], tol: float
+) -> list[FloatArray]:
+    """Candidates refined towards ``target`` (4x4 world pose; a point in position mode).
+
+    Args:
+        robot: the robot.
+        target: the world target pose (its translation only in position mode).
+        mode: ``"pose"`` or ``"position"``.
+        starts: configurations (dof,) to refine.
+        tol: stop a candidate once both errors are below this (m, rad).
+
+    Returns:
+        The refined configurations, unverified (the caller's FK check decides).
+    """
+    task = make_task(mode, tol=tol)
+    out: list[FloatArray] = []
+    e = np.empty(6)
+    M = np.empty((3, 4))
+    for start in starts:
+        q = np.array(start, dtype=np.float64)
+        if not np.all(np.isfinite(q)):
+            continue
+        for step in range(POLISH_STEPS):
+            T, J = robot.fk_jacobian(q)
+            position, orientation = task_error(T, target, task.packed, e, M)
+            if position <= tol and orientation <= tol:
+                break
+            if step >= 3 and max(position, orientation) > GIVE_UP:
+                break
+            rows = np.ascontiguousarray(J)
+            m = task_rows(rows, target, task.packed)
+            dq = np.linalg.pinv(rows[:m], rcond=1e-10) @ e[:m]
+            norm = float(np.linalg.norm(dq))
+            if not np.isfinite(norm):
+                break
+            if norm > MAX_STEP:
+                dq *= MAX_STEP / norm
+            q = q + dq
+        out.append(q)
+    return out
