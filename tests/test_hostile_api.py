@@ -27,7 +27,7 @@ from optik.limits import Q_CLIP_TOLERANCE
 from optik.trig import solve_trig_batch
 
 NAN, INF = math.nan, math.inf
-TIME_LIMIT_S = 10.0  # a hard stop per case: a hang fails the test instead of blocking it
+TIME_LIMIT_S = 30.0  # a hard stop per case: a hang fails the test instead of blocking it
 FUZZ = settings(
     max_examples=max(150, settings().max_examples),  # the optik-long profile asks for more
     deadline=timedelta(seconds=5),  # per example; the cases here take milliseconds
@@ -135,6 +135,17 @@ def warm() -> None:
     optik.analytic_ik(PUMA, PUMA.fk(PUMA.mid_limits))
     optik.analytic_ik_batch(PUMA, PUMA.fk(PUMA.mid_limits)[None])
     optik.diff_ik(PUMA, PUMA.mid_limits, np.zeros(6), dt=0.01)
+    # Compiled functions that Python calls directly, compiled here rather than inside a
+    # time-limited case (an alarm in the middle of numba's compiler breaks it): the
+    # closed forms' polish, the Python solvers' task residual, the timed dls path.
+    inside = PUMA.fk(PUMA.mid_limits)
+    inside[:3, 3] = PUMA.reach_sphere[0] + [0.0, 0.0, 0.95 * PUMA.reach_sphere[1]]
+    optik.analytic_ik(PUMA, inside)
+    for robot in (PUMA, PANDA):
+        T = robot.fk(robot.mid_limits)
+        optik.solve_ik(robot, T, solver="pinv", max_iter=2, restarts=0)
+        optik.solve_ik(robot, T, solver="dls", timeout_s=1.0, q0=robot.mid_limits)
+        optik.solve_ik(robot, T[:3, 3], mode="position", warm_start="q0")
     solve_trig_batch([1.0], [0.0], [0.5])
     optik.min_norm(np.eye(2, 3), np.ones(2))
 
