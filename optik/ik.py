@@ -40,7 +40,7 @@ from optik.limits import LIMIT_TOLERANCE
 from optik.model import Robot
 from optik.poses import as_target_pose
 from optik.solvers import get_solver
-from optik.solvers._base import IKQuery, IKSolver, RunOutput, now
+from optik.solvers._base import IKQuery, IKSolver, RunOutput, budget_now, now
 from optik.solvers._lm_kernel import lm_solve_batch, lm_solve_batch_serial
 from optik.solvers._seeds import seed_table, start_sequence
 from optik.solvers._starts import StartSequence
@@ -302,8 +302,9 @@ def solve_ik(
         max_iter: iterations per attempt, 1 to :data:`MAX_ITERATIONS` (default: the
             solver's own).
         timeout_s: wall-time budget (s) for all attempts; ``inf`` means no time limit
-            (the restart budget then stays :data:`DEFAULT_RESTARTS`). Compilation on a
-            first call in a fresh environment is counted too.
+            (the restart budget then stays :data:`DEFAULT_RESTARTS`). Time spent compiling
+            numba kernels (a first call in a fresh environment) is not counted;
+            ``IKResult.time_s`` is the wall time, compilation included.
         restarts: attempts after the first (default: :data:`DEFAULT_RESTARTS` without a
             finite timeout, unlimited within one).
         seed: seed of the restart sequence, 0 to 2**63 - 1 (results are deterministic
@@ -576,7 +577,8 @@ def _plan(
     if bounds is not None:
         q_start = np.clip(q_start, bounds[0], bounds[1])
     # timeout_s=inf is "no time limit": the restart budget then stays finite.
-    deadline = start_time + float(timeout_s) if timeout_s is not None else math.inf
+    # On the budget clock: compiling a kernel on a first call is not the caller's time.
+    deadline = budget_now() + float(timeout_s) if timeout_s is not None else math.inf
     iterations = int(max_iter) if max_iter is not None else 0
     if restarts is not None:
         last = int(restarts)
@@ -665,7 +667,7 @@ def _collect(
             found = _distinct([*found, (run.q, iterations, first - 1)], min_separation)
             if want is not None and len(found) >= want:
                 break
-        if not run.converged or now() > plan.deadline:
+        if not run.converged or budget_now() > plan.deadline:
             break
     if run is None:  # pragma: no cover - the budget always admits one attempt
         raise OptikError("no IK attempt ran")

@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from optik._checks import FloatArray
+from optik._clock import budget_clock
 from optik.errors import OptikError, SolverError, UnknownSolverError
 from optik.model import Robot
 from optik.programs.diff_qp import DiffIKProgram, QPSolution
@@ -163,7 +164,10 @@ class IKSolver(ABC):
 
     @abstractmethod
     def solve(self, query: IKQuery, q0: FloatArray, max_iter: int, deadline: float) -> SolverOutput:
-        """Refine ``q0``; stop at convergence, ``max_iter``, or when ``now() > deadline``."""
+        """Refine ``q0``; stop at convergence, ``max_iter``, or at ``deadline``.
+
+        ``deadline`` is on the clock of :func:`budget_now` (compilation not counted).
+        """
 
     def run(
         self,
@@ -187,7 +191,7 @@ class IKSolver(ABC):
         timed_out = False
         all_failed = True
         while attempts <= last:
-            if attempts > start and now() > deadline:
+            if attempts > start and budget_now() > deadline:
                 timed_out = True
                 break
             q0 = starts.start(attempts)
@@ -212,7 +216,7 @@ class IKSolver(ABC):
                 best, best_error = output, error
             if ok:
                 break
-            if now() > deadline:
+            if budget_now() > deadline:
                 timed_out = True
                 break
         if best is None:  # pragma: no cover - at least one attempt always runs
@@ -362,3 +366,12 @@ def get_solver(name: str, kind: str = "ik") -> Any:
 def now() -> float:
     """Monotonic time in seconds (``time.perf_counter``)."""
     return time.perf_counter()
+
+
+def budget_now() -> float:
+    """The clock deadlines are set and checked on: ``now()`` less numba compilation time.
+
+    A first call that compiles a kernel is not charged to the caller's ``timeout_s``
+    (:func:`optik._clock.budget_clock`).
+    """
+    return budget_clock()

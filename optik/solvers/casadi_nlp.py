@@ -22,7 +22,7 @@ import numpy as np
 
 from optik._checks import FloatArray
 from optik.programs.nlp import NLPProgram, build_nlp
-from optik.solvers._base import IKQuery, IKSolver, SolverOutput, now, register_solver
+from optik.solvers._base import IKQuery, IKSolver, SolverOutput, budget_now, register_solver
 
 __all__ = ["CasadiNLPSolver"]
 
@@ -76,7 +76,7 @@ class CasadiNLPSolver(IKSolver):
                 return SolverOutput(q, iterations, claim if iterations else True, status)
             if iterations >= max_iter:
                 return SolverOutput(q, iterations, claim, f"max_iter ({status})")
-            if now() > deadline:
+            if budget_now() > deadline:
                 return SolverOutput(q, iterations, claim, f"timeout ({status})")
             try:
                 result = program.solve(query.target, q, mu=mu, q_ref=q)

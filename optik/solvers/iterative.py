@@ -12,7 +12,14 @@ from abc import abstractmethod
 import numpy as np
 
 from optik._checks import FloatArray
-from optik.solvers._base import IKQuery, IKSolver, RunOutput, SolverOutput, now, register
+from optik.solvers._base import (
+    IKQuery,
+    IKSolver,
+    RunOutput,
+    SolverOutput,
+    budget_now,
+    register,
+)
 from optik.solvers._lm_kernel import lm_solve, lm_solve_restarts
 from optik.solvers._starts import StartSequence
 
@@ -41,7 +48,7 @@ class _JacobianIteration(IKSolver):
                 return SolverOutput(q, it, True, "converged")
             if it == max_iter:
                 return SolverOutput(q, it, False, "max_iter")
-            if now() > deadline:
+            if budget_now() > deadline:
                 return SolverOutput(q, it, False, "timeout")
             dq = self.direction(query.task_rows(J), e)
             if not np.all(np.isfinite(dq)):
@@ -163,7 +170,7 @@ class DLSSolver(IKSolver):
             if first > last:
                 used = last - start
                 return RunOutput(best_q, total, used, False, "stalled or max_iter", "max_iter")
-            if now() > deadline:
+            if budget_now() > deadline:
                 message = "stalled or max_iter"
                 return RunOutput(best_q, total, first - 1 - start, False, message, "timeout")
             if timed:

@@ -24,7 +24,7 @@ from optik.solvers._base import (
     IKSolver,
     SolverOutput,
     StepBackend,
-    now,
+    budget_now,
     register_solver,
 )
 
@@ -210,7 +210,7 @@ class QPStepSolver(IKSolver):
                 return SolverOutput(q, iterations, True, "converged")
             if iterations >= max_iter:
                 return SolverOutput(q, iterations, False, "max_iter")
-            if now() > deadline:
+            if budget_now() > deadline:
                 return SolverOutput(q, iterations, False, "timeout")
             if lam > self.max_damping:
                 return SolverOutput(
