@@ -39,6 +39,7 @@ from optik.errors import ArgumentError, JointLimitError, OptikError, ShapeError
 from optik.limits import LIMIT_TOLERANCE
 from optik.model import Robot
 from optik.poses import as_target_pose
+from optik.posture import check_joint_weights, refine_posture
 from optik.solvers import get_solver
 from optik.solvers._base import IKQuery, IKSolver, RunOutput, budget_now, now
 from optik.solvers._lm_kernel import lm_solve_batch, lm_solve_batch_serial
@@ -273,6 +274,8 @@ def solve_ik(
     frozen: Mapping[str, float] | None = None,
     limit_margin: float = 0.0,
     select: str = "first",
+    posture: Any = None,
+    joint_weights: Any = None,
 ) -> IKResult:
     """Solve IK for one target, with hard joint limits.
 
@@ -317,6 +320,11 @@ def solve_ik(
         select: ``"first"`` (the first verified answer) or ``"nearest"`` (the verified
             answer nearest ``q0`` among all found within ``restarts`` / ``timeout_s``;
             with a closed form, the branch nearest ``q0``).
+        posture: ``q_ref`` (dof,): among the answers, one nearest it in the
+            ``joint_weights`` norm: every answer found within the budget (every branch of
+            a closed form) is refined by :func:`optik.posture.refine_posture` (a local
+            optimum of ``min ||q - q_ref||_W s.t. the task``) and the nearest is kept.
+        joint_weights: (dof,) > 0, the norm of ``posture`` (default ones).
 
     Returns:
         An :class:`IKResult`; a well-formed query that cannot be solved gives
@@ -332,6 +340,8 @@ def solve_ik(
     check_choice("select", select, ("first", "nearest"))
     if plan.early is not None:
         return plan.early
+    if posture is not None:
+        return _posture_answer(plan, posture, joint_weights)
     if plan.branches and plan.numeric is None:
         return _result(
             robot,
@@ -387,6 +397,43 @@ def solve_ik(
         message="",
         claim=True,
     )
+
+
+def _posture_answer(plan: _Plan, posture: Any, joint_weights: Any) -> IKResult:
+    """The answer of :func:`solve_ik` with a ``posture`` (see its docstring)."""
+    robot = plan.query.robot
+    q_ref = finite_array("posture", posture, (robot.dof,))
+    weights = check_joint_weights(joint_weights, robot.dof)
+    if plan.branches and plan.numeric is None:
+        found = [(q, 0, 0) for q in plan.branches]
+        solver_name = "analytic"
+        last_run = None
+    else:
+        numeric = plan.numeric or get_solver(AUTO_NUMERIC_SOLVER)
+        found, last_run = _collect(plan, numeric, want=None, min_separation=0.0)
+        solver_name = numeric.name
+    if not found:
+        assert last_run is not None
+        return _result(
+            robot, last_run.q, plan.query, plan.start_time,
+            status_if_failed=last_run.status_if_failed, iterations=last_run.iterations,
+            restarts=last_run.restarts, solver=solver_name, message=last_run.message,
+            claim=last_run.converged,
+        )  # fmt: skip
+
+    def cost(q: FloatArray) -> float:
+        d = q - q_ref
+        return float(d @ (weights * d))
+
+    refined = [refine_posture(plan.query, q, q_ref, weights) for q, _, _ in found]
+    best = min(refined, key=cost)
+    iterations = last_run.iterations if last_run is not None else 0
+    restarts = found[-1][2]
+    return _result(
+        robot, best, plan.query, plan.start_time, status_if_failed="max_iter",
+        iterations=iterations, restarts=restarts, solver=solver_name, message="",
+        claim=None if solver_name == "analytic" else True,
+    )  # fmt: skip
 
 
 def solve_ik_all(

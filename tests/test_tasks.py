@@ -272,3 +272,53 @@ def test_solve_ik_all_bad_k() -> None:
     panda = load_problem("panda").robot
     with pytest.raises(OptikError, match="k"):
         optik.solve_ik_all(panda, panda.fk(panda.mid_limits), k=0)
+
+
+def test_posture_is_a_local_optimum_no_farther_than_plain_answers() -> None:
+    panda = load_problem("panda").robot
+    rng = np.random.default_rng(31)
+    q_ref = panda.mid_limits
+    for _ in range(6):
+        T = panda.fk(rng.uniform(panda.lower, panda.upper))
+        res = optik.solve_ik(panda, T, posture=q_ref, restarts=30)
+        assert res.success
+        F = panda.fk(res.q)
+        assert np.linalg.norm(F[:3, 3] - T[:3, 3]) <= 1e-6
+        assert rotation_angle(F[:3, :3].T @ T[:3, :3]) <= 1e-6
+        plain = [optik.solve_ik(panda, T, restarts=30, seed=s) for s in range(5)]
+        best_plain = min(np.linalg.norm(p.q - q_ref) for p in plain if p.success)
+        assert np.linalg.norm(res.q - q_ref) <= best_plain + 1e-9
+        inside = np.all(res.q > panda.lower + 1e-6) and np.all(res.q < panda.upper - 1e-6)
+        if inside:  # first-order optimality: q - q_ref in the row space of J
+            J = panda.jacobian(res.q)
+            g = res.q - q_ref
+            lam = np.linalg.lstsq(J.T, g, rcond=None)[0]
+            assert np.linalg.norm(g - J.T @ lam) <= 1e-4 * np.linalg.norm(g)
+
+
+def test_posture_on_a_closed_form_picks_the_nearest_branch() -> None:
+    puma = load_problem("puma560").robot
+    rng = np.random.default_rng(2)
+    weights = np.array([1.0, 2.0, 1.0, 0.5, 1.0, 3.0])
+    for _ in range(10):
+        T = puma.fk(rng.uniform(puma.lower, puma.upper))
+        q_ref = rng.uniform(puma.lower, puma.upper)
+        res = optik.solve_ik(puma, T, posture=q_ref, joint_weights=weights)
+        branches = optik.analytic_ik(puma, T)
+        costs = [float((b - q_ref) @ (weights * (b - q_ref))) for b in branches]
+        d = res.q - q_ref
+        assert res.success and float(d @ (weights * d)) <= min(costs) + 1e-12
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "field"),
+    [
+        ({"posture": np.zeros(3)}, "posture"),
+        ({"posture": np.zeros(7), "joint_weights": -np.ones(7)}, "joint_weights"),
+        ({"posture": np.zeros(7), "joint_weights": np.ones(6)}, "joint_weights"),
+    ],
+)
+def test_bad_posture(kwargs: dict[str, object], field: str) -> None:
+    panda = load_problem("panda").robot
+    with pytest.raises(OptikError, match=field):
+        optik.solve_ik(panda, panda.fk(panda.mid_limits), **kwargs)  # type: ignore[arg-type]
