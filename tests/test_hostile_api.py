@@ -11,7 +11,6 @@ from __future__ import annotations
 import math
 from collections import Counter
 from collections.abc import Callable, Iterator
-from datetime import timedelta
 from typing import Any
 
 import numpy as np
@@ -30,7 +29,7 @@ NAN, INF = math.nan, math.inf
 TIME_LIMIT_S = 30.0  # a hard stop per case: a hang fails the test instead of blocking it
 FUZZ = settings(
     max_examples=max(150, settings().max_examples),  # the optik-long profile asks for more
-    deadline=timedelta(seconds=5),  # per example; the cases here take milliseconds
+    deadline=None,  # the per-case alarm bounds each case; a cold compile may take seconds
     suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
 )
 STATS: Counter[str] = Counter()

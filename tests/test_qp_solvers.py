@@ -21,7 +21,13 @@ from optik.errors import UnknownSolverError
 from optik.linalg import least_squares, min_norm
 from optik.model import Robot
 from optik.programs.diff_qp import DEFAULT_DAMPING, DiffIKProgram, QPSolution, build_program
-from optik.solvers._base import IKQuery, available_solvers, get_solver, registered_solvers
+from optik.solvers._base import (
+    IKQuery,
+    available_solvers,
+    budget_now,
+    get_solver,
+    registered_solvers,
+)
 from optik.solvers.qp import (
     BACKEND_OPTIONS,
     QPStepSolver,
@@ -340,7 +346,8 @@ def test_qp_solver_stops_at_max_iter_and_deadline() -> None:
     assert isinstance(solver, QPStepSolver)
     T = robot.fk(robot.mid_limits + 0.5)
     query = IKQuery(robot, T, "pose", 1e-6)
-    out = solver.solve(query, robot.mid_limits, 1, time.perf_counter() + 30)
+    # Deadlines are on the budget clock (compilation not counted).
+    out = solver.solve(query, robot.mid_limits, 1, budget_now() + 30)
     assert out.iterations == 1 and not out.converged and out.message == "max_iter"
-    out = solver.solve(query, robot.mid_limits, 100, time.perf_counter() - 1.0)
+    out = solver.solve(query, robot.mid_limits, 100, budget_now() - 1.0)
     assert out.iterations == 0 and out.message == "timeout"

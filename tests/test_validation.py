@@ -14,7 +14,6 @@ import signal
 import threading
 from collections import Counter
 from collections.abc import Callable, Iterator
-from datetime import timedelta
 from pathlib import Path
 from typing import Any
 
@@ -640,7 +639,7 @@ def test_reachability_arguments() -> None:
 TIME_LIMIT_S = 30.0  # a hard stop per case: a hang fails the test instead of blocking it
 FUZZ = settings(
     max_examples=max(200, settings().max_examples),  # the optik-long profile asks for more
-    deadline=timedelta(seconds=3),  # per example; the cases here take milliseconds
+    deadline=None,  # the per-case alarm bounds each case; a cold compile may take seconds
     suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
 )
 STATS: Counter[str] = Counter()
