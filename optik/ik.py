@@ -413,7 +413,8 @@ def _posture_answer(plan: _Plan, posture: Any, joint_weights: Any) -> IKResult:
         found, last_run = _collect(plan, numeric, want=None, min_separation=0.0)
         solver_name = numeric.name
     if not found:
-        assert last_run is not None
+        if last_run is None:  # pragma: no cover - a closed form always has branches here
+            raise OptikError("posture: no answer and no run to report")
         return _result(
             robot, last_run.q, plan.query, plan.start_time,
             status_if_failed=last_run.status_if_failed, iterations=last_run.iterations,

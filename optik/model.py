@@ -652,22 +652,6 @@ class Robot:
             radius = float(np.sum(lengths[1:]) + np.sum(strokes))
         return center, radius
 
-    def _fk_unchecked(self, q: FloatArray) -> FloatArray:
-        """:meth:`fk` of one float64 configuration (dof,) without input validation.
-
-        For solvers' verification paths, where ``q`` comes from optik itself.
-        """
-        out = np.empty((4, 4))
-        _kernels.fk_into(self._K, self._prismatic, self._theta(q), out)
-        return out
-
-    def _violation_unchecked(self, q: FloatArray) -> float:
-        """:meth:`limit_violation` of one float64 configuration, without validation."""
-        worst = 0.0
-        for v, lo, hi in zip(q.tolist(), self.lower.tolist(), self.upper.tolist(), strict=True):
-            worst = max(worst, lo - v, v - hi)
-        return worst
-
     def limit_violation(self, q: Any) -> float | FloatArray:
         """Largest excursion (rad or m) of ``q`` beyond its limits; 0 inside."""
         return limit_violation(self.check_q(q), self.lower, self.upper)
