@@ -14,8 +14,7 @@ import weakref
 import casadi
 import numpy as np
 import pytest
-from conftest import PROBLEM_NAMES, SEED, assert_close, random_q, robot_of
-from test_qp_solvers import (
+from _step_programs import (
     KKT_ROBOTS,
     check_active,
     check_least_norm,
@@ -24,6 +23,7 @@ from test_qp_solvers import (
     least_norm_program,
     reach,
 )
+from conftest import PROBLEM_NAMES, SEED, assert_close, random_q, robot_of
 
 import optik.solvers.casadi_nlp  # noqa: F401  (registers casadi:ipopt, casadi:sqpmethod)
 from optik.errors import InvalidRotationError, OptikError, ShapeError, UnknownSolverError
