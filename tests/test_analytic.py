@@ -202,3 +202,9 @@ def test_bad_targets_raise_optik_errors() -> None:
     skewed[0, 1] = 0.1
     with pytest.raises(optik.errors.InvalidRotationError):
         analytic_ik(puma, skewed)
+
+
+def test_python_family_has_no_compiled_table() -> None:
+    planar = load_problem("planar_2r").robot
+    with pytest.raises(AnalyticIKError, match="no compiled kernel"):
+        FAMILIES["planar_2r"].model(planar)

@@ -8,9 +8,7 @@ under a time limit.
 
 from __future__ import annotations
 
-import contextlib
 import math
-import signal
 import threading
 from collections import Counter
 from collections.abc import Callable, Iterator
@@ -19,6 +17,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from conftest import Hang, time_limit
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -653,26 +652,6 @@ FLOATS = st.sampled_from([NAN, INF, -INF, 1e300, -1e300, 1e154, 1e10, -0.0, 0.0,
 DTYPES = st.sampled_from([complex, bool, object, str, np.float32, np.int64])
 
 
-class _Hang(Exception):
-    """A case ran past :data:`TIME_LIMIT_S`."""
-
-
-@contextlib.contextmanager
-def _time_limit(seconds: float) -> Iterator[None]:
-    """Interrupt the case with :class:`_Hang` after ``seconds`` (SIGALRM, main thread)."""
-
-    def on_alarm(signum: int, frame: Any) -> None:
-        raise _Hang(f"no answer within {seconds} s")
-
-    previous = signal.signal(signal.SIGALRM, on_alarm)
-    signal.setitimer(signal.ITIMER_REAL, seconds)
-    try:
-        yield
-    finally:
-        signal.setitimer(signal.ITIMER_REAL, 0)
-        signal.signal(signal.SIGALRM, previous)
-
-
 def _attempt(target: str, call: Callable[[], Any]) -> Any:
     """Run one hostile case: its result, or ``None`` if it raised an OptikError.
 
@@ -681,9 +660,9 @@ def _attempt(target: str, call: Callable[[], Any]) -> Any:
     STATS["cases"] += 1
     STATS[f"cases {target}"] += 1
     try:
-        with _time_limit(TIME_LIMIT_S):
+        with time_limit(TIME_LIMIT_S):
             result = call()
-    except _Hang as exc:
+    except Hang as exc:
         STATS["hangs"] += 1
         raise AssertionError(f"{target}: {exc}") from exc
     except OptikError:

@@ -12,6 +12,7 @@ import numpy as np
 from optik._checks import FloatArray
 from optik._math import trig_roots
 from optik.analytic.geometry import DHModel, NoTable, equivalent_dh, revolute_chain_reason
+from optik.errors import AnalyticIKError
 from optik.model import DHJoint, Robot
 from optik.spatial import invert_transform
 from optik.trig import TRIG_TOL
@@ -67,9 +68,13 @@ class AnalyticFamily(ABC):
     def model(self, robot: Robot) -> DHModel:
         """The DH table (and base and tool transforms) the compiled kernel solves.
 
-        Only for a compiled family (``kernel`` set) that fits ``robot``.
+        Only for a compiled family (``kernel`` set) that fits ``robot``; the Python
+        families solve from the robot's own rows and have no such table.
+
+        Raises:
+            AnalyticIKError: the family has no compiled kernel.
         """
-        raise NotImplementedError(f"family {self.name!r} has no compiled kernel")
+        raise AnalyticIKError(f"family {self.name!r} has no compiled kernel, so no DH table")
 
     @abstractmethod
     def candidates(
