@@ -130,13 +130,13 @@ def test_no_solution_exits_1_with_valid_json(capsys: pytest.CaptureFixture[str])
 def test_json_writes_non_finite_numbers_as_null(
     monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    real = cli.solve_ik
+    real = cli._solve.solve_ik
 
     def far(*args: Any, **kwargs: Any) -> Any:
         result = real(*args, **kwargs)
         return replace(result, position_error=math.inf, orientation_error=math.nan)
 
-    monkeypatch.setattr(cli, "solve_ik", far)
+    monkeypatch.setattr(cli._solve, "solve_ik", far)
     assert main(["solve", "planar_2r", "--position", "1", "1", "0", "--json"]) == 0
     out = capsys.readouterr().out
     data = _strict_json(out)
@@ -217,7 +217,7 @@ def test_an_internal_error_is_not_a_no_solution(
     def broken(*args: Any, **kwargs: Any) -> Any:
         raise RuntimeError("a bug")
 
-    monkeypatch.setattr(cli, "solve_ik", broken)
+    monkeypatch.setattr(cli._solve, "solve_ik", broken)
     code = main(["solve", "planar_2r", "--position", "1", "1", "0"])
     assert code == cli.EXIT_INTERNAL == 3
     err = capsys.readouterr().err
@@ -230,6 +230,6 @@ def test_a_multi_line_error_is_printed_on_one_line(
     def refuse(*args: Any, **kwargs: Any) -> Any:
         raise OptikError("first part\n  second part")
 
-    monkeypatch.setattr(cli, "solve_ik", refuse)
+    monkeypatch.setattr(cli._solve, "solve_ik", refuse)
     assert main(["solve", "planar_2r", "--position", "1", "1", "0"]) == 2
     assert _one_error_line(capsys.readouterr().err) == "optik: error: first part second part"

@@ -86,8 +86,8 @@ def test_solver_time_is_the_results_time_not_the_process_time(
 ) -> None:
     from dataclasses import replace
 
-    real = cli.solve_ik
-    monkeypatch.setattr(cli, "solve_ik", lambda *a, **k: replace(real(*a, **k), time_s=0.1234567))
+    real = cli._solve.solve_ik
+    monkeypatch.setattr(cli._solve, "solve_ik", lambda *a, **k: replace(real(*a, **k), time_s=0.1234567))
     assert main(["solve", "planar_2r", "--position", "1", "1", "0"]) == 0
     assert "solver time 123.457 ms" in capsys.readouterr().out
 
@@ -428,11 +428,11 @@ def test_version(capsys: pytest.CaptureFixture[str]) -> None:
 def test_plan_draws_progress_for_every_waypoint(
     monkeypatch: pytest.MonkeyPatch, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    class Drawn(cli.Progress):
+    class Drawn(cli._plan.Progress):
         def __init__(self, total: int, **kwargs: Any) -> None:
             super().__init__(total, enabled=True, interval=0.0)
 
-    monkeypatch.setattr(cli, "Progress", Drawn)
+    monkeypatch.setattr(cli._plan, "Progress", Drawn)
     argv = ["plan", "planar_2r", "--line", "1.5", "0", "0", "1.5", "0.1", "0", "--step", "0.01"]
     assert main([*argv, "--out", str(tmp_path)]) == 0
     err = capsys.readouterr().err

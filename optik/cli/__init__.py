@@ -1,0 +1,90 @@
+"""The ``optik`` command: its parser and entry point; one module per command beside it.
+
+Exit codes: 0 success; 1 a well-formed query without an answer (``optik solve`` found no
+solution); 2 bad input (a usage error, and every :class:`~optik.errors.OptikError` raised
+by the input, printed as one ``optik: error: ...`` line); 3 an internal error (a bug: the
+traceback is printed).
+
+Units: SI everywhere, in files, arrays and options (m, rad, s); an option in another
+unit names it (``--rpy-deg``, ``--timeout-ms``), and every option's help states its unit
+or "no unit". Output prints every value with its unit (revolute joints in rad, with
+degrees alongside).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import textwrap
+import traceback
+from collections.abc import Sequence
+
+from optik import __version__
+from optik.cli._common import EXIT_BAD_INPUT, EXIT_INTERNAL, EXIT_NO_SOLUTION, EXIT_OK, Parser
+from optik.cli._plan import add_plan_command
+from optik.cli._report import add_report_command, config_from_args
+from optik.cli._robot import add_problems_command, add_robot_command
+from optik.cli._solve import add_solve_command
+from optik.errors import OptikError
+
+__all__ = [
+    "EXIT_BAD_INPUT",
+    "EXIT_INTERNAL",
+    "EXIT_NO_SOLUTION",
+    "EXIT_OK",
+    "add_report_command",
+    "build_parser",
+    "config_from_args",
+    "main",
+]
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of the ``optik`` command."""
+    parser = Parser(
+        prog="optik",
+        description=textwrap.fill(
+            "Optimization-based inverse kinematics for robot arms. Units: SI (m, rad, s) in "
+            "files, arrays and options; an option in another unit names it (--rpy-deg, "
+            "--timeout-ms).",
+            88,
+        ),
+        epilog="examples:\n  optik problems\n  optik robot problems/panda.urdf\n"
+        "  optik solve planar_2r --position 1 1 0\n  optik report --quick\n",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument(
+        "--version",
+        action="version",
+        version=f"optik {__version__}",
+        help="print the version and exit (no unit)",
+    )
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    add_problems_command(sub)
+    add_robot_command(sub)
+    add_solve_command(sub)
+    add_plan_command(sub)
+    add_report_command(sub)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``optik`` console script."""
+    args = build_parser().parse_args(argv)  # a usage error exits with 2
+    try:
+        return int(args.func(args))
+    except OptikError as exc:  # bad input: one line, no traceback
+        message = " ".join(str(exc).split())
+        print(f"optik: error: {message}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except KeyboardInterrupt:
+        print("optik: interrupted", file=sys.stderr)
+        return 130
+    except Exception:  # a bug, not the user's input: keep the traceback for the report
+        traceback.print_exc()
+        print("optik: internal error (a bug; please report it)", file=sys.stderr)
+        return EXIT_INTERNAL
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

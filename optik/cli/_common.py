@@ -1,0 +1,403 @@
+"""The ``optik`` command: shared argument types, robot and target options, exit codes.
+
+Exit codes: 0 success; 1 a well-formed query without an answer (``optik solve`` found no
+solution); 2 bad input (a usage error, and every :class:`~optik.errors.OptikError` raised
+by the input, printed as one ``optik: error: ...`` line); 3 an internal error (a bug: the
+traceback is printed).
+
+Units: SI everywhere, in files, arrays and options (m, rad, s); an option in another
+unit names it (``--rpy-deg``, ``--timeout-ms``), and every option's help states its unit
+or "no unit". Output prints every value with its unit (revolute joints in rad, with
+degrees alongside).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import textwrap
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any, NoReturn
+
+import numpy as np
+
+from optik._checks import MAX_LENGTH_M
+from optik.errors import OptikError
+from optik.model import Robot
+from optik.poses import pose
+from optik.problems import PROBLEMS_DIR, Problem, builtin_problems, load_problem, load_robot
+from optik.robot_text import read_urdf_tree
+
+#: Exit codes of the ``optik`` command.
+EXIT_OK = 0
+EXIT_NO_SOLUTION = 1
+EXIT_BAD_INPUT = 2
+EXIT_INTERNAL = 3
+
+URDF_SUFFIXES = (".urdf", ".xml")
+
+
+class Parser(argparse.ArgumentParser):
+    """An argument parser whose usage errors are one ``optik: error: ...`` line (exit 2)."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(EXIT_BAD_INPUT, f"optik: error: {message} (see '{self.prog} --help')\n")
+
+
+# ---------------------------------------------------------------------------- numbers
+def _number(text: str, kind: type, check: Any, what: str) -> Any:
+    try:
+        value = kind(text)
+    except (ValueError, OverflowError):
+        raise argparse.ArgumentTypeError(f"expected {what}, got {text!r:.40}") from None
+    # An int is always finite (and math.isfinite of a huge int would overflow).
+    if not ((kind is int or math.isfinite(value)) and check(value)):
+        raise argparse.ArgumentTypeError(f"expected {what}, got {text!r:.40}")
+    return value
+
+
+def finite_float(text: str) -> float:
+    """An argparse type: a finite real number."""
+    return float(_number(text, float, lambda v: True, "a finite number"))
+
+
+def positive_float(text: str) -> float:
+    """An argparse type: a finite number > 0."""
+    return float(_number(text, float, lambda v: v > 0, "a finite number > 0"))
+
+
+def non_negative_float(text: str) -> float:
+    """An argparse type: a finite number >= 0."""
+    return float(_number(text, float, lambda v: v >= 0, "a finite number >= 0"))
+
+
+def non_negative_int(text: str) -> int:
+    """An argparse type: an integer >= 0."""
+    return int(_number(text, int, lambda v: v >= 0, "an integer >= 0"))
+
+
+#: Largest ``--seed`` (the planner's bound, so that one seed works for every command).
+MAX_SEED = 2**32 - 1
+#: Largest ``-n`` of ``optik report`` (targets per robot).
+MAX_TARGETS = 1_000_000
+
+
+def length_float(text: str) -> float:
+    """An argparse type: a finite length within +-MAX_LENGTH_M (m)."""
+    return float(
+        _number(
+            text,
+            float,
+            lambda v: abs(v) <= MAX_LENGTH_M,
+            f"a length in m within +-{MAX_LENGTH_M:g}",
+        )
+    )
+
+
+def path_text(text: str) -> str:
+    """An argparse type: a file or folder path the system can look up (it may not exist).
+
+    A path with a NUL byte, a name too long for the file system or a symlink loop is a
+    usage error here, rather than an ``OSError`` deep in a reader.
+    """
+    if not text:
+        raise argparse.ArgumentTypeError("expected a path or name, got ''")
+    try:
+        os.stat(text)
+    except (FileNotFoundError, NotADirectoryError):
+        pass  # a missing file is reported by the command, with what it expected
+    except ValueError as exc:  # an embedded NUL byte
+        raise argparse.ArgumentTypeError(f"not a usable path {text!r:.80}: {exc}") from None
+    except OSError as exc:
+        raise argparse.ArgumentTypeError(
+            f"not a usable path {text!r:.80}: {exc.strerror or exc}"
+        ) from None
+    return text
+
+
+def seed_int(text: str) -> int:
+    """An argparse type: a seed, an integer in [0, :data:`MAX_SEED`]."""
+    return int(_number(text, int, lambda v: 0 <= v <= MAX_SEED, f"an integer in [0, {MAX_SEED}]"))
+
+
+def count_int(text: str) -> int:
+    """An argparse type: a number of targets, an integer in [0, :data:`MAX_TARGETS`]."""
+    return int(
+        _number(text, int, lambda v: 0 <= v <= MAX_TARGETS, f"an integer in [0, {MAX_TARGETS}]")
+    )
+
+
+def json_value(value: Any) -> Any:
+    """``value`` with every non-finite float as ``None`` (JSON has no inf or NaN)."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: json_value(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [json_value(v) for v in value]
+    return value
+
+
+def limit_text(lower: float, upper: float, kind: str) -> str:
+    if not math.isfinite(lower):
+        return "continuous"
+    if kind == "prismatic":
+        return f"{lower:g}..{upper:g} m"
+    return f"{math.degrees(lower):g}..{math.degrees(upper):g}°"
+
+
+def value_text(value: float, kind: str) -> str:
+    """A joint value in SI with its unit (revolute: rad, with degrees alongside)."""
+    if kind == "prismatic":
+        return f"{value:.6f} m"
+    return f"{value:+.6f} rad  ({math.degrees(value):+.4f}°)"
+
+
+def problems_table(problems: Sequence[Problem]) -> str:
+    """A plain-text table of robots: dof, joint types, limits and FK at mid-limits."""
+    lines = []
+    header = (
+        f"{'problem':<22}{'dof':>4}  {'joints':<8}{'analytic':<17}{'tool at mid-limits (m)':<30}"
+    )
+    lines.append(header)
+    lines.append("-" * len(header))
+    for problem in problems:
+        robot = problem.robot
+        kinds = "".join("P" if j.kind == "prismatic" else "R" for j in robot.joints)
+        p = robot.fk(robot.mid_limits)[:3, 3]
+        position = "(" + ", ".join(f"{v:+.4f}" for v in p) + ")"
+        lines.append(
+            f"{problem.name:<22}{robot.dof:>4}  {kinds:<8}{robot.analytic or '-':<17}{position:<30}"
+        )
+        limits = ", ".join(f"{j.name} {limit_text(j.lower, j.upper, j.kind)}" for j in robot.joints)
+        lines.append(f"{'':<26}limits: {limits}")
+    return "\n".join(lines)
+
+
+# ---------------------------------------------------------------------------- robots
+def builtin_names() -> str:
+    return ", ".join(p.stem for p in builtin_problems())
+
+
+def exists(path: Path) -> bool:
+    """Whether ``path`` exists; a name the system cannot look up (too long) does not."""
+    try:
+        return path.exists()
+    except (OSError, ValueError):
+        return False
+
+
+def named_problem(name: str) -> Problem:
+    """A built-in problem by name, or a problem file; an unknown name lists the built-ins.
+
+    Raises:
+        OptikError: neither a file nor a built-in name (the message lists the built-ins),
+            or any :class:`~optik.errors.ProblemFileError` of the file.
+    """
+    file = Path(name)
+    if exists(file) or (file.suffix == "" and exists(PROBLEMS_DIR / f"{name}.toml")):
+        return load_problem(name)
+    if file.suffix or len(file.parts) > 1:  # a path, not a name
+        raise OptikError(f"{name}: file not found (built-in problems: {builtin_names()})")
+    raise OptikError(
+        f"no problem file or built-in problem named {name!r:.200} "
+        f"(built-in problems: {builtin_names()}; or give --urdf FILE or --dh FILE)"
+    )
+
+
+def chains_hint(urdf: Path) -> str:
+    tree = read_urdf_tree(urdf)
+    chains = "; ".join(c.text() for c in tree.chains) or "none"
+    return f"chains of {urdf} (root -> leaf): {chains}"
+
+
+def urdf_problem(urdf: str, base: str | None, tip: str | None) -> Problem:
+    """The chain ``base -> tip`` of a URDF file as a problem without targets.
+
+    Raises:
+        OptikError: a missing ``base`` or ``tip`` (the message lists the file's chains), or
+            any :class:`~optik.errors.URDFError` of the file.
+    """
+    path = Path(urdf)
+    if base is None or tip is None:
+        missing = " and ".join(f for f, v in (("--base", base), ("--tip", tip)) if v is None)
+        raise OptikError(f"--urdf needs {missing} LINK; {chains_hint(path)}")
+    robot = Robot.from_urdf(path, base, tip)  # a Path: never read as XML text
+    return Problem(name=robot.name, robot=robot, source=f"URDF {path}: {base} -> {tip}", path=path)
+
+
+def dh_problem(file: str) -> Problem:
+    """The robot of a DH table (a ``[robot]`` table in the ``dh`` or ``mdh`` convention).
+
+    Raises:
+        OptikError: not a file, a ``urdf``-convention robot, or any
+            :class:`~optik.errors.ProblemFileError` of the file.
+    """
+    if not Path(file).is_file():
+        raise OptikError(f"--dh {file!r:.200}: file not found (a DH table is a .toml file)")
+    problem = load_robot(file)
+    if problem.robot.convention not in ("dh", "mdh"):
+        raise OptikError(
+            f"--dh {file}: convention {problem.robot.convention!r} is not a DH table "
+            "(give a urdf-convention file as PROBLEM, or the URDF itself with --urdf)"
+        )
+    return problem
+
+
+def robot_choice(args: argparse.Namespace, positional: str = "PROBLEM") -> list[str]:
+    named = args.problems if positional == "--problems" else args.problem
+    given = [
+        flag
+        for flag, value in (
+            (positional, named),
+            ("--urdf", args.urdf),
+            ("--dh", args.dh),
+        )
+        if value
+    ]
+    if (args.base is not None or args.tip is not None) and args.urdf is None:
+        raise OptikError("--base and --tip name the links of a --urdf chain; give --urdf FILE")
+    if len(given) > 1:
+        raise OptikError(f"give one robot, not {' and '.join(given)}")
+    return given
+
+
+def problem_from_args(args: argparse.Namespace) -> Problem:
+    """The robot of a command: exactly one of PROBLEM, ``--urdf`` or ``--dh``.
+
+    Raises:
+        OptikError: none or more than one given, ``--base``/``--tip`` without ``--urdf``,
+            or an error of the file.
+    """
+    if not robot_choice(args):
+        raise OptikError(
+            "give a robot: a PROBLEM (a built-in name or a problem file), "
+            f"--urdf FILE --base LINK --tip LINK, or --dh FILE (built-in problems: "
+            f"{builtin_names()})"
+        )
+    if args.urdf is not None:
+        return urdf_problem(args.urdf, args.base, args.tip)
+    if args.dh is not None:
+        return dh_problem(args.dh)
+    return named_problem(args.problem)
+
+
+def add_robot_arguments(p: argparse.ArgumentParser, *, positional: bool = True) -> None:
+    if positional:
+        p.add_argument(
+            "problem",
+            nargs="?",
+            metavar="PROBLEM",
+            type=path_text,
+            help="a built-in problem name or a problem file (.toml); no unit (the file "
+            "names its units). Or give --urdf or --dh instead",
+        )
+    group = p.add_argument_group("your own robot (instead of a problem)")
+    group.add_argument(
+        "--urdf",
+        metavar="FILE",
+        type=path_text,
+        help="a URDF file (its lengths in m, angles in rad), with --base and --tip",
+    )
+    group.add_argument(
+        "--base", metavar="LINK", help="base link of the --urdf chain (a link name; no unit)"
+    )
+    group.add_argument(
+        "--tip", metavar="LINK", help="tip link of the --urdf chain (a link name; no unit)"
+    )
+    group.add_argument(
+        "--dh",
+        metavar="FILE",
+        type=path_text,
+        help="a DH table: a .toml [robot] table with [[robot.joints]] rows (convention dh "
+        "or mdh); units as the file names them (length_unit, angle_unit; default m, rad)",
+    )
+
+
+# ---------------------------------------------------------------------------- poses
+def add_orientation_arguments(p: Any, what: str) -> None:
+    """One of --rpy, --rpy-deg, --quat-wxyz, --quat-xyzw on ``p`` (a parser or a group)."""
+    group = p.add_mutually_exclusive_group()
+    group.add_argument(
+        "--rpy",
+        nargs=3,
+        type=finite_float,
+        metavar=("R", "P", "Y"),
+        help=f"{what}: roll, pitch, yaw in rad, R = Rz(Y) Ry(P) Rx(R) (URDF convention)",
+    )
+    group.add_argument(
+        "--rpy-deg",
+        nargs=3,
+        type=finite_float,
+        metavar=("R", "P", "Y"),
+        help=f"{what}: roll, pitch, yaw in deg, R = Rz(Y) Ry(P) Rx(R) (URDF convention)",
+    )
+    group.add_argument(
+        "--quat-wxyz",
+        nargs=4,
+        type=finite_float,
+        metavar=("W", "X", "Y", "Z"),
+        help=f"{what}: a unit quaternion, scalar first (no unit)",
+    )
+    group.add_argument(
+        "--quat-xyzw",
+        nargs=4,
+        type=finite_float,
+        metavar=("X", "Y", "Z", "W"),
+        help=f"{what}: a unit quaternion, scalar last, as scipy and ROS (no unit)",
+    )
+
+
+def orientation_flag(args: argparse.Namespace) -> str | None:
+    for flag in ("rpy", "rpy_deg", "quat_wxyz", "quat_xyzw"):
+        if getattr(args, flag) is not None:
+            return "--" + flag.replace("_", "-")
+    return None
+
+
+def pose_from_args(position: Sequence[float], args: argparse.Namespace) -> np.ndarray:
+    """The 4x4 pose of ``position`` (m) and the orientation options (identity if none)."""
+    if args.rpy is not None:
+        return pose(position, rpy=args.rpy, rpy_convention="urdf")
+    if args.rpy_deg is not None:
+        return pose(position, rpy=args.rpy_deg, rpy_convention="urdf", degrees=True)
+    return pose(position, quat_wxyz=args.quat_wxyz, quat_xyzw=args.quat_xyzw)
+
+
+def named(problem: Problem, table: dict[str, Any], kind: str, name: str) -> Any:
+    """``table[name]``, or an error naming the problem and listing the known names."""
+    if name not in table:
+        known = ", ".join(table) or "none"
+        raise OptikError(f"problem {problem.name!r} has no {kind} {name!r} ({kind}s: {known})")
+    return table[name]
+
+
+def target_from_args(problem: Problem, args: argparse.Namespace) -> tuple[np.ndarray, str]:
+    orientation = orientation_flag(args)
+    if args.target is not None:
+        if args.position is not None or orientation is not None:
+            given = "--position" if args.position is not None else orientation
+            raise OptikError(f"--target NAME takes its pose from the problem; drop {given}")
+        target = named(problem, problem.targets, "target", args.target)
+        return target.pose, args.mode or target.mode
+    if args.position is None:
+        raise OptikError(
+            "give --target NAME or --position X Y Z (m), with an orientation "
+            "(--rpy, --rpy-deg, --quat-wxyz or --quat-xyzw) for a full pose"
+        )
+    mode = args.mode or ("pose" if orientation is not None else "position")
+    if mode == "position" and orientation is not None:
+        raise OptikError(f"--mode position ignores the orientation: drop {orientation}")
+    return pose_from_args(args.position, args), mode
+
+
+def command(sub: Any, name: str, summary: str, description: str, examples: str) -> Any:
+    return sub.add_parser(
+        name,
+        help=summary,
+        description=textwrap.fill(description, 88),
+        epilog="examples:\n" + examples,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )

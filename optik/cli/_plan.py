@@ -1,0 +1,155 @@
+"""``optik plan``: limit-aware preprocessing of a Cartesian path."""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+import numpy as np
+
+from optik._files import prepare_folder
+from optik._progress import Progress
+from optik.cli._common import (
+    EXIT_OK,
+    add_orientation_arguments,
+    add_robot_arguments,
+    command,
+    finite_float,
+    length_float,
+    named,
+    non_negative_float,
+    orientation_flag,
+    path_text,
+    pose_from_args,
+    positive_float,
+    problem_from_args,
+    seed_int,
+)
+from optik.errors import OptikError
+from optik.paths import line, read_path
+from optik.planning import PLAN_STATUSES, plan_path
+from optik.problems import Problem
+
+
+def _plan_poses(problem: Problem, args: argparse.Namespace) -> tuple[np.ndarray, str]:
+    orientation = orientation_flag(args)
+    if orientation is not None and args.line is None:
+        source = "--path" if args.path is not None else "--problem-path"
+        raise OptikError(
+            f"{orientation} sets the orientation of --line only; a {source} gives its own "
+            "orientations (in rad) or none"
+        )
+    if args.path is not None:
+        return read_path(args.path)
+    if args.line is not None:
+        mode = "pose" if orientation is not None else "position"
+        return line(
+            pose_from_args(args.line[:3], args), pose_from_args(args.line[3:], args), args.step
+        ), mode
+    if args.problem_path is not None:
+        stored = named(problem, problem.paths, "path", args.problem_path)
+        return stored.poses, stored.mode
+    raise OptikError("give --path FILE, --line X0 Y0 Z0 X1 Y1 Z1 (m) or --problem-path NAME")
+
+
+def _cmd_plan(args: argparse.Namespace) -> int:
+    out = prepare_folder(args.out)  # fail before the work, not after it
+    problem = problem_from_args(args)
+    robot = problem.robot
+    poses, mode = _plan_poses(problem, args)
+    with Progress(len(poses)) as bar:
+        plan = plan_path(
+            robot,
+            poses if mode == "pose" else poses[:, :3, 3],
+            mode=mode,
+            max_joint_step=args.max_joint_step,
+            limit_margin=args.limit_margin,
+            q_start=args.q0,
+            seed=args.seed,
+            progress=lambda done, total: bar.advance(note=f"plan {problem.name}"),
+        )
+    summary = plan.summary()
+    print(
+        f"{problem.name}: {summary['solved']}/{summary['waypoints']} waypoints solved, "
+        f"{summary['flagged']} flagged, largest joint step {summary['largest_step']:.4g} "
+        f"(bound {plan.max_joint_step:g}; rad or m)"
+    )
+    for status in PLAN_STATUSES:
+        if summary[status]:
+            print(f"  {status:<16}{summary[status]}")
+    written = [plan.save(out / f"plan.{ext}") for ext in ("csv", "npz", "json")]
+    try:
+        written.append(plan.plot(out / "plan.png", robot))
+    except OptikError as exc:  # pragma: no cover - only without matplotlib
+        print(f"  (no plot: {exc})")
+    print("  wrote " + ", ".join(str(p) for p in written))
+    return EXIT_OK
+
+
+def add_plan_command(sub: Any) -> None:
+    p = command(
+        sub,
+        "plan",
+        "turn a Cartesian path into a joint path inside the limits",
+        "Plan a continuous joint path inside the limits along a Cartesian path, print a "
+        "summary and write OUT/plan.csv, plan.npz, plan.json and plan.png. Path files are "
+        "SI (m, rad) unless a TOML path file names its units. A progress bar is drawn on a "
+        "terminal.",
+        "  optik plan planar_2r --line 1.5 -0.5 0 1.5 0.5 0 --step 0.05\n"
+        "  optik plan --urdf problems/panda.urdf --base panda_link0 --tip panda_hand \\\n"
+        "      --line 0.4 -0.2 0.5 0.4 0.2 0.5 --rpy-deg 180 0 0 --out panda-plan\n",
+    )
+    add_robot_arguments(p)
+    path_group = p.add_argument_group("path (one of --path, --line, --problem-path)")
+    source = path_group.add_mutually_exclusive_group()
+    source.add_argument(
+        "--path",
+        metavar="FILE",
+        type=path_text,
+        help="path file (.csv, .npz, .toml; positions in m, rpy in rad; see docs/planning.md)",
+    )
+    source.add_argument(
+        "--line",
+        nargs=6,
+        type=length_float,
+        metavar=("X0", "Y0", "Z0", "X1", "Y1", "Z1"),
+        help="a straight line between two positions, m",
+    )
+    source.add_argument(
+        "--problem-path", metavar="NAME", help="a named path of the problem file (no unit)"
+    )
+    p.add_argument(
+        "--step",
+        type=positive_float,
+        default=0.01,
+        help="sampling step of --line, m (default 0.01)",
+    )
+    add_orientation_arguments(path_group, "constant orientation along --line (a pose path)")
+    p.add_argument(
+        "--max-joint-step",
+        type=positive_float,
+        default=0.1,
+        help="largest continuous joint step, rad or m (default 0.1)",
+    )
+    p.add_argument(
+        "--limit-margin",
+        type=non_negative_float,
+        default=0.0,
+        help="keep joints this far inside their limits, rad or m (default 0)",
+    )
+    p.add_argument(
+        "--q0",
+        nargs="+",
+        type=finite_float,
+        metavar="Q",
+        help="current configuration, one value per joint: rad (revolute) or m (prismatic)",
+    )
+    p.add_argument("--seed", type=seed_int, default=0, help="seed of the restarts (no unit)")
+    p.add_argument(
+        "--out",
+        default="optik-plan",
+        metavar="DIR",
+        type=path_text,
+        help="output folder (no unit; default ./optik-plan)",
+    )
+    p.set_defaults(func=_cmd_plan)

@@ -1,0 +1,188 @@
+"""``optik report``: solver comparison runs and their reports."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+from typing import Any
+
+from optik.cli._common import (
+    EXIT_OK,
+    add_robot_arguments,
+    command,
+    count_int,
+    dh_problem,
+    named_problem,
+    path_text,
+    positive_float,
+    robot_choice,
+    seed_int,
+    urdf_problem,
+)
+from optik.compare import AGREEMENT_TOL, RunConfig
+from optik.errors import OptikError
+from optik.problems import Problem, builtin_problems
+from optik.report import (
+    DEFAULT_N,
+    DEFAULT_TIMEOUT_S,
+    default_solvers,
+    make_report,
+    quick_config,
+)
+
+
+def _caps(values: Sequence[str] | None) -> dict[str, int]:
+    caps: dict[str, int] = {}
+    for value in values or ():
+        name, sep, count = value.rpartition("=")
+        if not sep or not name or not count.isdigit() or not count.isascii():
+            raise OptikError(f"--cap expects SOLVER=N, got {value!r:.80}")
+        caps[name] = int(count)
+    return caps
+
+
+def _report_problems(args: argparse.Namespace) -> tuple[str | Problem, ...] | None:
+    given = robot_choice(args, positional="--problems")
+    if not given:
+        return None
+    if args.urdf is not None:
+        return (urdf_problem(args.urdf, args.base, args.tip),)
+    if args.dh is not None:
+        return (dh_problem(args.dh),)
+    for name in args.problems:
+        named_problem(name)  # an unknown name lists the built-ins before any work
+    return tuple(args.problems)
+
+
+def config_from_args(args: argparse.Namespace) -> RunConfig:
+    """The :class:`~optik.compare.RunConfig` of ``optik report``'s arguments."""
+    timeout = None if args.timeout_ms is None else args.timeout_ms / 1000.0
+    problems = _report_problems(args)
+    solvers = tuple(args.solvers) if args.solvers else None
+    caps = _caps(args.cap)
+    if args.quick:
+        quick = quick_config()
+        return quick_config(
+            problems=problems,
+            solvers=solvers,
+            n=args.n,
+            seed=args.seed,
+            tol=args.tol,
+            timeout_s=timeout,
+            caps={**quick.caps, **caps},
+            closed_form_problems=problems,
+        )
+    return RunConfig(
+        problems=problems or tuple(p.stem for p in builtin_problems()),
+        solvers=solvers or default_solvers(),
+        n=DEFAULT_N if args.n is None else args.n,
+        seed=args.seed,
+        tol=args.tol,
+        timeout_s=DEFAULT_TIMEOUT_S if timeout is None else timeout,
+        caps=caps,
+    )
+
+
+def _cmd_report(args: argparse.Namespace) -> int:
+    config = config_from_args(args)
+    command = "optik " + " ".join(sys.argv[1:]) if sys.argv and sys.argv[0] else ""
+    report = make_report(config, args.out, resume=args.resume, command=command)
+    print(report.summary_text())
+    if report.seed001 is not None:
+        verdict = "holds" if report.seed001.finding_holds else "does not hold"
+        print(f"\nseed 001: the chapter's finding (pinv needs fewer iterations) {verdict}")
+    agree = sum(s.agree for s in report.closed_form)
+    total = sum(s.cases for s in report.closed_form)
+    if total:
+        print(f"closed forms: {agree}/{total} step programs agree to {AGREEMENT_TOL:g}")
+    print(f"\nreport written in {report.elapsed_s:.1f} s: {report.index.resolve()}")
+    return EXIT_OK
+
+
+def add_report_command(subparsers: Any) -> argparse.ArgumentParser:
+    """Add ``optik report`` to the ``optik`` command's subparsers.
+
+    Args:
+        subparsers: the object returned by ``ArgumentParser.add_subparsers``.
+
+    Returns:
+        The ``report`` subparser (its handler is set as ``func``).
+    """
+    p = command(
+        subparsers,
+        "report",
+        "compare the IK solvers and write an HTML / Markdown report",
+        "Run the solver comparison (closed-form agreement, full IK per robot on random "
+        "in-limit targets, the seeds' examples), append every result to OUT/results.csv "
+        "and write OUT/index.html, OUT/summary.md, OUT/summary.csv and OUT/summary.json. "
+        "The robots are the built-in problems, the --problems given, or your own robot "
+        "(--urdf with --base and --tip, or --dh). A progress bar is drawn on a terminal.",
+        "  optik report --quick\n"
+        "  optik report --quick --problems puma560 ur5 --solvers auto dls\n"
+        "  optik report --quick --urdf problems/panda.urdf --base panda_link0 \\\n"
+        "      --tip panda_hand --out panda-report\n",
+    )
+    p.add_argument(
+        "--problems",
+        nargs="+",
+        metavar="PROBLEM",
+        type=path_text,
+        help="problem names or files (no unit; default: all built-ins)",
+    )
+    add_robot_arguments(p, positional=False)
+    names = list(default_solvers())
+    p.add_argument(
+        "--solvers",
+        nargs="+",
+        metavar="SOLVER",
+        choices=names,
+        help="solvers (no unit; default: all of them); choices: " + ", ".join(names),
+    )
+    p.add_argument(
+        "-n",
+        type=count_int,
+        default=None,
+        help=f"targets per robot (no unit; default {DEFAULT_N}; quick 5)",
+    )
+    p.add_argument(
+        "--seed",
+        type=seed_int,
+        default=0,
+        help="seed of the targets (no unit; default 0)",
+    )
+    p.add_argument(
+        "--timeout-ms",
+        type=positive_float,
+        default=None,
+        metavar="MS",
+        help=f"time limit per IK call, ms (default {DEFAULT_TIMEOUT_S * 1e3:g}; quick 100)",
+    )
+    p.add_argument(
+        "--tol", type=positive_float, default=1e-6, help="tolerance, m and rad (default 1e-6)"
+    )
+    p.add_argument(
+        "--cap",
+        action="append",
+        metavar="SOLVER=N",
+        help="run SOLVER on at most N targets per robot (no unit; repeatable)",
+    )
+    p.add_argument(
+        "--out",
+        default="optik-report",
+        metavar="DIR",
+        type=path_text,
+        help="output folder (no unit; default optik-report)",
+    )
+    p.add_argument(
+        "--quick",
+        action="store_true",
+        help="a small run (4 robots, 5 targets, fast solvers, 100 ms per call; no unit)",
+    )
+    p.add_argument(
+        "--resume",
+        action="store_true",
+        help="continue OUT/results.csv, skipping rows present (no unit)",
+    )
+    p.set_defaults(func=_cmd_report)
+    return p

@@ -1,0 +1,141 @@
+"""``optik solve``: one IK query from the command line."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from typing import Any
+
+from optik.cli._common import (
+    EXIT_NO_SOLUTION,
+    EXIT_OK,
+    add_orientation_arguments,
+    add_robot_arguments,
+    command,
+    finite_float,
+    json_value,
+    length_float,
+    positive_float,
+    problem_from_args,
+    seed_int,
+    target_from_args,
+    value_text,
+)
+from optik.ik import solve_ik
+from optik.problems import Problem
+from optik.solvers import available_solvers
+
+
+def _solve_json(problem: Problem, result: Any) -> str:
+    robot = problem.robot
+    data = {
+        "problem": problem.name,
+        "success": result.success,
+        "status": result.status,
+        # No answer for an unsolved target: q is null, the errors say how far it got.
+        "q": result.q.tolist() if result.success else None,
+        "q_units": ["m" if j.kind == "prismatic" else "rad" for j in robot.joints],
+        "joint_names": list(robot.joint_names),
+        "position_error": result.position_error,
+        "orientation_error": result.orientation_error,
+        "limit_violation": result.limit_violation,
+        "iterations": result.iterations,
+        "restarts": result.restarts,
+        "time_s": result.time_s,
+        "solver": result.solver,
+        "message": result.message,
+    }
+    return json.dumps(json_value(data), allow_nan=False)
+
+
+def _cmd_solve(args: argparse.Namespace) -> int:
+    problem = problem_from_args(args)
+    robot = problem.robot
+    target, mode = target_from_args(problem, args)
+    result = solve_ik(
+        robot,
+        target if mode == "pose" else target[:3, 3],
+        mode=mode,
+        solver=args.solver,
+        q0=args.q0,
+        tol=args.tol,
+        timeout_s=None if args.timeout_ms is None else args.timeout_ms / 1000.0,
+        seed=args.seed,
+    )
+    if args.json:
+        print(_solve_json(problem, result))
+        return EXIT_OK if result.success else EXIT_NO_SOLUTION
+    solver_time = f"{result.solver}, solver time {result.time_s * 1e3:.3f} ms"
+    errors = (
+        f"position error {result.position_error:.3e} m, orientation error "
+        f"{result.orientation_error:.3e} rad, limit violation {result.limit_violation:.3e} "
+        "(rad or m)"
+    )
+    if not result.success:
+        print(f"{problem.name}: no solution: {result.status} ({solver_time})")
+        print(f"  best attempt: {errors}")
+        if result.message:
+            print(f"  {result.message}")
+        return EXIT_NO_SOLUTION
+    print(f"{problem.name}: {result.status} ({solver_time})")
+    for joint, value in zip(robot.joints, result.q, strict=True):
+        print(f"  {joint.name:<24}{value_text(float(value), joint.kind)}")
+    print(f"  {errors}")
+    if result.message:
+        print(f"  {result.message}")
+    return EXIT_OK
+
+
+def add_solve_command(sub: Any) -> None:
+    p = command(
+        sub,
+        "solve",
+        "solve one IK query on a robot",
+        "Solve one IK query and print the joint values (rad, with degrees alongside; m for "
+        "prismatic joints), the errors and the solver's own time. An unsolved target prints "
+        "its status and the errors of the best attempt, no joint values, and exits 1.",
+        "  optik solve dobot_magician --target part1\n"
+        "  optik solve planar_2r --position 1 1 0\n"
+        "  optik solve --urdf problems/panda.urdf --base panda_link0 --tip panda_hand \\\n"
+        "      --position 0.4 0.1 0.5 --rpy-deg 180 0 0\n",
+    )
+    add_robot_arguments(p)
+    target = p.add_argument_group("target")
+    target.add_argument("--target", metavar="NAME", help="a named target of the problem (no unit)")
+    target.add_argument(
+        "--position",
+        nargs=3,
+        type=length_float,
+        metavar=("X", "Y", "Z"),
+        help="target position of the tool, m",
+    )
+    add_orientation_arguments(target, "target orientation (a full pose)")
+    p.add_argument(
+        "--mode",
+        choices=["pose", "position"],
+        help="pose or position (no unit; default: pose with an orientation, else position)",
+    )
+    p.add_argument(
+        "--solver",
+        default="auto",
+        choices=["auto", *available_solvers()],
+        help="solver name (no unit; default auto)",
+    )
+    p.add_argument(
+        "--tol", type=positive_float, default=1e-6, help="tolerance, m and rad (default 1e-6)"
+    )
+    p.add_argument(
+        "--q0",
+        nargs="+",
+        type=finite_float,
+        metavar="Q",
+        help="initial guess, one value per joint: rad (revolute) or m (prismatic)",
+    )
+    p.add_argument(
+        "--timeout-ms", type=positive_float, metavar="MS", help="time budget of the solver, ms"
+    )
+    p.add_argument("--seed", type=seed_int, default=0, help="seed of the restarts (no unit)")
+    p.add_argument(
+        "--json", action="store_true", help="print the result as one JSON object (no unit)"
+    )
+    p.set_defaults(func=_cmd_solve)
