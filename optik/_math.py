@@ -377,7 +377,7 @@ def first_bad_pose(T: np.ndarray, rot_tol: float, row_tol: float) -> int:
     return -1
 
 
-@_jit
+@_inline
 def cholesky_factor(A: np.ndarray, L: np.ndarray) -> bool:
     """Factor SPD ``A`` (n, n) as ``L L^T`` into ``L`` (n, n + 1); False if not SPD.
 
@@ -404,7 +404,7 @@ def cholesky_factor(A: np.ndarray, L: np.ndarray) -> bool:
     return True
 
 
-@_jit
+@_inline
 def cholesky_substitute(L: np.ndarray, b: np.ndarray, x: np.ndarray) -> None:
     """Solve ``L L^T x = b`` with a factor from :func:`cholesky_factor` (``x`` may be ``b``)."""
     n = L.shape[0]

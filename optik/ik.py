@@ -659,8 +659,8 @@ def _plan(
         return plan(branches, branches)
     # No closed form: the reach sphere still proves a target unreachable.
     centre, radius = robot.reach_sphere
-    with np.errstate(over="ignore"):  # a target 1e155 m away is simply unreachable
-        distance = float(np.linalg.norm(T_target[:3, 3] - centre))
+    # math.dist is exact in the range (no overflow: a target 1e155 m away is beyond).
+    distance = math.dist(T_target[:3, 3].tolist(), centre.tolist())
     if task.constrains_position and distance > radius + task.position_tol:
         early = _result(
             robot,

@@ -16,6 +16,8 @@ from optik._checks import FloatArray, as_float_array, check_finite
 from optik.errors import InvalidRotationError, ShapeError
 
 _LAST_ROW = np.array([0.0, 0.0, 0.0, 1.0])
+_ROW_TOLERANCE = 1e-9
+"""Largest deviation of a pose's last row from (0, 0, 0, 1)."""
 
 ROTATION_TOLERANCE = 1e-6
 """Largest accepted ``max |R^T R - I|`` for a user-supplied rotation."""
@@ -142,12 +144,23 @@ def check_rotation(name: str, R: FloatArray, tol: float = ROTATION_TOLERANCE) ->
 
 def as_pose(name: str, value: Any, batch: bool = False) -> FloatArray:
     """Validate a 4x4 homogeneous transform (or ``(N, 4, 4)`` when ``batch``)."""
+    if (
+        type(value) is np.ndarray
+        and value.dtype == np.float64
+        and value.flags.c_contiguous
+        and (value.shape == (4, 4) or (batch and value.ndim == 3 and value.shape[1:] == (4, 4)))
+    ):
+        # The common case in one compiled pass; any defect takes the path below, which
+        # names it.
+        poses = value.reshape(-1, 4, 4)
+        if _math.first_bad_pose(poses, ROTATION_TOLERANCE, _ROW_TOLERANCE) < 0:
+            return value
     T = as_float_array(name, value)
     if not (T.shape == (4, 4) or (batch and T.ndim == 3 and T.shape[1:] == (4, 4))):
         raise ShapeError(name, "(4, 4)" + (" or (N, 4, 4)" if batch else ""), T.shape)
     check_finite(name, T)
     bottom = T[3] if T.ndim == 2 else T[:, 3]
-    if float(np.abs(bottom - _LAST_ROW).max()) > 1e-9:
+    if float(np.abs(bottom - _LAST_ROW).max()) > _ROW_TOLERANCE:
         raise ShapeError(name, "a homogeneous transform with last row (0, 0, 0, 1)", T.shape)
     check_rotation(name, T[..., :3, :3])
     return T

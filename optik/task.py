@@ -80,7 +80,8 @@ class Task:
     @property
     def constrains_position(self) -> bool:
         """Whether every position axis is constrained (then the reach sphere is a proof)."""
-        return bool(np.all(self.weights[:3] > 0.0))
+        w = self.weights
+        return bool(w[0] > 0.0 and w[1] > 0.0 and w[2] > 0.0)
 
     @property
     def is_pose_or_position(self) -> bool:

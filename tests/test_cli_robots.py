@@ -87,7 +87,9 @@ def test_solver_time_is_the_results_time_not_the_process_time(
     from dataclasses import replace
 
     real = cli._solve.solve_ik
-    monkeypatch.setattr(cli._solve, "solve_ik", lambda *a, **k: replace(real(*a, **k), time_s=0.1234567))
+    monkeypatch.setattr(
+        cli._solve, "solve_ik", lambda *a, **k: replace(real(*a, **k), time_s=0.1234567)
+    )
     assert main(["solve", "planar_2r", "--position", "1", "1", "0"]) == 0
     assert "solver time 123.457 ms" in capsys.readouterr().out
 

@@ -58,9 +58,27 @@ def test_no_false_proof_at_pinned_joints(name: str) -> None:
 def test_ur5_wrist_singularity_is_solved() -> None:
     ur5 = load_problem("ur5").robot
     T = ur5.fk(np.array([0.0, 0.0, 0.0, -1.0, 0.0, 1.0]))
-    assert optik.analytic_ik(ur5, T) == []  # the closed form alone misses it
+    assert optik.analytic_ik(ur5, T)  # the free q6 of the reference (0) leaves no elbow
     res = optik.solve_ik(ur5, T)
-    assert res.success and res.status == "converged"
+    assert res.success and res.status == "converged" and res.solver == "analytic"
+
+
+def test_ur5_closed_form_alone_answers_at_the_wrist_singularity() -> None:
+    # q5 in {0, +-pi} leaves q6 free; the closed form takes it from the reference, or,
+    # when the elbow cannot reach with that q6, the q6 that puts the elbow mid-range.
+    ur5 = load_problem("ur5").robot
+    rng = np.random.default_rng(21)
+    for k in range(400):
+        q = rng.uniform(ur5.lower, ur5.upper)
+        q[4] = (0.0, math.pi, -math.pi)[k % 3]
+        if k % 4 == 0:
+            q[2] = 0.0  # elbow stretched as well
+        T = ur5.fk(q)
+        branches = optik.analytic_ik(ur5, T)
+        assert branches, f"no branch for q = {q.tolist()}"
+        for b in branches:
+            p, o = pose_error(ur5.fk(b), T)
+            assert p < 1e-9 and o < 1e-9 and ur5.within_limits(b)
 
 
 def test_folded_planar_elbow_is_solved() -> None:

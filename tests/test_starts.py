@@ -10,7 +10,14 @@ import pytest
 import optik
 from optik.problems import load_problem
 from optik.solvers._seeds import seed_table, start_sequence
-from optik.solvers._starts import TABLE_FIRST, start_into, table_order, uniform_draw
+from optik.solvers._starts import (
+    TABLE_FIRST,
+    nearest_entry,
+    nearest_table,
+    start_into,
+    table_order,
+    uniform_draw,
+)
 
 
 def test_uniform_draws_are_in_unit_interval_and_uncorrelated() -> None:
@@ -47,8 +54,8 @@ def test_continuous_joints_draw_from_minus_pi_to_pi() -> None:
     out = np.empty(2)
     values = []
     for k in range(500):
-        assert start_into(k, np.empty((0, 2)), np.empty(0, np.int64), np.empty((0, 2)),
-                          lower, upper, 1, out) == 2  # fmt: skip
+        empty = (np.empty(0, np.int64), np.empty(0), np.empty(0, np.int64))
+        assert start_into(k, np.empty((0, 2)), empty, np.empty((0, 2)), lower, upper, 1, out) == 2
         values.append(out.copy())
     V = np.array(values)
     assert np.all(np.isfinite(V)) and V[:, 0].min() >= -math.pi and V[:, 0].max() <= math.pi
@@ -97,3 +104,25 @@ def test_timeout_stops_an_unlimited_run() -> None:
     res = optik.solve_ik(panda, target, solver="dls", timeout_s=0.2, seed=0)
     assert res.status == "timeout" and res.restarts > optik.ik.DEFAULT_RESTARTS
     assert res.time_s < 2.0
+
+
+def test_lazy_ranking_equals_the_stable_sort_in_any_order_of_asking() -> None:
+    panda = load_problem("panda").robot
+    table = seed_table(panda)
+    rng = np.random.default_rng(11)
+    for trial in range(20):
+        target = panda.fk(rng.uniform(panda.lower, panda.upper))
+        mask = np.ones(12) if trial % 2 else np.r_[np.ones(3), np.zeros(9)]
+        order = table_order(table.features, table.centroids, table.offsets, target, mask)
+        nearest = nearest_table(table.features, table.centroids, table.offsets, target, mask)
+        asked = rng.permutation(order.shape[0] + 3)  # out of order, and past the end
+        for entry in asked:
+            expected = order[entry] if entry < order.shape[0] else -1
+            assert nearest_entry(nearest, int(entry)) == expected
+
+
+def test_lazy_ranking_keeps_ties_in_table_order() -> None:
+    index = np.array([10, 11, 12, 13], dtype=np.int64)
+    left = np.array([0.5, 0.25, 0.5, 0.25])
+    nearest = (index, left, np.full(4, -1, dtype=np.int64))
+    assert [nearest_entry(nearest, e) for e in range(5)] == [11, 13, 10, 12, -1]

@@ -53,6 +53,7 @@ from optik._math import (
     pose_defect,
     sincos,
     trig_roots,
+    wrap_angle,
 )
 from optik.analytic._base import (
     DUPLICATE_TOLERANCE,
@@ -595,6 +596,110 @@ def spherical_wrist_candidates(
 
 
 @_jit
+def _ur_wrist_origin(
+    dh: np.ndarray, T16: tuple[float, ...], c5t: float, sn5t: float, c6t: float, sn6t: float
+) -> tuple[float, float, float]:
+    """Frame 4 of a UR-type arm from ``T_16`` and joints 5 and 6 (cosine, sine).
+
+    Returns its origin's (x, y) in the plane of joints 2-4 and the angle of its first
+    column (theta2 + theta3 + theta4).
+    """
+    T15 = _times_inverse_dh(T16, c6t, sn6t, dh[5, _CA], dh[5, _SA], dh[5, _A], dh[5, _D])
+    T14 = _times_inverse_dh(T15, c5t, sn5t, dh[4, _CA], dh[4, _SA], dh[4, _A], dh[4, _D])
+    return T14[3], T14[7], math.atan2(T14[4], T14[0])
+
+
+@_jit
+def _ur_reachable_q6(
+    dh: np.ndarray, T16: tuple[float, ...], c5t: float, sn5t: float, t6_ref: float
+) -> float:
+    """At the wrist singularity, a theta6 (rad) whose elbow can reach, nearest ``t6_ref``.
+
+    It puts the elbow's squared reach ``x^2 + y^2`` at the middle of its range
+    ``[(a2 - a3)^2, (a2 + a3)^2]``, or as near as it gets (then on the range if any q6 is).
+
+    With axes 4 and 6 aligned, the origin of frame 4 circles axis 6 as q6 turns, in the
+    plane of the parallel joints, so ``x^2 + y^2 = A + B cos t6 + C sin t6`` exactly.
+    """
+    a2 = dh[1, _A]
+    a3 = dh[2, _A]
+    x, y, _ = _ur_wrist_origin(dh, T16, c5t, sn5t, 1.0, 0.0)
+    r0 = x * x + y * y
+    x, y, _ = _ur_wrist_origin(dh, T16, c5t, sn5t, 0.0, 1.0)
+    r1 = x * x + y * y
+    x, y, _ = _ur_wrist_origin(dh, T16, c5t, sn5t, -1.0, 0.0)
+    r2 = x * x + y * y
+    A = 0.5 * (r0 + r2)
+    B = 0.5 * (r0 - r2)
+    C = r1 - A
+    R = math.sqrt(B * B + C * C)
+    middle = 0.5 * ((a2 - a3) ** 2 + (a2 + a3) ** 2)
+    if R < 1e-300:
+        return t6_ref
+    phi = math.atan2(C, B)
+    off = math.acos(min(max((middle - A) / R, -1.0), 1.0))
+    best = t6_ref
+    gap = np.inf
+    for t in (phi + off, phi - off):
+        d = abs(wrap_angle(t - t6_ref))
+        if d < gap:
+            gap = d
+            best = t6_ref + wrap_angle(t - t6_ref)
+    return best
+
+
+@_jit
+def _ur_elbow(
+    dh: np.ndarray,
+    T16: tuple[float, ...],
+    t1: float,
+    t5: float,
+    t6: float,
+    c5t: float,
+    sn5t: float,
+    c6t: float,
+    sn6t: float,
+    ref: np.ndarray,
+    kr: int,
+    tols: np.ndarray,
+    cand: np.ndarray,
+    n: int,
+) -> int:
+    """The elbow branches (joints 2-4, a planar two-link arm) for given joints 1, 5, 6.
+
+    Writes rows ``n`` onwards of ``cand``; returns the new row count.
+    """
+    th2 = dh[1, _THETA]
+    th3 = dh[2, _THETA]
+    a2 = dh[1, _A]
+    a3 = dh[2, _A]
+    x, y, t234 = _ur_wrist_origin(dh, T16, c5t, sn5t, c6t, sn6t)
+    phi = math.atan2(y, x)
+    n3, t3a, t3b = trig_roots(
+        2 * a2 * a3,
+        0.0,
+        x * x + y * y - a2 * a2 - a3 * a3,
+        th3 + ref[kr, 2],
+        tols[0],
+        tols[1],
+        tols[2],
+    )
+    for i3 in range(n3):
+        t3 = t3a if i3 == 0 else t3b
+        sn3, c3 = sincos(t3)
+        t2 = phi - math.atan2(a3 * sn3, a2 + a3 * c3)
+        t4 = t234 - t2 - t3
+        cand[n, 0] = t1 - dh[0, _THETA]
+        cand[n, 1] = t2 - th2
+        cand[n, 2] = t3 - th3
+        cand[n, 3] = t4 - dh[3, _THETA]
+        cand[n, 4] = t5 - dh[4, _THETA]
+        cand[n, 5] = t6 - dh[5, _THETA]
+        n += 1
+    return n
+
+
+@_jit
 def ur_candidates(
     dh: np.ndarray, T: np.ndarray, ref: np.ndarray, kr: int, tols: np.ndarray, cand: np.ndarray
 ) -> int:
@@ -618,18 +723,11 @@ def ur_candidates(
     eps = tols[1]
     free_tol = tols[2]
     th1 = dh[0, _THETA]
-    th2 = dh[1, _THETA]
-    th3 = dh[2, _THETA]
-    th4 = dh[3, _THETA]
     th5 = dh[4, _THETA]
     th6 = dh[5, _THETA]
-    a2 = dh[1, _A]
-    a3 = dh[2, _A]
     h = dh[1, _D] + dh[2, _D] + dh[3, _D]
     d6 = dh[5, _D]
     ca1, sa1 = dh[0, _CA], dh[0, _SA]
-    ca5, sa5 = dh[4, _CA], dh[4, _SA]
-    ca6, sa6 = dh[5, _CA], dh[5, _SA]
     # 1. p5 = p - d6 z6; joint 1 from s1 p5x - c1 p5y = h.
     p5x = T[0, 3] - d6 * T[0, 2]
     p5y = T[1, 3] - d6 * T[1, 2]
@@ -668,48 +766,28 @@ def ur_candidates(
         n_wrist = 1 if s5_mag < _WRIST_SINGULAR else 2
         for iw in range(n_wrist):
             sign = 1.0 if iw == 0 else -1.0
-            if n_wrist == 1:
-                t5 = math.atan2(0.0, c5)
-                t6 = th6 + ref[kr, 5]
-            else:
+            if n_wrist == 2:
                 t5 = math.atan2(sign * s5_mag, c5)
                 t6 = math.atan2(-sign * T16[9], sign * T16[8])
-            # 3. T_14 = T_16 A6^-1 A5^-1: a planar two-link arm to the origin of frame 4.
-            theta5 = th5 + (t5 - th5)
-            theta6 = th6 + (t6 - th6)
-            if n_wrist == 1:
-                sn5t, c5t = sincos(theta5)
-                sn6t, c6t = sincos(theta6)
-            else:
+                theta5 = th5 + (t5 - th5)
+                theta6 = th6 + (t6 - th6)
                 c5t, sn5t = _cos_sin(theta5, t5, c5, sign * s5_mag)
                 c6t, sn6t = _cos_sin(theta6, t6, sign * T16[8], -sign * T16[9])
-            T15 = _times_inverse_dh(T16, c6t, sn6t, ca6, sa6, dh[5, _A], dh[5, _D])
-            T14 = _times_inverse_dh(T15, c5t, sn5t, ca5, sa5, dh[4, _A], dh[4, _D])
-            x = T14[3]
-            y = T14[7]
-            t234 = math.atan2(T14[4], T14[0])
-            phi = math.atan2(y, x)
-            n3, t3a, t3b = trig_roots(
-                2 * a2 * a3,
-                0.0,
-                x * x + y * y - a2 * a2 - a3 * a3,
-                th3 + ref[kr, 2],
-                trig_tol,
-                eps,
-                free_tol,
-            )
-            for i3 in range(n3):
-                t3 = t3a if i3 == 0 else t3b
-                sn3, c3 = sincos(t3)
-                t2 = phi - math.atan2(a3 * sn3, a2 + a3 * c3)
-                t4 = t234 - t2 - t3
-                cand[n, 0] = t1 - th1
-                cand[n, 1] = t2 - th2
-                cand[n, 2] = t3 - th3
-                cand[n, 3] = t4 - th4
-                cand[n, 4] = t5 - th5
-                cand[n, 5] = t6 - th6
-                n += 1
+                n = _ur_elbow(dh, T16, t1, t5, t6, c5t, sn5t, c6t, sn6t, ref, kr, tols, cand, n)
+                continue
+            # Wrist singular (axes 4 and 6 aligned): q6 is free. It takes the reference,
+            # unless the elbow then cannot reach; then the q6 whose elbow reach is the
+            # middle of the elbow's range (nearest the reference of the two).
+            t5 = math.atan2(0.0, c5)
+            sn5t, c5t = sincos(t5)
+            t6 = th6 + ref[kr, 5]
+            sn6t, c6t = sincos(t6)
+            before = n
+            n = _ur_elbow(dh, T16, t1, t5, t6, c5t, sn5t, c6t, sn6t, ref, kr, tols, cand, n)
+            if n == before:
+                t6 = _ur_reachable_q6(dh, T16, c5t, sn5t, t6)
+                sn6t, c6t = sincos(t6)
+                n = _ur_elbow(dh, T16, t1, t5, t6, c5t, sn5t, c6t, sn6t, ref, kr, tols, cand, n)
     return n
 
 

@@ -19,7 +19,7 @@ import numpy as np
 from optik._kernels import fk_jacobian_work
 from optik._math import cholesky_solve
 from optik._nrt import borrowed
-from optik.solvers._starts import start_into, table_order
+from optik.solvers._starts import nearest_table, start_into
 from optik.task import task_converged, task_error, task_features, task_rows
 
 _jit = nb.njit(cache=True, nogil=True, error_model="numpy")
@@ -274,8 +274,10 @@ def lm_solve_restarts(
     target: np.ndarray,
     task: np.ndarray,
     given: np.ndarray,
-    order: np.ndarray,
     table_q: np.ndarray,
+    table_features: np.ndarray,
+    table_centroids: np.ndarray,
+    table_offsets: np.ndarray,
     max_iter: int,
     w_bias: float,
     first: int,
@@ -285,8 +287,9 @@ def lm_solve_restarts(
     """:func:`lm_attempt` from starts ``first`` to ``last`` (inclusive) until one converges.
 
     Start ``k`` is :func:`optik.solvers._starts.start_into`'s: the ``given`` starts (closed
-    -form branches nearest ``q0``, or ``q0``), then seed-table entries ``table_q[order]``
-    (nearest the target first) and seeded uniform draws inside the limits in turn. Start
+    -form branches nearest ``q0``, or ``q0``), then the seed table's entries (``table_*``:
+    :class:`optik.solvers._seeds.SeedTable`) nearest the target first and seeded uniform
+    draws inside the limits in turn. Start
     ``k`` depends on ``k`` and ``seed`` only, so a caller may run the attempts in slices
     (for a deadline, or to stay interruptible) and get the same answer. The first
     :data:`QUICK_ATTEMPTS` attempts use the quick stall rule.
@@ -296,8 +299,43 @@ def lm_solve_restarts(
         orientation_error)`` of the first converged attempt, else of the best one (the
         smallest sum of both errors; the earliest among equals).
     """
+    scratch = workspace(prismatic.shape[0], lower.shape[0])
+    return _restarts(
+        K, prismatic, C, identity, lower, upper, target, task, task_features(task), given,
+        table_q, table_features, table_centroids, table_offsets, max_iter, w_bias, first,
+        last, seed, scratch,
+    )  # fmt: skip
+
+
+@_jit
+def _restarts(
+    K: np.ndarray,
+    prismatic: np.ndarray,
+    C: np.ndarray,
+    identity: bool,
+    lower: np.ndarray,
+    upper: np.ndarray,
+    target: np.ndarray,
+    task: np.ndarray,
+    mask: np.ndarray,
+    given: np.ndarray,
+    table_q: np.ndarray,
+    table_features: np.ndarray,
+    table_centroids: np.ndarray,
+    table_offsets: np.ndarray,
+    max_iter: int,
+    w_bias: float,
+    first: int,
+    last: int,
+    seed: int,
+    scratch: tuple[np.ndarray, ...],
+) -> tuple[np.ndarray, int, int, bool, float, float]:
+    """:func:`lm_solve_restarts` in the caller's ``scratch`` (:func:`workspace`).
+
+    ``mask`` is :func:`optik.task.task_features` of ``task``.
+    """
     dof = lower.shape[0]
-    scratch = workspace(prismatic.shape[0], dof)
+    nearest = nearest_table(table_features, table_centroids, table_offsets, target, mask)
     q = np.empty(dof)
     best_q = np.empty(dof)
     best_q[:] = np.nan
@@ -307,7 +345,7 @@ def lm_solve_restarts(
     total = 0
     attempt = first
     while attempt <= last:
-        start_into(attempt, given, order, table_q, lower, upper, seed, q)
+        start_into(attempt, given, nearest, table_q, lower, upper, seed, q)
         quick = attempt < QUICK_ATTEMPTS
         it, ok, pos, rot = lm_attempt(
             K, prismatic, C, identity, lower, upper, target, task, q, max_iter, w_bias,
@@ -324,9 +362,13 @@ def lm_solve_restarts(
     return best_q, total, last - first + 1, False, best_pos, best_rot
 
 
+BATCH_CHUNK = 32
+"""Targets per unit of a batch's work: one scratch workspace (15 arrays) serves them all."""
+
+
 @_jit
-def _solve_target(
-    k: int,
+def _solve_chunk(
+    c: int,
     K: np.ndarray,
     prismatic: np.ndarray,
     C: np.ndarray,
@@ -349,18 +391,23 @@ def _solve_target(
     used: np.ndarray,
     ok: np.ndarray,
 ) -> None:
-    """Row ``k`` of a batch: :func:`lm_solve_restarts` with the random stream ``seeds[k]``."""
-    order = table_order(
-        table_features, table_centroids, table_offsets, targets[k], task_features(task)
-    )
-    q, it, u, good, _, _ = lm_solve_restarts(
-        K, prismatic, C, identity, lower, upper, targets[k], task, given, order, table_q,
-        max_iter, w_bias, 0, restarts, seeds[k],
-    )  # fmt: skip
-    Q[k] = q
-    iters[k] = it
-    used[k] = u - 1
-    ok[k] = good
+    """Chunk ``c`` of a batch (:data:`BATCH_CHUNK` targets) in one scratch workspace.
+
+    Target ``k`` is :func:`lm_solve_restarts` with the random stream ``seeds[k]``. Every
+    attempt overwrites the scratch before it reads it, so sharing it changes no answer.
+    """
+    scratch = workspace(prismatic.shape[0], lower.shape[0])
+    mask = task_features(task)
+    for k in range(c * BATCH_CHUNK, min((c + 1) * BATCH_CHUNK, targets.shape[0])):
+        q, it, u, good, _, _ = _restarts(
+            K, prismatic, C, identity, lower, upper, targets[k], task, mask, given, table_q,
+            table_features, table_centroids, table_offsets, max_iter, w_bias, 0, restarts,
+            seeds[k], scratch,
+        )  # fmt: skip
+        Q[k] = q
+        iters[k] = it
+        used[k] = u - 1
+        ok[k] = good
 
 
 # The parallel and the serial batch are two functions, not one function jitted twice:
@@ -411,9 +458,9 @@ def lm_solve_batch(
     table_centroids_, table_offsets_ = borrowed(table_centroids), borrowed(table_offsets)
     Q_, iters_, used_, ok_ = borrowed(Q), borrowed(iters), borrowed(used), borrowed(ok)
     seeds_, task_ = borrowed(seeds), borrowed(task)
-    for k in nb.prange(N):
-        _solve_target(
-            k, K_, prismatic_, C_, identity, lower_, upper_, targets_, task_, given_,
+    for c in nb.prange((N + BATCH_CHUNK - 1) // BATCH_CHUNK):
+        _solve_chunk(
+            c, K_, prismatic_, C_, identity, lower_, upper_, targets_, task_, given_,
             table_q_, table_features_, table_centroids_, table_offsets_, max_iter, w_bias,
             restarts, seeds_, Q_, iters_, used_, ok_,
         )  # fmt: skip
@@ -446,9 +493,9 @@ def lm_solve_batch_serial(
     iters = np.empty(N, dtype=np.int64)
     used = np.empty(N, dtype=np.int64)
     ok = np.empty(N, dtype=np.bool_)
-    for k in range(N):
-        _solve_target(
-            k, K, prismatic, C, identity, lower, upper, targets, task, given, table_q,
+    for c in range((N + BATCH_CHUNK - 1) // BATCH_CHUNK):
+        _solve_chunk(
+            c, K, prismatic, C, identity, lower, upper, targets, task, given, table_q,
             table_features, table_centroids, table_offsets, max_iter, w_bias, restarts,
             seeds, Q, iters, used, ok,
         )  # fmt: skip

@@ -143,10 +143,7 @@ def start_sequence(
     ``bounds`` (default: the robot's limits) is the box the draws fill.
     """
     table = seed_table(robot)
-    order = table_order(
-        table.features, table.centroids, table.offsets, np.asarray(target, float),
-        as_task(mode).features,
-    )  # fmt: skip
     G = np.asarray(given, dtype=np.float64).reshape(-1, robot.dof)
     lower, upper = (robot.lower, robot.upper) if bounds is None else bounds
-    return StartSequence(G, order, table.q, lower, upper, seed)
+    T = np.ascontiguousarray(target, dtype=np.float64)
+    return StartSequence(G, table, T, as_task(mode).features, lower, upper, seed)

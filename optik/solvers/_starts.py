@@ -6,8 +6,9 @@ batch, takes its starts from :func:`start_into`:
 1. the *given* starts, in order: the closed-form branches inside the limits, nearest
    ``q0`` first (when the robot has a closed form), else ``q0`` when the caller gave one;
 2. then the entries of the robot's seed table (:mod:`optik.solvers._seeds`) in the
-   cluster whose centre is nearest the target, nearest first (:func:`table_order`): the
-   first :data:`TABLE_FIRST` starts after the given ones, then every other start;
+   cluster whose centre is nearest the target, nearest first (:func:`table_order`; the
+   solvers rank them lazily, :func:`nearest_table`, since most queries use one or two):
+   the first :data:`TABLE_FIRST` starts after the given ones, then every other start;
 3. between those, and once the cluster is used up, uniform draws inside the limits
    (``[-pi, pi]`` for a continuous joint).
 
@@ -65,7 +66,7 @@ def uniform_draw(seed: int, k: int, i: int) -> float:
 def start_into(
     k: int,
     given: np.ndarray,
-    order: np.ndarray,
+    nearest: NearestTable,
     table_q: np.ndarray,
     lower: np.ndarray,
     upper: np.ndarray,
@@ -77,7 +78,7 @@ def start_into(
     Args:
         k: the start's index (0 is the first attempt).
         given: (G, dof) starts taken first, in order (may be empty).
-        order: (M,) indices into ``table_q``, nearest the target first.
+        nearest: the target's table entries, ranked on demand (:func:`nearest_table`).
         table_q: (T, dof) seed-table configurations.
         lower: (dof,) lower limits; ``-inf`` draws from ``-pi``.
         upper: (dof,) upper limits; ``+inf`` draws up to ``pi``.
@@ -94,8 +95,9 @@ def start_into(
         entry = j
     elif (j - TABLE_FIRST) % 2 == 0:
         entry = TABLE_FIRST + (j - TABLE_FIRST) // 2
-    if 0 <= entry < order.shape[0]:
-        out[:] = table_q[order[entry]]
+    index = nearest_entry(nearest, entry) if entry >= 0 else -1
+    if index >= 0:
+        out[:] = table_q[index]
         return 1
     for i in range(lower.shape[0]):
         lo = lower[i] if np.isfinite(lower[i]) else -np.pi
@@ -104,18 +106,57 @@ def start_into(
     return 2
 
 
+NearestTable = tuple[np.ndarray, np.ndarray, np.ndarray]
+"""A target's table entries ranked on demand: ``(index (n,), left (n,), ranked (n,))`` --
+the entries' table indices, their squared distances (``-1`` once ranked), and the table
+indices nearest first (``-1`` where not ranked yet)."""
+
+
 @_jit
-def _pop_nearest(distances: np.ndarray) -> int:
-    """Index of the smallest remaining distance, then marked as used (-1 when none left)."""
-    best = -1
-    value = np.inf
-    for i in range(distances.shape[0]):
-        if distances[i] < value:
-            value = distances[i]
-            best = i
-    if best >= 0:
-        distances[best] = np.inf
-    return best
+def nearest_table(
+    features: np.ndarray,
+    centroids: np.ndarray,
+    offsets: np.ndarray,
+    target: np.ndarray,
+    mask: np.ndarray,
+) -> NearestTable:
+    """The entries of the cluster nearest ``target``, to be ranked by :func:`nearest_entry`.
+
+    Ranking all of them (a sort of ~128 distances, 8 us) costs more than most solves need:
+    they take one or two entries, each found by one scan.
+    """
+    index, distances = table_candidates(features, centroids, offsets, target, mask)
+    return index, distances, np.full(index.shape[0], -1, dtype=np.int64)
+
+
+@_jit
+def nearest_entry(nearest: NearestTable, entry: int) -> int:
+    """Table index of the ``entry``-th nearest entry (0 is the nearest), -1 past the last.
+
+    Equal to ``table_order(...)[entry]`` (ties to the earlier entry, as a stable sort);
+    entries with a NaN distance are never ranked. Ranks the entries up to ``entry`` on
+    first use, in place.
+    """
+    index, left, ranked = nearest
+    if entry >= ranked.shape[0]:
+        return -1
+    if ranked[entry] < 0:
+        e = entry
+        while e > 0 and ranked[e - 1] < 0:
+            e -= 1
+        for r in range(e, entry + 1):
+            best = -1
+            value = np.inf
+            for i in range(left.shape[0]):
+                d = left[i]
+                if d >= 0.0 and (best < 0 or d < value):
+                    best = i
+                    value = d
+            if best < 0:
+                return -1
+            left[best] = -1.0
+            ranked[r] = index[best]
+    return ranked[entry]
 
 
 @_jit
@@ -150,7 +191,12 @@ def table_candidates(
         for c in range(row.shape[0]):
             x = row[c] - f[j]
             to_centre[c] += x * x
-    nearest = _pop_nearest(to_centre)
+    nearest = -1
+    value = np.inf
+    for c in range(to_centre.shape[0]):
+        if to_centre[c] < value:
+            value = to_centre[c]
+            nearest = c
     if nearest < 0:
         return np.empty(0, dtype=np.int64), np.empty(0)
     lo = offsets[nearest]
@@ -187,8 +233,10 @@ class StartSequence:
 
     Args:
         given: the starts taken first, in order (closed-form branches, or ``q0``).
-        order: (M,) seed-table indices nearest the target first.
-        table_q: (T, dof) seed-table configurations.
+        table: the robot's seed table, ``(q (T, dof), features (12, T), centroids (12,
+            C), offsets (C + 1,))`` (:class:`optik.solvers._seeds.SeedTable`).
+        target: (4, 4) the target pose, which ranks the table's entries.
+        mask: (12,) the pose features that rank them (:func:`optik.task.task_features`).
         lower: (dof,) lower limits.
         upper: (dof,) upper limits.
         seed: stream of the uniform draws.
@@ -197,31 +245,50 @@ class StartSequence:
     def __init__(
         self,
         given: FloatArray,
-        order: np.ndarray,
-        table_q: FloatArray,
+        table: tuple[FloatArray, FloatArray, FloatArray, np.ndarray],
+        target: FloatArray,
+        mask: FloatArray,
         lower: FloatArray,
         upper: FloatArray,
         seed: int,
     ) -> None:
         dof = lower.shape[0]
         self.given = np.ascontiguousarray(np.asarray(given, dtype=np.float64).reshape(-1, dof))
-        self.order = order
-        self.table_q = table_q
+        self.table = table
+        self.target = target
+        self.mask = mask
         self.lower = lower
         self.upper = upper
         self.seed = seed
+        self._nearest: NearestTable | None = None
+
+    @property
+    def nearest(self) -> NearestTable:
+        """The target's table entries, ranked on demand (built on first use).
+
+        The compiled solvers rank them themselves (:func:`nearest_table` inside the
+        kernel costs less than passing the ranking in and out of it).
+        """
+        if self._nearest is None:
+            _, features, centroids, offsets = self.table
+            self._nearest = nearest_table(features, centroids, offsets, self.target, self.mask)
+        return self._nearest
 
     def start(self, k: int) -> FloatArray:
         """Start ``k`` (dof,), a new array."""
         out = np.empty(self.lower.shape[0])
-        start_into(k, self.given, self.order, self.table_q, self.lower, self.upper, self.seed, out)
+        table_q = self.table[0]
+        start_into(k, self.given, self.nearest, table_q, self.lower, self.upper, self.seed, out)
         return out
 
 
 __all__ = [
     "ROTATION_WEIGHT",
     "TABLE_FIRST",
+    "NearestTable",
     "StartSequence",
+    "nearest_entry",
+    "nearest_table",
     "start_into",
     "table_candidates",
     "table_order",

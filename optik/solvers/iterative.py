@@ -157,7 +157,7 @@ class DLSSolver(IKSolver):
             hi = min(first + size - 1, last)
             q, it, ran, ok, pos, rot = lm_solve_restarts(
                 K, prismatic, C, identity, lower, upper, query.target, query.spec.packed,
-                starts.given, starts.order, starts.table_q, int(max_iter),
+                starts.given, *starts.table, int(max_iter),
                 self.w_bias, first, hi, starts.seed,
             )  # fmt: skip
             total += int(it)
