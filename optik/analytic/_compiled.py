@@ -337,6 +337,10 @@ def _mul3tn(
     )
 
 
+Rows12 = tuple[float, float, float, float, float, float, float, float, float, float, float, float]
+"""The top three rows of a 4x4 transform, row-major."""
+
+
 @_jit
 def _row_times_inverse_dh(
     t0: float,
@@ -357,14 +361,14 @@ def _row_times_inverse_dh(
 
 @_jit
 def _times_inverse_dh(
-    T: tuple[float, float, float, float, float, float, float, float, float, float, float, float],
+    T: Rows12,
     ct: float,
     st: float,
     ca: float,
     sa: float,
     a: float,
     d: float,
-) -> tuple[float, float, float, float, float, float, float, float, float, float, float, float]:
+) -> Rows12:
     """``T[:3] @ A^-1`` for the top rows of ``T`` (a row-major 12-tuple).
 
     ``A`` is the DH matrix (theta, d, a, alpha) and ``A^-1 = [R^T, -R^T p]`` with
@@ -597,7 +601,7 @@ def spherical_wrist_candidates(
 
 @_jit
 def _ur_wrist_origin(
-    dh: np.ndarray, T16: tuple[float, ...], c5t: float, sn5t: float, c6t: float, sn6t: float
+    dh: np.ndarray, T16: Rows12, c5t: float, sn5t: float, c6t: float, sn6t: float
 ) -> tuple[float, float, float]:
     """Frame 4 of a UR-type arm from ``T_16`` and joints 5 and 6 (cosine, sine).
 
@@ -610,9 +614,7 @@ def _ur_wrist_origin(
 
 
 @_jit
-def _ur_reachable_q6(
-    dh: np.ndarray, T16: tuple[float, ...], c5t: float, sn5t: float, t6_ref: float
-) -> float:
+def _ur_reachable_q6(dh: np.ndarray, T16: Rows12, c5t: float, sn5t: float, t6_ref: float) -> float:
     """At the wrist singularity, a theta6 (rad) whose elbow can reach, nearest ``t6_ref``.
 
     It puts the elbow's squared reach ``x^2 + y^2`` at the middle of its range
@@ -651,7 +653,7 @@ def _ur_reachable_q6(
 @_jit
 def _ur_elbow(
     dh: np.ndarray,
-    T16: tuple[float, ...],
+    T16: Rows12,
     t1: float,
     t5: float,
     t6: float,
