@@ -127,6 +127,7 @@ class Peer(ABC):
         self.version = ""
         self.notes: list[str] = []
         self._robot: Robot | None = None
+        self._rng = np.random.default_rng(self.seed)
 
     def load(self) -> None:
         """Import the peer's package and record its version.
@@ -198,6 +199,11 @@ class Peer(ABC):
                 f"{what}: FK differs from optik's by {mismatch:.2e} (> {self.fk_tol:g})",
             )
         return f"{what}: FK = optik FK (max difference {mismatch:.1e}, bound {self.fk_tol:g})"
+
+    def reseed(self, seed: int) -> None:
+        """Restart the random restarts from ``seed`` (a run reseeds before each target)."""
+        self.seed = int(seed)
+        self._rng = np.random.default_rng(self.seed)
 
     def out_of_time(self, start_time: float) -> bool:
         """Whether a query begun at ``start_time`` (``time.perf_counter``) is past ``timeout_s``."""

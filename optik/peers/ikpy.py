@@ -57,7 +57,6 @@ class IKPyPeer(Peer):
         self.restarts = int(restarts)
         self.ikpy_tol = float(ikpy_tol)
         self._chain: Any = None
-        self._rng = np.random.default_rng(seed)
 
     def settings(self) -> dict[str, Any]:
         """Restarts, ikpy's tolerance, the orientation mode."""
@@ -82,11 +81,13 @@ class IKPyPeer(Peer):
                 self.name, f"ikpy chain has {len(chain.links)} links, expected {robot.dof + 2}"
             )
         note = self.check_fk(
-            lambda q: chain.forward_kinematics(self._full(q)), robot, "ikpy chain from a URDF"
+            lambda q: chain.forward_kinematics(self._full(q)),
+            robot,
+            "ikpy chain from a URDF written from optik's chain",
         )
         self._chain = chain
-        self._rng = np.random.default_rng(self.seed)
-        return [note + " written from optik's chain"]
+        self.reseed(self.seed)
+        return [note]
 
     @staticmethod
     def _full(q: FloatArray) -> FloatArray:

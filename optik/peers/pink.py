@@ -60,7 +60,6 @@ class PinkPeer(Peer):
         self.max_iter = int(max_iter)
         self.restarts = int(restarts)
         self.limit_gain = float(limit_gain)
-        self._rng = np.random.default_rng(seed)
         self._model: Any = None
         self._data: Any = None
         self._task: Any = None
@@ -107,12 +106,12 @@ class PinkPeer(Peer):
             pin.framesForwardKinematics(model, data, q)
             return np.asarray(data.oMf[frame_id].homogeneous)
 
-        note = self.check_fk(fk, robot, "Pinocchio model from a URDF")
+        note = self.check_fk(fk, robot, "Pinocchio model from a URDF written from optik's chain")
         self._model, self._data = model, data
         self._limits = [ConfigurationLimit(model, config_limit_gain=self.limit_gain)]
         self._task = FrameTask(TOOL_LINK, position_cost=1.0, orientation_cost=1.0, gain=1.0)
-        self._rng = np.random.default_rng(self.seed)
-        return [note + " written from optik's chain"]
+        self.reseed(self.seed)
+        return [note]
 
     def solve(self, T_target: FloatArray, q0: FloatArray) -> PeerAnswer:
         """Iterate ``q += solve_ik(...)`` from ``q0``, then from seeded random restarts."""

@@ -100,7 +100,6 @@ class PyBulletPeer(Peer):
         self.rounds = int(rounds)
         self.restarts = int(restarts)
         self.null_space = bool(null_space)
-        self._rng = np.random.default_rng(seed)
         self._client: int | None = None
         self._body = -1
         self._joints: list[int] = []
@@ -149,7 +148,7 @@ class PyBulletPeer(Peer):
         note = self.check_fk(
             self._fk, robot, "pybullet body from a URDF written from optik's chain (float32)"
         )
-        self._rng = np.random.default_rng(self.seed)
+        self.reseed(self.seed)
         return [note]
 
     def _set(self, q: FloatArray) -> None:

@@ -88,10 +88,15 @@ class RTBPeer(Peer):
         ets.qlim = np.vstack([lower, upper])
         note = self.check_fk(lambda q: ets.fkine(q).A, robot, "ETS from optik's chain")
         self._ets = ets
-        libc_name = ctypes.util.find_library("c")
-        if libc_name is not None:  # restarts draw from C rand(): seed it
-            ctypes.CDLL(libc_name).srand(ctypes.c_uint(self.seed % 2**32))
+        self.reseed(self.seed)
         return [note, "optik's joint limits copied into qlim"]
+
+    def reseed(self, seed: int) -> None:
+        """Seed C ``rand()``, which draws RTB's restarts (process-wide)."""
+        super().reseed(seed)
+        libc_name = ctypes.util.find_library("c")
+        if libc_name is not None:
+            ctypes.CDLL(libc_name).srand(ctypes.c_uint(self.seed % 2**32))
 
     def solve(self, T_target: FloatArray, q0: FloatArray) -> PeerAnswer:
         """``ets.ik_LM(T, q0, ilimit, slimit, tol, joint_limits=True)``."""
