@@ -11,7 +11,7 @@ succeeds when the benchmark itself finds, from optik's forward kinematics of the
 (1e-12): never from a method's own flag. Each query is timed with ``time.perf_counter``
 after a warm-up (numba compiles on first call); methods run interleaved, target by target,
 so that the load of the machine falls on all of them alike. Slow methods (``pinv``,
-``transpose``, ``qp:*``, ``casadi:*``, ikpy, pink) run on the first ``--n-slow`` targets.
+``transpose``, ``qp:*``, ``casadi:*``, ikpy, pink, pybullet) run on the first ``--n-slow`` targets.
 
 Output: the long table (one row per robot and method: settings, n, success rate, median
 and p95 time per query, mean iterations), then the summaries (ratios optik / RTB), with
@@ -40,7 +40,6 @@ import platform  # noqa: E402
 import shlex  # noqa: E402
 import subprocess  # noqa: E402
 import sys  # noqa: E402
-import tempfile  # noqa: E402
 import time  # noqa: E402
 import zlib  # noqa: E402
 from collections import Counter  # noqa: E402
@@ -54,10 +53,11 @@ from numpy.typing import NDArray  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-import _peers  # noqa: E402
 import _record  # noqa: E402
 
 import optik  # noqa: E402
+from optik.peers import Peer, PeerUnavailable, get_peer  # noqa: E402
+from optik.spatial import pose_error  # noqa: E402
 
 Array = NDArray[np.float64]
 DEFAULT_ROBOTS = ("puma560", "ur5", "panda")
@@ -82,9 +82,20 @@ VERSIONED = (
     "pin",
     "daqp",
     "eaik",
+    "pybullet",
 )
 
 Solve = Callable[[Array, Array], tuple[Any, int | None, str]]
+
+
+@dataclass
+class PeerRow:
+    """A peer adapter (``optik.peers``) as one row of the benchmark."""
+
+    label: str
+    peer: Peer
+    settings: str
+    slow: bool = False
 
 
 @dataclass
@@ -122,7 +133,7 @@ def verify(robot: optik.Robot, q: Any, T_target: Array, tol: float) -> dict[str,
             orientation_error=math.nan,
             limit_violation=math.nan,
         )
-    position, angle = _peers.pose_error(robot.fk(q), T_target)
+    position, angle = pose_error(robot.fk(q), T_target)
     violation = float(max(0.0, np.max(robot.lower - q), np.max(q - robot.upper)))
     success = position <= tol and angle <= tol and violation <= LIMIT_TOL
     return dict(
@@ -215,42 +226,84 @@ def optik_methods(
     return methods
 
 
+def make_peers(args: argparse.Namespace) -> list[PeerRow]:
+    """The peer rows in report order, configured for the benchmark tolerance."""
+    tol, seed, restarts = args.tol, args.seed, args.peer_restarts
+    rtb_tol = 0.5 * tol * tol
+    return [
+        PeerRow(
+            "rtb ik_LM",
+            get_peer("rtb", tol=tol, seed=seed),
+            f"ETS.ik_LM C++, tol={rtb_tol:.0e} (=½·tol²), slimit=100, joint_limits",
+        ),
+        PeerRow(
+            "rtb ik_LM tol=1e-6",
+            get_peer("rtb", tol=tol, seed=seed, rtb_tol=1e-6),
+            "ETS.ik_LM C++, RTB default tol=1e-6 on ½‖e‖² (looser than 1e-6)",
+        ),
+        PeerRow(
+            "ikpy",
+            get_peer("ikpy", tol=tol, seed=seed, restarts=restarts),
+            f"least_squares, bounds, tol=1e-12, {restarts} restarts",
+            slow=True,
+        ),
+        PeerRow(
+            "pink",
+            get_peer("pink", tol=tol, seed=seed, restarts=restarts, qp_solver=args.pink_solver),
+            f"{args.pink_solver}, dt=1, ConfigurationLimit(0.5), 100 it, {restarts} restarts",
+            slow=True,
+        ),
+        PeerRow(
+            "eaik",
+            get_peer("eaik", tol=tol, seed=seed),
+            "closed form, branches wrapped into limits",
+        ),
+        PeerRow(
+            "pybullet",
+            get_peer("pybullet", tol=tol, seed=seed, restarts=restarts),
+            f"calculateInverseKinematics, 20 rounds of 100 it, {restarts} restarts, "
+            "limits not passed (its null-space variant solved none)",
+            slow=True,
+        ),
+    ]
+
+
 def peer_methods(
     key: str,
     robot: optik.Robot,
-    peers: list[_peers.Peer],
+    peers: list[PeerRow],
     args: argparse.Namespace,
-    workdir: Path,
     model_notes: list[str],
     skipped: list[str],
 ) -> list[Method]:
     """Peer rows for one robot; a peer that cannot model it is reported, not run."""
     methods = []
-    for peer in peers:
+    for row in peers:
+        peer = row.peer
         try:
-            notes = peer.prepare(key, robot, workdir, args.seed)
-        except _peers.PeerUnavailable as exc:
-            skipped.append(f"{peer.name} on {key}: {exc}")
+            notes = peer.prepare(robot)
+        except PeerUnavailable as exc:
+            skipped.append(f"{row.label} on {key}: {exc.reason}")
             continue
         except Exception as exc:  # a peer's own bug must not stop the benchmark
-            skipped.append(f"{peer.name} on {key}: prepare failed: {type(exc).__name__}: {exc}")
+            skipped.append(f"{row.label} on {key}: prepare failed: {type(exc).__name__}: {exc}")
             continue
         for note in notes:
             if f"{key}: {note}" not in model_notes:
                 model_notes.append(f"{key}: {note}")
 
-        def solve(T: Array, q0: Array, peer: _peers.Peer = peer) -> Any:
+        def solve(T: Array, q0: Array, peer: Peer = peer) -> Any:
             answer = peer.solve(T, q0)
             return answer.q, answer.iterations, answer.note
 
-        n = min(args.n, args.n_slow) if peer.slow else args.n
+        n = min(args.n, args.n_slow) if row.slow else args.n
         methods.append(
             Method(
-                f"{peer.name}",
-                f"{peer.settings} [{peer.distribution} {peer.version}]",
+                row.label,
+                f"{row.settings} [{peer.distribution} {peer.version}]",
                 n,
                 solve,
-                iterations_known=not isinstance(peer, _peers.IKPy | _peers.EAIK),
+                iterations_known=peer.reports_iterations,
                 n_note=f"slow: n={n}" if n < args.n else "",
             )
         )
@@ -284,8 +337,7 @@ def warm_up(method: Method, targets: Array, q0: Array) -> str:
 def bench_robot(
     key: str,
     args: argparse.Namespace,
-    peers: list[_peers.Peer],
-    workdir: Path,
+    peers: list[PeerRow],
     model_notes: list[str],
     skipped: list[str],
 ) -> list[tuple[str, Method]]:
@@ -299,7 +351,7 @@ def bench_robot(
 
     methods = optik_methods(robot, args, optik.available_solvers(), skipped)
     if args.peers:
-        methods += peer_methods(key, robot, peers, args, workdir, model_notes, skipped)
+        methods += peer_methods(key, robot, peers, args, model_notes, skipped)
     for method in methods:
         error = warm_up(method, warm_targets, q0)
         if error:
@@ -564,7 +616,7 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
         "--n-slow",
         type=int,
         default=50,
-        help="targets for slow methods: pinv, transpose, qp:*, casadi:*, ikpy, pink "
+        help="targets for slow methods: pinv, transpose, qp:*, casadi:*, ikpy, pink, pybullet "
         "(default: %(default)s)",
     )
     p.add_argument("--seed", type=int, default=0, help="seed of targets and restarts")
@@ -589,7 +641,7 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
         "--peer-restarts",
         type=int,
         default=10,
-        help="random restarts for ikpy and pink (default: %(default)s)",
+        help="random restarts for ikpy, pink and pybullet (default: %(default)s)",
     )
     p.add_argument("--pink-solver", default="daqp", help="QP backend of pink (default: daqp)")
     p.add_argument("--tol", type=float, default=1e-6, help="pose tolerance, m and rad")
@@ -633,24 +685,23 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parse_args(argv)
     command = "python benchmarks/bench_ik.py " + shlex.join(sys.argv[1:] if argv is None else argv)
     load_before = load_average()
-    peers: list[_peers.Peer] = []
+    peers: list[PeerRow] = []
     peer_status: list[str] = []
     skipped: list[str] = []
     model_notes: list[str] = []
     if args.peers:
-        for peer in _peers.make_peers(args.tol, args.peer_restarts, args.pink_solver):
+        for row in make_peers(args):
             try:
-                peer.load()
-            except _peers.PeerUnavailable as exc:
-                peer_status.append(f"{peer.name}: not installed ({exc})")
+                row.peer.load()
+            except PeerUnavailable as exc:
+                peer_status.append(f"{row.label}: not installed ({exc.reason})")
                 continue
-            peers.append(peer)
-            peer_status.append(f"{peer.name}: {peer.distribution} {peer.version}")
+            peers.append(row)
+            peer_status.append(f"{row.label}: {row.peer.distribution} {row.peer.version}")
 
-    with tempfile.TemporaryDirectory(prefix="bench_ik_") as tmp:
-        results: list[tuple[str, Method]] = []
-        for key in args.robots:
-            results += bench_robot(key, args, peers, Path(tmp), model_notes, skipped)
+    results: list[tuple[str, Method]] = []
+    for key in args.robots:
+        results += bench_robot(key, args, peers, model_notes, skipped)
     load_after = load_average()
 
     summary = [summarize(key, m) for key, m in results]

@@ -22,6 +22,7 @@ from optik.cli._common import (
 )
 from optik.compare import AGREEMENT_TOL, RunConfig
 from optik.errors import OptikError
+from optik.peers import peer_names
 from optik.problems import Problem, builtin_problems
 from optik.report import (
     DEFAULT_N,
@@ -40,6 +41,22 @@ def _caps(values: Sequence[str] | None) -> dict[str, int]:
             raise OptikError(f"--cap expects SOLVER=N, got {value!r:.80}")
         caps[name] = int(count)
     return caps
+
+
+def peer_list(text: str) -> tuple[str, ...]:
+    """``--peers``: comma-separated peer names, each one of :func:`optik.peers.peer_names`.
+
+    Raises:
+        argparse.ArgumentTypeError: an empty list or an unknown name (the valid names are
+            listed; argparse exits with code 2).
+    """
+    names = tuple(dict.fromkeys(n.strip() for n in text.split(",") if n.strip()))
+    valid = peer_names()
+    unknown = [n for n in names if n not in valid]
+    if unknown or not names:
+        what = f"unknown peer(s) {', '.join(repr(n[:40]) for n in unknown)}" if unknown else "empty"
+        raise argparse.ArgumentTypeError(f"{what}; valid names: {','.join(valid)}")
+    return names
 
 
 def _report_problems(args: argparse.Namespace) -> tuple[str | Problem, ...] | None:
@@ -72,6 +89,7 @@ def config_from_args(args: argparse.Namespace) -> RunConfig:
             timeout_s=timeout,
             caps={**quick.caps, **caps},
             closed_form_problems=problems,
+            peers=args.peers,
         )
     return RunConfig(
         problems=problems or tuple(p.stem for p in builtin_problems()),
@@ -81,6 +99,7 @@ def config_from_args(args: argparse.Namespace) -> RunConfig:
         tol=args.tol,
         timeout_s=DEFAULT_TIMEOUT_S if timeout is None else timeout,
         caps=caps,
+        peers=args.peers or (),
     )
 
 
@@ -117,11 +136,13 @@ def add_report_command(subparsers: Any) -> argparse.ArgumentParser:
         "in-limit targets, the seeds' examples), append every result to OUT/results.csv "
         "and write OUT/index.html, OUT/summary.md, OUT/summary.csv and OUT/summary.json. "
         "The robots are the built-in problems, the --problems given, or your own robot "
-        "(--urdf with --base and --tip, or --dh). A progress bar is drawn on a terminal.",
+        "(--urdf with --base and --tip, or --dh); --peers runs peer IK libraries beside "
+        "optik's solvers, verified the same way. A progress bar is drawn on a terminal.",
         "  optik report --quick\n"
         "  optik report --quick --problems puma560 ur5 --solvers auto dls\n"
         "  optik report --quick --urdf problems/panda.urdf --base panda_link0 \\\n"
-        "      --tip panda_hand --out panda-report\n",
+        "      --tip panda_hand --out panda-report\n"
+        "  optik report --quick --problems ur5 panda --peers rtb,ikpy,pink,eaik,pybullet\n",
     )
     p.add_argument(
         "--problems",
@@ -138,6 +159,15 @@ def add_report_command(subparsers: Any) -> argparse.ArgumentParser:
         metavar="SOLVER",
         choices=names,
         help="solvers (no unit; default: all of them); choices: " + ", ".join(names),
+    )
+    p.add_argument(
+        "--peers",
+        type=peer_list,
+        default=None,
+        metavar="NAMES",
+        help="also run these peer IK libraries, comma-separated, on the same targets (no "
+        f"unit); names: {','.join(peer_names())}; one not installed or unable to model the "
+        "robot is listed with the reason",
     )
     p.add_argument(
         "-n",

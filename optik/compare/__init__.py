@@ -22,12 +22,14 @@ Four kinds of rows (column ``kind``):
 The package, one module per seam: :mod:`~optik.compare.results` (the table on disk),
 :mod:`~optik.compare.config` (what a run covers), :mod:`~optik.compare.targets`,
 :mod:`~optik.compare.ik_runs`, :mod:`~optik.compare.steps` and
-:mod:`~optik.compare.seeds` (the sections), :mod:`~optik.compare.backends` (every solver
-name the sections resolve) and :mod:`~optik.compare.runner` (the run).
+:mod:`~optik.compare.seeds` (the sections), :mod:`~optik.compare.peer_runs` (the peer
+libraries of :mod:`optik.peers` on the full-IK targets), :mod:`~optik.compare.backends`
+(every solver name the sections resolve) and :mod:`~optik.compare.runner` (the run).
 """
 
 from optik.compare.backends import seed_solver, solve_step, step_backends
 from optik.compare.config import RunConfig, RunStats, ik_settings
+from optik.compare.peer_runs import PEER_PREFIX, PeerStatus, peer_solver
 from optik.compare.results import (
     COLUMNS,
     KINDS,
@@ -59,11 +61,13 @@ __all__ = [
     "COLUMNS",
     "DOBOT_HOME",
     "KINDS",
+    "PEER_PREFIX",
     "SEED001_MAX_ITER",
     "SEED001_SOLVERS",
     "SEED003_Q0",
     "SEED003_STEPS",
     "Key",
+    "PeerStatus",
     "ResultRow",
     "ResultsFile",
     "RunConfig",
@@ -72,6 +76,7 @@ __all__ = [
     "closed_form_cases",
     "dobot_chapter_rows",
     "ik_settings",
+    "peer_solver",
     "planar_2r_example",
     "random_configurations",
     "read_results",

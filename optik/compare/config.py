@@ -8,8 +8,10 @@ from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
 from optik._checks import FloatArray
+from optik.compare.peer_runs import PeerStatus
 from optik.compare.results import Key, ResultRow, settings_json
 from optik.errors import OptikError
+from optik.peers import UnknownPeerError, peer_names
 from optik.problems import Problem
 from optik.solvers import available_solvers
 
@@ -36,6 +38,9 @@ class RunConfig:
         step_backends: step-program backends (``qp:<name>``, ``casadi:<plugin>``) of the
             closed-form section; ``None`` means every one installed (:func:`step_backends`).
         seeds: run the seed 001 and seed 003 sections.
+        peers: peer libraries (:mod:`optik.peers` names) run in the full-IK section beside
+            the solvers, as rows of solver ``peer:<name>``; one not installed, or unable to
+            model a robot, is reported with the reason.
     """
 
     problems: tuple[str | Problem, ...]
@@ -50,6 +55,7 @@ class RunConfig:
     closed_form_configs: int = 3
     step_backends: tuple[str, ...] | None = None
     seeds: bool = True
+    peers: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         if self.n < 0 or self.closed_form_configs < 0:
@@ -66,6 +72,9 @@ class RunConfig:
             raise OptikError(
                 f"unknown or unavailable solver(s) {unknown}; available: {sorted(known)}"
             )
+        for name in self.peers:
+            if name not in peer_names():
+                raise UnknownPeerError(name, list(peer_names()))
 
     def targets_for(self, solver: str) -> int:
         """Number of targets per robot that ``solver`` runs (``n``, or its cap)."""
@@ -119,6 +128,9 @@ class RunStats:
         trajectory: seed 003's joint trajectory (K, 2), rad, for the plot.
         planned: the keys of every row this configuration asks for (the report summarises
             only these; a resumed file may hold rows of other settings).
+        peers: one status per (peer, problem) of :attr:`RunConfig.peers`: ran, or why not.
+        answers: the joint vector (dof,) of every peer row this call produced with an
+            answer, by row key (for re-verification; rows resumed from the file have none).
     """
 
     written: int = 0
@@ -127,3 +139,5 @@ class RunStats:
     step_backends: tuple[str, ...] = ()
     trajectory: FloatArray | None = None
     planned: set[Key] = field(default_factory=set)
+    peers: list[PeerStatus] = field(default_factory=list)
+    answers: dict[Key, FloatArray] = field(default_factory=dict)

@@ -14,6 +14,7 @@ from optik._progress import Progress
 from optik.compare.backends import solve_step, step_backends
 from optik.compare.config import RunConfig, RunStats, ik_settings
 from optik.compare.ik_runs import _ik_row
+from optik.compare.peer_runs import PeerStatus, _peer_row, peer_settings, peer_solver, prepare_peer
 from optik.compare.results import Key, ResultRow, ResultsFile
 from optik.compare.seeds import (
     CHAPTER_TABLE_2,
@@ -79,6 +80,55 @@ def _ik_tasks(config: RunConfig, problems: Sequence[Problem]) -> Iterator[_Task]
 
                 yield _Task(
                     [("ik", problem.name, target_id, solver, settings)],
+                    produce,
+                    f"ik {problem.name} {solver}",
+                    ("ik", problem.name, solver),
+                    warm_up,
+                )
+
+
+def _peer_tasks(
+    config: RunConfig,
+    problems: Sequence[Problem],
+    statuses: list[PeerStatus],
+    answers: dict[Key, FloatArray],
+) -> Iterator[_Task]:
+    """The peers' rows: each prepared peer on the problem's ``ik`` targets."""
+    for problem in problems:
+        robot = problem.robot
+        for name in config.peers:
+            peer, status = prepare_peer(name, problem, config.mode, config.tol, config.timeout_s)
+            statuses.append(status)
+            if not status.available:
+                continue
+            solver = peer_solver(name)
+            settings = peer_settings(peer, config.mode, config.seed, config.timeout_s, config.tol)
+            count = config.targets_for(solver)
+            poses = robot.fk(random_configurations(robot, problem.name, count, config.seed))
+            for k in range(count):
+
+                def produce(
+                    problem: Problem = problem,
+                    t: str = f"t{k:04d}",
+                    pose: FloatArray = poses[k],
+                    peer: Any = peer,
+                    settings: str = settings,
+                    k: int = k,
+                ) -> list[ResultRow]:
+                    seed = _solve_seed(config.seed, problem.name, k)
+                    row, q = _peer_row(problem, t, pose, peer, settings, config.tol, seed)
+                    if q is not None:
+                        answers[row.key()] = q
+                    return [row]
+
+                def warm_up(problem: Problem = problem, peer: Any = peer) -> object:
+                    robot = problem.robot
+                    return _peer_row(
+                        problem, "warm-up", robot.fk(robot.mid_limits), peer, "", config.tol, 0
+                    )
+
+                yield _Task(
+                    [("ik", problem.name, f"t{k:04d}", solver, settings)],
                     produce,
                     f"ik {problem.name} {solver}",
                     ("ik", problem.name, solver),
@@ -157,7 +207,8 @@ def run(
 ) -> RunStats:
     """Run the comparison and append its rows to ``results_path``.
 
-    Sections in order: closed-form agreement, full IK, seed 001, seed 003. Before the
+    Sections in order: closed-form agreement, full IK (optik's solvers, then the peers of
+    ``config.peers``, each prepared once per problem), seed 001, seed 003. Before the
     first timed row of each (problem, solver) pair of the IK section (and each backend and
     program shape of the closed-form section) one untimed warm-up call runs, so one-off
     costs (numba compilation, CasADi program construction) are not counted.
@@ -183,9 +234,17 @@ def run(
     if backends and config.closed_form_configs:
         tasks += _closed_form_tasks(config, cf_problems, backends)
     tasks += _ik_tasks(config, problems)
+    statuses: list[PeerStatus] = []
+    answers: dict[Key, FloatArray] = {}
+    tasks += _peer_tasks(config, problems, statuses, answers)
     if config.seeds:
         tasks += _seed_tasks(trajectory)
-    stats = RunStats(step_backends=tuple(backends), planned={k for t in tasks for k in t.keys})
+    stats = RunStats(
+        step_backends=tuple(backends),
+        planned={k for t in tasks for k in t.keys},
+        peers=statuses,
+        answers=answers,
+    )
     with ResultsFile(results_path, resume=resume) as results:
         pending = [t for t in tasks if not all(results.has(k) for k in t.keys)]
         stats.skipped = sum(len(t.keys) for t in tasks) - sum(len(t.keys) for t in pending)

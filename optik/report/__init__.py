@@ -20,7 +20,8 @@ The package, one module per seam: :mod:`~optik.report.summaries`,
 :mod:`~optik.report.environment`, :mod:`~optik.report.figures`,
 :mod:`~optik.report.tables` and :mod:`~optik.report.rendering` (text, Markdown, HTML),
 :mod:`~optik.report.outputs` (:class:`Report`) and :mod:`~optik.report.building`
-(:func:`make_report`, :func:`quick_config`).
+(:func:`make_report`, :func:`quick_config`), :mod:`~optik.report.peers` (the peer
+libraries' table).
 """
 
 from optik._files import write_atomic
@@ -41,6 +42,7 @@ from optik.report.figures import (
     plot_trajectory,
 )
 from optik.report.outputs import Report
+from optik.report.peers import PEER_HEADER, PeerSummary, peer_cells, summarize_peers
 from optik.report.summaries import (
     ACCURACY_LEVELS,
     SGM_SHIFT_S,
@@ -69,6 +71,7 @@ __all__ = [
     "CLOSED_FORM_HEADER",
     "DEFAULT_N",
     "DEFAULT_TIMEOUT_S",
+    "PEER_HEADER",
     "QUICK_PROBLEMS",
     "QUICK_SOLVERS",
     "SGM_SHIFT_S",
@@ -76,6 +79,7 @@ __all__ = [
     "TERMINAL_COLUMNS",
     "ChapterComparison",
     "ClosedFormSummary",
+    "PeerSummary",
     "Report",
     "SolverSummary",
     "closed_form_cells",
@@ -83,6 +87,7 @@ __all__ = [
     "environment",
     "make_report",
     "markdown_table",
+    "peer_cells",
     "plot_error_distributions",
     "plot_iteration_histograms",
     "plot_performance_profile",
@@ -93,6 +98,7 @@ __all__ = [
     "shifted_geometric_mean",
     "summarize_closed_form",
     "summarize_ik",
+    "summarize_peers",
     "summarize_seed001",
     "summary_cells",
     "text_table",

@@ -8,7 +8,7 @@ from pathlib import Path
 from typing import Any, Final
 
 from optik._files import prepare_folder, write_atomic
-from optik.compare import ResultRow, RunConfig, run
+from optik.compare import ResultRow, RunConfig, peer_solver, run
 from optik.report.environment import _load_average, environment
 from optik.report.figures import (
     plot_error_distributions,
@@ -17,6 +17,7 @@ from optik.report.figures import (
     plot_trajectory,
 )
 from optik.report.outputs import Report, _Context
+from optik.report.peers import summarize_peers
 from optik.report.rendering import _html, _json, _markdown, _summary_csv
 from optik.report.summaries import summarize_closed_form, summarize_ik, summarize_seed001
 from optik.solvers import available_solvers
@@ -107,7 +108,8 @@ def make_report(
     env = environment(stats.step_backends)
     env["load_average_before"] = load_before
 
-    solvers = [s for s in config.solvers if any(r.solver == s for r in ik_rows)]
+    names = (*config.solvers, *(peer_solver(p) for p in config.peers))
+    solvers = [s for s in names if any(r.solver == s for r in ik_rows)]
     images: dict[str, bytes] = {}
     if ik_rows:
         images["performance_profile"] = plot_performance_profile(ik_rows, config.timeout_s, solvers)
@@ -132,6 +134,7 @@ def make_report(
         seed001=seed001,
         seed003=seed003,
         stats=stats,
+        peers=summarize_peers(stats.peers, ik),
     )
     other = len(stats.rows) - len(rows)
     context = _Context(config, env, command, other, images)

@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from optik.compare import ResultRow, RunConfig, RunStats
+from optik.report.peers import PEER_HEADER, PeerSummary, peer_cells
 from optik.report.summaries import ChapterComparison, ClosedFormSummary, SolverSummary
 from optik.report.tables import SUMMARY_HEADER, TERMINAL_COLUMNS, summary_cells, text_table
 
@@ -31,6 +32,7 @@ class Report:
         seed003: seed 003's rows.
         stats: the run's statistics.
         elapsed_s: wall time of :func:`make_report`, s.
+        peers: one row per (problem, peer) asked for: its figures, or why it did not run.
     """
 
     out_dir: Path
@@ -46,15 +48,20 @@ class Report:
     seed003: list[ResultRow]
     stats: RunStats
     elapsed_s: float = 0.0
+    peers: list[PeerSummary] = field(default_factory=list)
 
     def summary_text(self) -> str:
         """The full-IK summary as a compact plain-text table (what ``optik report`` prints).
 
-        The error percentiles are left to the HTML and Markdown files.
+        The error percentiles are left to the HTML and Markdown files; the peers' table
+        follows when peers were asked for.
         """
         keep = [SUMMARY_HEADER.index(h) for h in TERMINAL_COLUMNS]
         body = [[cells[i] for i in keep] for cells in map(summary_cells, self.ik)]
         text = text_table(TERMINAL_COLUMNS, body)
+        if self.peers:
+            peers = text_table(PEER_HEADER, [peer_cells(p) for p in self.peers])
+            text += "\n\npeer libraries (verified by optik):\n" + peers
         return text.replace("≠", "!=").replace("–", "-")  # ASCII for any terminal
 
 

@@ -18,6 +18,7 @@ from typing import Any, Final
 
 from optik.compare import AGREEMENT_TOL
 from optik.report.outputs import Report, _Context
+from optik.report.peers import PEER_HEADER, peer_cells, peers_intro
 from optik.report.summaries import SolverSummary
 from optik.report.tables import (
     CLOSED_FORM_HEADER,
@@ -81,6 +82,7 @@ def _json(report: Report, context: _Context) -> str:
             }
             for r in report.seed003
         ],
+        "peers": [asdict(p) for p in report.peers],
         "elapsed_s": report.elapsed_s,
     }
     return json.dumps(_json_safe(data), indent=2) + "\n"
@@ -105,6 +107,9 @@ def _markdown(report: Report, context: _Context) -> str:
     for problem, group in _per_problem(report.ik).items():
         parts += [f"### {problem}", "", _short_protocol(config), ""]
         parts += [markdown_table(SUMMARY_HEADER, [summary_cells(s) for s in group]), ""]
+    if report.peers:
+        parts += ["### Peer libraries", "", peers_intro(), ""]
+        parts += [markdown_table(PEER_HEADER, [peer_cells(p) for p in report.peers]), ""]
     parts += ["## 3. Seed 001: pseudoinverse vs transpose on the DOBOT", ""]
     if report.seed001 is not None:
         header, body = seed001_table(report.seed001)
@@ -219,6 +224,10 @@ def _html(report: Report, context: _Context) -> str:
         body.append(f"<h3>{e(title)}</h3>")
         body.append(_p(_short_protocol(config), "protocol"))
         body.append(_html_table(SUMMARY_HEADER, [summary_cells(s) for s in group]))
+    if report.peers:
+        body.append('<h3 id="peers">Peer libraries</h3>')
+        body.append(_p(peers_intro(), "protocol"))
+        body.append(_html_table(PEER_HEADER, [peer_cells(p) for p in report.peers]))
     body.append(
         _img(
             context.images,
