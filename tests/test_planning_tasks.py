@@ -7,6 +7,7 @@ the plan.
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import math
 from pathlib import Path
@@ -319,3 +320,29 @@ def test_bad_input_is_refused_before_any_solve() -> None:
     panda = load_problem("panda").robot
     with pytest.raises(OptikError, match="frozen"):
         plan_path(panda, np.zeros((0, 3)), frozen={"nope": 0.0})
+
+
+def test_drilling_pattern_example() -> None:
+    """examples/drilling_pattern.py: every hole drilled in 5-D, the 6-D plans jump."""
+    file = Path(__file__).resolve().parent.parent / "examples" / "drilling_pattern.py"
+    spec = importlib.util.spec_from_file_location("drilling_pattern", file)
+    assert spec is not None and spec.loader is not None
+    example = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(example)
+    holes = example.drilling_pattern()
+    # The holes lie on the tilted plate, 6 cm apart, each drilling along minus its normal.
+    normal = np.array([math.sin(math.radians(30.0)), 0.0, math.cos(math.radians(30.0))])
+    assert np.allclose((holes[:, :3, 3] - [0.45, 0.0, 0.25]) @ normal, 0.0, atol=1e-12)
+    assert np.allclose(holes[:, :3, 2], -normal, atol=1e-12)
+    gaps = np.linalg.norm(np.diff(holes[:, :3, 3], axis=0), axis=1)
+    assert np.allclose(gaps, 0.06, atol=1e-12)
+    results = example.main()
+    for name in ("panda", "ur5"):
+        robot = load_problem(name).robot
+        five = results[name]
+        assert five["status"] == ["ok"] * len(holes)
+        for q, T in zip(five["q"], holes, strict=True):
+            F = robot.fk(q)
+            assert np.linalg.norm(F[:3, 3] - T[:3, 3]) <= TOL
+            assert _axis_angle(F[:3, 2], T[:3, 2]) <= TOL
+        assert results[name + "_pose"]["largest_step"] > 0.6  # the full poses spin the wrist
