@@ -437,8 +437,11 @@ def _path_task(
 def _task_jacobian(robot: Robot, q: FloatArray, T: FloatArray, path_task: _PathTask) -> FloatArray:
     """The task's Jacobian rows at ``q`` (those with a positive weight), free joints only."""
     task = path_task.task
-    J = np.ascontiguousarray(robot.jacobian(q))
-    n = task_rows(J, np.ascontiguousarray(T), task.packed)
+    J = np.array(robot.jacobian(q), dtype=np.float64, order="C")  # a copy: changed in place
+    frame = np.array(T, dtype=np.float64, order="C")
+    if task.mode == "position":  # solve_ik takes the point alone: its weights are world axes
+        frame[:3, :3] = np.eye(3)
+    n = task_rows(J, frame, task.packed)
     # Plain tasks keep the world-frame rows (6 for a pose, 3 for a point); the others
     # are the weighted target-frame rows, of which the zero-weight ones carry nothing.
     rows = J[:n] if task.is_pose_or_position else J[task.weights > 0.0]
@@ -482,7 +485,8 @@ def plan_path(
         axis: ``"x"``, ``"y"`` or ``"z"``, the tool axis of ``mode="axis"``: it points
             along the waypoint's same axis, the rotation about it is free.
         weights: (6,) >= 0 on ``[x, y, z, rx, ry, rz]`` in each waypoint's frame (0 frees
-            that axis), as in :func:`optik.solve_ik`.
+            that axis), as in :func:`optik.solve_ik`; with ``mode="position"`` the
+            waypoints are points and the weights are on the world axes.
         frozen: ``{joint name: value}`` (rad or m): joints held at these values (inside
             their limits) along the whole path.
         posture: ``q_ref`` (dof,): each numeric candidate is the answer nearest it in the
