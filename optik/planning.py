@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -36,9 +36,11 @@ from optik._checks import (
 from optik._files import write_atomic_with
 from optik.analytic import analytic_ik, family_of, wrap_into_limits
 from optik.errors import OptikError, ShapeError
-from optik.ik import solve_ik, solve_ik_batch
+from optik.ik import _bounds, solve_ik, solve_ik_batch
 from optik.model import Robot
+from optik.posture import check_joint_weights
 from optik.spatial import as_pose, check_rotation
+from optik.task import AXES, MODES, Task, make_task, task_rows
 
 PLAN_STATUSES = (
     "ok",
@@ -61,11 +63,13 @@ class PathPlan:
 
     Attributes:
         poses: (N, 4, 4) input waypoints (world frame, m).
-        mode: ``"pose"`` or ``"position"``.
+        mode: the task's mode: ``"pose"``, ``"position"``, ``"orientation"`` or
+            ``"axis"`` (:mod:`optik.task`).
         q: (N, dof) chosen configurations; NaN rows where unsolved.
         status: N entries from :data:`PLAN_STATUSES`.
         limit_margin: (N, dof) distance of each joint to its nearer limit (rad or m).
-        manipulability: (N,) ``sqrt(det(J J^T))`` of the task rows (NaN where unsolved).
+        manipulability: (N,) ``sqrt(det(J J^T))`` of the task rows, over the joints that
+            are not frozen (NaN where unsolved).
         step: (N,) largest single-joint step from the previous solved waypoint (NaN for the
             first of a stretch and where unsolved).
         candidates: (N,) number of candidate configurations found at each waypoint.
@@ -180,6 +184,8 @@ def _atomic_write(target: Path, writer: Callable[[Any], None], binary: bool = Fa
 def _as_path(path: Any, mode: str | None) -> tuple[FloatArray, str]:
     array = as_float_array("path", path)
     if array.ndim == 2 and array.shape[1] == 3:
+        if mode in ("orientation", "axis"):
+            raise ShapeError(f"path (mode {mode!r})", "(N, 4, 4) poses", array.shape)
         poses = np.broadcast_to(np.eye(4), (len(array), 4, 4)).copy()
         poses[:, :3, 3] = array
         if not np.all(np.isfinite(array)):
@@ -203,28 +209,79 @@ def _dedupe(rows: FloatArray, limit: int) -> list[FloatArray]:
     return list(rows[np.sort(first)[:limit]])
 
 
+@dataclass(frozen=True)
+class _PathTask:
+    """The task of every waypoint and the keywords that hand it to :func:`solve_ik`."""
+
+    task: Task
+    posture: FloatArray | None
+    joint_weights: FloatArray | None
+    frozen: np.ndarray  # (dof,) bool: joints held by the limits of the robots used
+
+    @property
+    def analytic_ok(self) -> bool:
+        """Whether a closed form can give the candidates: a plain task, no joint held."""
+        return self.task.is_pose_or_position and not self.frozen.any()
+
+    def target(self, T: FloatArray) -> FloatArray:
+        return T[:3, 3] if self.task.mode == "position" else T
+
+    def keywords(self, posture: bool) -> dict[str, Any]:
+        """The task keywords of :func:`solve_ik` (frozen joints are in the robot's limits)."""
+        task = self.task
+        axis = AXES[task.axis] if task.mode == "axis" else "z"
+        # The mode's own weights and one tolerance go as make_task's plain arguments,
+        # which it caches (one solve per candidate and waypoint).
+        plain = np.array_equal(task.weights, make_task(task.mode, axis=axis).weights)
+        ptol, rtol = task.position_tol, task.orientation_tol
+        keywords: dict[str, Any] = {
+            "mode": task.mode,
+            "axis": axis,
+            "weights": None if plain else task.weights,
+            "tol": ptol if ptol == rtol else (ptol, rtol),
+        }
+        if posture and self.posture is not None:
+            keywords["posture"] = self.posture
+            keywords["joint_weights"] = self.joint_weights
+        return keywords
+
+
 class _CandidateFinder:
-    """Candidate configurations at one waypoint, inside the (margin-shrunk) limits."""
+    """Candidate configurations at one waypoint, inside the (margin-shrunk) limits.
+
+    ``robot`` has the joint limits with the frozen joints held (``lower = upper``);
+    ``work`` is the same shrunk by the margin (frozen joints exempt).
+    """
 
     def __init__(
         self,
         robot: Robot,
         work: Robot,
-        mode: str,
-        tol: float,
+        path_task: _PathTask,
         restarts: int,
         seed: int,
         limit: int,
         max_step: float,
     ) -> None:
-        self.robot, self.work, self.mode, self.tol = robot, work, mode, tol
+        self.robot, self.work, self.path_task = robot, work, path_task
+        self.mode = path_task.task.mode
         self.max_step = max_step
         self.restarts, self.seed, self.limit = restarts, seed, limit
         family = family_of(robot)
-        self.analytic = family is not None and mode in family.modes
+        self.analytic = family is not None and path_task.analytic_ok and self.mode in family.modes
+
+    def _solve(self, robot: Robot, T: FloatArray, posture: bool, **options: Any) -> Any:
+        return solve_ik(
+            robot,
+            self.path_task.target(T),
+            solver="dls",
+            warm_start="q0",
+            **self.path_task.keywords(posture),
+            **options,
+        )
 
     def find(self, T: FloatArray, seeds: list[FloatArray], k: int) -> list[FloatArray]:
-        target = T if self.mode == "pose" else T[:3, 3]
+        target = self.path_task.target(T)
         if self.analytic:
             branches = analytic_ik(self.work, target, self.mode)
             if not branches:
@@ -243,26 +300,14 @@ class _CandidateFinder:
             return _dedupe(np.concatenate(parts), self.limit)
         rows = []
         for q0 in seeds:
-            result = solve_ik(
-                self.work,
-                target,
-                mode=self.mode,
-                solver="dls",
-                q0=q0,
-                warm_start="q0",
-                tol=self.tol,
-                restarts=0,
-            )
+            result = self._solve(self.work, T, True, q0=q0, restarts=0)
             if result.success:
                 rows.append(result.q)
         if not rows or self.restarts > 0:
-            result = solve_ik(
+            result = self._solve(
                 self.work,
-                target,
-                mode=self.mode,
-                solver="dls",
-                warm_start="q0",
-                tol=self.tol,
+                T,
+                True,
                 restarts=self.restarts if rows else max(self.restarts, 20),
                 seed=self.seed + k,
             )
@@ -273,29 +318,30 @@ class _CandidateFinder:
     def why_unsolved(self, T: FloatArray) -> str:
         """Why a waypoint has no candidate: a proved status, or ``"not_found"``.
 
-        ``unreachable`` beyond the reach sphere or when the closed form has no branch even
-        outside the limits; ``outside_limits`` when an answer exists with the limits
-        lifted (or inside the limits but not inside the margin); otherwise
+        ``unreachable`` beyond the reach sphere (when the task constrains every position
+        axis) or when the closed form has no branch even outside the limits;
+        ``outside_limits`` when an answer exists with the limits lifted (frozen joints
+        stay held), or inside the limits but not inside the margin; otherwise
         ``not_found``: the numeric search failed, which proves nothing.
         """
-        target = T if self.mode == "pose" else T[:3, 3]
+        target = self.path_task.target(T)
         center, radius = self.robot.reach_sphere
-        if float(np.linalg.norm(T[:3, 3] - center)) > radius:
+        far = float(np.linalg.norm(T[:3, 3] - center)) > radius
+        if far and self.path_task.task.constrains_position:
             return "unreachable"
         if self.analytic:
             loose = analytic_ik(self.robot, target, self.mode, within_limits=False)
             return "outside_limits" if loose else "unreachable"
-        inside = solve_ik(
-            self.robot, target, mode=self.mode, solver="dls", tol=self.tol, restarts=20
-        )
+        inside = self._solve(self.robot, T, False, restarts=20)
         if inside.success:
             return "outside_limits"  # reachable inside the limits, not inside the margin
         prismatic = np.array([j.kind == "prismatic" for j in self.robot.joints])
+        keep = prismatic | self.path_task.frozen
         free = self.robot.with_limits(
-            np.where(prismatic, self.robot.lower, -2 * math.pi),
-            np.where(prismatic, self.robot.upper, 2 * math.pi),
+            np.where(keep, self.robot.lower, -2 * math.pi),
+            np.where(keep, self.robot.upper, 2 * math.pi),
         )
-        lifted = solve_ik(free, target, mode=self.mode, solver="dls", tol=self.tol, restarts=20)
+        lifted = self._solve(free, T, False, restarts=20)
         return "outside_limits" if lifted.success else "not_found"
 
 
@@ -364,6 +410,44 @@ def _check_robot(robot: Any) -> None:
         raise OptikError(f"robot: expected an optik.Robot, got {type(robot).__name__}")
 
 
+def _path_task(
+    robot: Robot,
+    mode: str,
+    axis: Any,
+    weights: Any,
+    tol: Any,
+    frozen: Mapping[str, float] | None,
+    posture: Any,
+    joint_weights: Any,
+) -> _PathTask:
+    """The validated task of :func:`plan_path` (the validators of :func:`optik.solve_ik`).
+
+    ``frozen`` must have been validated (:func:`optik.ik._bounds`).
+    """
+    task = make_task(mode, axis=axis, weights=weights, tol=tol)
+    names = frozen or {}
+    held = np.array([name in names for name in robot.joint_names])
+    q_ref = None if posture is None else finite_array("posture", posture, (robot.dof,))
+    if joint_weights is not None and q_ref is None:
+        raise OptikError("joint_weights is the norm of posture: give posture too")
+    w = None if q_ref is None else check_joint_weights(joint_weights, robot.dof)
+    return _PathTask(task, q_ref, w, held)
+
+
+def _task_jacobian(robot: Robot, q: FloatArray, T: FloatArray, path_task: _PathTask) -> FloatArray:
+    """The task's Jacobian rows at ``q`` (those with a positive weight), free joints only."""
+    task = path_task.task
+    J = np.array(robot.jacobian(q), dtype=np.float64, order="C")  # a copy: changed in place
+    frame = np.array(T, dtype=np.float64, order="C")
+    if task.mode == "position":  # solve_ik takes the point alone: its weights are world axes
+        frame[:3, :3] = np.eye(3)
+    n = task_rows(J, frame, task.packed)
+    # Plain tasks keep the world-frame rows (6 for a pose, 3 for a point); the others
+    # are the weighted target-frame rows, of which the zero-weight ones carry nothing.
+    rows = J[:n] if task.is_pose_or_position else J[task.weights > 0.0]
+    return rows[:, ~path_task.frozen]
+
+
 def plan_path(
     robot: Robot,
     path: Any,
@@ -371,8 +455,13 @@ def plan_path(
     max_joint_step: float = 0.1,
     limit_margin: float = 0.0,
     mode: str | None = None,
+    axis: str = "z",
+    weights: Any = None,
+    frozen: Mapping[str, float] | None = None,
+    posture: Any = None,
+    joint_weights: Any = None,
     q_start: Any = None,
-    tol: float = 1e-6,
+    tol: float | tuple[float, float] = 1e-6,
     restarts: int = 2,
     seed: int = 0,
     singular_threshold: float = 1e-3,
@@ -387,14 +476,32 @@ def plan_path(
         path: (N, 4, 4) world poses, or (N, 3) positions (m).
         max_joint_step: largest single-joint motion (rad or m) between consecutive
             waypoints that counts as continuous; a larger step is a flagged discontinuity.
-        limit_margin: keep every joint this far (rad or m) inside its finite limits.
-        mode: ``"pose"`` or ``"position"`` (default: from the shape of ``path``).
+        limit_margin: keep every joint this far (rad or m) inside its finite limits
+            (frozen joints exempt).
+        mode: the task of every waypoint, as in :func:`optik.solve_ik`: ``"pose"``,
+            ``"position"``, ``"orientation"`` or ``"axis"`` (default: ``"position"`` for
+            (N, 3) positions, else ``"pose"``; ``"orientation"`` and ``"axis"`` need
+            poses). See :mod:`optik.task`.
+        axis: ``"x"``, ``"y"`` or ``"z"``, the tool axis of ``mode="axis"``: it points
+            along the waypoint's same axis, the rotation about it is free.
+        weights: (6,) >= 0 on ``[x, y, z, rx, ry, rz]`` in each waypoint's frame (0 frees
+            that axis), as in :func:`optik.solve_ik`; with ``mode="position"`` the
+            waypoints are points and the weights are on the world axes.
+        frozen: ``{joint name: value}`` (rad or m): joints held at these values (inside
+            their limits) along the whole path.
+        posture: ``q_ref`` (dof,): each numeric candidate is the answer nearest it in the
+            ``joint_weights`` norm among those its solve finds, refined by
+            :func:`optik.posture.refine_posture` (redundant arms and 5-D tasks, where the
+            answers form a continuum). Closed-form candidates are isolated branches and
+            stay as they are. The choice between candidates is still by continuity.
+        joint_weights: (dof,) > 0, the norm of ``posture`` (default ones).
         q_start: current configuration: the first waypoint's choice is the nearest to it.
-        tol: IK tolerance (m, rad).
+        tol: IK tolerance for both errors, or ``(position_tol_m, orientation_tol_rad)``.
         restarts: numeric restarts per waypoint (robots without a closed form).
         seed: seed of the restarts.
-        singular_threshold: smallest singular value of the task Jacobian (m or rad per
-            rad) below which a waypoint is flagged ``near_singular``.
+        singular_threshold: smallest singular value of the task Jacobian (its weighted
+            rows in the waypoint's frame, over the joints not frozen; m or rad per rad)
+            below which a waypoint is flagged ``near_singular``.
         max_candidates: candidates kept per waypoint.
         greedy: choose, at each waypoint, the candidate nearest the previous choice (no
             look-ahead): the naive baseline the optimal plan is compared with.
@@ -409,14 +516,16 @@ def plan_path(
             ``tol`` positive and finite, ``limit_margin`` and ``singular_threshold`` >= 0,
             ``restarts`` in [0, MAX_RESTARTS], ``seed`` in [0, MAX_SEED],
             ``max_candidates`` in [1, MAX_CANDIDATES], ``greedy`` a bool), a malformed
-            path, or coordinates beyond :data:`~optik._checks.MAX_LENGTH_M`.
+            path, coordinates beyond :data:`~optik._checks.MAX_LENGTH_M`, or a task
+            :func:`optik.solve_ik` refuses (an unknown ``mode`` or ``axis``, bad
+            ``weights`` or ``tol``, a ``frozen`` name that is not a joint or a value
+            outside its limits, a ``posture`` or ``joint_weights`` of the wrong length).
     """
     _check_robot(robot)
     if mode is not None:
-        check_choice("mode", mode, ("pose", "position"))
+        check_choice("mode", mode, MODES)
     max_joint_step = check_real("max_joint_step", max_joint_step, positive=True)
     limit_margin = check_real("limit_margin", limit_margin, nonnegative=True)
-    tol = check_real("tol", tol, positive=True)
     restarts = check_int("restarts", restarts, minimum=0, maximum=MAX_RESTARTS)
     seed = check_int("seed", seed, minimum=0, maximum=MAX_SEED)
     singular_threshold = check_real("singular_threshold", singular_threshold, nonnegative=True)
@@ -424,16 +533,17 @@ def plan_path(
     greedy = check_bool("greedy", greedy)
     poses, mode = _as_path(path, mode)
     check_length_array("path translation", poses[:, :3, 3])
-    finite = np.isfinite(robot.lower)
-    lower = np.where(finite, robot.lower + limit_margin, robot.lower)
-    upper = np.where(finite, robot.upper - limit_margin, robot.upper)
+    held = _bounds(robot, frozen, 0.0)  # frozen joints: lower = upper = their value
+    path_task = _path_task(robot, mode, axis, weights, tol, frozen, posture, joint_weights)
+    base = robot if held is None else robot.with_limits(*held)
+    finite = np.isfinite(base.lower) & ~path_task.frozen
+    lower = np.where(finite, base.lower + limit_margin, base.lower)
+    upper = np.where(finite, base.upper - limit_margin, base.upper)
     if np.any(lower > upper):
         raise OptikError(f"limit_margin {limit_margin} leaves no range for some joint")
-    work = robot.with_limits(lower, upper)
+    work = base.with_limits(lower, upper)
     start = None if q_start is None else work.check_q(q_start, "q_start")
-    finder = _CandidateFinder(
-        robot, work, mode, tol, restarts, seed, max_candidates, max_joint_step
-    )
+    finder = _CandidateFinder(base, work, path_task, restarts, seed, max_candidates, max_joint_step)
 
     n = len(poses)
     layers: list[list[FloatArray]] = []
@@ -459,8 +569,7 @@ def plan_path(
             continue
         q = layers[k][choice[k]]
         Q[k] = q
-        J = robot.jacobian(q)
-        rows = J[:3] if mode == "position" else J
+        rows = _task_jacobian(robot, q, poses[k], path_task)
         singular_values = np.linalg.svd(rows, compute_uv=False)
         manip[k] = float(np.prod(singular_values[: min(rows.shape)]))
         if previous is not None:
@@ -473,7 +582,7 @@ def plan_path(
     margin = np.minimum(Q - robot.lower, robot.upper - Q)
     return PathPlan(
         poses=poses,
-        mode=mode,
+        mode=path_task.task.mode,
         q=Q,
         status=status,
         limit_margin=margin,

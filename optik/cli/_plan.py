@@ -25,6 +25,7 @@ from optik.cli._common import (
     problem_from_args,
     seed_int,
 )
+from optik.cli._task import ORIENTED_MODES, add_task_arguments, task_keywords
 from optik.errors import OptikError
 from optik.paths import line, read_path
 from optik.planning import PLAN_STATUSES, plan_path
@@ -52,16 +53,29 @@ def _plan_poses(problem: Problem, args: argparse.Namespace) -> tuple[np.ndarray,
     raise OptikError("give --path FILE, --line X0 Y0 Z0 X1 Y1 Z1 (m) or --problem-path NAME")
 
 
+def _task_mode(args: argparse.Namespace, path_mode: str) -> str:
+    """--mode, or the path's own (``pose`` with orientations, else ``position``)."""
+    mode = args.mode or path_mode
+    if mode in ORIENTED_MODES and path_mode == "position":
+        raise OptikError(
+            f"--mode {mode} needs orientations: give --line with --rpy, --rpy-deg, "
+            "--quat-wxyz or --quat-xyzw, or a path with orientations"
+        )
+    return str(mode)
+
+
 def _cmd_plan(args: argparse.Namespace) -> int:
     out = prepare_folder(args.out)  # fail before the work, not after it
     problem = problem_from_args(args)
     robot = problem.robot
     poses, mode = _plan_poses(problem, args)
+    mode = _task_mode(args, mode)
     with Progress(len(poses)) as bar:
         plan = plan_path(
             robot,
-            poses if mode == "pose" else poses[:, :3, 3],
+            poses[:, :3, 3] if mode == "position" else poses,
             mode=mode,
+            **task_keywords(args, mode),
             max_joint_step=args.max_joint_step,
             limit_margin=args.limit_margin,
             q_start=args.q0,
@@ -125,6 +139,7 @@ def add_plan_command(sub: Any) -> None:
         help="sampling step of --line, m (default 0.01)",
     )
     add_orientation_arguments(path_group, "constant orientation along --line (a pose path)")
+    add_task_arguments(p, "pose for a path with orientations, else position")
     p.add_argument(
         "--max-joint-step",
         type=positive_float,

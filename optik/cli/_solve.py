@@ -15,23 +15,27 @@ from optik.cli._common import (
     finite_float,
     json_value,
     length_float,
+    orientation_flag,
     positive_float,
     problem_from_args,
     seed_int,
     target_from_args,
     value_text,
 )
+from optik.cli._task import ORIENTED_MODES, add_task_arguments, task_keywords, task_mode
+from optik.errors import OptikError
 from optik.ik import solve_ik
 from optik.problems import Problem
 from optik.solvers import available_solvers
 
 
-def _solve_json(problem: Problem, result: Any) -> str:
+def _solve_json(problem: Problem, result: Any, mode: str) -> str:
     robot = problem.robot
     data = {
         "problem": problem.name,
         "success": result.success,
         "status": result.status,
+        "mode": mode,
         # No answer for an unsolved target: q is null, the errors say how far it got.
         "q": result.q.tolist() if result.success else None,
         "q_units": ["m" if j.kind == "prismatic" else "rad" for j in robot.joints],
@@ -48,26 +52,47 @@ def _solve_json(problem: Problem, result: Any) -> str:
     return json.dumps(json_value(data), allow_nan=False)
 
 
+def _check_oriented(problem: Problem, args: argparse.Namespace, mode: str) -> None:
+    """A mode that constrains the orientation needs a target that has one."""
+    if mode not in ORIENTED_MODES:
+        return
+    if args.target is not None:
+        if problem.targets[args.target].mode == "position":
+            raise OptikError(
+                f"--mode {mode} needs an orientation; target {args.target!r} is a point"
+            )
+    elif orientation_flag(args) is None:
+        raise OptikError(
+            f"--mode {mode} needs a target orientation: give --rpy, --rpy-deg, --quat-wxyz "
+            "or --quat-xyzw"
+        )
+
+
 def _cmd_solve(args: argparse.Namespace) -> int:
     problem = problem_from_args(args)
     robot = problem.robot
     target, mode = target_from_args(problem, args)
+    _check_oriented(problem, args, mode)
     result = solve_ik(
         robot,
-        target if mode == "pose" else target[:3, 3],
+        target[:3, 3] if mode == "position" else target,
         mode=mode,
         solver=args.solver,
         q0=args.q0,
         tol=args.tol,
         timeout_s=None if args.timeout_ms is None else args.timeout_ms / 1000.0,
         seed=args.seed,
+        posture=args.posture,
+        **task_keywords(args, mode),
     )
     if args.json:
-        print(_solve_json(problem, result))
+        print(_solve_json(problem, result, task_mode(args, mode)))
         return EXIT_OK if result.success else EXIT_NO_SOLUTION
     solver_time = f"{result.solver}, solver time {result.time_s * 1e3:.3f} ms"
+    # In axis mode the orientation error is the angle between the tool axis and the target's.
+    angle = "tool-axis angle error" if task_mode(args, mode) == "axis" else "orientation error"
     errors = (
-        f"position error {result.position_error:.3e} m, orientation error "
+        f"position error {result.position_error:.3e} m, {angle} "
         f"{result.orientation_error:.3e} rad, limit violation {result.limit_violation:.3e} "
         "(rad or m)"
     )
@@ -96,6 +121,7 @@ def add_solve_command(sub: Any) -> None:
         "its status and the errors of the best attempt, no joint values, and exits 1.",
         "  optik solve dobot_magician --target part1\n"
         "  optik solve planar_2r --position 1 1 0\n"
+        "  optik solve panda --position 0.4 0.1 0.5 --rpy-deg 180 0 0 --mode axis\n"
         "  optik solve --urdf problems/panda.urdf --base panda_link0 --tip panda_hand \\\n"
         "      --position 0.4 0.1 0.5 --rpy-deg 180 0 0\n",
     )
@@ -110,10 +136,14 @@ def add_solve_command(sub: Any) -> None:
         help="target position of the tool, m",
     )
     add_orientation_arguments(target, "target orientation (a full pose)")
-    p.add_argument(
-        "--mode",
-        choices=["pose", "position"],
-        help="pose or position (no unit; default: pose with an orientation, else position)",
+    task = add_task_arguments(p, "pose with an orientation, else position")
+    task.add_argument(
+        "--posture",
+        nargs="+",
+        type=finite_float,
+        metavar="Q",
+        help="among the answers, one nearest this configuration (a local optimum), one "
+        "value per joint: rad (revolute) or m (prismatic)",
     )
     p.add_argument(
         "--solver",
