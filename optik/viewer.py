@@ -33,7 +33,7 @@ from typing import Any
 
 import numpy as np
 
-from optik._checks import FloatArray, check_choice, check_int, check_real
+from optik._checks import FloatArray, check_bool, check_choice, check_int, check_real
 from optik.analytic import analytic_ik, family_of
 from optik.errors import AnalyticIKError, OptikError
 from optik.ik import IKResult, solve_ik
@@ -184,7 +184,9 @@ class Viewer:
         self._solver = check_choice("solver", solver, self._solvers)
         self._timeout_s = check_real("timeout_s", timeout_s, positive=True)
         self._lock = threading.RLock()
-        self._syncing = False  # True while the GUI is set from Python (no feedback loop)
+        # Set in a thread while it writes GUI values: viser runs the callbacks of a value
+        # set from Python at once, in that thread, and they must not act on it again.
+        self._local = threading.local()
         self._pending: FloatArray | None = None  # latest dragged target not yet solved
         self._following = False
         self._closed = False
@@ -272,8 +274,8 @@ class Viewer:
         centre = self.robot.frames(self._q)[0, :3, 3]
         with _quiet():
             camera = self._server.initial_camera
-            camera.look_at = tuple(centre + np.array([0.0, 0.0, 0.3 * size]))
-            camera.position = tuple(centre + size * np.array([1.6, -1.9, 1.3]))
+            camera.look_at = tuple(centre + np.array([0.0, 0.0, 0.25 * size]))
+            camera.position = tuple(centre + size * np.array([1.2, -1.45, 1.0]))
             camera.up = (0.0, 0.0, 1.0)
         # Plain lights instead of viser's default environment map: prefiltering the map
         # stalls a software-rendered page (no GPU: a VM, a remote desktop, headless
@@ -318,7 +320,12 @@ class Viewer:
             )
             for k in range(n + 2)
         ]
-        self._gizmo = scene.add_transform_controls("/target", scale=0.3 * size, depth_test=False)
+        self._gizmo = scene.add_transform_controls(
+            "/target",
+            scale=0.3 * size,
+            depth_test=False,
+            disable_rotations=self._mode == "position",  # a point has no orientation
+        )
         self._gizmo.on_update(self._on_drag)
 
     def _draw_robot(self) -> None:
@@ -335,13 +342,19 @@ class Viewer:
                 node.position, node.wxyz = _cylinder_pose(T)
             for node, T in zip(self._frame_nodes, frames, strict=True):
                 node.position, node.wxyz = T[:3, 3], to_quat_wxyz(T)
-        self._syncing = True
-        try:
+        with self._from_python():
             self._q_text.value = q_text(q)
             for slider, value in zip(self._sliders, q, strict=True):
                 slider.value = float(np.clip(value, slider.min, slider.max))
+
+    @contextlib.contextmanager
+    def _from_python(self) -> Iterator[None]:
+        """GUI values set inside are the viewer's own: their callbacks do nothing."""
+        self._local.syncing = True
+        try:
+            yield
         finally:
-            self._syncing = False
+            self._local.syncing = False
 
     def _place_gizmo(self, T: FloatArray) -> None:
         self._gizmo.position = T[:3, 3]
@@ -349,9 +362,10 @@ class Viewer:
 
     def set_robot_visible(self, visible: bool) -> None:
         """Show or hide the robot (links, joints, frames); the target stays."""
+        visible = check_bool("visible", visible)
         with self._lock:
             for node in (self._links, *self._joint_nodes, *self._frame_nodes):
-                node.visible = bool(visible)
+                node.visible = visible
 
     # ------------------------------------------------------------------ GUI
     def _build_gui(self) -> None:
@@ -363,7 +377,7 @@ class Viewer:
             )
             self._solver_box = gui.add_dropdown("solver", self._solvers, initial_value=self._solver)
             self._status = gui.add_markdown("drag the target")
-            to_tool = gui.add_button("target to tool", hint="move the target onto the tool")
+            self._to_tool = gui.add_button("target to tool", hint="move the target onto the tool")
         with gui.add_folder("Joints"):
             self._q_text = gui.add_text(
                 "q (rad, m)", q_text(self._q), disabled=True, hint="the joint values shown"
@@ -395,7 +409,7 @@ class Viewer:
 
         self._mode_box.on_update(self._gui(lambda: self.set_mode(self._mode_box.value)))
         self._solver_box.on_update(self._gui(lambda: self.set_solver(self._solver_box.value)))
-        to_tool.on_click(self._gui(lambda: self.set_target(self.robot.fk(self.q))))
+        self._to_tool.on_click(self._gui(lambda: self.set_target(self.robot.fk(self.q))))
         previous.on_click(self._gui(lambda: self.next_branch(-1)))
         following.on_click(self._gui(lambda: self.next_branch(+1)))
         for k, slider in enumerate(self._sliders):
@@ -416,7 +430,7 @@ class Viewer:
         """A GUI callback running ``action``; an error is shown on the page, not raised."""
 
         def callback(_event: Any) -> None:
-            if self._syncing or self._closed:
+            if getattr(self._local, "syncing", False) or self._closed:
                 return
             try:
                 action()
@@ -468,11 +482,9 @@ class Viewer:
         with self._lock:
             self._mode = check_choice("mode", mode, VIEW_MODES)
             self._branch_target = None  # branches depend on the mode
-            self._syncing = True
-            try:
+            self._gizmo.disable_rotations = self._mode == "position"
+            with self._from_python():
                 self._mode_box.value = self._mode
-            finally:
-                self._syncing = False
             return self._follow(self._target)
 
     def set_solver(self, solver: str) -> IKResult | None:
@@ -483,11 +495,8 @@ class Viewer:
         """
         with self._lock:
             self._solver = check_choice("solver", solver, self._solvers)
-            self._syncing = True
-            try:
+            with self._from_python():
                 self._solver_box.value = self._solver
-            finally:
-                self._syncing = False
             return self._follow(self._target)
 
     def set_target(self, target: Any) -> IKResult | None:
@@ -671,12 +680,9 @@ class Viewer:
                         thickness=0.005 * self._size,
                     )
                 )
-            self._syncing = True
-            try:
+            with self._from_python():
                 self._waypoint.max = max(len(plan.status) - 1, 1)
                 self._waypoint.value = 0
-            finally:
-                self._syncing = False
             self._plan_folder.visible = True
             self.show_waypoint(0)
 
@@ -703,11 +709,8 @@ class Viewer:
                 f"waypoint {index + 1} of {len(plan.status)}: **{plan.status[index]}**"
                 + (f" · step {step:.3g} rad or m" if math.isfinite(step) else "")
             )
-            self._syncing = True
-            try:
+            with self._from_python():
                 self._waypoint.value = index
-            finally:
-                self._syncing = False
 
     def play(self, playing: bool = True) -> None:
         """Start or stop playing the loaded plan (one waypoint per 0.1 s, then again).
@@ -715,17 +718,15 @@ class Viewer:
         Raises:
             OptikError: ``playing`` with no plan loaded.
         """
+        playing = check_bool("playing", playing)
         if playing and self._plan is None:
             raise OptikError("no plan loaded: call load_plan(plan) first")
         if playing:
             self._playing.set()
         else:
             self._playing.clear()
-        self._syncing = True
-        try:
-            self._play.value = bool(playing)
-        finally:
-            self._syncing = False
+        with self._from_python():
+            self._play.value = playing
 
     def _play_loop(self) -> None:
         while not self._stop.is_set():

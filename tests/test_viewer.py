@@ -350,6 +350,30 @@ def test_a_target_move_solves_ik_in_the_mode_of_the_dropdown(
     assert_close(puma_viewer._gizmo.position, T[:3, 3], atol=1e-12, what="gizmo position")
 
 
+def test_the_panel_controls_drive_the_viewer(puma_viewer: Viewer) -> None:
+    robot = puma_viewer.robot
+    puma_viewer._mode_box.value = "position"
+    assert puma_viewer._gizmo.disable_rotations  # a point target: translation arrows only
+    puma_viewer._mode_box.value = "pose"
+    assert not puma_viewer._gizmo.disable_rotations
+    # A joint slider moves that joint alone.
+    q = puma_viewer.q
+    puma_viewer._sliders[1].value = 1.25
+    expected = q.copy()
+    expected[1] = 1.25
+    assert_close(puma_viewer.q, expected, atol=0.0, what="q after the slider")
+    assert_close(shown_q(puma_viewer), expected, atol=5e-7, what="q on the panel")
+    # "target to tool" puts the target on the tool; the solver dropdown picks the solver.
+    puma_viewer._to_tool.value = True
+    assert_close(puma_viewer.target, reference_fk(robot, expected), atol=1e-12)
+    puma_viewer._solver_box.value = "dls"
+    assert puma_viewer.result is not None and puma_viewer.result.solver == "dls"
+    assert puma_viewer.result.success
+    puma_viewer._solver_box.value = "auto"
+    with pytest.raises(OptikError, match="playing"):
+        puma_viewer.play("yes")
+
+
 def test_a_position_keeps_the_target_orientation(puma_viewer: Viewer) -> None:
     puma_viewer.set_mode("pose")
     T0 = puma_viewer.robot.fk(puma_viewer.q)
