@@ -22,6 +22,7 @@ import signal
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 import urllib.request
 from collections.abc import Callable, Iterator
@@ -532,6 +533,33 @@ def test_optik_view_prints_its_url_serves_the_page_and_stops_on_ctrl_c() -> None
     assert process.returncode == 0, err
     assert "optik view: stopped" in out
     assert "Traceback" not in err
+
+
+def test_optik_view_plays_a_problem_path_and_stops_on_sigterm(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    from optik.cli import main
+
+    original = signal.getsignal(signal.SIGTERM)
+
+    def terminate() -> None:  # once the command handles SIGTERM, send it
+        wait_for(lambda: signal.getsignal(signal.SIGTERM) is not original, 60, "the handler")
+        os.kill(os.getpid(), signal.SIGTERM)
+
+    threading.Thread(target=terminate, daemon=True).start()
+    argv = ["view", "dobot_magician", "--problem-path", "table2", "--mode", "position"]
+    assert main([*argv, "--port", "0"]) == 0
+    out = capsys.readouterr().out
+    assert "dobot_magician: plan of 3 waypoints" in out, out
+    assert "optik view: stopped" in out
+    assert signal.getsignal(signal.SIGTERM) is original
+
+
+def test_optik_view_names_an_unknown_problem_path(capsys: pytest.CaptureFixture[str]) -> None:
+    from optik.cli import main
+
+    assert main(["view", "dobot_magician", "--problem-path", "nope", "--port", "0"]) == 2
+    assert "paths: table2" in capsys.readouterr().err
 
 
 def test_optik_view_rejects_a_bad_port_as_a_usage_error() -> None:

@@ -66,6 +66,11 @@ def _cmd_view(args: argparse.Namespace) -> int:
         solver=args.solver,
         timeout_s=args.timeout_ms / 1000.0,
     )
+    stop = threading.Event()
+    # SIGTERM (a service manager, `kill`) stops as cleanly as Ctrl-C; only the main
+    # thread may set a handler (main() called from another thread keeps the default).
+    handles_term = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGTERM, lambda *_: stop.set()) if handles_term else None
     try:
         if plan is not None:
             viewer.load_plan(plan)
@@ -75,17 +80,14 @@ def _cmd_view(args: argparse.Namespace) -> int:
                 f"{summary['flagged']} flagged"
             )
         print(f"optik view: {problem.name} at {viewer.url} (Ctrl-C stops)", flush=True)
-        stop = threading.Event()
-        # SIGTERM (a service manager, `kill`) stops as cleanly as Ctrl-C.
-        previous = signal.signal(signal.SIGTERM, lambda *_: stop.set())
         try:
             while not stop.wait(timeout=0.5):  # a short wait keeps Ctrl-C responsive
                 pass
         except KeyboardInterrupt:
             pass
-        finally:
-            signal.signal(signal.SIGTERM, previous)
     finally:
+        if handles_term:
+            signal.signal(signal.SIGTERM, previous)
         viewer.close()
     print("optik view: stopped", flush=True)
     return EXIT_OK
