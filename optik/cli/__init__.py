@@ -25,6 +25,7 @@ from optik.cli._plan import add_plan_command
 from optik.cli._report import add_report_command, config_from_args
 from optik.cli._robot import add_problems_command, add_robot_command
 from optik.cli._solve import add_solve_command
+from optik.cli._view import add_view_command
 from optik.errors import OptikError
 
 __all__ = [
@@ -65,6 +66,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_solve_command(sub)
     add_plan_command(sub)
     add_report_command(sub)
+    add_view_command(sub)
     return parser
 
 
