@@ -159,6 +159,8 @@ def as_pose(name: str, value: Any, batch: bool = False) -> FloatArray:
     if not (T.shape == (4, 4) or (batch and T.ndim == 3 and T.shape[1:] == (4, 4))):
         raise ShapeError(name, "(4, 4)" + (" or (N, 4, 4)" if batch else ""), T.shape)
     check_finite(name, T)
+    if T.size == 0:
+        return T  # an empty batch: nothing to check
     bottom = T[3] if T.ndim == 2 else T[:, 3]
     if float(np.abs(bottom - _LAST_ROW).max()) > _ROW_TOLERANCE:
         raise ShapeError(name, "a homogeneous transform with last row (0, 0, 0, 1)", T.shape)

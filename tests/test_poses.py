@@ -15,6 +15,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
+import optik
 from optik.errors import (
     ArgumentError,
     InvalidRotationError,
@@ -566,3 +567,14 @@ def test_conventions_pose_forms_block_runs() -> None:
     namespace: dict[str, object] = {"__name__": "__doc__"}
     for code in blocks:
         exec(compile(code, "docs/conventions.md", "exec"), namespace)
+
+
+@pytest.mark.parametrize("dtype", [np.float64, np.float32, np.int64])
+def test_an_empty_batch_of_poses_is_valid_and_plans_to_nothing(dtype: Any) -> None:
+    from optik.spatial import as_pose
+
+    empty = np.zeros((0, 4, 4), dtype=dtype)
+    assert as_pose("poses", empty, batch=True).shape == (0, 4, 4)
+    panda = optik.load_problem("panda").robot
+    plan = optik.plan_path(panda, empty)
+    assert plan.q.shape == (0, panda.dof) and plan.status == []
