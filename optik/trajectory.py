@@ -121,7 +121,8 @@ class _Timing:
         v = np.maximum(self.sd[i] + dt * u, 0.0)
         s = np.clip(self.ss[i] + dt * self.sd[i] + 0.5 * dt**2 * u, self.ss[i], self.ss[i + 1])
         d1 = self.path(s, 1)
-        return self.path(s), d1 * v[:, None], self.path(s, 2) * v[:, None] ** 2 + d1 * u[:, None]
+        qd = d1 * v[:, None] + 0.0  # + 0.0: no negative zeros at rest
+        return self.path(s), qd, self.path(s, 2) * v[:, None] ** 2 + d1 * u[:, None]
 
     def peaks(self) -> tuple[FloatArray, FloatArray]:
         """Largest ``|qd|`` and ``|qdd|`` (dof,) over the whole segment, not only the grid.
@@ -312,7 +313,6 @@ class Trajectory:
                 "segments": self.to_ros(),
             },
             handle,
-            indent=1,
         )
 
 

@@ -413,3 +413,52 @@ def test_bad_velocity_in_a_urdf_or_a_dh_row_raises() -> None:
     # with_limits keeps the rate limits.
     clone = robot.with_limits(robot.lower / 2, robot.upper / 2)
     np.testing.assert_array_equal(clone.velocity_limits, robot.velocity_limits)
+
+
+# ----------------------------------------------------------------------- command line
+def test_optik_plan_trajectory_writes_csv_and_ros_json(tmp_path: Path) -> None:
+    from optik.cli import main
+
+    out = tmp_path / "plan"
+    urdf = ROOT / "problems" / "panda.urdf"
+    args = ["plan", "--urdf", str(urdf), "--base", "panda_link0", "--tip", "panda_hand"]
+    args += ["--line", "0.4", "-0.2", "0.5", "0.4", "0.2", "0.5", "--rpy-deg", "180", "0", "0"]
+    assert main([*args, "--trajectory", "--acceleration-limits", "5", "--out", str(out)]) == 0
+    doc = json.loads((out / "trajectory.json").read_text())
+    plan = json.loads((out / "plan.json").read_text())
+    (message,) = doc["segments"]
+    assert doc["velocity_limits"] == [2.175] * 7 and doc["acceleration_limits"] == [5.0] * 7
+    times = [
+        p["time_from_start"]["sec"] + 1e-9 * p["time_from_start"]["nanosec"]
+        for p in message["points"]
+    ]
+    assert np.all(np.diff(times) > 0) and times[-1] == pytest.approx(doc["duration"], abs=1e-9)
+    positions = np.array([p["positions"] for p in message["points"]])
+    np.testing.assert_allclose(positions[[0, -1]], np.array(plan["q"])[[0, -1]], atol=1e-9)
+    velocities = np.array([p["velocities"] for p in message["points"]])
+    assert np.all(np.abs(velocities) <= 2.175 * (1 + REL))
+    rows = (out / "trajectory.csv").read_text().splitlines()
+    assert len(rows) == len(message["points"]) + 1
+    # Missing or malformed limits: exit 2 before any planning, with the flag named.
+    assert (
+        main(
+            [
+                "plan",
+                "puma560",
+                "--line",
+                "0.5",
+                "-0.2",
+                "0.3",
+                "0.5",
+                "0.2",
+                "0.3",
+                "--trajectory",
+                "--out",
+                str(tmp_path / "x"),
+            ]
+        )
+        == 2
+    )
+    assert not (tmp_path / "x" / "plan.csv").exists()
+    assert main([*args, "--trajectory", "--acceleration-limits", "1", "2", "--out", str(out)]) == 2
+    assert main([*args, "--velocity-limits", "1", "--out", str(out)]) == 2
