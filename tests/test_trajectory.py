@@ -151,6 +151,26 @@ def test_fk_of_samples_within_tolerance_of_the_cartesian_path(
     assert segment.position_deviation >= 0.5 * distance.max()  # it measures, not guesses
 
 
+def test_a_fine_plan_stays_within_its_ik_tolerance_of_the_cartesian_path() -> None:
+    # The UR5 along a line planned every millimetre: between waypoints the tool stays within
+    # the plan's own IK tolerance (1e-6 m, 1e-6 rad) of the Cartesian path.
+    robot = load_problem("ur5").robot
+    q0 = np.array([0.3, -1.2, 1.5, -1.0, -1.4, 0.2])
+    T0 = robot.fk(q0)
+    T1 = T0.copy()
+    T1[:3, 3] += [0.0, 0.3, -0.1]
+    tol = 1e-6
+    plan = plan_path(robot, line(T0, T1, 0.001), q_start=q0, tol=tol)
+    assert plan.solved.all()
+    trajectory = plan.to_trajectory(1.0, 2.0, robot=robot, path_tolerance=tol)
+    q, _, _ = trajectory.at(0, _times(trajectory, 0))
+    T = robot.fk(q)
+    assert _distance_to_polyline(T[:, :3, 3], plan.poses[:, :3, 3]).max() <= tol
+    # The line keeps its orientation: every sample's rotation is the waypoints' one.
+    rel = Rotation.from_matrix(T0[:3, :3]).inv() * Rotation.from_matrix(T[:, :3, :3])
+    assert rel.magnitude().max() <= tol
+
+
 def test_path_tolerance_is_enforced(puma: Robot, puma_plan: PathPlan) -> None:
     with pytest.raises(OptikError, match="path_tolerance"):
         puma_plan.to_trajectory(VLIM, ALIM, robot=puma, path_tolerance=1e-6)
@@ -462,3 +482,12 @@ def test_optik_plan_trajectory_writes_csv_and_ros_json(tmp_path: Path) -> None:
     assert not (tmp_path / "x" / "plan.csv").exists()
     assert main([*args, "--trajectory", "--acceleration-limits", "1", "2", "--out", str(out)]) == 2
     assert main([*args, "--velocity-limits", "1", "--out", str(out)]) == 2
+
+
+def test_at_checks_its_arguments(puma_trajectory: Trajectory) -> None:
+    with pytest.raises(OptikError, match="segment"):
+        puma_trajectory.at(1, 0.0)
+    with pytest.raises(OptikError, match="finite"):
+        puma_trajectory.at(0, [0.0, math.nan])
+    q, qd, qdd = puma_trajectory.at(0, 0.25)  # a scalar time gives one row
+    assert q.shape == qd.shape == qdd.shape == (1, 6)
