@@ -16,9 +16,10 @@ A :class:`~optik.planning.PathPlan` is a sequence of joint vectors without timin
 3. **Timing.** TOPP-RA (Pham and Pham, 2018, the ``toppra`` package) finds the fastest
    path speed ``ds/dt`` under the joint velocity and acceleration limits on a grid of ``s``,
    with constant path acceleration between grid points. The limits hold at the grid points;
-   the result is then checked on 16 points per grid interval and, if a limit is exceeded
-   between grid points, the segment's time is stretched uniformly (speeds divided by ``r``,
-   accelerations by ``r²``) until every checked value is within its limit.
+   between them each joint's acceleration is a quadratic and its squared speed a quintic in
+   ``s``, whose exact maxima are found (:meth:`_Timing.peaks`). If one exceeds its limit,
+   the segment's time is stretched uniformly (speeds divided by ``r``, accelerations by
+   ``r²``) until none does.
 
 The samples lie exactly on the geometric path; between waypoints that path is an
 interpolation, so its tool pose departs slightly from the Cartesian path: with a robot,
@@ -389,11 +390,32 @@ def joint_path(Q: FloatArray, lower: FloatArray, upper: FloatArray) -> tuple[Any
 
     s = _chord(Q)
     spline = CubicSpline(s, Q, bc_type="natural", axis=0)
-    # The natural cubic can overshoot between waypoints; look for it on a fine grid.
-    dense = spline(np.linspace(0.0, s[-1], 16 * len(s)))
-    if np.all(dense >= lower - _LIMIT_SLACK) and np.all(dense <= upper + _LIMIT_SLACK):
+    # The natural cubic can overshoot between waypoints: compare its exact range.
+    low, high = _cubic_range(spline.c, np.diff(s))
+    if np.all(low >= lower - _LIMIT_SLACK) and np.all(high <= upper + _LIMIT_SLACK):
         return spline, s, "cubic"
     return PchipInterpolator(s, Q, axis=0), s, "pchip"
+
+
+def _cubic_range(c: FloatArray, h: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Least and greatest values (dof,) of a piecewise cubic with coefficients ``c``.
+
+    ``c`` is scipy's (4, m, dof) layout: on piece ``i`` the value is
+    ``c0 t³ + c1 t² + c2 t + c3`` for ``t`` in [0, ``h[i]``]. The extremes are at the ends
+    of the pieces or where ``3 c0 t² + 2 c1 t + c2 = 0`` inside them.
+    """
+    a, b, d = 3.0 * c[0], 2.0 * c[1], c[2]
+    disc = np.sqrt(np.maximum(b * b - 4.0 * a * d, 0.0))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        quadratic = np.stack([(-b + disc) / (2.0 * a), (-b - disc) / (2.0 * a)])
+        linear = -d / b
+    roots = np.where(np.abs(a) > 0, quadratic, np.where(np.abs(b) > 0, linear, 0.0))
+    H = h[None, :, None]
+    t = np.concatenate([np.zeros((1, *c.shape[1:])), np.broadcast_to(H, (1, *c.shape[1:]))])
+    inside = np.isfinite(roots) & (roots > 0) & (roots < H)
+    t = np.concatenate([t, np.where(inside, roots, 0.0)])
+    values = ((c[0] * t + c[1]) * t + c[2]) * t + c[3]
+    return values.min(axis=(0, 1)), values.max(axis=(0, 1))
 
 
 def _grid(knots: FloatArray, intervals: int) -> FloatArray:

@@ -43,9 +43,9 @@ def _ur5_urdf() -> Path:
     return path / "ur_description" / "urdf" / "ur5_robot.urdf"
 
 
-def _pixels(fig, ax, points: np.ndarray) -> np.ndarray:  # type: ignore[no-untyped-def]
+def _pixels(fig, ax, points: np.ndarray, dpi: float = DPI) -> np.ndarray:  # type: ignore[no-untyped-def]
     """Image (row, column) of world points (K, 3), from the axes' projection."""
-    fig.set_dpi(DPI)
+    fig.set_dpi(dpi)
     fig.canvas.draw()
     x, y, _ = proj3d.proj_transform(points[:, 0], points[:, 1], points[:, 2], ax.get_proj())
     display = ax.transData.transform(np.column_stack([x, y]))
@@ -234,12 +234,19 @@ def test_optik_show_writes_the_picture(tmp_path: Path, capsys: pytest.CaptureFix
     from optik.cli import main
 
     out = tmp_path / "robot.png"
-    assert (
-        main(["show", "puma560", "--q", "0", "0.5", "-0.5", "0", "0.8", "0", "--out", str(out)])
-        == 0
-    )
-    image = mpimg.imread(out)
-    assert image.ndim == 3 and image.shape[0] > 300
+    q = np.array([0.0, 0.5, -0.5, 0.0, 0.8, 0.0])
+    assert main(["show", "puma560", "--q", *map(str, q), "--out", str(out)]) == 0
+    # The command's picture covers the frames, projected through the same figure rebuilt
+    # here (show_robot's defaults: 110 dpi) and compared with its empty axes.
+    robot = load_problem("puma560").robot
+    fig, ax = robot_figure(robot, q)
+    rc = _pixels(fig, ax, _frame_origins(robot, q), dpi=110.0)
+    for artist in [*ax.lines, *ax.collections]:
+        artist.remove()
+    empty = mpimg.imread(save_figure(fig, tmp_path / "empty.png", 110.0))[..., :3]
+    image = mpimg.imread(out)[..., :3]
+    assert image.shape == empty.shape
+    assert _differs_near(image, empty, rc).all()
     urdf = str(ROOT / "problems" / "panda.urdf")
     args = ["show", "--urdf", urdf, "--base", "panda_link0", "--tip", "panda_hand"]
     assert main([*args, "--out", str(tmp_path / "panda.svg")]) == 0

@@ -491,3 +491,16 @@ def test_at_checks_its_arguments(puma_trajectory: Trajectory) -> None:
         puma_trajectory.at(0, [0.0, math.nan])
     q, qd, qdd = puma_trajectory.at(0, 0.25)  # a scalar time gives one row
     assert q.shape == qd.shape == qdd.shape == (1, 6)
+
+
+def test_the_exact_range_of_a_cubic_spline_matches_dense_sampling() -> None:
+    from optik.trajectory import _cubic_range
+
+    rng = np.random.default_rng(5)
+    for _ in range(20):
+        s = np.concatenate([[0.0], np.cumsum(rng.uniform(0.05, 0.3, 8))])
+        spline = CubicSpline(s, rng.normal(size=(9, 3)), bc_type="natural")
+        low, high = _cubic_range(spline.c, np.diff(s))
+        dense = spline(np.linspace(0.0, s[-1], 200_001))
+        np.testing.assert_allclose(low, dense.min(axis=0), atol=1e-9)
+        np.testing.assert_allclose(high, dense.max(axis=0), atol=1e-9)
