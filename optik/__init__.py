@@ -22,6 +22,7 @@ from optik.poses import (
 )
 from optik.problems import Problem, Target, load_problem
 from optik.solvers import available_solvers
+from optik.trajectory import Trajectory, TrajectorySegment
 from optik.trig import solve_trig
 
 __version__ = "0.1.0"
@@ -39,6 +40,8 @@ __all__ = [
     "Reachability",
     "Robot",
     "Target",
+    "Trajectory",
+    "TrajectorySegment",
     "__version__",
     "analytic_ik",
     "analytic_ik_batch",

@@ -51,6 +51,8 @@ class ChainLink:
         lower: lower limit (rad or m) or ``None`` for the role default.
         upper: upper limit (rad or m) or ``None`` for the role default.
         continuous: an unbounded revolute joint.
+        velocity: speed limit (rad/s or m/s) or ``None`` when unknown.
+        acceleration: acceleration limit (rad/s² or m/s²) or ``None`` when unknown.
     """
 
     name: str
@@ -63,6 +65,8 @@ class ChainLink:
     lower: float | None = None
     upper: float | None = None
     continuous: bool = False
+    velocity: float | None = None
+    acceleration: float | None = None
 
 
 class Chain(NamedTuple):

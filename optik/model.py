@@ -60,6 +60,8 @@ class DHJoint:
         upper: upper limit (rad or m), ``None`` to use the role default.
         continuous: an unbounded revolute joint.
         mimic: make this a passive joint driven by another joint.
+        velocity: speed limit (rad/s or m/s), ``None`` when unknown.
+        acceleration: acceleration limit (rad/s² or m/s²), ``None`` when unknown.
     """
 
     a: float = 0.0
@@ -73,6 +75,8 @@ class DHJoint:
     upper: float | None = None
     continuous: bool = False
     mimic: Mimic | None = None
+    velocity: float | None = None
+    acceleration: float | None = None
 
 
 @dataclass(frozen=True)
@@ -215,7 +219,14 @@ def _as_dh_joint(row: Any, index: int) -> DHJoint:
     out["lower"], out["upper"] = _limit(joint, data.get("lower"), data.get("upper"))
     out["continuous"] = _row_field(label, "continuous", check_bool, data.get("continuous", False))
     out["mimic"] = _mimic(label, data.get("mimic"))
+    for key in ("velocity", "acceleration"):
+        value = data.get(key)
+        out[key] = None if value is None else _row_field(label, key, _positive, value)
     return DHJoint(**out)
+
+
+def _positive(key: str, value: Any) -> float:
+    return check_real(key, value, positive=True)
 
 
 def _check_rows(rows: Any) -> list[Any]:
@@ -282,6 +293,8 @@ def _dh_links(rows: Sequence[Any], modified: bool) -> list[_ChainLink]:
                 lower=row.lower,
                 upper=row.upper,
                 continuous=row.continuous,
+                velocity=row.velocity,
+                acceleration=row.acceleration,
             )
         )
     return links
@@ -298,6 +311,9 @@ class Robot:
         T_world_base: pose of the chain's frame 0 in the world (robot base) frame.
         dh: the DH rows the robot was built from (``None`` for URDF), with ``convention``.
         analytic: name of the closed-form IK family, if one is declared.
+        velocity_limits: (dof,) speed limits (rad/s or m/s), ``inf`` where unknown.
+        acceleration_limits: (dof,) acceleration limits (rad/s² or m/s²), ``inf`` where
+            unknown.
     """
 
     def __init__(
@@ -358,6 +374,12 @@ class Robot:
         self.chain_names: tuple[str, ...] = tuple(names)
         self.lower: FloatArray = read_only(np.array([j.lower for j in joints], dtype=float))
         self.upper: FloatArray = read_only(np.array([j.upper for j in joints], dtype=float))
+        self.velocity_limits: FloatArray = read_only(
+            np.array([math.inf if a.velocity is None else a.velocity for a in actuated])
+        )
+        self.acceleration_limits: FloatArray = read_only(
+            np.array([math.inf if a.acceleration is None else a.acceleration for a in actuated])
+        )
         self.T_world_base = T_base
         self.T_flange_tool = T_tool
         self.dh = dh

@@ -19,7 +19,7 @@ import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -41,6 +41,9 @@ from optik.model import Robot
 from optik.posture import check_joint_weights
 from optik.spatial import as_pose, check_rotation
 from optik.task import AXES, MODES, Task, make_task, task_rows
+
+if TYPE_CHECKING:
+    from optik.trajectory import Trajectory
 
 PLAN_STATUSES = (
     "ok",
@@ -174,6 +177,34 @@ class PathPlan:
         from optik.plots import plot_plan
 
         return plot_plan(self, Path(path), robot)
+
+    def to_trajectory(
+        self,
+        velocity_limits: Any = None,
+        acceleration_limits: Any = None,
+        *,
+        robot: Robot | None = None,
+        dt: float = 0.01,
+        grid: int = 200,
+        path_tolerance: float | None = None,
+    ) -> Trajectory:
+        """The time-optimal trajectory (TOPP-RA) along this joint path, in segments.
+
+        Unsolved waypoints and discontinuities split it; see
+        :func:`optik.trajectory.plan_trajectory` for the arguments (limits in rad/s, m/s,
+        rad/s², m/s²; default from ``robot``), the path and the guarantees.
+        """
+        from optik.trajectory import plan_trajectory
+
+        return plan_trajectory(
+            self,
+            velocity_limits,
+            acceleration_limits,
+            robot=robot,
+            dt=dt,
+            grid=grid,
+            path_tolerance=path_tolerance,
+        )
 
 
 def _atomic_write(target: Path, writer: Callable[[Any], None], binary: bool = False) -> Path:

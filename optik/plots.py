@@ -6,6 +6,7 @@ Every function writes one image file and returns its path; the figure is closed.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -38,15 +39,50 @@ def pyplot() -> Any:
     return plt
 
 
+@dataclass
+class PlanFigure:
+    """The figure of :func:`plan_figure` and its parts (for tests and further drawing).
+
+    Attributes:
+        figure: the matplotlib figure.
+        path_axes: the 3-D panel (``None`` without a robot).
+        joint_axes: one panel per joint, in ``q`` order.
+        arm_waypoints: the waypoints at which the arm is drawn in the 3-D panel.
+    """
+
+    figure: Any
+    path_axes: Any
+    joint_axes: list[Any]
+    arm_waypoints: list[int]
+
+
 def plot_plan(plan: PathPlan, path: Path, robot: Robot | None = None) -> Path:
-    """One panel per joint: the planned value, its limits (bands) and flagged waypoints."""
+    """The plan's figure (:func:`plan_figure`), written whole to ``path``."""
+    from optik.drawing import save_figure
+
+    return save_figure(plan_figure(plan, robot).figure, path, 110.0)
+
+
+def plan_figure(plan: PathPlan, robot: Robot | None = None, arms: int = 5) -> PlanFigure:
+    """The figure of a plan: its joint paths and, with a robot, the arm along the path.
+
+    One panel per joint (planned value, limit bands, flagged waypoints) and, with a robot,
+    a 3-D panel: the Cartesian path, its flagged waypoints in colour and the arm at up to
+    ``arms`` solved waypoints (fainter to stronger along the path).
+    """
     plt = pyplot()
     dof = plan.q.shape[1]
     cols = 2 if dof > 3 else 1
     rows = math.ceil(dof / cols)
-    fig, axes = plt.subplots(
-        rows, cols, figsize=(6.5 * cols, 2.1 * rows), sharex=True, squeeze=False
-    )
+    extra = 1 if robot is not None else 0
+    height = max(2.1 * rows, 5.8 if robot is not None else 0.0)
+    fig = plt.figure(figsize=(6.5 * cols + 6.0 * extra, height))
+    grid = fig.add_gridspec(rows, cols + extra, width_ratios=[6.0] * extra + [6.5] * cols)
+    axes: list[list[Any]] = [[None] * cols for _ in range(rows)]
+    for r in range(rows):
+        for c in range(cols):
+            share = axes[0][0] if (r, c) != (0, 0) else None
+            axes[r][c] = fig.add_subplot(grid[r, c + extra], sharex=share)
     index = np.arange(len(plan.status))
     names = plan.joint_names or tuple(f"q{i + 1}" for i in range(dof))
     for j in range(rows * cols):
@@ -98,6 +134,9 @@ def plot_plan(plan: PathPlan, path: Path, robot: Robot | None = None) -> Path:
         ax.grid(True, alpha=0.3)
     for ax in axes[-1]:
         ax.set_xlabel("waypoint")
+    for row in axes[:-1]:
+        for ax in row:
+            ax.tick_params(labelbottom=False)
     handles, labels = axes[0][0].get_legend_handles_labels()
     if robot is not None:
         from matplotlib.patches import Patch
@@ -120,11 +159,61 @@ def plot_plan(plan: PathPlan, path: Path, robot: Robot | None = None) -> Path:
         frameon=False,
         fontsize=9,
     )
+    path_axes, drawn = (None, []) if robot is None else _path_panel(fig, grid, plan, robot, arms)
     fig.tight_layout(rect=(0, 0, 1, 0.9))
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return PlanFigure(fig, path_axes, [axes[j // cols][j % cols] for j in range(dof)], drawn)
+
+
+def _path_panel(
+    fig: Any, grid: Any, plan: PathPlan, robot: Robot, arms: int
+) -> tuple[Any, list[int]]:
+    """The 3-D panel of :func:`plan_figure`: path, flags and the arm at a few waypoints."""
+    from optik.drawing import draw_robot, extent_points, set_equal_3d
+
+    ax = fig.add_subplot(grid[:, 0], projection="3d")
+    P = plan.poses[:, :3, 3]
+    ax.plot(P[:, 0], P[:, 1], P[:, 2], "--", color="0.35", lw=1.2, label="Cartesian path")
+    for status, (colour, marker, label) in _FLAG_STYLE.items():
+        flagged = np.array([s == status for s in plan.status])
+        if flagged.any():
+            ax.scatter(
+                P[flagged, 0],
+                P[flagged, 1],
+                P[flagged, 2],
+                c=colour,
+                marker=marker,
+                s=30,
+                label=label,
+                depthshade=False,
+                zorder=6,
+            )
+    solved = np.flatnonzero(plan.solved)
+    chosen: set[int] = set()
+    if len(solved) and arms > 0:
+        chosen = {int(solved[round(i)]) for i in np.linspace(0, len(solved) - 1, arms)}
+    # Both sides of the first branch switches, where a picture helps most.
+    jumps = [k for k, s in enumerate(plan.status) if s == "discontinuity"][:2]
+    chosen |= {i for k in jumps for i in (k - 1, k) if plan.solved[i]}
+    picks = sorted(chosen)
+    extent = [P]
+    for n, k in enumerate(picks):
+        last = n == len(picks) - 1
+        g = draw_robot(
+            ax,
+            robot,
+            plan.q[k],
+            colour="tab:blue",
+            alpha=0.3 + 0.7 * (n + 1) / len(picks),
+            joint_axes=last,
+            frames=last,
+            label="arm at waypoints " + ", ".join(map(str, picks)) if last else None,
+        )
+        extent.append(extent_points(g))
+    set_equal_3d(ax, np.concatenate(extent))
+    ax.view_init(elev=22.0, azim=-58.0)
+    ax.legend(loc="upper left", fontsize=8, frameon=False)
+    ax.set_title(f"{robot.name}: path and arm", fontsize=10)
+    return ax, picks
 
 
 def plot_reachability(

@@ -184,6 +184,8 @@ _JOINT_KEYS = {
     "upper",
     "continuous",
     "mimic",
+    "velocity",
+    "acceleration",
 }
 _ROBOT_KEYS = {
     "name",
@@ -250,6 +252,12 @@ def _joint(
             reader.string(m, f"{table}.mimic", "joint"),
             reader.number(m, f"{table}.mimic", "multiplier", 1.0),
         )
+    rates: list[float | None] = []
+    for key in ("velocity", "acceleration"):  # per second and per second squared
+        rate = reader.number(data, table, key) * limit_scale if key in data else None
+        if rate is not None and rate <= 0:
+            raise reader.fail(table, key, f"must be positive, got {data[key]!r}")
+        rates.append(rate)
     del modified  # the row format is the same for both conventions
     return DHJoint(
         a=reader.length(data, table, "a", length),
@@ -263,6 +271,8 @@ def _joint(
         upper=bounds[1],
         continuous=continuous,
         mimic=mimic,
+        velocity=rates[0],
+        acceleration=rates[1],
     )
 
 

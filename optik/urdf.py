@@ -139,6 +139,20 @@ def _path_to(by_child: dict[str, ET.Element], base_link: str, tip_link: str) -> 
     return path
 
 
+def _velocity(text: str | None, jname: str) -> float | None:
+    """A joint's ``<limit velocity=...>`` (rad/s or m/s); ``None`` when absent or zero.
+
+    The URDF schema defaults an omitted velocity to 0, which no joint could move with:
+    it reads as "unknown", not as a limit.
+    """
+    if text is None:
+        return None
+    value = float(_floats(text, 1, f"joint {jname!r} velocity limit", (0.0,))[0])
+    if value < 0:
+        raise URDFError(f"joint {jname!r}: velocity limit {text!r} is negative")
+    return value if value > 0 else None
+
+
 def parse_urdf_chain(
     source: str | Path, base_link: str, tip_link: str
 ) -> tuple[str, list[ChainLink], FloatArray]:
@@ -146,15 +160,17 @@ def parse_urdf_chain(
 
     Returns:
         The robot's name, the chain joints (fixed joints folded into the constant
-        transform before the next moving joint), and the fixed 4x4 transform from the
-        last moving joint's child link to ``tip_link``. Each moving joint's axis is
-        aligned with z by a constant rotation before it and its inverse after it.
+        transform before the next moving joint; each with its ``<limit velocity>`` when
+        stated), and the fixed 4x4 transform from the last moving joint's child link to
+        ``tip_link``. Each moving joint's axis is aligned with z by a constant rotation
+        before it and its inverse after it.
 
     Raises:
         URDFError: unreadable or non-UTF-8 file, unknown links, no path between the
             links, a link with two parent joints, a joint whose parent is its child, a
             cycle, a mimic, floating or planar joint on the path, a zero axis, missing
-            limits, or a length beyond :data:`~optik._checks.MAX_LENGTH_M`.
+            limits, a negative velocity limit, or a length beyond
+            :data:`~optik._checks.MAX_LENGTH_M`.
     """
     for what, value in (("base_link", base_link), ("tip_link", tip_link)):
         if not isinstance(value, str):
@@ -208,6 +224,8 @@ def parse_urdf_chain(
                     f"{MAX_LENGTH_M:g} m"
                 )
         before = pending @ origin @ align
+        limit = joint.find("limit")
+        velocity = None if limit is None else _velocity(limit.get("velocity"), jname)
         chain.append(
             ChainLink(
                 name=jname,
@@ -218,6 +236,7 @@ def parse_urdf_chain(
                 lower=lower,
                 upper=upper,
                 continuous=continuous,
+                velocity=velocity,
             )
         )
         pending = np.eye(4)

@@ -24,6 +24,7 @@ from optik.cli._common import EXIT_BAD_INPUT, EXIT_INTERNAL, EXIT_NO_SOLUTION, E
 from optik.cli._plan import add_plan_command
 from optik.cli._report import add_report_command, config_from_args
 from optik.cli._robot import add_problems_command, add_robot_command
+from optik.cli._show import add_show_command
 from optik.cli._solve import add_solve_command
 from optik.cli._view import add_view_command
 from optik.errors import OptikError
@@ -63,6 +64,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     add_problems_command(sub)
     add_robot_command(sub)
+    add_show_command(sub)
     add_solve_command(sub)
     add_plan_command(sub)
     add_report_command(sub)

@@ -30,6 +30,7 @@ from optik.errors import OptikError
 from optik.paths import line, read_path
 from optik.planning import PLAN_STATUSES, plan_path
 from optik.problems import Problem
+from optik.trajectory import rate_limits
 
 
 def _plan_poses(problem: Problem, args: argparse.Namespace) -> tuple[np.ndarray, str]:
@@ -68,6 +69,10 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     out = prepare_folder(args.out)  # fail before the work, not after it
     problem = problem_from_args(args)
     robot = problem.robot
+    if args.trajectory:  # limits are checked before the work, not after it
+        _trajectory_limits(robot, args)
+    elif args.velocity_limits is not None or args.acceleration_limits is not None:
+        raise OptikError("--velocity-limits and --acceleration-limits apply with --trajectory")
     poses, mode = _plan_poses(problem, args)
     mode = _task_mode(args, mode)
     with Progress(len(poses)) as bar:
@@ -92,6 +97,8 @@ def _cmd_plan(args: argparse.Namespace) -> int:
         if summary[status]:
             print(f"  {status:<16}{summary[status]}")
     written = [plan.save(out / f"plan.{ext}") for ext in ("csv", "npz", "json")]
+    if args.trajectory:
+        written += _write_trajectory(plan, robot, args, out)
     try:
         written.append(plan.plot(out / "plan.png", robot))
     except OptikError as exc:  # pragma: no cover - only without matplotlib
@@ -100,18 +107,50 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _write_trajectory(plan: Any, robot: Any, args: argparse.Namespace, out: Any) -> list[Any]:
+    """``--trajectory``: the time-optimal trajectory as OUT/trajectory.csv and .json."""
+    trajectory = plan.to_trajectory(*_trajectory_limits(robot, args), robot=robot)
+    print(
+        f"  trajectory: {len(trajectory.segments)} segment(s), {trajectory.duration:.4g} s "
+        "(each from rest to rest)"
+    )
+    for seg in trajectory.segments:
+        print(
+            f"    waypoints {seg.first}-{seg.last}: {seg.duration:.4g} s, tool within "
+            f"{seg.position_deviation:.3g} m / {seg.orientation_deviation:.3g} rad of the path"
+        )
+    return [trajectory.save(out / "trajectory.csv"), trajectory.save(out / "trajectory.json")]
+
+
+def _trajectory_limits(robot: Any, args: argparse.Namespace) -> tuple[Any, Any]:
+    """The velocity and acceleration limits (dof,) of ``--trajectory``, or a clear error."""
+    out = []
+    for flag, given, known in (
+        ("--velocity-limits", args.velocity_limits, robot.velocity_limits),
+        ("--acceleration-limits", args.acceleration_limits, robot.acceleration_limits),
+    ):
+        values = None if given is None else (given[0] if len(given) == 1 else given)
+        try:
+            out.append(rate_limits(flag, values, known, robot.joint_names))
+        except OptikError as exc:
+            raise OptikError(str(exc).replace(f"give {flag}=", f"give {flag}")) from exc
+    return out[0], out[1]
+
+
 def add_plan_command(sub: Any) -> None:
     p = command(
         sub,
         "plan",
         "turn a Cartesian path into a joint path inside the limits",
         "Plan a continuous joint path inside the limits along a Cartesian path, print a "
-        "summary and write OUT/plan.csv, plan.npz, plan.json and plan.png. Path files are "
+        "summary and write OUT/plan.csv, plan.npz, plan.json and plan.png (with --trajectory, "
+        "also trajectory.csv and trajectory.json). Path files are "
         "SI (m, rad) unless a TOML path file names its units. A progress bar is drawn on a "
         "terminal.",
         "  optik plan planar_2r --line 1.5 -0.5 0 1.5 0.5 0 --step 0.05\n"
         "  optik plan --urdf problems/panda.urdf --base panda_link0 --tip panda_hand \\\n"
-        "      --line 0.4 -0.2 0.5 0.4 0.2 0.5 --rpy-deg 180 0 0 --out panda-plan\n",
+        "      --line 0.4 -0.2 0.5 0.4 0.2 0.5 --rpy-deg 180 0 0 --out panda-plan \\\n"
+        "      --trajectory --acceleration-limits 5\n",
     )
     add_robot_arguments(p)
     path_group = p.add_argument_group("path (one of --path, --line, --problem-path)")
@@ -160,6 +199,29 @@ def add_plan_command(sub: Any) -> None:
         help="current configuration, one value per joint: rad (revolute) or m (prismatic)",
     )
     p.add_argument("--seed", type=seed_int, default=0, help="seed of the restarts (no unit)")
+    timing = p.add_argument_group("trajectory (time-optimal, TOPP-RA)")
+    timing.add_argument(
+        "--trajectory",
+        action="store_true",
+        help="also write OUT/trajectory.csv and trajectory.json (a ROS JointTrajectory per "
+        "segment; times in s)",
+    )
+    timing.add_argument(
+        "--velocity-limits",
+        nargs="+",
+        type=positive_float,
+        metavar="V",
+        help="joint speed limits, one for all or one per joint: rad/s or m/s (default: the "
+        "URDF's or problem file's)",
+    )
+    timing.add_argument(
+        "--acceleration-limits",
+        nargs="+",
+        type=positive_float,
+        metavar="A",
+        help="joint acceleration limits, one for all or one per joint: rad/s^2 or m/s^2 "
+        "(default: the problem file's)",
+    )
     p.add_argument(
         "--out",
         default="optik-plan",

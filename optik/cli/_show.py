@@ -1,0 +1,91 @@
+"""``optik show``: a picture of the robot in 3-D."""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from optik.cli._common import (
+    EXIT_OK,
+    add_robot_arguments,
+    command,
+    finite_float,
+    path_text,
+    problem_from_args,
+)
+from optik.errors import OptikError
+
+_FORMATS = (".png", ".svg", ".pdf")
+
+
+def _cmd_show(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from optik.drawing import show_robot, visual_meshes
+
+    out = Path(args.out)
+    if out.suffix.lower() not in _FORMATS:
+        raise OptikError(f"--out {out}: expected a {', '.join(_FORMATS)} file")
+    problem = problem_from_args(args)
+    robot = problem.robot
+    q = robot.mid_limits if args.q is None else robot.check_q(args.q, "--q")
+    values = ", ".join(f"{v:.4g}" for v in q)
+    outside = "" if robot.within_limits(q) else " (outside the joint limits)"
+    print(f"{robot.name} at q = ({values}) rad or m{outside}")
+    meshes: list[Any] = []
+    if args.urdf is not None and not args.no_meshes:
+        try:
+            meshes = visual_meshes(args.urdf, robot, q, args.base)
+            print(f"  {len(meshes)} visual meshes from {args.urdf}")
+        except OptikError as exc:  # a picture without meshes is still a picture
+            print(f"  no meshes drawn: {' '.join(str(exc).split())}")
+    view = (args.view[0], args.view[1]) if args.view else (22.0, -58.0)
+    print(f"  wrote {show_robot(robot, out, q, meshes=meshes, view=view)}")
+    return EXIT_OK
+
+
+def add_show_command(sub: Any) -> None:
+    p = command(
+        sub,
+        "show",
+        "draw the robot in 3-D to an image file",
+        "Draw the arm in 3-D at a configuration (default: mid-limits): links between the "
+        "joint origins, each joint's axis as an arrow, the base and tool frames as RGB "
+        "triads (x red, y green, z blue) and, for a --urdf robot whose visual meshes load "
+        "(package:// names resolved against the folders above the file), the meshes.",
+        "  optik show puma560 --out puma.png\n"
+        "  optik show ur5 --q 0 -1.2 1.5 -1 -1.4 0 --out ur5.png\n"
+        "  optik show --urdf problems/panda.urdf --base panda_link0 --tip panda_hand\n",
+    )
+    add_robot_arguments(p)
+    p.add_argument(
+        "--q",
+        nargs="+",
+        type=finite_float,
+        metavar="Q",
+        help="the configuration, one value per joint: rad (revolute) or m (prismatic); "
+        "default mid-limits",
+    )
+    p.add_argument(
+        "--view",
+        nargs=2,
+        type=finite_float,
+        metavar=("ELEV", "AZIM"),
+        help="camera elevation and azimuth, deg (default 22 -58)",
+    )
+    p.add_argument(
+        "--no-meshes",
+        action="store_true",
+        help="do not draw the --urdf file's visual meshes (no unit)",
+    )
+    p.add_argument(
+        "--out",
+        default="robot.png",
+        metavar="FILE",
+        type=path_text,
+        help="image file, .png, .svg or .pdf (no unit; default ./robot.png)",
+    )
+    p.set_defaults(func=_cmd_show)
+
+
+__all__ = ["add_show_command"]

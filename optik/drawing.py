@@ -1,0 +1,467 @@
+"""Pictures of the robot in 3-D (matplotlib, the ``report`` extra).
+
+The arm is drawn from :meth:`optik.Robot.frames`: links as a polyline through the joint
+origins in chain order, each joint's axis as a short arrow (a revolute joint turns about
+it, a prismatic joint slides along it), the base and tool frames as RGB triads (x red,
+y green, z blue), and, for a URDF robot whose visual meshes load offline, the meshes.
+
+:func:`draw_robot` draws into a given 3-D axes; :func:`robot_figure` builds a figure;
+:func:`show_robot` writes it as an image (``optik show``). :func:`reachability_figure`
+draws the arm over a plane slice of its reachable workspace.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from optik._checks import FloatArray
+from optik.errors import OptikError
+from optik.model import Robot
+
+__all__ = [
+    "ArmGeometry",
+    "arm_geometry",
+    "draw_robot",
+    "extent_points",
+    "reachability_figure",
+    "robot_figure",
+    "set_equal_3d",
+    "show_robot",
+    "visual_meshes",
+]
+
+_TRIAD_COLOURS = ("tab:red", "tab:green", "tab:blue")
+
+
+@dataclass(frozen=True)
+class ArmGeometry:
+    """What a drawing of the arm at one configuration shows (world frame, m).
+
+    Attributes:
+        points: (K, 3) the link polyline: frame 0, each joint's origin and link frame (in
+            chain order, repeats dropped), then the tool.
+        axis_origins: (n, 3) a point on each chain joint's axis.
+        axis_directions: (n, 3) unit direction of each chain joint's axis.
+        prismatic: (n,) whether each chain joint slides.
+        T_base: 4x4 frame 0.
+        T_tool: 4x4 tool frame.
+        scale: a length for arrows and triads: a tenth of the arm's extent (m).
+    """
+
+    points: FloatArray
+    axis_origins: FloatArray
+    axis_directions: FloatArray
+    prismatic: np.ndarray
+    T_base: FloatArray
+    T_tool: FloatArray
+    scale: float
+
+
+def arm_geometry(robot: Robot, q: Any) -> ArmGeometry:
+    """The links, joint axes and frames of ``robot`` at ``q`` (dof,) rad or m.
+
+    A chain joint's motion frame (the one whose z is its axis) is link frame ``i``
+    with the constant link offset ``E[i]`` undone: ``frames[i + 1] @ inv(E[i])``.
+    """
+    F = robot.frames(q)
+    E = robot.chain.E
+    motion = F[1:-1] @ np.linalg.inv(E)
+    ordered = [F[0, :3, 3]]
+    for i in range(len(E)):
+        ordered += [motion[i, :3, 3], F[i + 1, :3, 3]]
+    ordered.append(F[-1, :3, 3])
+    points = [ordered[0]]
+    for p in ordered[1:]:
+        if np.linalg.norm(p - points[-1]) > 1e-9:
+            points.append(p)
+    P = np.array(points)
+    extent = float(np.max(np.ptp(P, axis=0))) if len(P) > 1 else 0.0
+    return ArmGeometry(
+        points=P,
+        axis_origins=motion[:, :3, 3].copy(),
+        axis_directions=motion[:, :3, 2].copy(),
+        prismatic=np.asarray(robot.chain.prismatic).copy(),
+        T_base=F[0].copy(),
+        T_tool=F[-1].copy(),
+        scale=max(0.1 * extent, 0.02),
+    )
+
+
+def _triad(ax: Any, T: FloatArray, length: float, alpha: float) -> None:
+    for k, colour in enumerate(_TRIAD_COLOURS):
+        d = T[:3, k] * length
+        ax.quiver(
+            *T[:3, 3], *d, color=colour, lw=1.8, alpha=alpha, arrow_length_ratio=0.25, zorder=5
+        )
+
+
+def draw_robot(
+    ax: Any,
+    robot: Robot,
+    q: Any,
+    *,
+    colour: str = "tab:blue",
+    alpha: float = 1.0,
+    joint_axes: bool = True,
+    frames: bool = True,
+    meshes: Sequence[tuple[FloatArray, FloatArray]] = (),
+    label: str | None = None,
+    scale: float | None = None,
+) -> ArmGeometry:
+    """Draw the arm at ``q`` into a 3-D matplotlib axes.
+
+    Args:
+        ax: a ``projection="3d"`` axes.
+        robot: the robot.
+        q: (dof,) joint values, rad or m.
+        colour: colour of the links.
+        alpha: opacity of everything drawn.
+        joint_axes: draw each joint's axis as an arrow (black: revolute; orange:
+            prismatic).
+        frames: draw the base and tool frames as RGB triads.
+        meshes: ``(vertices (V, 3), faces (F, 3))`` world-frame triangle meshes to draw
+            under the links (see :func:`visual_meshes`).
+        label: legend label of the links.
+        scale: arrow and triad length (m); default a tenth of the arm's extent.
+
+    Returns:
+        The :class:`ArmGeometry` drawn.
+    """
+    g = arm_geometry(robot, q)
+    length = g.scale if scale is None else scale
+    if meshes:
+        from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+        # Depth sorting of the meshes' polygons would hide the links inside them: draw the
+        # meshes first and everything else above them.
+        ax.computed_zorder = False
+
+        for vertices, faces in meshes:
+            triangles = vertices[faces]
+            ax.add_collection3d(
+                Poly3DCollection(
+                    triangles, facecolors=_shaded(triangles, 0.45 * alpha), edgecolors="none"
+                )
+            )
+    P = g.points
+    ax.plot(
+        P[:, 0], P[:, 1], P[:, 2], "-", color=colour, lw=3.2, alpha=alpha, label=label, zorder=3
+    )
+    ax.scatter(
+        P[:, 0], P[:, 1], P[:, 2], color=colour, s=22, alpha=alpha, depthshade=False, zorder=4
+    )
+    if joint_axes:
+        for origin, direction, slides in zip(
+            g.axis_origins, g.axis_directions, g.prismatic, strict=True
+        ):
+            start = origin - 0.5 * length * direction
+            ax.quiver(
+                *start,
+                *(length * direction),
+                color="tab:orange" if slides else "black",
+                lw=1.3,
+                alpha=alpha,
+                arrow_length_ratio=0.3,
+                zorder=5,
+            )
+    if frames:
+        _triad(ax, g.T_base, 1.3 * length, alpha)
+        _triad(ax, g.T_tool, length, alpha)
+    return g
+
+
+def _shaded(triangles: FloatArray, alpha: float) -> FloatArray:
+    """Grey face colours (F, 4) lit from above and in front (flat shading, no library)."""
+    normals = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
+    norms = np.linalg.norm(normals, axis=1, keepdims=True)
+    normals = normals / np.where(norms > 0, norms, 1.0)
+    light = np.array([0.4, -0.5, 0.77]) / np.linalg.norm([0.4, -0.5, 0.77])
+    level = 0.45 + 0.4 * np.abs(normals @ light)
+    colours = np.empty((len(triangles), 4))
+    colours[:, :3] = level[:, None] * np.array([0.85, 0.87, 0.92])
+    colours[:, 3] = alpha
+    return colours
+
+
+def set_equal_3d(ax: Any, points: FloatArray, margin: float = 0.08) -> None:
+    """Equal scales on x, y, z around ``points`` (K, 3), so that the arm is not distorted."""
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    centre = 0.5 * (lo + hi)
+    half = 0.5 * float(np.max(hi - lo)) * (1.0 + 2.0 * margin) or 0.1
+    ax.set_xlim(centre[0] - half, centre[0] + half)
+    ax.set_ylim(centre[1] - half, centre[1] + half)
+    ax.set_zlim(centre[2] - half, centre[2] + half)
+    ax.set_box_aspect((1.0, 1.0, 1.0))
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.set_zlabel("z (m)")
+
+
+def extent_points(g: ArmGeometry) -> FloatArray:
+    """Points (K, 3) that a drawing of ``g`` reaches: links, arrow tips, the base triad."""
+    tips = g.axis_origins + 0.5 * g.scale * g.axis_directions
+    return np.concatenate(
+        [g.points, tips, g.T_base[None, :3, 3] + 1.3 * g.scale * g.T_base[:3, :3].T]
+    )
+
+
+def robot_figure(
+    robot: Robot,
+    q: Any = None,
+    *,
+    title: str | None = None,
+    meshes: Sequence[tuple[FloatArray, FloatArray]] = (),
+    view: tuple[float, float] = (22.0, -58.0),
+    size: tuple[float, float] = (6.0, 6.0),
+) -> tuple[Any, Any]:
+    """A figure with the arm at ``q`` (default: mid-limits); returns ``(figure, axes)``.
+
+    Args:
+        robot: the robot.
+        q: (dof,) joint values, rad or m.
+        title: the figure's title (default: the robot's name and ``q``).
+        meshes: world-frame triangle meshes to draw with it (:func:`visual_meshes`).
+        view: elevation and azimuth of the camera, deg.
+        size: figure size, inches.
+
+    Raises:
+        OptikError: a bad ``q``.
+    """
+    from optik.plots import pyplot
+
+    plt = pyplot()
+    q = robot.mid_limits if q is None else robot.check_q(q, "q")
+    if q.ndim != 1:
+        raise OptikError(f"q: expected one configuration ({robot.dof},), got {q.shape}")
+    fig = plt.figure(figsize=size)
+    ax = fig.add_subplot(projection="3d")
+    g = draw_robot(ax, robot, q, meshes=meshes)
+    extent = [extent_points(g)] + [v for v, _ in meshes]
+    set_equal_3d(ax, np.concatenate(extent))
+    ax.view_init(elev=view[0], azim=view[1])
+    values = ", ".join(f"{v:.3g}" for v in q)
+    ax.set_title(f"{robot.name} at q = ({values})" if title is None else title, fontsize=10)
+    fig.tight_layout()
+    return fig, ax
+
+
+def show_robot(
+    robot: Robot,
+    path: str | Path,
+    q: Any = None,
+    *,
+    title: str | None = None,
+    meshes: Sequence[tuple[FloatArray, FloatArray]] = (),
+    view: tuple[float, float] = (22.0, -58.0),
+    dpi: float = 110.0,
+) -> Path:
+    """Write a picture of the arm at ``q`` (default: mid-limits) to ``path`` (PNG, SVG, PDF).
+
+    Written whole or not at all. Arguments as in :func:`robot_figure`; ``dpi`` in dots
+    per inch.
+    """
+    fig, _ = robot_figure(robot, q, title=title, meshes=meshes, view=view)
+    return save_figure(fig, Path(path), dpi)
+
+
+def save_figure(fig: Any, path: str | Path, dpi: float = 110.0) -> Path:
+    """Save ``fig`` to ``path`` whole or not at all (format from the suffix) and close it.
+
+    Raises:
+        OptikError: a suffix matplotlib cannot write (the message lists those it can).
+        OutputFileError: the file cannot be written.
+    """
+    from optik._files import write_atomic_with
+    from optik.plots import pyplot
+
+    path = Path(path)
+    suffix = path.suffix.lower().lstrip(".")
+    formats = fig.canvas.get_supported_filetypes()
+    if suffix not in formats:
+        pyplot().close(fig)
+        raise OptikError(f"{path}: cannot write {suffix!r} images (formats: {', '.join(formats)})")
+    fig.set_dpi(dpi)
+    try:
+        return write_atomic_with(
+            path, lambda handle: fig.savefig(handle, format=suffix, dpi=dpi), binary=True
+        )
+    finally:
+        pyplot().close(fig)
+
+
+def reachability_figure(
+    robot: Robot,
+    *,
+    axis: str = "z",
+    value: float | None = None,
+    resolution: int = 41,
+    q: Any = None,
+    orientation: Any = None,
+    seed: int = 0,
+) -> tuple[Any, Any]:
+    """The arm (at ``q``, default mid-limits) over a reachability slice of its workspace.
+
+    A ``resolution`` x ``resolution`` grid of points on the plane ``axis = value`` (default:
+    through the centre of the reach sphere), clipped to the reach sphere, is solved with
+    :func:`optik.planning.reachability` (position IK, or full pose with ``orientation``)
+    and drawn green (reached inside the limits) or grey (not reached).
+
+    Returns:
+        ``(figure, axes)``; the axes has the :class:`~optik.planning.Reachability` as
+        ``reachability`` attribute.
+
+    Raises:
+        OptikError: ``axis`` not x, y or z; ``resolution`` not in [2, 400].
+    """
+    from optik._checks import check_choice, check_int
+    from optik.planning import reachability
+
+    check_choice("axis", axis, ("x", "y", "z"))
+    resolution = check_int("resolution", resolution, minimum=2, maximum=400)
+    centre, radius = robot.reach_sphere
+    k = "xyz".index(axis)
+    level = float(centre[k]) if value is None else float(value)
+    a, b = [i for i in range(3) if i != k]
+    u = np.linspace(-radius, radius, resolution)
+    A, B = np.meshgrid(centre[a] + u, centre[b] + u)
+    points = np.zeros((A.size, 3))
+    points[:, a], points[:, b], points[:, k] = A.ravel(), B.ravel(), level
+    points = points[np.linalg.norm(points - centre, axis=1) <= radius]
+    if len(points) == 0:
+        raise OptikError(f"value: the plane {axis} = {level:g} m misses the reach sphere")
+    result = reachability(robot, points, orientation=orientation, seed=seed)
+    title = (
+        f"{robot.name}: {int(result.reachable.sum())}/{len(points)} points of the slice "
+        f"{axis} = {level:.3g} m reached"
+    )
+    fig, ax = robot_figure(robot, q, title=title)
+    for mask, colour, label in (
+        (result.reachable, "tab:green", "reached inside the limits"),
+        (~result.reachable, "0.4", "not reached"),
+    ):
+        P = points[mask]
+        ax.scatter(P[:, 0], P[:, 1], P[:, 2], s=8, color=colour, alpha=0.6, label=label)
+    arm = robot.frames(robot.mid_limits if q is None else q)[:, :3, 3]
+    set_equal_3d(ax, np.concatenate([points, arm]))
+    ax.legend(loc="upper left", fontsize=8)
+    ax.reachability = result
+    return fig, ax
+
+
+# ------------------------------------------------------------------------ meshes
+MESH_FACES = 1500
+"""A visual mesh with more triangles is drawn as its convex hull (matplotlib draws every
+triangle as one polygon, so a detailed mesh would take minutes)."""
+
+
+def _package_handler(urdf: Path) -> Any:
+    """Resolve ``package://NAME/rest`` against the folders above the URDF (offline)."""
+
+    def handler(fname: str) -> str:
+        name = fname
+        if not name.startswith("package://"):
+            return name if Path(name).is_absolute() else str(urdf.parent / name)
+        package, _, rest = name[len("package://") :].partition("/")
+        for parent in urdf.resolve().parents:
+            if parent.name == package:
+                return str(parent / rest)
+            if (parent / package).is_dir():
+                return str(parent / package / rest)
+        return name
+
+    return handler
+
+
+def visual_meshes(
+    urdf: str | Path, robot: Robot, q: Any, base_link: str
+) -> list[tuple[FloatArray, FloatArray]]:
+    """The URDF's visual meshes at ``q``, in the robot's world frame (``base_link``).
+
+    Loaded with yourdfpy and trimesh (the ``urdf`` extra), offline: ``package://`` names
+    resolve against the folders above the file. Every link below ``base_link`` is drawn,
+    its joints off the chain at 0; a mesh of more than :data:`MESH_FACES` triangles as its
+    convex hull. The link poses yourdfpy computes are checked against optik's FK.
+
+    Returns:
+        ``(vertices (V, 3), faces (F, 3))`` per mesh.
+
+    Raises:
+        OptikError: yourdfpy or trimesh missing, the file or a mesh not loadable, no
+            visual mesh, or link poses that disagree with the robot (another chain).
+    """
+    try:
+        import trimesh
+        import yourdfpy
+    except ImportError as exc:  # pragma: no cover - both are in the test extra
+        raise OptikError("meshes need yourdfpy and trimesh: pip install 'optik[urdf]'") from exc
+    path = Path(urdf)
+    q = robot.check_q(q, "q")
+    try:
+        model = yourdfpy.URDF.load(
+            str(path),
+            filename_handler=_package_handler(path),
+            load_meshes=True,
+            build_scene_graph=True,
+            load_collision_meshes=False,
+        )
+    except Exception as exc:  # yourdfpy raises many kinds; a bad file is bad input
+        raise OptikError(f"{path}: the URDF's meshes do not load ({exc})") from exc
+    actuated = list(model.actuated_joint_names)
+    missing = [n for n in robot.joint_names if n not in actuated]
+    if missing:
+        raise OptikError(f"{path}: joints {missing} of {robot.name!r} are not in the file")
+    cfg = np.zeros(len(actuated))
+    for name, value in zip(robot.joint_names, q, strict=True):
+        cfg[actuated.index(name)] = value
+    model.update_cfg(cfg)
+    T_root_base = model.get_transform(base_link)
+    to_base = np.linalg.inv(T_root_base)
+    # A check that the file and the robot describe the same chain at this q.
+    frames = robot.frames(q)
+    for k, joint_name in enumerate(robot.joint_names):
+        child = model.joint_map[joint_name].child
+        T = to_base @ model.get_transform(child)
+        if not np.allclose(T[:3, 3], frames[k + 1, :3, 3], atol=1e-6):
+            raise OptikError(f"{path}: link {child!r} is not where {robot.name!r} puts it")
+    below = _links_below(model, base_link)
+    out = []
+    scene = model.scene
+    for node in scene.graph.nodes_geometry:
+        transform, geometry_name = scene.graph[node]
+        link = _link_of(model, node)
+        if link not in below:
+            continue
+        mesh = scene.geometry[geometry_name]
+        if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
+            continue
+        if len(mesh.faces) > MESH_FACES:
+            mesh = mesh.convex_hull
+        vertices = np.asarray(mesh.vertices, dtype=float)
+        T = to_base @ np.asarray(transform, dtype=float)
+        out.append((vertices @ T[:3, :3].T + T[:3, 3], np.asarray(mesh.faces)))
+    if not out:
+        raise OptikError(f"{path}: no visual mesh below {base_link!r}")
+    return out
+
+
+def _links_below(model: Any, base_link: str) -> set[str]:
+    children: dict[str, list[str]] = {}
+    for joint in model.robot.joints:
+        children.setdefault(joint.parent, []).append(joint.child)
+    found, todo = set(), [base_link]
+    while todo:
+        link = todo.pop()
+        found.add(link)
+        todo += children.get(link, [])
+    return found
+
+
+def _link_of(model: Any, node: str) -> str:
+    """The link a scene-graph geometry node hangs from."""
+    parent = model.scene.graph.transforms.parents.get(node, node)
+    return str(parent)
