@@ -75,7 +75,8 @@ class RTBPeer(Peer):
         }
 
     def _prepare(self, robot: Robot) -> list[str]:
-        from roboticstoolbox import ET, ETS
+        from roboticstoolbox import ET
+        from roboticstoolbox.ets.ETS import ETS
 
         spec = chain_of(robot, self.name)
         elements = [ET.SE3(spec.origins[0])]
