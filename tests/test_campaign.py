@@ -20,10 +20,11 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
+import xarray as xr
 from conftest import random_q, robot_of, time_limit
 
 import optik
-from optik.campaign import open_engine, run_chunks
+from optik.campaign import capability_map, open_engine, run_chunks
 from optik.campaign.batch import PartStore, read_targets, result_columns, solve_batch
 from optik.errors import OptikError, OutputFileError
 
@@ -235,6 +236,19 @@ def test_batch_on_a_local_cluster_equals_in_process(client: Any) -> None:
     here = solve_batch(robot, T, restarts=RESTARTS, chunk=50)
     there = solve_batch(robot, T, restarts=RESTARTS, chunk=17, client=client)
     _same_tables(here, there)
+
+
+@pytest.mark.slow
+def test_map_on_a_local_cluster_equals_in_process(client: Any) -> None:
+    robot = robot_of("puma560")
+    options: dict[str, Any] = {"voxel": 0.3, "orientations": 6, "mode": "axis", "keep_q": True}
+    here = capability_map(robot, chunk=4, **options)
+    there = capability_map(robot, chunk=2, client=client, **options)
+    assert set(here.data_vars) == set(there.data_vars)
+    for name in here.data_vars:
+        assert np.array_equal(here[name].values, there[name].values, equal_nan=True), name
+    xr.testing.assert_equal(here, there)
+    assert float(here.reachability.max()) > 0.0
 
 
 @pytest.mark.slow

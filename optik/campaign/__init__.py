@@ -7,6 +7,17 @@ imported only when a campaign runs.
 """
 
 from optik.campaign.batch import read_targets, solve_batch
+from optik.campaign.capability import capability_map, open_map
 from optik.campaign.engine import Engine, open_engine, run_chunks
+from optik.campaign.plots import plot_map
 
-__all__ = ["Engine", "open_engine", "read_targets", "run_chunks", "solve_batch"]
+__all__ = [
+    "Engine",
+    "capability_map",
+    "open_engine",
+    "open_map",
+    "plot_map",
+    "read_targets",
+    "run_chunks",
+    "solve_batch",
+]
