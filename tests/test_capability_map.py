@@ -11,7 +11,7 @@ import pytest
 from conftest import reference_fk, robot_of
 
 import optik
-from optik.campaign import capability, capability_map, open_map, plot_map
+from optik.campaign import base_placement, capability, capability_map, open_map, plot_map
 from optik.campaign.sampling import fibonacci_sphere, frames_with_axis, lattice, orientations
 from optik.errors import OptikError, OutputFileError
 from optik.model import Robot
@@ -32,6 +32,22 @@ def _same_data(a: Any, b: Any) -> None:
     assert set(a.data_vars) == set(b.data_vars)
     for name in a.data_vars:
         assert np.array_equal(a[name].values, b[name].values, equal_nan=True), name
+
+
+def _two_link() -> Robot:
+    return Robot.from_dh(
+        [
+            {"a": 1.0, "lower": -math.pi, "upper": math.pi},
+            {"a": 0.6, "lower": -math.pi, "upper": math.pi},
+        ],
+        name="two_link",
+    )
+
+
+@pytest.fixture(scope="module")
+def two_link_map() -> Any:
+    box = [[-2.0, 2.0], [-2.0, 2.0], [-0.01, 0.01]]
+    return capability_map(_two_link(), voxel=0.05, bounds=box, mode="position", restarts=10)
 
 
 # ---------------------------------------------------------------------------- sampling
@@ -145,19 +161,11 @@ def test_no_voxel_outside_the_reach_sphere_is_reached_or_solved(
     assert np.max(np.linalg.norm(points - centre, axis=1)) <= radius
 
 
-def test_planar_2r_map_is_its_annulus() -> None:
+def test_planar_2r_map_is_its_annulus(two_link_map: Any) -> None:
     """Links 1.0 and 0.6 m, full turns: reached exactly for 0.4 <= r <= 1.6 in z = 0."""
     l1, l2 = 1.0, 0.6
-    robot = Robot.from_dh(
-        [
-            {"a": l1, "lower": -math.pi, "upper": math.pi},
-            {"a": l2, "lower": -math.pi, "upper": math.pi},
-        ],
-        name="two_link",
-    )
     voxel = 0.05
-    box = [[-2.0, 2.0], [-2.0, 2.0], [-0.01, 0.01]]  # the arm's plane
-    ds = capability_map(robot, voxel=voxel, bounds=box, mode="position", restarts=10, chunk=8)
+    ds = two_link_map
     assert ds.z.values.tolist() == [0.0]
     reached = ds.reachability.values > 0
     z = ds.z.values
@@ -236,3 +244,38 @@ def test_map_plots_are_pngs(puma_map: Any, tmp_path: Path) -> None:
     assert [f.name for f in files] == ["reachability.png", "manipulability.png", "map3d.png"]
     for file in files:
         assert file.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and file.stat().st_size > 5000
+
+
+# ---------------------------------------------------------------------------- placement
+def test_base_placement_ranks_and_reverifies_by_the_annulus(two_link_map: Any) -> None:
+    """A 2R base serves a point iff 0.4 <= distance <= 1.6 m: the map and IK agree."""
+    robot = _two_link()
+    tasks = np.array([[2.0, 0.5, 0.0], [2.3, -0.4, 0.0], [1.6, -0.2, 0.0]])
+    result = base_placement(
+        robot, tasks, map=two_link_map, region=[[0.5, 3.5], [-1.5, 1.5]], step=0.1, yaws=1,
+        top=15,
+    )  # fmt: skip
+    assert result.verified_count == 15
+    bases = np.array([p.T_cell_base[:3, 3] for p in result.placements])
+    distance = np.linalg.norm(bases[:, None, :2] - tasks[None, :, :2], axis=2)
+    in_annulus = (distance >= 0.4) & (distance <= 1.6)
+    clear = np.all((np.abs(distance - 0.4) > 0.05) & (np.abs(distance - 1.6) > 0.05), axis=1)
+    coverage = np.array([p.coverage for p in result.placements])
+    assert np.array_equal(coverage[clear], in_annulus[clear].mean(axis=1))  # to one voxel
+    for k, placement in enumerate(result.placements[:15]):
+        assert placement.verified == pytest.approx(in_annulus[k].mean())
+        assert placement.q is not None
+        for q, target in zip(placement.q, tasks, strict=True):
+            if not np.isnan(q[0]):  # an answer reaches its task pose from this base (FK)
+                p = placement.T_cell_base @ reference_fk(robot, q)
+                assert np.linalg.norm(p[:3, 3] - target) <= 1e-6
+    assert result.best.verified == 1.0 and result.best.coverage == 1.0
+    scores = [(p.coverage, p.score) for p in result.placements[15:]]
+    assert scores == sorted(scores, reverse=True)
+
+
+def test_base_placement_checks_its_map(two_link_map: Any) -> None:
+    with pytest.raises(OptikError, match="made for robot"):
+        base_placement(robot_of("planar_2r"), [[1.0, 0.0, 0.0]], map=two_link_map)
+    with pytest.raises(OptikError, match="region"):
+        base_placement(_two_link(), [[1.0, 0.0, 0.0]], map=two_link_map, region=[[1, 0], [0, 1]])

@@ -9,10 +9,14 @@ imported only when a campaign runs.
 from optik.campaign.batch import read_targets, solve_batch
 from optik.campaign.capability import capability_map, open_map
 from optik.campaign.engine import Engine, open_engine, run_chunks
+from optik.campaign.placement import BasePlacements, Placement, base_placement
 from optik.campaign.plots import plot_map
 
 __all__ = [
+    "BasePlacements",
     "Engine",
+    "Placement",
+    "base_placement",
     "capability_map",
     "open_engine",
     "open_map",
