@@ -271,3 +271,58 @@ def test_a_worker_killed_mid_run_changes_nothing(client: Any) -> None:
     _same_tables(table, reference)
     client.wait_for_workers(2, timeout=60)
     assert set(client.run(os.getpid).values()) != before  # a new worker took its place
+
+
+# ---------------------------------------------------------------------------- the CLI
+def test_cli_batch_writes_a_row_per_target(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from optik.cli import main
+
+    robot = robot_of("ur5")
+    T = _targets(40)
+    np.save(tmp_path / "t.npy", T)
+    out = tmp_path / "results.parquet"
+    args = ["batch", "ur5", str(tmp_path / "t.npy"), "--out", str(out), "--restarts", "5"]
+    assert main([*args, "--chunk", "16"]) == 0
+    text = capsys.readouterr().out
+    table = pq.read_table(out).sort_by("index")
+    _same_tables(table, solve_batch(robot, T, restarts=5))
+    assert f"{table.column('success').to_numpy().sum()} converged" in text
+    assert main(args) == 2  # exists without --resume
+    assert "exists" in capsys.readouterr().err
+    assert main([*args, "--chunk", "16", "--resume"]) == 0  # nothing left to do
+    assert pq.read_table(out).num_rows == 40
+    np.save(tmp_path / "p.npy", T[:, :3, 3])
+    assert main(["batch", "ur5", str(tmp_path / "p.npy"), "--out", str(tmp_path / "p")]) == 2
+    assert "positions only" in capsys.readouterr().err
+    assert main([*args[:3], "--out", str(tmp_path / "x"), "--scheduler", "tcp://127.0.0.1:9"]) == 2
+    assert "no Dask scheduler answered" in capsys.readouterr().err
+
+
+def test_cli_map_writes_zarr_and_plots(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from optik.campaign import open_map
+    from optik.cli import main
+
+    out = tmp_path / "map.zarr"
+    args = ["map", "puma560", "--voxel", "0.3", "--orientations", "4", "--mode", "axis"]
+    assert main([*args, "--out", str(out), "--plots", str(tmp_path / "plots")]) == 0
+    assert "reached" in capsys.readouterr().out
+    ds = open_map(out)
+    reference = capability_map(robot_of("puma560"), voxel=0.3, orientations=4, mode="axis")
+    assert np.array_equal(ds.reachability.values, reference.reachability.values)
+    assert sorted(p.name for p in (tmp_path / "plots").iterdir()) == [
+        "manipulability.png",
+        "map3d.png",
+        "reachability.png",
+    ]
+    with pytest.raises(SystemExit) as usage:  # argparse refuses it: a usage error
+        main([*args, "--out", str(tmp_path / "other.zarr"), "--voxel", "0"])
+    assert usage.value.code == 2 and "--voxel" in capsys.readouterr().err
+    for bad, message in (
+        (["--voxel", "40"], "reach radius"),
+        (["--bounds", "1", "0", "-1", "1", "-1", "1"], "above"),
+        ([], "exists"),
+    ):
+        assert main([*args, "--out", str(out), *bad]) == 2
+        assert message in capsys.readouterr().err

@@ -370,7 +370,7 @@ def _prepare(out: str | Path | None, settings: dict[str, Any], resume: bool) -> 
     if folder.exists():
         if not resume:
             raise OutputFileError(
-                str(folder), "it exists (give resume=True / --resume to finish it)"
+                str(folder), "it exists (resume=True, or --resume, finishes it)"
             )
         if not marker.is_file():
             raise OptikError(f"{folder}: not a batch run to resume (no {SETTINGS_FILE})")

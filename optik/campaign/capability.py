@@ -520,7 +520,7 @@ def capability_map(
     rotations = sample_orientations(mode, orientations, rolls, axis)
     target = None if out is None else Path(out)
     if target is not None and target.exists() and not resume:
-        raise OutputFileError(str(target), "it exists (give resume=True to finish it)")
+        raise OutputFileError(str(target), "it exists (resume=True, or --resume, finishes it)")
     with open_engine(client=client, workers=workers, scheduler=scheduler) as engine:
         spec = MapSpec(
             robot, mode, axis, tol, restarts, max_iter, seed, rotations, x, y, z, centre,
