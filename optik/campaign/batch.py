@@ -369,9 +369,7 @@ def _prepare(out: str | Path | None, settings: dict[str, Any], resume: bool) -> 
     marker = folder / SETTINGS_FILE
     if folder.exists():
         if not resume:
-            raise OutputFileError(
-                str(folder), "it exists (resume=True, or --resume, finishes it)"
-            )
+            raise OutputFileError(str(folder), "it exists (resume=True, or --resume, finishes it)")
         if not marker.is_file():
             raise OptikError(f"{folder}: not a batch run to resume (no {SETTINGS_FILE})")
         try:
