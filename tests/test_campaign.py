@@ -198,7 +198,8 @@ def test_engine_options_are_checked() -> None:
     with pytest.raises(OptikError, match="client"):
         open_engine(client="tcp://127.0.0.1:1")
     with open_engine() as engine:
-        assert not engine.distributed and engine.threads is None
+        assert not engine.distributed and engine.threads_for(10**6) == 1
+        assert engine.threads_for(0) is None or engine.pool_size == 1
         assert sorted(engine.map_unordered(abs, [-3, 1, -2])) == [(0, 3), (1, 1), (2, 2)]
 
 

@@ -140,12 +140,13 @@ def test_no_voxel_outside_the_reach_sphere_is_reached_or_solved(
 ) -> None:
     robot = robot_of("puma560")
     centre, radius = robot.reach_sphere
-    asked: list[np.ndarray] = []
+    asked: list[tuple[np.ndarray, Any]] = []
     solve = capability.solve_ik_batch
 
     def spy(robot: Robot, targets: np.ndarray, **kw: Any) -> Any:
-        asked.append(np.asarray(targets)[:, :3, 3])
-        return solve(robot, targets, **kw)
+        result = solve(robot, targets, **kw)
+        asked.append((np.asarray(targets)[:, :3, 3], result))
+        return result
 
     monkeypatch.setattr(capability, "solve_ik_batch", spy)
     ds = capability_map(robot, mode="axis", **PUMA)
@@ -156,9 +157,14 @@ def test_no_voxel_outside_the_reach_sphere_is_reached_or_solved(
     assert np.array_equal(ds.inside.values, ~outside)
     assert np.all(ds.reachability.values[outside] == 0.0)
     assert not ds.reached.values[outside].any()
-    points = np.concatenate(asked)
-    assert len(points) == (~outside).sum() * ds.sizes["orientation"]  # each inside sample once
-    assert np.max(np.linalg.norm(points - centre, axis=1)) <= radius
+    points = np.concatenate([p for p, _ in asked])
+    iterations = np.concatenate([r.iterations for _, r in asked])
+    q = np.concatenate([r.q for _, r in asked])
+    near = np.linalg.norm(points - centre, axis=1) <= radius
+    assert near.sum() == (~outside).sum() * ds.sizes["orientation"]  # each inside sample once
+    # The rest are placeholders beyond the sphere that the batch rejects unsolved.
+    assert np.all(iterations[~near] == 0) and np.all(np.isnan(q[~near]))
+    assert np.all(np.linalg.norm(points[~near] - centre, axis=1) > 2 * radius)
 
 
 def test_planar_2r_map_is_its_annulus(two_link_map: Any) -> None:

@@ -320,7 +320,8 @@ def solve_batch(
     store = PartStore(folder)
     items = [(s, poses[s : s + chunk]) for s in range(0, len(poses), chunk)]
     with open_engine(client=client, workers=workers, scheduler=scheduler) as engine:
-        spec = BatchSpec(robot, task.mode, axis, tol, restarts, max_iter, seed, engine.threads)
+        threads = engine.threads_for(chunk_count(len(poses), chunk))
+        spec = BatchSpec(robot, task.mode, axis, tol, restarts, max_iter, seed, threads)
         work = functools.partial(solve_chunk, spec)
         if callable(progress):
             run_chunks(engine, work, items, store, progress=progress)

@@ -35,7 +35,7 @@ import functools
 import math
 import shutil
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -143,14 +143,15 @@ def manipulability(robot: Robot, Q: FloatArray, mode: str) -> FloatArray:
     """(N,) ``sqrt(det(J J^T))`` of each row: the product of the Jacobian's singular values.
 
     The 6-row geometric Jacobian (its 3 position rows in position mode); with fewer
-    joints than rows, the product of the ``dof`` singular values (``sqrt(det(J^T J))``).
+    joints than rows, ``sqrt(det(J^T J))``, the product of the ``dof`` singular values.
     """
     if len(Q) == 0:
         return np.empty(0)
     J = robot.jacobian(Q)
     rows = J[:, :3, :] if mode == "position" else J
-    singular = np.linalg.svd(rows, compute_uv=False)
-    return np.prod(singular[:, : min(rows.shape[1:])], axis=1)
+    T = np.swapaxes(rows, 1, 2)
+    gram = rows @ T if rows.shape[1] <= rows.shape[2] else T @ rows
+    return np.sqrt(np.maximum(np.linalg.det(gram), 0.0))
 
 
 def solve_block(spec: MapSpec, block: tuple[int, int, int, int]) -> dict[str, np.ndarray]:
@@ -174,55 +175,61 @@ def solve_block(spec: MapSpec, block: tuple[int, int, int, int]) -> dict[str, np
     margin = np.full((bx, by, nz), math.nan)
     inside = np.zeros((bx, by, nz), dtype=bool)
     Q = np.full((bx, by, nz, M, dof), math.nan) if spec.keep_q else None
-    z = spec.z
+    d_y = spec.y[iy0:iy1] - spec.centre[1]
+    d_z = spec.z - spec.centre[2]
+    # Where a voxel outside the sphere sits inside a run: solve_ik_batch rejects a target
+    # this far from the centre by the reach sphere alone (no iteration, no stream used).
+    far = spec.centre + np.array([4.0 * spec.radius + 1.0, 0.0, 0.0])
     for a in range(bx):
-        for b in range(by):
-            ix, iy = ix0 + a, iy0 + b
-            offset = np.array([spec.x[ix], spec.y[iy]]) - spec.centre[:2]
-            dz = z - spec.centre[2]
-            ks = np.flatnonzero(offset @ offset + dz * dz <= spec.radius**2)
-            inside[a, b, ks] = True
-            if ks.size == 0:
-                continue
-            k0, k1 = int(ks[0]), int(ks[-1]) + 1  # a line meets a ball in one interval
-            n = k1 - k0
-            poses = np.zeros((n, M, 4, 4))
-            poses[:, :, :3, :3] = spec.rotations
-            poses[:, :, 0, 3] = spec.x[ix]
-            poses[:, :, 1, 3] = spec.y[iy]
-            poses[:, :, 2, 3] = z[k0:k1, None]
-            poses[:, :, 3, 3] = 1.0
-            first = ((ix * ny + iy) * nz + k0) * M  # global index of the run's first sample
-            result = solve_ik_batch(
-                spec.robot,
-                poses.reshape(n * M, 4, 4),
-                mode=spec.mode,
-                axis=spec.axis,
-                tol=spec.tol,
-                restarts=spec.restarts,
-                max_iter=spec.max_iter,
-                seed=spec.seed + first,
-                threads=spec.threads,
-            )
-            ok = result.success.reshape(n, M)
-            reached[a, b, k0:k1] = ok
-            hits = np.flatnonzero(result.success)
-            if hits.size == 0:
-                continue
-            good = result.q[hits]
-            voxel = hits // M
-            score = manipulability(spec.robot, good, spec.mode)
-            column_best = np.full(n, -math.inf)
-            np.maximum.at(column_best, voxel, score)
-            margin_sum = np.zeros(n)
-            np.add.at(margin_sum, voxel, _margins(spec.robot, good))
-            counts = ok.sum(axis=1)
-            hit = counts > 0
-            best[a, b, k0:k1] = np.where(hit, column_best, math.nan)
-            with np.errstate(invalid="ignore", divide="ignore"):
-                margin[a, b, k0:k1] = np.where(hit, margin_sum / counts, math.nan)
-            if Q is not None:
-                Q[a, b, k0 + voxel, hits % M] = good
+        ix = ix0 + a
+        d_x = spec.x[ix] - spec.centre[0]
+        row = d_x * d_x + d_y[:, None] ** 2 + d_z[None, :] ** 2 <= spec.radius**2  # (by, nz)
+        inside[a] = row
+        cells = np.flatnonzero(row)
+        if cells.size == 0:
+            continue
+        # One call per row of the block: voxels (ix, iy0..iy1, all z) are consecutive in
+        # the grid's flat order, so sample streams stay the global ones (seed + index).
+        v0, v1 = int(cells[0]), int(cells[-1]) + 1
+        n = v1 - v0
+        local = np.arange(v0, v1)
+        b_of, k_of = local // nz, local % nz
+        positions = np.column_stack([np.full(n, spec.x[ix]), spec.y[iy0 + b_of], spec.z[k_of]])
+        positions[~row[b_of, k_of]] = far
+        poses = np.zeros((n, M, 4, 4))
+        poses[:, :, :3, :3] = spec.rotations
+        poses[:, :, :3, 3] = positions[:, None, :]
+        poses[:, :, 3, 3] = 1.0
+        first = ((ix * ny + iy0) * nz + v0) * M  # global index of the call's first sample
+        result = solve_ik_batch(
+            spec.robot,
+            poses.reshape(n * M, 4, 4),
+            mode=spec.mode,
+            axis=spec.axis,
+            tol=spec.tol,
+            restarts=spec.restarts,
+            max_iter=spec.max_iter,
+            seed=spec.seed + first,
+            threads=spec.threads,
+        )
+        ok = result.success.reshape(n, M)
+        reached[a, b_of, k_of] = ok
+        hits = np.flatnonzero(result.success)
+        if hits.size == 0:
+            continue
+        good = result.q[hits]
+        voxel = hits // M
+        counts = ok.sum(axis=1)
+        hit = counts > 0
+        top = np.full(n, -math.inf)
+        np.maximum.at(top, voxel, manipulability(spec.robot, good, spec.mode))
+        total = np.bincount(voxel, weights=_margins(spec.robot, good), minlength=n)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            mean = total / counts
+        best[a, b_of[hit], k_of[hit]] = top[hit]
+        margin[a, b_of[hit], k_of[hit]] = mean[hit]
+        if Q is not None:
+            Q[a, b_of[voxel], k_of[voxel], hits % M] = good
     out = {
         "reachability": reached.mean(axis=3),
         "manipulability": best,
@@ -524,8 +531,9 @@ def capability_map(
     with open_engine(client=client, workers=workers, scheduler=scheduler) as engine:
         spec = MapSpec(
             robot, mode, axis, tol, restarts, max_iter, seed, rotations, x, y, z, centre,
-            float(radius), chunk, keep_q, engine.threads,
+            float(radius), chunk, keep_q,
         )  # fmt: skip
+        spec = replace(spec, threads=engine.threads_for(len(spec.blocks)))
         settings = _settings(spec, float(voxel), int(orientations), int(rolls))
         attrs = {"settings": settings, "versions": versions(), "engine": engine.description}
         if target is None:

@@ -6,8 +6,11 @@ alone (its per-sample seeds come from the global sample index, never from the wo
 the order). :func:`run_chunks` hands the chunks that a store has not yet finished to an
 :class:`Engine` and writes each answer, whole, as it arrives:
 
-- in-process (the default): one chunk after the other in this process, each solved by
-  :func:`optik.solve_ik_batch` on numba's threads;
+- in-process (the default): the chunks run on a pool of threads of this process, as
+  many as numba's thread count (``numba.get_num_threads()``), each chunk solved by
+  :func:`optik.solve_ik_batch` with ``threads=1`` (the compiled kernel releases the
+  GIL). Whole chunks per thread, rather than every chunk split over the threads, keep a
+  thread from waiting for the slowest part of a small call;
 - ``workers=N``: a :class:`distributed.LocalCluster` of N worker processes with one
   thread each, bound to 127.0.0.1, without a dashboard;
 - ``scheduler="tcp://host:port"``: any running Dask cluster (``dask scheduler`` and
@@ -25,9 +28,12 @@ from __future__ import annotations
 import contextlib
 import math
 from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import FIRST_COMPLETED, Future, ThreadPoolExecutor, wait
 from dataclasses import dataclass, field
 from types import TracebackType
 from typing import Any, Protocol, TypeVar
+
+import numba
 
 from optik._checks import check_int, check_real
 from optik.campaign._deps import require
@@ -59,16 +65,29 @@ class Engine:
     client: Any = None
     description: str = "in-process"
     _owned: list[Any] = field(default_factory=list, repr=False)
+    pool: int = 0
+    """Threads that run chunks in-process (0: numba's thread count)."""
 
     @property
     def distributed(self) -> bool:
         """Whether the chunks run on Dask workers."""
         return self.client is not None
 
+    def threads_for(self, chunks: int) -> int | None:
+        """Threads of :func:`optik.solve_ik_batch` inside a chunk of a run of ``chunks``.
+
+        1 on Dask and when the in-process pool has a chunk per thread; ``None`` (numba's
+        thread count, inside the chunk) for a run of fewer chunks than threads. The
+        answers do not depend on it.
+        """
+        if self.distributed or chunks >= self.pool_size:
+            return 1
+        return None
+
     @property
-    def threads(self) -> int | None:
-        """Threads of :func:`optik.solve_ik_batch` inside a chunk (``None``: numba's count)."""
-        return 1 if self.distributed else None
+    def pool_size(self) -> int:
+        """Chunks run at once in-process."""
+        return self.pool if self.pool > 0 else int(numba.get_num_threads())
 
     def map_unordered(self, fn: Callable[[T], R], items: Sequence[T]) -> Iterator[tuple[int, R]]:
         """``(i, fn(items[i]))`` for every item, in the order the answers arrive.
@@ -77,8 +96,7 @@ class Engine:
         cancelled.
         """
         if self.client is None:
-            for i, item in enumerate(items):
-                yield i, fn(item)
+            yield from self._threaded(fn, items)
             return
         distributed = require("distributed", "a Dask run")
         futures = self.client.map(fn, list(items), pure=False)
@@ -89,6 +107,34 @@ class Engine:
                 future.release()
         finally:
             self.client.cancel(futures)
+
+    def _threaded(self, fn: Callable[[T], R], items: Sequence[T]) -> Iterator[tuple[int, R]]:
+        """In-process: a pool of threads, at most ``2 * pool_size`` chunks in flight."""
+        if self.pool_size <= 1 or len(items) <= 1:
+            for i, item in enumerate(items):
+                yield i, fn(item)
+            return
+        with ThreadPoolExecutor(self.pool_size, thread_name_prefix="optik-chunk") as pool:
+            todo = iter(enumerate(items))
+            running: dict[Future[R], int] = {}
+
+            def submit() -> None:
+                for i, item in todo:
+                    running[pool.submit(fn, item)] = i
+                    return
+
+            try:
+                for _ in range(2 * self.pool_size):
+                    submit()
+                while running:
+                    finished, _ = wait(running, return_when=FIRST_COMPLETED)
+                    for future in finished:
+                        i = running.pop(future)
+                        submit()
+                        yield i, future.result()
+            finally:
+                for future in running:
+                    future.cancel()
 
     def close(self) -> None:
         """Close the client and the cluster this engine started (not a caller's client)."""
