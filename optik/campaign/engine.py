@@ -9,8 +9,9 @@ the order). :func:`run_chunks` hands the chunks that a store has not yet finishe
 - in-process (the default): the chunks run on a pool of threads of this process, as
   many as numba's thread count (``numba.get_num_threads()``), each chunk solved by
   :func:`optik.solve_ik_batch` with ``threads=1`` (the compiled kernel releases the
-  GIL). Whole chunks per thread, rather than every chunk split over the threads, keep a
-  thread from waiting for the slowest part of a small call;
+  GIL); a run of a single chunk solves it on numba's threads instead. Whole chunks per
+  thread, rather than every chunk split over the threads, keep a thread from waiting for
+  the slowest part of a small call;
 - ``workers=N``: a :class:`distributed.LocalCluster` of N worker processes with one
   thread each, bound to 127.0.0.1, without a dashboard;
 - ``scheduler="tcp://host:port"``: any running Dask cluster (``dask scheduler`` and
@@ -76,11 +77,12 @@ class Engine:
     def threads_for(self, chunks: int) -> int | None:
         """Threads of :func:`optik.solve_ik_batch` inside a chunk of a run of ``chunks``.
 
-        1 on Dask and when the in-process pool has a chunk per thread; ``None`` (numba's
-        thread count, inside the chunk) for a run of fewer chunks than threads. The
+        ``None`` (numba's thread count, inside the chunk) for an in-process run of one
+        chunk; otherwise 1: chunks run side by side, and two parallel numba calls must
+        never run at once (numba's ``workqueue`` threading layer does not allow it). The
         answers do not depend on it.
         """
-        if self.distributed or chunks >= self.pool_size:
+        if self.distributed or chunks > 1:
             return 1
         return None
 
