@@ -192,8 +192,10 @@ def test_planar_2r_map_is_its_annulus(two_link_map: Any) -> None:
 def test_map_is_the_same_for_every_chunk_size(puma_map: Any) -> None:
     robot = robot_of("puma560")
     other = capability_map(robot, mode="pose", rolls=2, keep_q=True, chunk=1, **PUMA)
-    _same_data(puma_map, other)
+    _same_data(puma_map, other)  # 81 chunks side by side on the thread pool
     assert other.attrs["settings"]["chunk"] == 1
+    whole = capability_map(robot, mode="pose", rolls=2, keep_q=True, chunk=100, **PUMA)
+    _same_data(puma_map, whole)  # one chunk, on numba's threads inside it
 
 
 def test_map_settings_and_versions_are_attributes(puma_map: Any) -> None:
