@@ -164,7 +164,8 @@ def test_batch_interrupted_then_resumed_writes_every_chunk_once(tmp_path: Path) 
 
     with pytest.raises(Interrupted):
         solve_batch(robot, T, restarts=RESTARTS, chunk=10, out=out, progress=stop_after_three)
-    assert PartStore(out).finished() == {0, 1, 2}
+    written = PartStore(out).finished()  # chunks finish in any order on the thread pool
+    assert len(written) == 3 and written <= set(range(9))
     # A temporary file left by a killed write is not a part.
     (out / ".part-000004.parquet.0123456789ab.tmp").write_bytes(b"half a file")
     with pytest.raises(OutputFileError, match="exists"):
