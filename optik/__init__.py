@@ -5,6 +5,7 @@ against closed forms, with analytic IK as the warm start.
 """
 
 from optik.analytic import AnalyticBatch, analytic_ik, analytic_ik_batch
+from optik.campaign import base_placement, capability_map
 from optik.diffik import diff_ik
 from optik.errors import OptikError
 from optik.ik import IKBatchResult, IKResult, solve_ik, solve_ik_all, solve_ik_batch
@@ -47,6 +48,8 @@ __all__ = [
     "analytic_ik_batch",
     "as_target_pose",
     "available_solvers",
+    "base_placement",
+    "capability_map",
     "diff_ik",
     "generalized_inverse",
     "least_squares",

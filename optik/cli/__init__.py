@@ -20,7 +20,9 @@ import traceback
 from collections.abc import Sequence
 
 from optik import __version__
+from optik.cli._batch import add_batch_command
 from optik.cli._common import EXIT_BAD_INPUT, EXIT_INTERNAL, EXIT_NO_SOLUTION, EXIT_OK, Parser
+from optik.cli._map import add_map_command
 from optik.cli._plan import add_plan_command
 from optik.cli._report import add_report_command, config_from_args
 from optik.cli._robot import add_problems_command, add_robot_command
@@ -69,6 +71,8 @@ def build_parser() -> argparse.ArgumentParser:
     add_plan_command(sub)
     add_report_command(sub)
     add_view_command(sub)
+    add_map_command(sub)
+    add_batch_command(sub)
     return parser
 
 

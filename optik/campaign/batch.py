@@ -1,0 +1,395 @@
+"""Batch IK over files: millions of targets, chunk by chunk, to Parquet part files.
+
+Targets come from ``.npy`` ((N, 4, 4) poses, or (N, 3) positions for position mode) or
+``.parquet`` (columns ``x, y, z`` in m, and ``qw, qx, qy, qz`` for an orientation, a unit
+quaternion scalar first). Chunk ``c`` holds targets ``[c * chunk, (c + 1) * chunk)`` and
+is solved by :func:`optik.solve_ik_batch` with the seed ``seed + c * chunk``, so target
+``k`` always uses the restart stream ``seed + k``: the results are identical in-process,
+on any number of workers and for any chunk size.
+
+The output is a Parquet dataset: a folder of part files ``part-000000.parquet``, ... (one
+per chunk, each written whole through a temporary file and a rename) and ``_optik.json``
+(the run's settings, checked on resume). ``pyarrow.parquet.read_table(out)`` and
+``pandas.read_parquet(out)`` read it; rows carry their target's ``index``.
+"""
+
+from __future__ import annotations
+
+import functools
+import json
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from optik._checks import FloatArray, as_float_array, check_bool, check_choice, check_int
+from optik._files import prepare_folder, write_atomic, write_atomic_with
+from optik._progress import Progress
+from optik.campaign._deps import require
+from optik.campaign.engine import chunk_count, open_engine, run_chunks
+from optik.campaign.provenance import (
+    array_fingerprint,
+    check_same_run,
+    robot_fingerprint,
+    versions,
+)
+from optik.errors import OptikError, OutputFileError, ShapeError
+from optik.ik import DEFAULT_RESTARTS, MAX_SEED, solve_ik_batch
+from optik.model import Robot
+from optik.poses import pose
+from optik.spatial import as_pose
+from optik.task import MODES, make_task
+
+DEFAULT_CHUNK = 10_000
+"""Targets per chunk of a batch."""
+
+POSITION_COLUMNS = ("x", "y", "z")
+QUATERNION_COLUMNS = ("qw", "qx", "qy", "qz")
+SETTINGS_FILE = "_optik.json"
+
+
+def read_targets(path: str | Path) -> FloatArray:
+    """(N, 4, 4) target poses from a ``.npy`` or ``.parquet`` file (see the module).
+
+    Positions without an orientation get the identity rotation; :func:`solve_batch`
+    accepts them only in position mode.
+
+    Raises:
+        OptikError: a missing file, another suffix, an array of another shape, missing
+            columns, non-finite values or a quaternion far from unit norm.
+    """
+    return _read(Path(path))[0]
+
+
+def _read(file: Path) -> tuple[FloatArray, bool]:
+    """The poses of a targets file and whether it gives orientations."""
+    if not file.is_file():
+        raise OptikError(f"{file}: targets file not found")
+    suffix = file.suffix.lower()
+    if suffix == ".npy":
+        try:
+            raw = np.load(file, allow_pickle=False)
+        except (OSError, ValueError) as exc:
+            raise OptikError(f"{file}: not a NumPy .npy array ({exc})") from None
+        array = as_float_array(str(file), raw)
+        if array.ndim == 2 and array.shape[1] == 3:
+            return _positions(str(file), array), False
+        if array.ndim == 3 and array.shape[1:] == (4, 4):
+            return as_pose(str(file), array, batch=True), True
+        raise ShapeError(str(file), "(N, 4, 4) poses or (N, 3) positions", array.shape)
+    if suffix == ".parquet":
+        pq = require("pyarrow.parquet", "a Parquet targets file")
+        try:
+            table = pq.read_table(file)
+        except Exception as exc:
+            raise OptikError(f"{file}: not a Parquet file ({exc})") from None
+        names = set(table.column_names)
+        missing = [c for c in POSITION_COLUMNS if c not in names]
+        if missing:
+            raise OptikError(f"{file}: missing column(s) {missing} (need x, y, z in m)")
+        P = np.column_stack([_column(file, table, c) for c in POSITION_COLUMNS])
+        given = [c for c in QUATERNION_COLUMNS if c in names]
+        if not given:
+            return _positions(str(file), P), False
+        if len(given) != 4:
+            raise OptikError(f"{file}: an orientation needs all of qw, qx, qy, qz, got {given}")
+        Q = np.column_stack([_column(file, table, c) for c in QUATERNION_COLUMNS])
+        if len(P) == 0:
+            return np.empty((0, 4, 4)), True
+        return np.asarray(pose(P, quat_wxyz=Q), dtype=np.float64).reshape(-1, 4, 4), True
+    raise OptikError(f"{file}: targets must be a .npy or .parquet file, not {suffix or 'none'!r}")
+
+
+def _column(file: Path, table: Any, name: str) -> FloatArray:
+    values = table.column(name).to_numpy(zero_copy_only=False)
+    array = as_float_array(f"{file} column {name!r}", values)
+    if not np.all(np.isfinite(array)):
+        row = int(np.flatnonzero(~np.isfinite(array))[0])
+        raise OptikError(f"{file}: column {name!r} row {row}: values must be finite")
+    return array
+
+
+def _positions(name: str, P: FloatArray) -> FloatArray:
+    if not np.all(np.isfinite(P)):
+        row = int(np.flatnonzero(~np.all(np.isfinite(P), axis=1))[0])
+        raise OptikError(f"{name}: row {row}: positions must be finite")
+    poses = np.broadcast_to(np.eye(4), (len(P), 4, 4)).copy()
+    poses[:, :3, 3] = P
+    return poses
+
+
+@dataclass(frozen=True)
+class BatchSpec:
+    """What every chunk of a batch shares (picklable).
+
+    Attributes:
+        robot: the robot.
+        mode: the task mode (:func:`optik.solve_ik`).
+        axis: the tool axis of ``mode="axis"``.
+        tol: IK tolerance (m, rad).
+        restarts: attempts after the first per target.
+        max_iter: iterations per attempt.
+        seed: base seed: target ``k`` uses the stream ``seed + k``.
+        threads: threads of :func:`optik.solve_ik_batch` (``None``: numba's count).
+    """
+
+    robot: Robot
+    mode: str
+    axis: str
+    tol: float | tuple[float, float]
+    restarts: int
+    max_iter: int
+    seed: int
+    threads: int | None = None
+
+
+def solve_chunk(spec: BatchSpec, item: tuple[int, FloatArray]) -> dict[str, np.ndarray]:
+    """Solve the targets ``item = (start, poses)`` (global indices from ``start``).
+
+    Returns:
+        The columns of the chunk's rows (see :func:`result_columns`).
+    """
+    start, poses = item
+    targets = poses[:, :3, 3] if spec.mode == "position" else poses
+    result = solve_ik_batch(
+        spec.robot,
+        targets,
+        mode=spec.mode,
+        axis=spec.axis,
+        tol=spec.tol,
+        restarts=spec.restarts,
+        max_iter=spec.max_iter,
+        seed=spec.seed + start,
+        threads=spec.threads,
+    )
+    n = len(poses)
+    columns: dict[str, np.ndarray] = {
+        "index": np.arange(start, start + n, dtype=np.int64),
+        "status": np.asarray(result.status, dtype=str),
+        "success": np.asarray(result.success, dtype=bool),
+    }
+    for j, name in enumerate(spec.robot.joint_names):
+        columns[f"q_{name}"] = result.q[:, j]
+    columns["position_error"] = result.position_error
+    columns["orientation_error"] = result.orientation_error
+    columns["limit_violation"] = result.limit_violation
+    columns["iterations"] = result.iterations.astype(np.int64)
+    columns["restarts"] = result.restarts.astype(np.int64)
+    return columns
+
+
+def result_columns(robot: Robot) -> list[str]:
+    """The columns of a batch's results, in order (SI: m, rad; q per joint, rad or m)."""
+    q = [f"q_{name}" for name in robot.joint_names]
+    errors = ["position_error", "orientation_error", "limit_violation"]
+    return ["index", "status", "success", *q, *errors, "iterations", "restarts"]
+
+
+class PartStore:
+    """Parquet part files in a folder, one per chunk (``None`` folder: in memory)."""
+
+    def __init__(self, folder: Path | None) -> None:
+        self.folder = folder
+        self.memory: dict[int, Any] = {}
+
+    @staticmethod
+    def part_name(index: int) -> str:
+        """File name of chunk ``index``'s part."""
+        return f"part-{index:06d}.parquet"
+
+    def finished(self) -> set[int]:
+        """Chunks whose part file exists (a part is renamed into place only when whole)."""
+        if self.folder is None:
+            return set(self.memory)
+        done = set()
+        for file in self.folder.glob("part-*.parquet"):
+            stem = file.stem.removeprefix("part-")
+            if stem.isdigit():
+                done.add(int(stem))
+        return done
+
+    def write(self, index: int, result: dict[str, np.ndarray]) -> None:
+        """Write chunk ``index`` whole."""
+        pa = require("pyarrow", "a batch")
+        pq = require("pyarrow.parquet", "a batch")
+        table = pa.table(result)
+        if self.folder is None:
+            self.memory[index] = table
+            return
+        write_atomic_with(
+            self.folder / self.part_name(index),
+            lambda handle: pq.write_table(table, handle),
+            binary=True,
+        )
+
+    def table(self) -> Any:
+        """Every row, sorted by target index."""
+        pa = require("pyarrow", "a batch")
+        pq = require("pyarrow.parquet", "a batch")
+        if self.folder is None:
+            parts = [self.memory[i] for i in sorted(self.memory)]
+        else:
+            files = sorted(self.folder.glob("part-*.parquet"))
+            parts = [pq.read_table(f) for f in files]
+        if not parts:
+            return None
+        return pa.concat_tables(parts).sort_by("index")
+
+
+def solve_batch(
+    robot: Robot,
+    targets: Any,
+    *,
+    mode: str = "pose",
+    axis: str = "z",
+    tol: float | tuple[float, float] = 1e-6,
+    restarts: int = DEFAULT_RESTARTS,
+    max_iter: int = 100,
+    seed: int = 0,
+    chunk: int = DEFAULT_CHUNK,
+    client: Any = None,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    out: str | Path | None = None,
+    resume: bool = False,
+    progress: bool | Callable[[int, int], object] | None = None,
+) -> Any:
+    """Solve many targets chunk by chunk, in-process or on Dask, to Parquet part files.
+
+    Args:
+        robot: the robot.
+        targets: (N, 4, 4) poses or (N, 3) positions (m), or a ``.npy`` / ``.parquet``
+            file of them (:func:`read_targets`).
+        mode: ``"pose"``, ``"position"``, ``"orientation"`` or ``"axis"``
+            (:func:`optik.solve_ik_batch`).
+        axis: the tool axis of ``mode="axis"``.
+        tol: one tolerance, or ``(position_tol_m, orientation_tol_rad)``.
+        restarts: attempts after the first per target.
+        max_iter: iterations per attempt.
+        seed: base seed (target ``k`` uses ``seed + k``).
+        chunk: targets per chunk (the results do not depend on it).
+        client: a :class:`distributed.Client` to run on.
+        workers: run on a local cluster of this many worker processes.
+        scheduler: run on the Dask scheduler at this address.
+        out: the output folder (a Parquet dataset; default: in memory only).
+        resume: finish the run at ``out`` (same settings and targets), skipping the
+            chunks already written.
+        progress: a progress bar (default: when stderr is a terminal), or a callable
+            ``progress(done, total)`` (chunks).
+
+    Returns:
+        A :class:`pyarrow.Table` of every target's row, sorted by ``index``
+        (:func:`result_columns`: status, success, q per joint, the three errors,
+        iterations, restarts).
+
+    Raises:
+        OptikError: malformed targets or options; ``out`` exists and ``resume`` is
+            false; a stored run with other settings; an unreachable scheduler.
+    """
+    if not isinstance(robot, Robot):
+        raise OptikError(f"robot: expected an optik.Robot, got {type(robot).__name__}")
+    require("pyarrow", "a batch")
+    check_choice("mode", mode, MODES)
+    task = make_task(mode, axis=axis, tol=tol)
+    restarts = check_int("restarts", restarts, minimum=0, maximum=10_000)
+    max_iter = check_int("max_iter", max_iter, minimum=1, maximum=100_000)
+    seed = check_int("seed", seed, minimum=0, maximum=MAX_SEED - 2**41)
+    chunk = check_int("chunk", chunk, minimum=1, maximum=10_000_000)
+    resume = check_bool("resume", resume)
+    poses = _as_poses(targets, task.mode)
+    if len(poses) > 2**40:
+        raise OptikError(f"targets: at most 2**40 per batch, got {len(poses)}")
+    settings = {
+        "robot": robot.name,
+        "robot_fingerprint": robot_fingerprint(robot),
+        "mode": task.mode,
+        "axis": axis,
+        "tol": list(tol) if isinstance(tol, tuple | list) else tol,
+        "restarts": restarts,
+        "max_iter": max_iter,
+        "seed": seed,
+        "chunk": chunk,
+        "targets": len(poses),
+        "targets_fingerprint": array_fingerprint(poses),
+        "seed_rule": "target k uses stream seed + k",
+        "optik": versions()["optik"],
+    }
+    folder = _prepare(out, settings, resume)
+    store = PartStore(folder)
+    items = [(s, poses[s : s + chunk]) for s in range(0, len(poses), chunk)]
+    with open_engine(client=client, workers=workers, scheduler=scheduler) as engine:
+        threads = engine.threads_for(chunk_count(len(poses), chunk))
+        spec = BatchSpec(robot, task.mode, axis, tol, restarts, max_iter, seed, threads)
+        work = functools.partial(solve_chunk, spec)
+        if callable(progress):
+            run_chunks(engine, work, items, store, progress=progress)
+        else:
+            with Progress(chunk_count(len(poses), chunk), enabled=progress) as bar:
+                note = f"batch {robot.name} ({engine.description})"
+                run_chunks(
+                    engine,
+                    work,
+                    items,
+                    store,
+                    progress=lambda done, total: bar.advance(done - bar.done, note=note),
+                )
+    table = store.table()
+    if table is None:
+        pa = require("pyarrow", "a batch")
+        empty = solve_chunk(spec, (0, np.empty((0, 4, 4))))
+        table = pa.table(empty)
+    return table
+
+
+def _as_poses(targets: Any, mode: str) -> FloatArray:
+    if isinstance(targets, str | Path):
+        poses, oriented = _read(Path(targets))
+        if mode != "position" and not oriented:
+            raise OptikError(
+                f"{targets}: positions only; mode {mode!r} needs orientations (an (N, 4, 4) "
+                "array, or qw, qx, qy, qz columns); or give mode 'position'"
+            )
+        return poses
+    array = as_float_array("targets", targets)
+    if array.ndim == 2 and array.shape[1] == 3:
+        if mode != "position":
+            raise ShapeError("targets", f"(N, 4, 4) in mode {mode!r}", array.shape)
+        return _positions("targets", array)
+    if array.ndim == 3 and array.shape[1:] == (4, 4):
+        return as_pose("targets", array, batch=True)
+    raise ShapeError("targets", "(N, 4, 4) poses or (N, 3) positions", array.shape)
+
+
+def _prepare(out: str | Path | None, settings: dict[str, Any], resume: bool) -> Path | None:
+    """The output folder, new or resumed (its stored settings must match)."""
+    if out is None:
+        return None
+    folder = Path(out)
+    marker = folder / SETTINGS_FILE
+    if folder.exists():
+        if not resume:
+            raise OutputFileError(str(folder), "it exists (resume=True, or --resume, finishes it)")
+        if not marker.is_file():
+            raise OptikError(f"{folder}: not a batch run to resume (no {SETTINGS_FILE})")
+        try:
+            stored = json.loads(marker.read_text(encoding="utf-8"))
+        except (OSError, ValueError) as exc:
+            raise OptikError(f"{marker}: unreadable settings ({exc})") from None
+        check_same_run(str(folder), stored, settings)
+        return folder
+    prepare_folder(folder)
+    write_atomic(marker, json.dumps(settings, indent=1))
+    return folder
+
+
+__all__ = [
+    "DEFAULT_CHUNK",
+    "BatchSpec",
+    "PartStore",
+    "read_targets",
+    "result_columns",
+    "solve_batch",
+    "solve_chunk",
+]

@@ -1,0 +1,591 @@
+"""Capability maps: where a robot reaches a tool pose, and from how many orientations.
+
+The map of Zacharias et al. (2007) on a voxel grid. At every voxel centre inside the
+robot's reach sphere (:attr:`optik.Robot.reach_sphere`) the tool is asked to be there
+with each of ``M`` sampled orientations (:mod:`optik.campaign.sampling`), and every
+sample is solved by :func:`optik.solve_ik_batch` and verified by forward kinematics and
+the limits. A voxel centre outside the sphere is unreachable by proof and never solved.
+Per voxel the map holds:
+
+- ``reachability``: the reachability index, the fraction of the ``M`` samples reached
+  (no unit, 0 to 1);
+- ``manipulability``: the best Yoshikawa measure ``sqrt(det(J J^T))`` over the reached
+  samples (the product of the singular values of the 6-row Jacobian, of its 3 position
+  rows in position mode; m and rad per rad as the rows mix), NaN where none is reached;
+- ``limit_margin``: the mean over the reached samples of the smallest normalised joint
+  margin ``min_i 2 min(q_i - lo_i, hi_i - q_i) / (hi_i - lo_i)`` over the joints with
+  finite limits (no unit: 0 at a limit, 1 with every joint mid-range), NaN where none is
+  reached;
+- ``reached`` (per sample) and ``inside`` (centre inside the reach sphere);
+- ``q`` (per sample, NaN where not reached) when ``keep_q=True``.
+
+Seeds: sample ``m`` of voxel ``g`` (the voxel's flat index in the ``(x, y, z)`` grid, C
+order) is solved with the restart stream ``seed + g * M + m``, whatever the chunk, the
+worker or the engine, so a map is identical bit for bit in-process, on one worker or
+many, and for every chunk size.
+
+:func:`optik.reachability` answers the same question for a list of points and one
+orientation; a map is its voxel-grid, many-orientation form, built on the same batch
+solver and the same reach-sphere proof.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+import shutil
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from optik._checks import FloatArray, check_bool, check_choice, check_int, check_real
+from optik._progress import Progress
+from optik.campaign._deps import require
+from optik.campaign.engine import Engine, open_engine, run_chunks
+from optik.campaign.provenance import check_same_run, robot_fingerprint, versions
+from optik.campaign.sampling import AXES, lattice
+from optik.campaign.sampling import orientations as sample_orientations
+from optik.errors import OptikError, OutputFileError
+from optik.ik import MAX_BATCH_RESTARTS, MAX_ITERATIONS, solve_ik_batch
+from optik.model import Robot
+
+MAP_MODES = ("pose", "axis", "position")
+DEFAULT_CHUNK = 4
+"""Default ``chunk``: a chunk holds ``chunk x chunk`` columns of voxels along z."""
+MAX_SEED = 2**40
+"""Largest ``seed`` of a map (sample streams run up to ``seed`` + number of samples)."""
+
+_DONE = "chunk_done"
+
+
+@dataclass(frozen=True)
+class MapSpec:
+    """Everything a chunk of a map needs (picklable: it travels to Dask workers).
+
+    Attributes:
+        robot: the robot.
+        mode: ``"pose"``, ``"axis"`` or ``"position"``.
+        axis: the tool axis (``"x"``, ``"y"``, ``"z"``).
+        tol: IK tolerance (m, rad).
+        restarts: attempts after the first, per sample.
+        max_iter: iterations per attempt.
+        seed: base seed of the sample streams.
+        rotations: (M, 3, 3) target rotations sampled at every voxel.
+        x, y, z: voxel centre coordinates (m).
+        centre: (3,) reach sphere centre (m).
+        radius: reach sphere radius (m).
+        chunk: columns per chunk along x and y.
+        keep_q: also return every reached sample's configuration.
+        threads: threads of :func:`optik.solve_ik_batch` (``None``: numba's count).
+    """
+
+    robot: Robot
+    mode: str
+    axis: str
+    tol: float
+    restarts: int
+    max_iter: int
+    seed: int
+    rotations: FloatArray
+    x: FloatArray
+    y: FloatArray
+    z: FloatArray
+    centre: FloatArray
+    radius: float
+    chunk: int
+    keep_q: bool
+    threads: int | None = None
+
+    @property
+    def shape(self) -> tuple[int, int, int]:
+        """Voxels along x, y and z."""
+        return len(self.x), len(self.y), len(self.z)
+
+    @property
+    def samples(self) -> int:
+        """Samples (orientations) per voxel, M."""
+        return len(self.rotations)
+
+    @property
+    def blocks(self) -> list[tuple[int, int, int, int]]:
+        """Every chunk as ``(ix0, ix1, iy0, iy1)``, x-major (chunk ``i`` at position ``i``)."""
+        nx, ny, _ = self.shape
+        c = self.chunk
+        return [
+            (ix, min(ix + c, nx), iy, min(iy + c, ny))
+            for ix in range(0, nx, c)
+            for iy in range(0, ny, c)
+        ]
+
+    @property
+    def block_grid(self) -> tuple[int, int]:
+        """Chunks along x and y."""
+        nx, ny, _ = self.shape
+        return math.ceil(nx / self.chunk), math.ceil(ny / self.chunk)
+
+
+def _margins(robot: Robot, Q: FloatArray) -> FloatArray:
+    """(N,) smallest normalised joint margin of each row (see the module); NaN if no limits."""
+    finite = np.isfinite(robot.lower) & np.isfinite(robot.upper)
+    if not np.any(finite):
+        return np.full(len(Q), math.nan)
+    lo, hi = robot.lower[finite], robot.upper[finite]
+    span = np.where(hi > lo, hi - lo, math.inf)  # a joint fixed by its limits has no margin
+    part = Q[:, finite]
+    margin = 2.0 * np.minimum(part - lo, hi - part) / span
+    return np.clip(np.min(margin, axis=1), 0.0, 1.0)
+
+
+def manipulability(robot: Robot, Q: FloatArray, mode: str) -> FloatArray:
+    """(N,) ``sqrt(det(J J^T))`` of each row: the product of the Jacobian's singular values.
+
+    The 6-row geometric Jacobian (its 3 position rows in position mode); with fewer
+    joints than rows, ``sqrt(det(J^T J))``, the product of the ``dof`` singular values.
+    """
+    if len(Q) == 0:
+        return np.empty(0)
+    J = robot.jacobian(Q)
+    rows = J[:, :3, :] if mode == "position" else J
+    T = np.swapaxes(rows, 1, 2)
+    gram = rows @ T if rows.shape[1] <= rows.shape[2] else T @ rows
+    return np.sqrt(np.maximum(np.linalg.det(gram), 0.0))
+
+
+def solve_block(spec: MapSpec, block: tuple[int, int, int, int]) -> dict[str, np.ndarray]:
+    """Solve one chunk of a map: every sample of the voxels of ``block`` in the sphere.
+
+    Args:
+        spec: the map.
+        block: ``(ix0, ix1, iy0, iy1)``: the columns ``x[ix0:ix1] x y[iy0:iy1]`` (all z).
+
+    Returns:
+        Arrays over the block, ``(bx, by, nz)`` per voxel and ``(bx, by, nz, M)`` per
+        sample: ``reachability``, ``manipulability``, ``limit_margin``, ``inside``,
+        ``reached`` and (``keep_q``) ``q`` ``(bx, by, nz, M, dof)``.
+    """
+    ix0, ix1, iy0, iy1 = block
+    _, ny, nz = spec.shape
+    M, dof = spec.samples, spec.robot.dof
+    bx, by = ix1 - ix0, iy1 - iy0
+    reached = np.zeros((bx, by, nz, M), dtype=bool)
+    best = np.full((bx, by, nz), math.nan)
+    margin = np.full((bx, by, nz), math.nan)
+    inside = np.zeros((bx, by, nz), dtype=bool)
+    Q = np.full((bx, by, nz, M, dof), math.nan) if spec.keep_q else None
+    d_y = spec.y[iy0:iy1] - spec.centre[1]
+    d_z = spec.z - spec.centre[2]
+    # Where a voxel outside the sphere sits inside a run: solve_ik_batch rejects a target
+    # this far from the centre by the reach sphere alone (no iteration, no stream used).
+    far = spec.centre + np.array([4.0 * spec.radius + 1.0, 0.0, 0.0])
+    for a in range(bx):
+        ix = ix0 + a
+        d_x = spec.x[ix] - spec.centre[0]
+        row = d_x * d_x + d_y[:, None] ** 2 + d_z[None, :] ** 2 <= spec.radius**2  # (by, nz)
+        inside[a] = row
+        cells = np.flatnonzero(row)
+        if cells.size == 0:
+            continue
+        # One call per row of the block: voxels (ix, iy0..iy1, all z) are consecutive in
+        # the grid's flat order, so sample streams stay the global ones (seed + index).
+        v0, v1 = int(cells[0]), int(cells[-1]) + 1
+        n = v1 - v0
+        local = np.arange(v0, v1)
+        b_of, k_of = local // nz, local % nz
+        positions = np.column_stack([np.full(n, spec.x[ix]), spec.y[iy0 + b_of], spec.z[k_of]])
+        positions[~row[b_of, k_of]] = far
+        poses = np.zeros((n, M, 4, 4))
+        poses[:, :, :3, :3] = spec.rotations
+        poses[:, :, :3, 3] = positions[:, None, :]
+        poses[:, :, 3, 3] = 1.0
+        first = ((ix * ny + iy0) * nz + v0) * M  # global index of the call's first sample
+        result = solve_ik_batch(
+            spec.robot,
+            poses.reshape(n * M, 4, 4),
+            mode=spec.mode,
+            axis=spec.axis,
+            tol=spec.tol,
+            restarts=spec.restarts,
+            max_iter=spec.max_iter,
+            seed=spec.seed + first,
+            threads=spec.threads,
+        )
+        ok = result.success.reshape(n, M)
+        reached[a, b_of, k_of] = ok
+        hits = np.flatnonzero(result.success)
+        if hits.size == 0:
+            continue
+        good = result.q[hits]
+        voxel = hits // M
+        counts = ok.sum(axis=1)
+        hit = counts > 0
+        top = np.full(n, -math.inf)
+        np.maximum.at(top, voxel, manipulability(spec.robot, good, spec.mode))
+        total = np.bincount(voxel, weights=_margins(spec.robot, good), minlength=n)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            mean = total / counts
+        best[a, b_of[hit], k_of[hit]] = top[hit]
+        margin[a, b_of[hit], k_of[hit]] = mean[hit]
+        if Q is not None:
+            Q[a, b_of[voxel], k_of[voxel], hits % M] = good
+    out = {
+        "reachability": reached.mean(axis=3),
+        "manipulability": best,
+        "limit_margin": margin,
+        "inside": inside,
+        "reached": reached,
+    }
+    if Q is not None:
+        out["q"] = Q
+    return out
+
+
+# ---------------------------------------------------------------------------- storage
+@dataclass(frozen=True)
+class _Variable:
+    """One array of a stored map: its dims, type, fill and whether it is chunked."""
+
+    dims: tuple[str, ...]
+    dtype: str
+    fill: Any
+    chunked: bool = True  # chunked as the map (x and y in blocks of ``chunk``)
+
+
+def _layout(spec: MapSpec) -> dict[str, tuple[_Variable, tuple[int, ...]]]:
+    """Every stored array of a map with its shape (the one table both stores follow)."""
+    nx, ny, nz = spec.shape
+    M, dof = spec.samples, spec.robot.dof
+    voxel = ("x", "y", "z")
+    table = {
+        "reachability": (_Variable(voxel, "f8", 0.0), (nx, ny, nz)),
+        "manipulability": (_Variable(voxel, "f8", math.nan), (nx, ny, nz)),
+        "limit_margin": (_Variable(voxel, "f8", math.nan), (nx, ny, nz)),
+        "inside": (_Variable(voxel, "bool", False), (nx, ny, nz)),
+        "reached": (_Variable((*voxel, "orientation"), "bool", False), (nx, ny, nz, M)),
+    }
+    if spec.keep_q:
+        dims = (*voxel, "orientation", "joint")
+        table["q"] = (_Variable(dims, "f8", math.nan), (nx, ny, nz, M, dof))
+    return table
+
+
+def _statics(spec: MapSpec) -> dict[str, tuple[tuple[str, ...], np.ndarray]]:
+    """The arrays known before solving: coordinates and the sampled rotations."""
+    return {
+        "x": (("x",), spec.x),
+        "y": (("y",), spec.y),
+        "z": (("z",), spec.z),
+        "rotation": (("orientation", "row", "col"), spec.rotations),
+    }
+
+
+class MemoryMapStore:
+    """A map in NumPy arrays (no ``out``): the same layout as :class:`MapStore`."""
+
+    def __init__(self, spec: MapSpec) -> None:
+        self.spec = spec
+        self.arrays = {
+            name: np.full(shape, var.fill, dtype=var.dtype)
+            for name, (var, shape) in _layout(spec).items()
+        }
+        self.done: set[int] = set()
+
+    def finished(self) -> set[int]:
+        """Chunks written so far."""
+        return set(self.done)
+
+    def write(self, index: int, result: dict[str, np.ndarray]) -> None:
+        """Copy chunk ``index``'s arrays in."""
+        ix0, ix1, iy0, iy1 = self.spec.blocks[index]
+        for name, values in result.items():
+            self.arrays[name][ix0:ix1, iy0:iy1] = values
+        self.done.add(index)
+
+    def dataset(self, attrs: dict[str, Any]) -> Any:
+        """The map as an :class:`xarray.Dataset`."""
+        xr = require("xarray", "a capability map")
+        layout = _layout(self.spec)
+        statics = _statics(self.spec)
+        data = {name: (layout[name][0].dims, array) for name, array in self.arrays.items()}
+        data["rotation"] = statics.pop("rotation")
+        return xr.Dataset(data, coords=statics, attrs=attrs)
+
+
+def _create_array(
+    group: Any,
+    name: str,
+    *,
+    shape: tuple[int, ...],
+    chunks: tuple[int, ...],
+    dtype: str,
+    dims: tuple[str, ...],
+    fill_value: Any = None,
+) -> Any:
+    """A Zarr array with named dimensions (xarray's convention), in Zarr 3 or Zarr 2."""
+    if hasattr(group, "create_array"):  # Zarr 3
+        return group.create_array(
+            name, shape=shape, chunks=chunks, dtype=dtype, fill_value=fill_value,
+            dimension_names=list(dims),
+        )  # fmt: skip
+    array = group.create_dataset(  # Zarr 2
+        name, shape=shape, chunks=chunks, dtype=dtype, fill_value=fill_value
+    )
+    array.attrs["_ARRAY_DIMENSIONS"] = list(dims)
+    return array
+
+
+class MapStore:
+    """A map in a Zarr group, chunk by chunk (a chunk is done once its marker is written).
+
+    Every variable is chunked as the map is, ``(chunk, chunk, nz, ...)``, so a chunk of
+    the map is one Zarr chunk per variable; each Zarr chunk is written whole (a temporary
+    file renamed over the old one). The marker ``chunk_done[bx, by]`` is written last, so
+    a chunk interrupted halfway has no marker and is computed again on ``resume``.
+    """
+
+    def __init__(self, group: Any, spec: MapSpec) -> None:
+        self.group = group
+        self.spec = spec
+
+    @classmethod
+    def create(cls, store: Any, spec: MapSpec, attrs: dict[str, Any]) -> MapStore:
+        """A new, empty map group in ``store`` (a path or a Zarr store)."""
+        zarr = require("zarr", "a capability map")
+        group = zarr.open_group(store=store, mode="w-")
+        group.attrs.update(attrs)
+        for name, (dims, values) in _statics(spec).items():
+            array = _create_array(
+                group, name, shape=values.shape, chunks=values.shape, dtype="f8", dims=dims
+            )
+            array[...] = values
+        c = spec.chunk
+        for name, (var, shape) in _layout(spec).items():
+            chunks = (min(c, shape[0]), min(c, shape[1]), *shape[2:])
+            _create_array(
+                group, name, shape=shape, chunks=chunks, dtype=var.dtype, dims=var.dims,
+                fill_value=var.fill,
+            )  # fmt: skip
+        _create_array(
+            group, _DONE, shape=spec.block_grid, chunks=(1, 1), dtype="u1",
+            dims=("chunk_x", "chunk_y"), fill_value=0,
+        )  # fmt: skip
+        return cls(group, spec)
+
+    @classmethod
+    def reopen(cls, path: Path, spec: MapSpec, settings: dict[str, Any]) -> MapStore:
+        """An existing map to resume; its settings must be the ones asked for."""
+        zarr = require("zarr", "a capability map")
+        try:
+            group = zarr.open_group(store=str(path), mode="r+")
+            stored = dict(group.attrs.get("settings", {}))
+        except Exception as exc:  # not a Zarr group, or a damaged one
+            raise OptikError(f"{path}: not a capability map to resume ({exc})") from None
+        check_same_run(str(path), stored, settings)
+        return cls(group, spec)
+
+    def finished(self) -> set[int]:
+        """Indices (in :attr:`MapSpec.blocks` order) of the chunks with their marker."""
+        done = np.asarray(self.group[_DONE][...]).ravel()
+        return {int(i) for i in np.flatnonzero(done)}
+
+    def write(self, index: int, result: dict[str, np.ndarray]) -> None:
+        """Write chunk ``index``'s arrays, then its marker."""
+        ix0, ix1, iy0, iy1 = self.spec.blocks[index]
+        for name, values in result.items():
+            self.group[name][ix0:ix1, iy0:iy1] = values
+        _, nby = self.spec.block_grid
+        self.group[_DONE][index // nby, index % nby] = 1
+
+
+def open_map(path: str | Path) -> Any:
+    """A stored capability map as a lazily loaded :class:`xarray.Dataset`.
+
+    Raises:
+        OptikError: ``path`` is not a finished map (or the cluster extra is missing).
+    """
+    xr = require("xarray", "a capability map")
+    try:
+        ds = xr.open_zarr(str(path), consolidated=False)
+    except Exception as exc:
+        raise OptikError(f"{path}: not a capability map ({exc})") from None
+    if _DONE in ds:
+        if not bool(ds[_DONE].all()):
+            raise OptikError(f"{path}: the map is unfinished (resume the run to finish it)")
+        ds = ds.drop_vars(_DONE)
+    return ds
+
+
+# ---------------------------------------------------------------------------- the API
+def _settings(spec: MapSpec, voxel: float, orientations_n: int, rolls: int) -> dict[str, Any]:
+    return {
+        "robot": spec.robot.name,
+        "robot_fingerprint": robot_fingerprint(spec.robot),
+        "dof": spec.robot.dof,
+        "mode": spec.mode,
+        "axis": spec.axis,
+        "voxel_m": voxel,
+        "bounds_m": [[float(a[0]), float(a[-1])] for a in (spec.x, spec.y, spec.z)],
+        "shape": list(spec.shape),
+        "orientations": orientations_n,
+        "rolls": rolls,
+        "samples_per_voxel": spec.samples,
+        "tol": spec.tol,
+        "restarts": spec.restarts,
+        "max_iter": spec.max_iter,
+        "seed": spec.seed,
+        "chunk": spec.chunk,
+        "keep_q": spec.keep_q,
+        "reach_centre_m": [float(v) for v in spec.centre],
+        "reach_radius_m": spec.radius,
+        "seed_rule": "sample m of voxel g (flat C-order index) uses stream seed + g * M + m",
+        "optik": versions()["optik"],
+    }
+
+
+def capability_map(
+    robot: Robot,
+    *,
+    voxel: float = 0.02,
+    bounds: Any = None,
+    orientations: int = 100,
+    rolls: int = 1,
+    mode: str = "pose",
+    axis: str = "z",
+    tol: float = 1e-6,
+    restarts: int = 3,
+    max_iter: int = 100,
+    seed: int = 0,
+    chunk: int = DEFAULT_CHUNK,
+    keep_q: bool = False,
+    client: Any = None,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    out: str | Path | None = None,
+    resume: bool = False,
+    progress: bool | Callable[[int, int], object] | None = None,
+) -> Any:
+    """The capability map of a robot on a voxel grid (see the module for its contents).
+
+    Args:
+        robot: the robot.
+        voxel: voxel edge (m), > 0 and at most the reach radius.
+        bounds: ``[[xmin, xmax], [ymin, ymax], [zmin, zmax]]`` (m): keep voxel centres
+            in this box (default: the reach sphere's bounding box).
+        orientations: tool-axis directions per voxel, on the Fibonacci sphere.
+        rolls: rotations about the tool axis per direction (pose mode only); a voxel has
+            ``orientations * rolls`` samples (1 in position mode).
+        mode: ``"pose"`` (full orientation), ``"axis"`` (the tool axis ``axis`` along the
+            direction, the rotation about it free) or ``"position"`` (the point alone).
+        axis: the tool axis, ``"x"``, ``"y"`` or ``"z"``.
+        tol: IK tolerance of every sample (m, rad).
+        restarts: attempts after the first per sample (:func:`optik.solve_ik_batch`); a
+            sample not found within them counts as not reached (no proof).
+        max_iter: iterations per attempt.
+        seed: base seed of the sample streams, 0 to 2**40.
+        chunk: columns of voxels per chunk along x and along y (a chunk is ``chunk x
+            chunk`` columns of all z); the map does not depend on it.
+        keep_q: also store ``q`` (x, y, z, orientation, joint), every reached sample's
+            configuration (NaN elsewhere): 8 * dof bytes per sample.
+        client: a :class:`distributed.Client` to run on.
+        workers: run on a local cluster of this many worker processes.
+        scheduler: run on the Dask scheduler at this address.
+        out: a folder to write the map to as Zarr, chunk by chunk (default: in memory).
+        resume: finish the map already at ``out`` (its settings must match); finished
+            chunks are not computed again.
+        progress: draw a progress bar (default: when stderr is a terminal), or a
+            callable ``progress(done, total)`` (chunks) called before the first chunk and
+            after each chunk is written.
+
+    Returns:
+        An :class:`xarray.Dataset` with dims ``x, y, z, orientation`` (and ``joint``),
+        coordinates in m, the run's settings in ``attrs["settings"]`` and the versions in
+        ``attrs["versions"]``; read lazily from ``out`` when given.
+
+    Raises:
+        OptikError: an option out of range (``voxel`` <= 0 or larger than the reach,
+            inverted ``bounds``, ...); ``out`` exists and ``resume`` is false; a stored
+            map with other settings on ``resume``; an unreachable ``scheduler``; the
+            cluster extra not installed.
+    """
+    if not isinstance(robot, Robot):
+        raise OptikError(f"robot: expected an optik.Robot, got {type(robot).__name__}")
+    require("xarray", "a capability map")
+    require("zarr", "a capability map")
+    check_choice("mode", mode, MAP_MODES)
+    check_choice("axis", axis, AXES)
+    tol = check_real("tol", tol, positive=True)
+    restarts = check_int("restarts", restarts, minimum=0, maximum=MAX_BATCH_RESTARTS)
+    max_iter = check_int("max_iter", max_iter, minimum=1, maximum=MAX_ITERATIONS)
+    seed = check_int("seed", seed, minimum=0, maximum=MAX_SEED)
+    chunk = check_int("chunk", chunk, minimum=1, maximum=100_000)
+    keep_q = check_bool("keep_q", keep_q)
+    resume = check_bool("resume", resume)
+    centre, radius = robot.reach_sphere
+    x, y, z = lattice(centre, radius, voxel, bounds)
+    rotations = sample_orientations(mode, orientations, rolls, axis)
+    target = None if out is None else Path(out)
+    if target is not None and target.exists() and not resume:
+        raise OutputFileError(str(target), "it exists (resume=True, or --resume, finishes it)")
+    with open_engine(client=client, workers=workers, scheduler=scheduler) as engine:
+        spec = MapSpec(
+            robot, mode, axis, tol, restarts, max_iter, seed, rotations, x, y, z, centre,
+            float(radius), chunk, keep_q,
+        )  # fmt: skip
+        spec = replace(spec, threads=engine.threads_for(len(spec.blocks)))
+        settings = _settings(spec, float(voxel), int(orientations), int(rolls))
+        attrs = {"settings": settings, "versions": versions(), "engine": engine.description}
+        if target is None:
+            memory = MemoryMapStore(spec)
+            _run(engine, spec, memory, progress)
+            return memory.dataset(attrs)
+        _run(engine, spec, _open_store(target, spec, settings, attrs, resume), progress)
+    return open_map(target)
+
+
+def _open_store(
+    target: Path,
+    spec: MapSpec,
+    settings: dict[str, Any],
+    attrs: dict[str, Any],
+    resume: bool,
+) -> MapStore:
+    if target.exists():
+        return MapStore.reopen(target, spec, settings)
+    if not target.parent.exists():
+        raise OutputFileError(str(target), f"its folder {target.parent} does not exist")
+    try:
+        return MapStore.create(str(target), spec, attrs)
+    except OSError as exc:
+        shutil.rmtree(target, ignore_errors=True)
+        raise OutputFileError(str(target), exc.strerror or str(exc)) from exc
+
+
+def _run(
+    engine: Engine,
+    spec: MapSpec,
+    store: MapStore | MemoryMapStore,
+    progress: bool | Callable[[int, int], object] | None,
+) -> int:
+    blocks = spec.blocks
+    work = functools.partial(solve_block, spec)
+    if callable(progress):
+        return run_chunks(engine, work, blocks, store, progress=progress)
+    with Progress(len(blocks), enabled=progress) as bar:
+
+        def advance(done: int, total: int) -> None:
+            bar.advance(done - bar.done, note=f"map {spec.robot.name} ({engine.description})")
+
+        return run_chunks(engine, work, blocks, store, progress=advance)
+
+
+__all__ = [
+    "MAP_MODES",
+    "MapSpec",
+    "MapStore",
+    "capability_map",
+    "manipulability",
+    "open_map",
+    "solve_block",
+]

@@ -1,0 +1,280 @@
+"""Where a campaign's chunks run: the one seam between optik's work and Dask.
+
+A campaign (a capability map, a batch of targets, a base-placement check) cuts its work
+into chunks, each a pure function call ``fn(chunk)`` whose answer depends on the chunk
+alone (its per-sample seeds come from the global sample index, never from the worker or
+the order). :func:`run_chunks` hands the chunks that a store has not yet finished to an
+:class:`Engine` and writes each answer, whole, as it arrives:
+
+- in-process (the default): the chunks run on a pool of threads of this process, as
+  many as numba's thread count (``numba.get_num_threads()``), each chunk solved by
+  :func:`optik.solve_ik_batch` with ``threads=1`` (the compiled kernel releases the
+  GIL); a run of a single chunk solves it on numba's threads instead. Whole chunks per
+  thread, rather than every chunk split over the threads, keep a thread from waiting for
+  the slowest part of a small call;
+- ``workers=N``: a :class:`distributed.LocalCluster` of N worker processes with one
+  thread each, bound to 127.0.0.1, without a dashboard;
+- ``scheduler="tcp://host:port"``: any running Dask cluster (``dask scheduler`` and
+  ``dask worker``); an address that does not answer within ``connect_timeout_s`` is an
+  :class:`~optik.errors.OptikError`, never a hang;
+- ``client=``: a :class:`distributed.Client` the caller already holds (not closed here).
+
+On Dask each chunk's IK runs on one thread (``threads=1``): the workers are the
+parallelism. A worker that dies mid-run is replaced by its nanny and Dask recomputes the
+chunks it held, so the answers, and the files, are the same.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import FIRST_COMPLETED, Future, ThreadPoolExecutor, wait
+from dataclasses import dataclass, field
+from types import TracebackType
+from typing import Any, Protocol, TypeVar
+
+import numba
+
+from optik._checks import check_int, check_real
+from optik.campaign._deps import require
+from optik.errors import ArgumentError, OptikError
+
+T = TypeVar("T")
+R = TypeVar("R")
+
+MAX_WORKERS = 1024
+"""Largest ``workers`` of a local cluster."""
+
+CONNECT_TIMEOUT_S = 5.0
+"""How long to wait for a scheduler given by address before giving up (s)."""
+
+
+@dataclass
+class Engine:
+    """Runs chunk functions in this process or on a Dask cluster (see the module).
+
+    Build one with :func:`open_engine` and close it (or use it as a context manager):
+    closing shuts down a cluster the engine started, never a client the caller gave.
+
+    Attributes:
+        client: the :class:`distributed.Client`, or ``None`` in-process.
+        description: where the work runs, in words (``"in-process"``, ``"2 local worker
+            processes"``, ``"scheduler tcp://..."``).
+    """
+
+    client: Any = None
+    description: str = "in-process"
+    _owned: list[Any] = field(default_factory=list, repr=False)
+    pool: int = 0
+    """Threads that run chunks in-process (0: numba's thread count)."""
+
+    @property
+    def distributed(self) -> bool:
+        """Whether the chunks run on Dask workers."""
+        return self.client is not None
+
+    def threads_for(self, chunks: int) -> int | None:
+        """Threads of :func:`optik.solve_ik_batch` inside a chunk of a run of ``chunks``.
+
+        ``None`` (numba's thread count, inside the chunk) for an in-process run of one
+        chunk; otherwise 1: chunks run side by side, and two parallel numba calls must
+        never run at once (numba's ``workqueue`` threading layer does not allow it). The
+        answers do not depend on it.
+        """
+        if self.distributed or chunks > 1:
+            return 1
+        return None
+
+    @property
+    def pool_size(self) -> int:
+        """Chunks run at once in-process."""
+        return self.pool if self.pool > 0 else int(numba.get_num_threads())
+
+    def map_unordered(self, fn: Callable[[T], R], items: Sequence[T]) -> Iterator[tuple[int, R]]:
+        """``(i, fn(items[i]))`` for every item, in the order the answers arrive.
+
+        An exception raised by a chunk is raised here; the chunks not yet done are then
+        cancelled.
+        """
+        if self.client is None:
+            yield from self._threaded(fn, items)
+            return
+        distributed = require("distributed", "a Dask run")
+        futures = self.client.map(fn, list(items), pure=False)
+        position = {future.key: i for i, future in enumerate(futures)}
+        try:
+            for future, result in distributed.as_completed(futures, with_results=True):
+                yield position[future.key], result
+                future.release()
+        finally:
+            self.client.cancel(futures)
+
+    def _threaded(self, fn: Callable[[T], R], items: Sequence[T]) -> Iterator[tuple[int, R]]:
+        """In-process: a pool of threads, at most ``2 * pool_size`` chunks in flight."""
+        if self.pool_size <= 1 or len(items) <= 1:
+            for i, item in enumerate(items):
+                yield i, fn(item)
+            return
+        with ThreadPoolExecutor(self.pool_size, thread_name_prefix="optik-chunk") as pool:
+            todo = iter(enumerate(items))
+            running: dict[Future[R], int] = {}
+
+            def submit() -> None:
+                for i, item in todo:
+                    running[pool.submit(fn, item)] = i
+                    return
+
+            try:
+                for _ in range(2 * self.pool_size):
+                    submit()
+                while running:
+                    finished, _ = wait(running, return_when=FIRST_COMPLETED)
+                    for future in finished:
+                        i = running.pop(future)
+                        submit()
+                        yield i, future.result()
+            finally:
+                for future in running:
+                    future.cancel()
+
+    def close(self) -> None:
+        """Close the client and the cluster this engine started (not a caller's client)."""
+        while self._owned:
+            thing = self._owned.pop()
+            with contextlib.suppress(Exception):  # shutting down: nothing left to save
+                thing.close()
+
+    def __enter__(self) -> Engine:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        traceback: TracebackType | None,
+    ) -> None:
+        self.close()
+
+
+def open_engine(
+    *,
+    client: Any = None,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    connect_timeout_s: float = CONNECT_TIMEOUT_S,
+) -> Engine:
+    """The engine of a campaign: in-process, a local cluster, a scheduler or a client.
+
+    Args:
+        client: a :class:`distributed.Client` to use (the caller closes it).
+        workers: start a local cluster of this many worker processes (1 thread each,
+            127.0.0.1, no dashboard), closed with the engine.
+        scheduler: the address of a running Dask scheduler (``"tcp://host:8786"``).
+        connect_timeout_s: how long to wait for ``scheduler`` (s).
+
+    Raises:
+        OptikError: more than one of ``client``, ``workers`` and ``scheduler``;
+            ``workers`` not an integer in [1, MAX_WORKERS]; ``scheduler`` not a string or
+            not answering within ``connect_timeout_s``; ``client`` not a Dask client;
+            the cluster extra not installed.
+    """
+    options = (("client", client), ("workers", workers), ("scheduler", scheduler))
+    given = [name for name, value in options if value is not None]
+    if len(given) > 1:
+        raise OptikError(f"give at most one of client, workers and scheduler, not {given}")
+    if not given:
+        return Engine()
+    distributed = require("distributed", "a Dask run")
+    if client is not None:
+        if not isinstance(client, distributed.Client):
+            raise ArgumentError("client", client, "a distributed.Client")
+        return Engine(client, f"client {client.scheduler.address}")
+    if workers is not None:
+        n = check_int("workers", workers, minimum=1, maximum=MAX_WORKERS)
+        cluster = distributed.LocalCluster(
+            n_workers=n,
+            threads_per_worker=1,
+            processes=True,
+            host="127.0.0.1",
+            dashboard_address=None,
+            silence_logs=40,  # logging.ERROR: a worker restart is not the user's problem
+        )
+        local = distributed.Client(cluster)
+        plural = "es" if n != 1 else ""
+        return Engine(local, f"{n} local worker process{plural}", [cluster, local])
+    if not isinstance(scheduler, str) or not scheduler.strip():
+        raise ArgumentError("scheduler", scheduler, "a scheduler address ('tcp://host:port')")
+    wait = check_real("connect_timeout_s", connect_timeout_s, positive=True)
+    try:
+        remote = distributed.Client(scheduler, timeout=wait)
+    except Exception as exc:  # refused, timed out, or not speaking Dask's protocol
+        raise OptikError(
+            f"scheduler {scheduler!r}: no Dask scheduler answered within {wait:g} s ({exc})"
+        ) from None
+    return Engine(remote, f"scheduler {scheduler}", [remote])
+
+
+class ChunkStore(Protocol):
+    """Where a campaign keeps its finished chunks (a Zarr map, Parquet part files, memory)."""
+
+    def finished(self) -> set[int]:
+        """Indices of the chunks already written whole."""
+        ...  # pragma: no cover
+
+    def write(self, index: int, result: Any) -> None:
+        """Write chunk ``index`` whole, or not at all."""
+        ...  # pragma: no cover
+
+
+def run_chunks(
+    engine: Engine,
+    fn: Callable[[T], Any],
+    chunks: Sequence[T],
+    store: ChunkStore,
+    *,
+    progress: Callable[[int, int], object] | None = None,
+) -> int:
+    """Compute every chunk ``store`` has not finished, and write each as it arrives.
+
+    Args:
+        engine: where to run (:func:`open_engine`).
+        fn: the chunk function, ``fn(chunks[i])`` -> the answer ``store.write`` takes; on
+            Dask it must be picklable (a module-level function or a ``functools.partial``
+            of one).
+        chunks: every chunk of the campaign, chunk ``i`` at position ``i``.
+        store: the finished chunks and where to write new ones.
+        progress: called as ``progress(done, total)`` after each chunk is written
+            (finished chunks of an earlier run count as done from the start).
+
+    Returns:
+        The number of chunks computed by this call.
+    """
+    total = len(chunks)
+    done = store.finished()
+    pending = [i for i in range(total) if i not in done]
+    if progress is not None:
+        progress(total - len(pending), total)
+    computed = 0
+    for k, result in engine.map_unordered(fn, [chunks[i] for i in pending]):
+        store.write(pending[k], result)
+        computed += 1
+        if progress is not None:
+            progress(total - len(pending) + computed, total)
+    return computed
+
+
+def chunk_count(total: int, chunk: int) -> int:
+    """Number of chunks of ``chunk`` items that cover ``total`` items."""
+    return max(math.ceil(total / chunk), 0)
+
+
+__all__ = [
+    "CONNECT_TIMEOUT_S",
+    "MAX_WORKERS",
+    "ChunkStore",
+    "Engine",
+    "chunk_count",
+    "open_engine",
+    "run_chunks",
+]

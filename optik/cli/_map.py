@@ -1,0 +1,189 @@
+"""``optik map``: a capability map of a robot, in-process or on Dask, to Zarr."""
+
+from __future__ import annotations
+
+import argparse
+import time
+from typing import Any
+
+import numpy as np
+
+from optik.campaign import capability_map, plot_map
+from optik.cli._common import (
+    EXIT_OK,
+    add_robot_arguments,
+    command,
+    length_float,
+    non_negative_int,
+    path_text,
+    positive_float,
+    problem_from_args,
+    seed_int,
+)
+from optik.errors import OptikError
+
+
+def positive_int(text: str) -> int:
+    """An argparse type: an integer >= 1."""
+    value = non_negative_int(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {text!r:.40}")
+    return value
+
+
+def add_engine_arguments(p: argparse.ArgumentParser) -> None:
+    """``--workers N`` or ``--scheduler ADDRESS``, and ``--resume`` (shared with batch)."""
+    where = p.add_mutually_exclusive_group()
+    where.add_argument(
+        "--workers",
+        type=positive_int,
+        metavar="N",
+        help="run on a local Dask cluster of N worker processes, 1 thread each (no unit; "
+        "default: in this process, on numba's threads)",
+    )
+    where.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="run on the running Dask scheduler at ADDRESS, e.g. tcp://host:8786 (no unit)",
+    )
+    p.add_argument(
+        "--resume",
+        action="store_true",
+        help="finish the run already at --out (same settings), skipping finished chunks (no unit)",
+    )
+
+
+def _cmd_map(args: argparse.Namespace) -> int:
+    problem = problem_from_args(args)
+    robot = problem.robot
+    bounds = None if args.bounds is None else np.reshape(args.bounds, (3, 2))
+    start = time.perf_counter()
+    ds = capability_map(
+        robot,
+        voxel=args.voxel,
+        bounds=bounds,
+        orientations=args.orientations,
+        rolls=args.rolls,
+        mode=args.mode,
+        axis=args.axis,
+        tol=args.tol,
+        restarts=args.restarts,
+        seed=args.seed,
+        chunk=args.chunk,
+        keep_q=args.keep_q,
+        workers=args.workers,
+        scheduler=args.scheduler,
+        out=args.out,
+        resume=args.resume,
+    )
+    wall = time.perf_counter() - start
+    settings = ds.attrs["settings"]
+    inside = ds["inside"].values
+    index = ds["reachability"].values
+    samples = int(inside.sum()) * int(settings["samples_per_voxel"])
+    print(
+        f"{problem.name}: {settings['mode']} map, voxel {settings['voxel_m']:g} m, "
+        f"grid {'x'.join(str(n) for n in settings['shape'])}, "
+        f"{settings['samples_per_voxel']} samples per voxel ({ds.attrs['engine']})"
+    )
+    print(
+        f"  {int(inside.sum())} voxels inside the reach sphere (radius "
+        f"{settings['reach_radius_m']:.4g} m), {int((index > 0).sum())} reached; mean "
+        f"reachability index inside {float(index[inside].mean()) if inside.any() else 0:.3f}"
+    )
+    rate = samples / max(wall, 1e-9)
+    print(f"  {samples} IK samples in {wall:.1f} s wall, start-up included ({rate:.0f} per s)")
+    print(f"  wrote {args.out}")
+    if args.plots is not None:
+        try:
+            files = plot_map(ds, args.plots)
+        except OptikError as exc:  # pragma: no cover - only without matplotlib
+            print(f"  (no plots: {exc})")
+        else:
+            print("  wrote " + ", ".join(str(f) for f in files))
+    return EXIT_OK
+
+
+def add_map_command(sub: Any) -> None:
+    p = command(
+        sub,
+        "map",
+        "a capability map: where the robot reaches, from how many orientations",
+        "Sample every voxel centre inside the robot's reach sphere with orientations on "
+        "the Fibonacci sphere, solve every sample (verified by FK and the limits) and write "
+        "the map as Zarr, chunk by chunk: the reachability index, best manipulability and "
+        "mean limit margin per voxel. Runs in this process, on a local Dask cluster "
+        "(--workers) or on a running scheduler (--scheduler), with the same result. A "
+        "progress bar is drawn on a terminal.",
+        "  optik map ur5 --voxel 0.05 --orientations 50 --out ur5-map.zarr\n"
+        "  optik map panda --voxel 0.02 --out panda.zarr --workers 2 --plots panda-plots\n"
+        "  optik map ur5 --out ur5-map.zarr --resume --scheduler tcp://10.0.0.5:8786\n",
+    )
+    add_robot_arguments(p)
+    p.add_argument(
+        "--voxel", type=positive_float, default=0.02, help="voxel edge, m (default 0.02)"
+    )
+    p.add_argument(
+        "--bounds",
+        nargs=6,
+        type=length_float,
+        metavar=("XMIN", "XMAX", "YMIN", "YMAX", "ZMIN", "ZMAX"),
+        help="keep voxel centres in this box, m (default: the reach sphere's box)",
+    )
+    p.add_argument(
+        "--orientations",
+        type=positive_int,
+        default=100,
+        help="tool-axis directions per voxel, on the Fibonacci sphere (no unit; default 100)",
+    )
+    p.add_argument(
+        "--rolls",
+        type=positive_int,
+        default=1,
+        help="rotations about the tool axis per direction, pose mode (no unit; default 1)",
+    )
+    p.add_argument(
+        "--mode",
+        choices=["pose", "axis", "position"],
+        default="pose",
+        help="what a sample asks: full pose, tool axis only, or position (no unit; default pose)",
+    )
+    p.add_argument(
+        "--axis", choices=["x", "y", "z"], default="z", help="the tool axis (no unit; default z)"
+    )
+    p.add_argument(
+        "--tol", type=positive_float, default=1e-6, help="IK tolerance, m and rad (default 1e-6)"
+    )
+    p.add_argument(
+        "--restarts",
+        type=non_negative_int,
+        default=3,
+        help="numeric restarts per sample (no unit; default 3)",
+    )
+    p.add_argument("--seed", type=seed_int, default=0, help="base seed of the samples (no unit)")
+    p.add_argument(
+        "--chunk",
+        type=positive_int,
+        default=4,
+        help="voxel columns per chunk along x and y (no unit; default 4)",
+    )
+    p.add_argument(
+        "--keep-q",
+        action="store_true",
+        help="also store every reached sample's joint values, rad or m (no unit)",
+    )
+    p.add_argument(
+        "--out",
+        required=True,
+        metavar="PATH",
+        type=path_text,
+        help="the Zarr folder to write (no unit); it must not exist unless --resume",
+    )
+    p.add_argument(
+        "--plots",
+        metavar="DIR",
+        type=path_text,
+        help="also write reachability.png, manipulability.png and map3d.png here (no unit)",
+    )
+    add_engine_arguments(p)
+    p.set_defaults(func=_cmd_map)

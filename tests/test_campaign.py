@@ -1,0 +1,330 @@
+"""Campaigns: the engine seam, seeds by global index, batches to Parquet, Dask runs.
+
+One local cluster (2 worker processes, 1 thread each, no dashboard, 127.0.0.1) serves the
+Dask tests of this module; its results are compared with in-process runs element for
+element.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import signal
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import distributed
+import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
+import pytest
+import xarray as xr
+from conftest import random_q, robot_of, time_limit
+
+import optik
+from optik.campaign import capability_map, open_engine, run_chunks
+from optik.campaign.batch import PartStore, read_targets, result_columns, solve_batch
+from optik.errors import OptikError, OutputFileError
+
+RESTARTS = 20
+
+
+class Interrupted(Exception):
+    """Raised from a progress callback to stop a run as Ctrl-C would."""
+
+
+def _warm() -> None:
+    """Load the compiled batch kernel in a worker (so a test does not time the cache)."""
+    robot = optik.load_problem("ur5").robot
+    optik.solve_ik_batch(robot, robot.fk(robot.mid_limits)[None], restarts=0, threads=1)
+
+
+@pytest.fixture(scope="module")
+def client() -> Iterator[Any]:
+    cluster = distributed.LocalCluster(
+        n_workers=2,
+        threads_per_worker=1,
+        processes=True,
+        host="127.0.0.1",
+        dashboard_address=None,
+        silence_logs=40,
+    )
+    dask_client = distributed.Client(cluster)
+    dask_client.run(_warm)
+    yield dask_client
+    dask_client.close()
+    cluster.close()
+
+
+def _targets(n: int, seed: int = 3) -> np.ndarray:
+    """UR5 poses: half reached from FK, half with their position pulled in (many unreachable)."""
+    robot = robot_of("ur5")
+    T = robot.fk(random_q(robot, np.random.default_rng(seed), n))
+    T[n // 2 :, :3, 3] *= 0.25
+    return T
+
+
+def _same_tables(a: pa.Table, b: pa.Table) -> None:
+    assert a.column_names == b.column_names
+    assert a.num_rows == b.num_rows
+    for name in a.column_names:
+        x, y = a.column(name).to_numpy(), b.column(name).to_numpy()
+        if x.dtype.kind == "f":
+            assert np.array_equal(x, y, equal_nan=True), name
+        else:
+            assert np.array_equal(x, y), name
+
+
+# ---------------------------------------------------------------------------- seeds
+def test_batch_seed_offset_gives_the_same_rows_as_one_call() -> None:
+    """solve_ik_batch gives target k the stream seed + k: a slice with seed + start agrees."""
+    robot = robot_of("ur5")
+    T = _targets(300)
+    whole = optik.solve_ik_batch(robot, T, restarts=RESTARTS, seed=11)
+    for start, stop in ((0, 120), (120, 121), (121, 300)):
+        part = optik.solve_ik_batch(robot, T[start:stop], restarts=RESTARTS, seed=11 + start)
+        assert np.array_equal(part.q, whole.q[start:stop], equal_nan=True)
+        assert np.array_equal(part.iterations, whole.iterations[start:stop])
+        assert np.array_equal(part.restarts, whole.restarts[start:stop])
+    # And the seed matters (else the test above would prove nothing).
+    other = optik.solve_ik_batch(robot, T, restarts=RESTARTS, seed=12)
+    assert not np.array_equal(other.iterations, whole.iterations)
+
+
+def test_batch_is_the_same_for_every_chunk_size() -> None:
+    robot = robot_of("ur5")
+    T = _targets(200)
+    reference = optik.solve_ik_batch(robot, T, restarts=RESTARTS, seed=5)
+    tables = [solve_batch(robot, T, restarts=RESTARTS, seed=5, chunk=c) for c in (7, 64, 1000)]
+    for table in tables[1:]:
+        _same_tables(tables[0], table)
+    table = tables[0]
+    assert table.column_names == result_columns(robot)
+    assert np.array_equal(table.column("index").to_numpy(), np.arange(200))
+    Q = np.column_stack([table.column(f"q_{n}").to_numpy() for n in robot.joint_names])
+    assert np.array_equal(Q, reference.q, equal_nan=True)
+    assert table.column("status").to_pylist() == list(reference.status)
+    assert np.array_equal(table.column("success").to_numpy(), reference.success)
+    assert 0 < reference.success.sum() < 200  # both outcomes are present
+
+
+def test_batch_rows_verify_from_fk() -> None:
+    """Each successful row reaches its target within tol (FK), inside the limits."""
+    robot = robot_of("ur5")
+    T = _targets(60)
+    table = solve_batch(robot, T, restarts=RESTARTS, chunk=16)
+    Q = np.column_stack([table.column(f"q_{n}").to_numpy() for n in robot.joint_names])
+    ok = table.column("success").to_numpy()
+    assert ok.sum() >= 30
+    reached = robot.fk(Q[ok])
+    assert np.max(np.linalg.norm(reached[:, :3, 3] - T[ok, :3, 3], axis=1)) <= 1e-6
+    assert np.all(Q[ok] >= robot.lower - 1e-12) and np.all(Q[ok] <= robot.upper + 1e-12)
+
+
+# ---------------------------------------------------------------------------- files
+def test_targets_files_npy_and_parquet(tmp_path: Path) -> None:
+    robot = robot_of("ur5")
+    T = _targets(10)
+    np.save(tmp_path / "t.npy", T)
+    assert np.array_equal(read_targets(tmp_path / "t.npy"), T)
+    quat = optik.to_quat_wxyz(T)
+    columns = {"x": T[:, 0, 3], "y": T[:, 1, 3], "z": T[:, 2, 3]}
+    columns |= {k: quat[:, i] for i, k in enumerate(("qw", "qx", "qy", "qz"))}
+    pq.write_table(pa.table(columns), tmp_path / "t.parquet")
+    assert np.max(np.abs(read_targets(tmp_path / "t.parquet") - T)) < 1e-12
+    a = solve_batch(robot, tmp_path / "t.npy", restarts=2)
+    b = solve_batch(robot, T, restarts=2)
+    _same_tables(a, b)
+    pq.write_table(pa.table({k: columns[k] for k in "xyz"}), tmp_path / "p.parquet")
+    with pytest.raises(OptikError, match="positions only"):
+        solve_batch(robot, tmp_path / "p.parquet")
+    positions = solve_batch(robot, tmp_path / "p.parquet", mode="position", restarts=2)
+    assert positions.column("orientation_error").to_numpy().max() == 0.0
+    np.save(tmp_path / "bad.npy", np.zeros((4, 5)))
+    with pytest.raises(OptikError, match=r"\(N, 4, 4\)"):
+        read_targets(tmp_path / "bad.npy")
+    pq.write_table(pa.table({"x": [0.1], "y": [0.2]}), tmp_path / "short.parquet")
+    with pytest.raises(OptikError, match="missing column"):
+        read_targets(tmp_path / "short.parquet")
+    with pytest.raises(OptikError, match="not found"):
+        read_targets(tmp_path / "none.npy")
+
+
+def test_batch_interrupted_then_resumed_writes_every_chunk_once(tmp_path: Path) -> None:
+    robot = robot_of("ur5")
+    T = _targets(90)
+    out = tmp_path / "results.parquet"
+    reference = solve_batch(robot, T, restarts=RESTARTS, chunk=10)
+
+    def stop_after_three(done: int, total: int) -> None:
+        if done == 3:
+            raise Interrupted
+
+    with pytest.raises(Interrupted):
+        solve_batch(robot, T, restarts=RESTARTS, chunk=10, out=out, progress=stop_after_three)
+    written = PartStore(out).finished()  # chunks finish in any order on the thread pool
+    assert len(written) == 3 and written <= set(range(9))
+    # A temporary file left by a killed write is not a part.
+    (out / ".part-000004.parquet.0123456789ab.tmp").write_bytes(b"half a file")
+    with pytest.raises(OutputFileError, match="exists"):
+        solve_batch(robot, T, restarts=RESTARTS, chunk=10, out=out)
+    with pytest.raises(OptikError, match="other settings"):
+        solve_batch(robot, T, restarts=RESTARTS, chunk=9, out=out, resume=True)
+    calls: list[int] = []
+    table = solve_batch(
+        robot,
+        T,
+        restarts=RESTARTS,
+        chunk=10,
+        out=out,
+        resume=True,
+        progress=lambda done, total: calls.append(done),
+    )
+    assert calls == list(range(3, 10))  # starts at the 3 finished chunks, 6 computed
+    assert PartStore(out).finished() == set(range(9))
+    _same_tables(table, reference)
+    on_disk = pq.read_table(out).sort_by("index")  # a reader of the folder, not optik's
+    assert np.array_equal(on_disk.column("index").to_numpy(), np.arange(90))
+    _same_tables(on_disk, reference)
+
+
+# ---------------------------------------------------------------------------- engine
+def test_engine_options_are_checked() -> None:
+    with pytest.raises(OptikError, match="at most one"):
+        open_engine(workers=2, scheduler="tcp://127.0.0.1:1")
+    with pytest.raises(OptikError, match="workers"):
+        open_engine(workers=0)
+    with pytest.raises(OptikError, match="client"):
+        open_engine(client="tcp://127.0.0.1:1")
+    with open_engine() as engine:
+        assert not engine.distributed and engine.threads_for(10**6) == 1
+        assert engine.threads_for(1) is None  # one chunk: numba's threads inside it
+        assert sorted(engine.map_unordered(abs, [-3, 1, -2])) == [(0, 3), (1, 1), (2, 2)]
+
+
+def test_unreachable_scheduler_is_a_clear_error_within_seconds() -> None:
+    start = time.perf_counter()
+    with time_limit(20.0), pytest.raises(OptikError, match="no Dask scheduler answered"):
+        open_engine(scheduler="tcp://127.0.0.1:9", connect_timeout_s=1.0)
+    assert time.perf_counter() - start < 15.0
+
+
+def test_run_chunks_skips_finished_chunks() -> None:
+    class Store:
+        def __init__(self) -> None:
+            self.rows: dict[int, int] = {1: 10}
+
+        def finished(self) -> set[int]:
+            return set(self.rows)
+
+        def write(self, index: int, result: int) -> None:
+            assert index not in self.rows
+            self.rows[index] = result
+
+    store = Store()
+    computed = run_chunks(open_engine(), lambda x: 10 * x, [0, 1, 2, 3], store)
+    assert computed == 3
+    assert store.rows == {0: 0, 1: 10, 2: 20, 3: 30}
+
+
+# ---------------------------------------------------------------------------- on Dask
+# The cluster takes 10-30 s to start on a loaded machine: these are slow tests.
+@pytest.mark.slow
+def test_batch_on_a_local_cluster_equals_in_process(client: Any) -> None:
+    robot = robot_of("ur5")
+    T = _targets(240)
+    here = solve_batch(robot, T, restarts=RESTARTS, chunk=50)
+    there = solve_batch(robot, T, restarts=RESTARTS, chunk=17, client=client)
+    _same_tables(here, there)
+
+
+@pytest.mark.slow
+def test_map_on_a_local_cluster_equals_in_process(client: Any) -> None:
+    robot = robot_of("puma560")
+    options: dict[str, Any] = {"voxel": 0.3, "orientations": 6, "mode": "axis", "keep_q": True}
+    here = capability_map(robot, chunk=4, **options)
+    there = capability_map(robot, chunk=2, client=client, **options)
+    assert set(here.data_vars) == set(there.data_vars)
+    for name in here.data_vars:
+        assert np.array_equal(here[name].values, there[name].values, equal_nan=True), name
+    xr.testing.assert_equal(here, there)
+    assert float(here.reachability.max()) > 0.0
+
+
+@pytest.mark.slow
+def test_a_worker_killed_mid_run_changes_nothing(client: Any) -> None:
+    robot = robot_of("ur5")
+    T = _targets(2000, seed=8)
+    reference = solve_batch(robot, T, restarts=RESTARTS, chunk=50)
+    before = set(client.run(os.getpid).values())
+    killed: list[int] = []
+
+    def kill_one(done: int, total: int) -> None:
+        if done >= 1 and not killed:  # answers are arriving: the workers are busy
+            pid = sorted(before)[0]
+            os.kill(pid, signal.SIGKILL)
+            killed.append(done)
+
+    with time_limit(120.0):
+        table = solve_batch(robot, T, restarts=RESTARTS, chunk=50, client=client, progress=kill_one)
+    assert killed and killed[0] < math.ceil(2000 / 50)  # killed before the end
+    _same_tables(table, reference)
+    client.wait_for_workers(2, timeout=60)
+    assert set(client.run(os.getpid).values()) != before  # a new worker took its place
+
+
+# ---------------------------------------------------------------------------- the CLI
+def test_cli_batch_writes_a_row_per_target(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from optik.cli import main
+
+    robot = robot_of("ur5")
+    T = _targets(40)
+    np.save(tmp_path / "t.npy", T)
+    out = tmp_path / "results.parquet"
+    args = ["batch", "ur5", str(tmp_path / "t.npy"), "--out", str(out), "--restarts", "5"]
+    assert main([*args, "--chunk", "16"]) == 0
+    text = capsys.readouterr().out
+    table = pq.read_table(out).sort_by("index")
+    _same_tables(table, solve_batch(robot, T, restarts=5))
+    assert f"{table.column('success').to_numpy().sum()} converged" in text
+    assert main(args) == 2  # exists without --resume
+    assert "exists" in capsys.readouterr().err
+    assert main([*args, "--chunk", "16", "--resume"]) == 0  # nothing left to do
+    assert pq.read_table(out).num_rows == 40
+    np.save(tmp_path / "p.npy", T[:, :3, 3])
+    assert main(["batch", "ur5", str(tmp_path / "p.npy"), "--out", str(tmp_path / "p")]) == 2
+    assert "positions only" in capsys.readouterr().err
+    assert main([*args[:3], "--out", str(tmp_path / "x"), "--scheduler", "tcp://127.0.0.1:9"]) == 2
+    assert "no Dask scheduler answered" in capsys.readouterr().err
+
+
+def test_cli_map_writes_zarr_and_plots(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from optik.campaign import open_map
+    from optik.cli import main
+
+    out = tmp_path / "map.zarr"
+    args = ["map", "puma560", "--voxel", "0.3", "--orientations", "4", "--mode", "axis"]
+    assert main([*args, "--out", str(out), "--plots", str(tmp_path / "plots")]) == 0
+    assert "reached" in capsys.readouterr().out
+    ds = open_map(out)
+    reference = capability_map(robot_of("puma560"), voxel=0.3, orientations=4, mode="axis")
+    assert np.array_equal(ds.reachability.values, reference.reachability.values)
+    assert sorted(p.name for p in (tmp_path / "plots").iterdir()) == [
+        "manipulability.png",
+        "map3d.png",
+        "reachability.png",
+    ]
+    with pytest.raises(SystemExit) as usage:  # argparse refuses it: a usage error
+        main([*args, "--out", str(tmp_path / "other.zarr"), "--voxel", "0"])
+    assert usage.value.code == 2 and "--voxel" in capsys.readouterr().err
+    for bad, message in (
+        (["--voxel", "40"], "reach radius"),
+        (["--bounds", "1", "0", "-1", "1", "-1", "1"], "above"),
+        ([], "exists"),
+    ):
+        assert main([*args, "--out", str(out), *bad]) == 2
+        assert message in capsys.readouterr().err

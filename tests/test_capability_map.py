@@ -1,0 +1,289 @@
+"""Capability maps: verified samples, the reach-sphere proof, a known annulus, resume."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from conftest import reference_fk, robot_of
+
+import optik
+from optik.campaign import base_placement, capability, capability_map, open_map, plot_map
+from optik.campaign.sampling import fibonacci_sphere, frames_with_axis, lattice, orientations
+from optik.errors import OptikError, OutputFileError
+from optik.model import Robot
+
+PUMA: dict[str, Any] = {"voxel": 0.25, "orientations": 6, "restarts": 2}
+
+
+class Interrupted(Exception):
+    """Raised from a progress callback to stop a run as Ctrl-C would."""
+
+
+@pytest.fixture(scope="module")
+def puma_map() -> Any:
+    return capability_map(robot_of("puma560"), mode="pose", rolls=2, keep_q=True, **PUMA)
+
+
+def _same_data(a: Any, b: Any) -> None:
+    assert set(a.data_vars) == set(b.data_vars)
+    for name in a.data_vars:
+        assert np.array_equal(a[name].values, b[name].values, equal_nan=True), name
+
+
+def _two_link() -> Robot:
+    return Robot.from_dh(
+        [
+            {"a": 1.0, "lower": -math.pi, "upper": math.pi},
+            {"a": 0.6, "lower": -math.pi, "upper": math.pi},
+        ],
+        name="two_link",
+    )
+
+
+@pytest.fixture(scope="module")
+def two_link_map() -> Any:
+    box = [[-2.0, 2.0], [-2.0, 2.0], [-0.01, 0.01]]
+    return capability_map(_two_link(), voxel=0.05, bounds=box, mode="position", restarts=10)
+
+
+# ---------------------------------------------------------------------------- sampling
+def test_fibonacci_sphere_is_unit_and_balanced() -> None:
+    d = fibonacci_sphere(500)
+    assert np.max(np.abs(np.linalg.norm(d, axis=1) - 1.0)) < 1e-12
+    assert np.linalg.norm(d.mean(axis=0)) < 5e-3  # centred: no side favoured
+    # Even: every point's nearest neighbour is at about the mean spacing sqrt(4 pi / n).
+    gaps = np.sort(np.linalg.norm(d[:, None] - d[None], axis=2), axis=1)[:, 1]
+    spacing = math.sqrt(4 * math.pi / 500)
+    assert 0.6 * spacing < gaps.min() and gaps.max() < 1.3 * spacing
+
+
+@pytest.mark.parametrize("axis", [0, 1, 2])
+def test_frames_put_the_tool_axis_on_the_direction(axis: int) -> None:
+    d = fibonacci_sphere(50)
+    R = frames_with_axis(d, axis)
+    assert np.max(np.abs(np.swapaxes(R, 1, 2) @ R - np.eye(3))) < 1e-12
+    assert np.max(np.abs(np.linalg.det(R) - 1.0)) < 1e-12
+    assert np.max(np.abs(R[:, :, axis] - d)) < 1e-15
+
+
+def test_pose_orientations_turn_about_the_tool_axis() -> None:
+    R = orientations("pose", 5, 4, "z").reshape(5, 4, 3, 3)
+    for j in range(4):  # same tool axis, the other axes turned by 2 pi j / 4
+        assert np.max(np.abs(R[:, j, :, 2] - R[:, 0, :, 2])) < 1e-12
+        cos = np.sum(R[:, j, :, 0] * R[:, 0, :, 0], axis=1)
+        assert np.max(np.abs(cos - math.cos(2 * math.pi * j / 4))) < 1e-12
+    assert orientations("position", 7, 1, "z").shape == (1, 3, 3)
+    with pytest.raises(OptikError, match="rolls"):
+        orientations("axis", 5, 2, "z")
+
+
+def test_lattice_is_anchored_at_the_centre_and_respects_bounds() -> None:
+    c = np.array([0.1, -0.2, 0.3])
+    x, _, _ = lattice(c, 1.0, 0.25)
+    assert np.allclose(np.diff(x), 0.25) and 0.1 in x.tolist() and len(x) == 9
+    x, _, _ = lattice(c, 1.0, 0.25, [[0.0, 0.5], [-1, 1], [-1, 1]])
+    assert x.tolist() == pytest.approx([0.1, 0.35])
+    with pytest.raises(OptikError, match="voxel"):
+        lattice(c, 1.0, 0.0)
+    with pytest.raises(OptikError, match="voxel"):
+        lattice(c, 1.0, -0.1)
+    with pytest.raises(OptikError, match="reach radius"):
+        lattice(c, 1.0, 1.5)
+    with pytest.raises(OptikError, match="above"):
+        lattice(c, 1.0, 0.1, [[0.5, 0.0], [-1, 1], [-1, 1]])
+    with pytest.raises(OptikError, match="no voxel centre"):
+        lattice(c, 1.0, 0.25, [[0.12, 0.13], [-1, 1], [-1, 1]])
+
+
+# ---------------------------------------------------------------------------- the map
+def test_every_reached_sample_is_verified_from_fk_and_limits(puma_map: Any) -> None:
+    """Independent DH product (conftest) at each stored q against the sampled pose."""
+    robot = robot_of("puma560")
+    ds = puma_map
+    reached = ds.reached.values
+    Q = ds.q.values
+    assert reached.sum() > 20
+    assert np.all(np.isnan(Q[~reached])) and not np.any(np.isnan(Q[reached]))
+    R = ds.rotation.values
+    for ix, iy, iz, m in zip(*np.nonzero(reached), strict=True):
+        q = Q[ix, iy, iz, m]
+        T = reference_fk(robot, q)
+        p = np.array([ds.x.values[ix], ds.y.values[iy], ds.z.values[iz]])
+        assert np.linalg.norm(T[:3, 3] - p) <= 1e-6
+        angle = np.arccos(np.clip((np.trace(R[m].T @ T[:3, :3]) - 1) / 2, -1, 1))
+        assert angle <= 1e-5  # arccos loses digits near 0: 1e-6 rad is ~1e-5 through it
+        assert np.all(q >= robot.lower - 1e-12) and np.all(q <= robot.upper + 1e-12)
+    # The per-voxel numbers follow from the samples.
+    assert np.array_equal(ds.reachability.values, reached.mean(axis=3))
+    hit = reached.any(axis=3)
+    assert np.all(np.isfinite(ds.manipulability.values[hit]))
+    assert np.all(np.isnan(ds.manipulability.values[~hit]))
+    margin = ds.limit_margin.values[hit]
+    assert np.all((margin >= 0) & (margin <= 1))
+
+
+def test_manipulability_is_the_best_yoshikawa_measure(puma_map: Any) -> None:
+    robot = robot_of("puma560")
+    ds = puma_map
+    ix, iy, iz = (int(v[0]) for v in np.nonzero(ds.reached.values.any(axis=3)))
+    rows = ds.q.values[ix, iy, iz][ds.reached.values[ix, iy, iz]]
+    best = max(math.sqrt(np.linalg.det(J @ J.T)) for J in (robot.jacobian(q) for q in rows))
+    assert ds.manipulability.values[ix, iy, iz] == pytest.approx(best, rel=1e-9)
+
+
+def test_no_voxel_outside_the_reach_sphere_is_reached_or_solved(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    robot = robot_of("puma560")
+    centre, radius = robot.reach_sphere
+    asked: list[tuple[np.ndarray, Any]] = []
+    solve = capability.solve_ik_batch
+
+    def spy(robot: Robot, targets: np.ndarray, **kw: Any) -> Any:
+        result = solve(robot, targets, **kw)
+        asked.append((np.asarray(targets)[:, :3, 3], result))
+        return result
+
+    monkeypatch.setattr(capability, "solve_ik_batch", spy)
+    ds = capability_map(robot, mode="axis", **PUMA)
+    X, Y, Z = np.meshgrid(ds.x.values, ds.y.values, ds.z.values, indexing="ij")
+    distance = np.sqrt((X - centre[0]) ** 2 + (Y - centre[1]) ** 2 + (Z - centre[2]) ** 2)
+    outside = distance > radius
+    assert outside.sum() > 0 and (~outside).sum() > 0
+    assert np.array_equal(ds.inside.values, ~outside)
+    assert np.all(ds.reachability.values[outside] == 0.0)
+    assert not ds.reached.values[outside].any()
+    points = np.concatenate([p for p, _ in asked])
+    iterations = np.concatenate([r.iterations for _, r in asked])
+    q = np.concatenate([r.q for _, r in asked])
+    near = np.linalg.norm(points - centre, axis=1) <= radius
+    assert near.sum() == (~outside).sum() * ds.sizes["orientation"]  # each inside sample once
+    # The rest are placeholders beyond the sphere that the batch rejects unsolved.
+    assert np.all(iterations[~near] == 0) and np.all(np.isnan(q[~near]))
+    assert np.all(np.linalg.norm(points[~near] - centre, axis=1) > 2 * radius)
+
+
+def test_planar_2r_map_is_its_annulus(two_link_map: Any) -> None:
+    """Links 1.0 and 0.6 m, full turns: reached exactly for 0.4 <= r <= 1.6 in z = 0."""
+    l1, l2 = 1.0, 0.6
+    voxel = 0.05
+    ds = two_link_map
+    assert ds.z.values.tolist() == [0.0]
+    reached = ds.reachability.values > 0
+    z = ds.z.values
+    plane = int(np.argmin(np.abs(z)))
+    X, Y = np.meshgrid(ds.x.values, ds.y.values, indexing="ij")
+    r = np.hypot(X, Y)
+    inner, outer = abs(l1 - l2), l1 + l2
+    layer = reached[:, :, plane]
+    assert layer[(r > inner + voxel) & (r < outer - voxel)].all()
+    assert not layer[(r < inner - voxel) | (r > outer + voxel)].any()
+    # Manipulability of a 2R point is l1 l2 |sin q2|, q2 from the law of cosines.
+    inside = layer & (r > inner + voxel) & (r < outer - voxel)
+    c2 = (r[inside] ** 2 - l1**2 - l2**2) / (2 * l1 * l2)
+    expected = l1 * l2 * np.sqrt(1 - c2**2)
+    assert np.max(np.abs(ds.manipulability.values[:, :, plane][inside] - expected)) < 1e-5
+
+
+def test_map_is_the_same_for_every_chunk_size(puma_map: Any) -> None:
+    robot = robot_of("puma560")
+    other = capability_map(robot, mode="pose", rolls=2, keep_q=True, chunk=1, **PUMA)
+    _same_data(puma_map, other)  # 81 chunks side by side on the thread pool
+    assert other.attrs["settings"]["chunk"] == 1
+    whole = capability_map(robot, mode="pose", rolls=2, keep_q=True, chunk=100, **PUMA)
+    _same_data(puma_map, whole)  # one chunk, on numba's threads inside it
+
+
+def test_map_settings_and_versions_are_attributes(puma_map: Any) -> None:
+    settings = puma_map.attrs["settings"]
+    assert settings["robot"] == "puma560" and settings["voxel_m"] == 0.25
+    assert settings["samples_per_voxel"] == 12 and settings["mode"] == "pose"
+    assert puma_map.attrs["versions"]["optik"] == optik.__version__
+    assert "zarr" in puma_map.attrs["versions"]
+
+
+def test_map_interrupted_then_resumed_computes_every_chunk_once(tmp_path: Path) -> None:
+    robot = robot_of("puma560")
+    options: dict[str, Any] = {"mode": "axis", "chunk": 3, **PUMA}
+    reference = capability_map(robot, **options)
+    out = tmp_path / "map.zarr"
+
+    def stop_after_two(done: int, total: int) -> None:
+        if done == 2:
+            raise Interrupted
+
+    with pytest.raises(Interrupted):
+        capability_map(robot, out=out, progress=stop_after_two, **options)
+    with pytest.raises(OptikError, match="unfinished"):
+        open_map(out)
+    with pytest.raises(OutputFileError, match="exists"):
+        capability_map(robot, out=out, **options)
+    with pytest.raises(OptikError, match="other settings"):
+        capability_map(robot, out=out, resume=True, **{**options, "restarts": 3})
+    calls: list[tuple[int, int]] = []
+    ds = capability_map(
+        robot, out=out, resume=True, progress=lambda d, t: calls.append((d, t)), **options
+    )
+    total = calls[0][1]
+    assert [d for d, _ in calls] == list(range(2, total + 1))  # 2 done, the rest once each
+    _same_data(ds, reference)
+    _same_data(open_map(out), reference)
+
+
+def test_bad_map_options_are_errors(tmp_path: Path) -> None:
+    robot = robot_of("puma560")
+    for bad in ({"voxel": 0}, {"voxel": -0.1}, {"voxel": 50.0}, {"mode": "twist"}):
+        with pytest.raises(OptikError):
+            capability_map(robot, **bad)
+    with pytest.raises(OptikError, match="above"):
+        capability_map(robot, bounds=[[0.5, -0.5], [-1, 1], [-1, 1]])
+    with pytest.raises(OptikError, match="no Dask scheduler"):
+        capability_map(robot, voxel=0.5, scheduler="tcp://127.0.0.1:9")
+    with pytest.raises(OptikError, match="robot"):
+        capability_map("puma560")  # type: ignore[arg-type]
+
+
+def test_map_plots_are_pngs(puma_map: Any, tmp_path: Path) -> None:
+    files = plot_map(puma_map, tmp_path / "plots")
+    assert [f.name for f in files] == ["reachability.png", "manipulability.png", "map3d.png"]
+    for file in files:
+        assert file.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and file.stat().st_size > 5000
+
+
+# ---------------------------------------------------------------------------- placement
+def test_base_placement_ranks_and_reverifies_by_the_annulus(two_link_map: Any) -> None:
+    """A 2R base serves a point iff 0.4 <= distance <= 1.6 m: the map and IK agree."""
+    robot = _two_link()
+    tasks = np.array([[2.0, 0.5, 0.0], [2.3, -0.4, 0.0], [1.6, -0.2, 0.0]])
+    result = base_placement(
+        robot, tasks, map=two_link_map, region=[[0.5, 3.5], [-1.5, 1.5]], step=0.1, yaws=1,
+        top=15,
+    )  # fmt: skip
+    assert result.verified_count == 15
+    bases = np.array([p.T_cell_base[:3, 3] for p in result.placements])
+    distance = np.linalg.norm(bases[:, None, :2] - tasks[None, :, :2], axis=2)
+    in_annulus = (distance >= 0.4) & (distance <= 1.6)
+    clear = np.all((np.abs(distance - 0.4) > 0.05) & (np.abs(distance - 1.6) > 0.05), axis=1)
+    coverage = np.array([p.coverage for p in result.placements])
+    assert np.array_equal(coverage[clear], in_annulus[clear].mean(axis=1))  # to one voxel
+    for k, placement in enumerate(result.placements[:15]):
+        assert placement.verified == pytest.approx(in_annulus[k].mean())
+        assert placement.q is not None
+        for q, target in zip(placement.q, tasks, strict=True):
+            if not np.isnan(q[0]):  # an answer reaches its task pose from this base (FK)
+                p = placement.T_cell_base @ reference_fk(robot, q)
+                assert np.linalg.norm(p[:3, 3] - target) <= 1e-6
+    assert result.best.verified == 1.0 and result.best.coverage == 1.0
+    scores = [(p.coverage, p.score) for p in result.placements[15:]]
+    assert scores == sorted(scores, reverse=True)
+
+
+def test_base_placement_checks_its_map(two_link_map: Any) -> None:
+    with pytest.raises(OptikError, match="made for robot"):
+        base_placement(robot_of("planar_2r"), [[1.0, 0.0, 0.0]], map=two_link_map)
+    with pytest.raises(OptikError, match="region"):
+        base_placement(_two_link(), [[1.0, 0.0, 0.0]], map=two_link_map, region=[[1, 0], [0, 1]])
