@@ -4,6 +4,7 @@ IK written as least-norm and least-squares programs with hard joint limits, chec
 against closed forms, with analytic IK as the warm start.
 """
 
+from optik._version import __version__
 from optik.analytic import AnalyticBatch, analytic_ik, analytic_ik_batch
 from optik.campaign import base_placement, capability_map
 from optik.diffik import diff_ik
@@ -25,8 +26,6 @@ from optik.problems import Problem, Target, load_problem
 from optik.solvers import available_solvers
 from optik.trajectory import Trajectory, TrajectorySegment
 from optik.trig import solve_trig
-
-__version__ = "0.1.0"
 
 __all__ = [
     "AnalyticBatch",

@@ -4,10 +4,9 @@ The arm is drawn from :meth:`optik.Robot.frames`: links as a polyline through th
 origins in chain order, each joint's axis as a short arrow (a revolute joint turns about
 it, a prismatic joint slides along it), the base and tool frames as RGB triads (x red,
 y green, z blue), and, for a URDF robot whose visual meshes load offline, the meshes.
-
 :func:`draw_robot` draws into a given 3-D axes; :func:`robot_figure` builds a figure;
-:func:`show_robot` writes it as an image (``optik show``). :func:`reachability_figure`
-draws the arm over a plane slice of its reachable workspace.
+:func:`show_robot` writes it as an image (``optik show``);
+:func:`optik.planning.reachability_figure` draws the arm over a reachability slice.
 """
 
 from __future__ import annotations
@@ -20,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from optik._checks import FloatArray
+from optik._pyplot import pyplot
 from optik.errors import OptikError
 from optik.model import Robot
 
@@ -28,7 +28,6 @@ __all__ = [
     "arm_geometry",
     "draw_robot",
     "extent_points",
-    "reachability_figure",
     "robot_figure",
     "set_equal_3d",
     "show_robot",
@@ -232,8 +231,6 @@ def robot_figure(
     Raises:
         OptikError: a bad ``q``.
     """
-    from optik.plots import pyplot
-
     plt = pyplot()
     q = robot.mid_limits if q is None else robot.check_q(q, "q")
     if q.ndim != 1:
@@ -277,7 +274,6 @@ def save_figure(fig: Any, path: str | Path, dpi: float = 110.0) -> Path:
         OutputFileError: the file cannot be written.
     """
     from optik._files import write_atomic_with
-    from optik.plots import pyplot
 
     path = Path(path)
     suffix = path.suffix.lower().lstrip(".")
@@ -292,65 +288,6 @@ def save_figure(fig: Any, path: str | Path, dpi: float = 110.0) -> Path:
         )
     finally:
         pyplot().close(fig)
-
-
-def reachability_figure(
-    robot: Robot,
-    *,
-    axis: str = "z",
-    value: float | None = None,
-    resolution: int = 41,
-    q: Any = None,
-    orientation: Any = None,
-    seed: int = 0,
-) -> tuple[Any, Any]:
-    """The arm (at ``q``, default mid-limits) over a reachability slice of its workspace.
-
-    A ``resolution`` x ``resolution`` grid of points on the plane ``axis = value`` (default:
-    through the centre of the reach sphere), clipped to the reach sphere, is solved with
-    :func:`optik.planning.reachability` (position IK, or full pose with ``orientation``)
-    and drawn green (reached inside the limits) or grey (not reached).
-
-    Returns:
-        ``(figure, axes)``; the axes has the :class:`~optik.planning.Reachability` as
-        ``reachability`` attribute.
-
-    Raises:
-        OptikError: ``axis`` not x, y or z; ``resolution`` not in [2, 400].
-    """
-    from optik._checks import check_choice, check_int
-    from optik.planning import reachability
-
-    check_choice("axis", axis, ("x", "y", "z"))
-    resolution = check_int("resolution", resolution, minimum=2, maximum=400)
-    centre, radius = robot.reach_sphere
-    k = "xyz".index(axis)
-    level = float(centre[k]) if value is None else float(value)
-    a, b = [i for i in range(3) if i != k]
-    u = np.linspace(-radius, radius, resolution)
-    A, B = np.meshgrid(centre[a] + u, centre[b] + u)
-    points = np.zeros((A.size, 3))
-    points[:, a], points[:, b], points[:, k] = A.ravel(), B.ravel(), level
-    points = points[np.linalg.norm(points - centre, axis=1) <= radius]
-    if len(points) == 0:
-        raise OptikError(f"value: the plane {axis} = {level:g} m misses the reach sphere")
-    result = reachability(robot, points, orientation=orientation, seed=seed)
-    title = (
-        f"{robot.name}: {int(result.reachable.sum())}/{len(points)} points of the slice "
-        f"{axis} = {level:.3g} m reached"
-    )
-    fig, ax = robot_figure(robot, q, title=title)
-    for mask, colour, label in (
-        (result.reachable, "tab:green", "reached inside the limits"),
-        (~result.reachable, "0.4", "not reached"),
-    ):
-        P = points[mask]
-        ax.scatter(P[:, 0], P[:, 1], P[:, 2], s=8, color=colour, alpha=0.6, label=label)
-    arm = robot.frames(robot.mid_limits if q is None else q)[:, :3, 3]
-    set_equal_3d(ax, np.concatenate([points, arm]))
-    ax.legend(loc="upper left", fontsize=8)
-    ax.reachability = result
-    return fig, ax
 
 
 # ------------------------------------------------------------------------ meshes

@@ -707,3 +707,62 @@ def reachability(
         reachable[candidates] = result.success
         Q[candidates[result.success]] = result.q[result.success]
     return Reachability(P, reachable, far, Q)
+
+
+def reachability_figure(
+    robot: Robot,
+    *,
+    axis: str = "z",
+    value: float | None = None,
+    resolution: int = 41,
+    q: Any = None,
+    orientation: Any = None,
+    seed: int = 0,
+) -> tuple[Any, Any]:
+    """The arm (at ``q``, default mid-limits) over a reachability slice of its workspace.
+
+    A ``resolution`` x ``resolution`` grid of points on the plane ``axis = value`` (default:
+    through the centre of the reach sphere), clipped to the reach sphere, is solved with
+    :func:`reachability` (position IK, or full pose with ``orientation``)
+    and drawn green (reached inside the limits) or grey (not reached).
+
+    Returns:
+        ``(figure, axes)``; the axes has the :class:`~optik.planning.Reachability` as
+        ``reachability`` attribute.
+
+    Raises:
+        OptikError: ``axis`` not x, y or z; ``resolution`` not in [2, 400].
+    """
+    from optik._checks import check_choice, check_int
+    from optik.drawing import robot_figure, set_equal_3d
+
+    check_choice("axis", axis, ("x", "y", "z"))
+    resolution = check_int("resolution", resolution, minimum=2, maximum=400)
+    centre, radius = robot.reach_sphere
+    k = "xyz".index(axis)
+    level = float(centre[k]) if value is None else float(value)
+    a, b = [i for i in range(3) if i != k]
+    u = np.linspace(-radius, radius, resolution)
+    A, B = np.meshgrid(centre[a] + u, centre[b] + u)
+    points = np.zeros((A.size, 3))
+    points[:, a], points[:, b], points[:, k] = A.ravel(), B.ravel(), level
+    points = points[np.linalg.norm(points - centre, axis=1) <= radius]
+    if len(points) == 0:
+        raise OptikError(f"value: the plane {axis} = {level:g} m misses the reach sphere")
+    result = reachability(robot, points, orientation=orientation, seed=seed)
+    title = (
+        f"{robot.name}: {int(result.reachable.sum())}/{len(points)} points of the slice "
+        f"{axis} = {level:.3g} m reached"
+    )
+    fig, ax = robot_figure(robot, q, title=title)
+    for mask, colour, label in (
+        (result.reachable, "tab:green", "reached inside the limits"),
+        (~result.reachable, "0.4", "not reached"),
+    ):
+        P = points[mask]
+        ax.scatter(P[:, 0], P[:, 1], P[:, 2], s=8, color=colour, alpha=0.6, label=label)
+    arm = robot.frames(robot.mid_limits if q is None else q)[:, :3, 3]
+    set_equal_3d(ax, np.concatenate([points, arm]))
+    ax.legend(loc="upper left", fontsize=8)
+    ax.reachability = result
+    return fig, ax

@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from optik._pyplot import pyplot
 from optik.errors import OptikError
 
 if TYPE_CHECKING:
@@ -25,18 +26,6 @@ _FLAG_STYLE = {
     "unreachable": ("black", "o", "unreachable"),
     "not_found": ("tab:gray", "d", "not found (no proof)"),
 }
-
-
-def pyplot() -> Any:
-    """The pyplot module with a non-interactive backend, or a clear error."""
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError as exc:  # pragma: no cover - matplotlib is in the test extra
-        raise OptikError("plots need matplotlib: pip install 'optik[report]'") from exc
-    return plt
 
 
 @dataclass

@@ -21,7 +21,6 @@ from mpl_toolkits.mplot3d import proj3d
 
 from optik.drawing import (
     arm_geometry,
-    reachability_figure,
     robot_figure,
     save_figure,
     visual_meshes,
@@ -29,7 +28,7 @@ from optik.drawing import (
 from optik.errors import OptikError
 from optik.model import Robot
 from optik.paths import line
-from optik.planning import plan_path
+from optik.planning import plan_path, reachability_figure
 from optik.plots import plan_figure
 from optik.problems import load_problem
 

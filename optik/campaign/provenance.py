@@ -47,7 +47,7 @@ def versions() -> dict[str, str]:
         except importlib.metadata.PackageNotFoundError:
             found[name] = "not installed"
     if found["optik"] == "not installed":  # a source checkout without metadata
-        from optik import __version__
+        from optik._version import __version__
 
         found["optik"] = __version__
     return found
