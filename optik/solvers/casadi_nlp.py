@@ -69,6 +69,12 @@ class CasadiNLPSolver(IKSolver):
         task_rows = 3 if query.mode == "position" else 6
         mu = self.proximal_weight if self.plugin == "ipopt" and robot.dof > task_rows else 0.0
         e = query.error_vector(robot.fk(q))
+        try:
+            # The target and weights are validated once; each solve only moves q_ref.
+            params = program.parameter_vector(query.target, mu=mu, q_ref=q)
+        except Exception as exc:  # report, never raise from a backend run
+            return SolverOutput(q, 0, False, f"{type(exc).__name__}: {exc}", True)
+        q_ref = params[-robot.dof :]
         iterations = 0
         claim, status = False, "not started"
         while True:
@@ -78,8 +84,9 @@ class CasadiNLPSolver(IKSolver):
                 return SolverOutput(q, iterations, claim, f"max_iter ({status})")
             if budget_now() > deadline:
                 return SolverOutput(q, iterations, claim, f"timeout ({status})")
+            q_ref[:] = q
             try:
-                result = program.solve(query.target, q, mu=mu, q_ref=q)
+                result = program.solve_parameters(params, q)
             except Exception as exc:  # report, never raise from a backend run
                 return SolverOutput(q, iterations, False, f"{type(exc).__name__}: {exc}", True)
             iterations += max(result.iterations, 1)
