@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import threading
 import weakref
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Final, Literal
 
 import casadi
@@ -194,6 +194,11 @@ class NLPProgram:
     ubx: FloatArray
     options: dict[str, Any]
     compile_report: CompileReport = _NOT_COMPILED
+    _bounds: tuple[Any, Any] = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        # The bounds as CasADi matrices once (a conversion per solve costs a few µs each).
+        object.__setattr__(self, "_bounds", (casadi.DM(self.lbx), casadi.DM(self.ubx)))
 
     @property
     def dof(self) -> int:
@@ -259,11 +264,11 @@ class NLPProgram:
         (``x0`` finite and inside the bounds, ``params`` from :meth:`parameter_vector`).
         """
         try:
-            result = self.solver(x0=x0, p=params, lbx=self.lbx, ubx=self.ubx)
+            result = self.solver(x0=x0, p=params, lbx=self._bounds[0], ubx=self._bounds[1])
             stats = self.solver.stats()
         except Exception as exc:  # keep the backend's message
             return NLPSolution(x0, False, f"{type(exc).__name__}: {exc}", 0, float("nan"))
-        q = np.asarray(result["x"], dtype=np.float64).ravel()
+        q = result["x"].full().ravel()
         return NLPSolution(
             q=q,
             success=bool(stats.get("success", False)),
