@@ -17,6 +17,8 @@ the sequence converges to a zero-residual point (the proximal-point method; meas
 
 from __future__ import annotations
 
+import math
+
 import casadi
 import numpy as np
 
@@ -69,11 +71,11 @@ class CasadiNLPSolver(IKSolver):
         task_rows = 3 if query.mode == "position" else 6
         mu = self.proximal_weight if self.plugin == "ipopt" and robot.dof > task_rows else 0.0
         e = query.error_vector(robot.fk(q))
-        try:
-            # The target and weights are validated once; each solve only moves q_ref.
-            params = program.parameter_vector(query.target, mu=mu, q_ref=q)
-        except Exception as exc:  # report, never raise from a backend run
-            return SolverOutput(q, 0, False, f"{type(exc).__name__}: {exc}", True)
+        # The parameters [p*, vec(R*), w_rot, mu, q_ref] (NLPProgram.parameter_vector) of
+        # the query's target, validated by the query already; each solve only moves q_ref.
+        target = query.target
+        rotation = np.eye(3) if query.mode == "position" else target[:3, :3]
+        params = np.concatenate([target[:3, 3], rotation.ravel(order="F"), [1.0, mu], q])
         q_ref = params[-robot.dof :]
         iterations = 0
         claim, status = False, "not started"
@@ -102,9 +104,10 @@ class CasadiNLPSolver(IKSolver):
 
 def _converged(e: FloatArray, tol: float) -> bool:
     """Position (m) and orientation (rad) errors both within ``tol``."""
-    if float(np.linalg.norm(e[:3])) > tol:
+    values = e.tolist()
+    if math.sqrt(sum(x * x for x in values[:3])) > tol:
         return False
-    return e.shape[0] == 3 or float(np.linalg.norm(e[3:])) <= tol
+    return len(values) == 3 or math.sqrt(sum(x * x for x in values[3:])) <= tol
 
 
 def _has_nlpsol(plugin: str) -> bool:
