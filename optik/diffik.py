@@ -30,7 +30,19 @@ from optik.errors import (
 )
 from optik.limits import Q_CLIP_TOLERANCE
 from optik.model import Robot
-from optik.programs.diff_qp import DiffIKProgram, Objective, QPSolution, build_program
+from optik.programs.diff_qp import (
+    ALL_ROWS,
+    DEFAULT_DAMPING,
+    MAX_DAMPING,
+    OBJECTIVES,
+    DiffIKProgram,
+    Objective,
+    QPSolution,
+    _check_positive,
+    _check_rows,
+    check_velocity_limits,
+)
+from optik.programs.step_arrays import CHECK_OK, FILL_INCONSISTENT, FILL_OK, step_arrays
 from optik.solvers import StepBackend, available_solvers, get_solver, registered_solvers
 
 __all__ = [
@@ -197,6 +209,7 @@ def diff_ik(
     damping: float | None = None,
     limit_gain: float = 1.0,
     rows: Sequence[int] | None = None,
+    kkt_proof: bool = False,
 ) -> FloatArray:
     """Joint step ``dq`` (rad, m) that moves the tool by ``twist * dt``, inside the limits.
 
@@ -233,9 +246,14 @@ def diff_ik(
         limit_gain: fraction in (0, 1] of the distance to a limit one step may cover.
         rows: Jacobian rows (0..5) the task constrains (default all six), e.g.
             ``(0, 1, 2)`` for the tool's linear velocity only.
+        kkt_proof: also run the full KKT proof of :func:`verify_step` (multipliers fitted
+            with their signs by BVLS) on an answer the cheap check already accepted. By
+            default it runs only when the cheap check (multipliers fitted on the free
+            joints, :func:`optik.programs.step_arrays.check_step`) rejects the answer.
 
     Returns:
-        ``dq`` of shape (dof,), verified by optik (see :func:`verify_step`).
+        ``dq`` of shape (dof,), verified by optik: finite, inside the bounds, ``J dq = v``
+        for least norm, and the KKT conditions (see :func:`verify_step`).
 
     Raises:
         NoSolutionError: least norm and ``J dq = twist*dt`` cannot hold inside the bounds
@@ -255,38 +273,56 @@ def diff_ik(
     if not isinstance(robot, Robot):
         raise OptikError(f"robot must be an optik.Robot, got {type(robot).__name__}")
     backend = _resolve(solver)
-    step = check_real("dt", dt, allow_nan=True, allow_inf=True)
-    if not math.isfinite(step):
-        raise NonFiniteError("dt")
-    check_real("dt", step, positive=True)
-    check_bool("limits", limits)
-    twist_arr = finite_array("twist", twist, (6,))
-    # A measured q a hair outside a limit is clipped onto it (a servo loop's reading).
-    q_arr = clip_into_limits(robot, "q", q) if limits else finite_array("q", q, (robot.dof,))
-    with np.errstate(over="ignore"):  # an overflow to inf is rejected just below
-        v = twist_arr * step
-    if not np.all(np.abs(v) <= MAX_LENGTH_M):
-        # One step of 1e9 m is no servo command, and the program's products would overflow.
-        i = int(np.argmax(~(np.abs(v) <= MAX_LENGTH_M)))
-        raise ArgumentError(
-            f"twist[{i}] * dt", float(v[i]), f"a step of magnitude <= {MAX_LENGTH_M:g}"
-        )
-    program = build_program(
-        robot,
+    step = dt if type(dt) is float and 0.0 < dt < math.inf else _check_dt(dt)
+    if limits is not True and limits is not False:
+        check_bool("limits", limits)
+    check_bool("kkt_proof", kkt_proof)
+    picked, lam, gain = _options(objective, damping, limit_gain, rows)
+    vmax = None
+    if velocity_limits is not None:
+        vmax = check_velocity_limits(velocity_limits, robot.dof)
+    q_arr = q if _is_vector(q, robot.dof) else finite_array("q", q, (robot.dof,))
+    twist_arr = twist if _is_vector(twist, 6) else finite_array("twist", twist, (6,))
+    arrays = step_arrays(robot, picked, objective)
+    code = arrays.fill(
         q_arr,
-        v,
-        objective=objective,
-        dt=step,
-        damping=damping,
+        twist_arr,
+        step,
         limits=limits,
-        limit_gain=limit_gain,
-        velocity_limits=velocity_limits,
-        rows=rows,
+        limit_gain=gain,
+        velocity_limits=vmax,
+        damping=lam,
     )
+    if code == FILL_INCONSISTENT:
+        raise _inconsistent(arrays.program())
+    if code != FILL_OK:
+        _raise_input_error(robot, q_arr, twist_arr, step, limits)
     label = backend.name
-    if not program.bounds_consistent:
-        raise _inconsistent(program)
-    solution = backend.solve(program)
+    direct = getattr(backend, "direct", None)
+    if direct is not None:
+        # The backend's own API on the arrays, and the cheap check (see step_arrays).
+        m = 0 if arrays.least_squares else arrays.task_dim
+        x, found, status, iterations = direct(arrays.dof, m).solve(
+            arrays.Ps,
+            arrays.cs,
+            arrays.A_eq,
+            arrays.b_eq,
+            arrays.lbs,
+            arrays.ubs,
+            False,
+            arrays.lower_stack[: arrays.dof + m],
+            arrays.upper_stack[: arrays.dof + m],
+        )
+        if x is not None:
+            check, _ = arrays.check(x, FEASIBILITY_RTOL, FEASIBILITY_ATOL, KKT_RTOL)
+            if check == CHECK_OK and not kkt_proof:
+                return arrays.dq.copy()
+            x = x / arrays.scale[1]
+        program = arrays.program()
+        solution = QPSolution(x, found, status, label, iterations)
+    else:
+        program = arrays.program()
+        solution = backend.solve(program)
     dq, reason = verify_step(program, solution)
     if dq is not None:
         return dq
@@ -294,3 +330,83 @@ def diff_ik(
     if error is not None:
         raise error
     raise SolverError(label, f"{reason}; the program has a solution")
+
+
+def _check_dt(dt: Any) -> float:
+    """``dt`` as a float > 0 (the slow path of :func:`diff_ik`'s check)."""
+    step = check_real("dt", dt, allow_nan=True, allow_inf=True)
+    if not math.isfinite(step):
+        raise NonFiniteError("dt")
+    check_real("dt", step, positive=True)
+    return step
+
+
+def _is_vector(value: Any, size: int) -> bool:
+    """Already a writable, contiguous float64 array of shape (size,): passed on as is.
+
+    Anything else is converted by the validators first (the compiled checks are compiled
+    for this one array type).
+    """
+    if type(value) is not np.ndarray or value.dtype is not _FLOAT64 or value.shape != (size,):
+        return False
+    flags = value.flags
+    return bool(flags.c_contiguous and flags.writeable)
+
+
+_FLOAT64: Final = np.dtype(np.float64)
+
+
+_ZERO_TWIST: Final = np.zeros(6)
+
+
+def _options(
+    objective: Any, damping: Any, limit_gain: Any, rows: Any
+) -> tuple[tuple[int, ...], float, float]:
+    """The task rows, the damping and the limit gain, validated (the defaults at once)."""
+    if objective not in OBJECTIVES:
+        raise OptikError(f"objective must be one of {OBJECTIVES}, got {objective!r}")
+    if objective == "least_norm":
+        if damping is not None:
+            raise OptikError("damping applies to the least_squares objective only")
+        lam = 0.0
+    elif damping is None:
+        lam = DEFAULT_DAMPING
+    else:
+        lam = _check_positive("damping", damping, True, maximum=MAX_DAMPING)
+    gain = 1.0 if type(limit_gain) is float and limit_gain == 1.0 else _check_gain(limit_gain)
+    if rows is None:
+        return ALL_ROWS, lam, gain
+    picked = _ROWS.get(rows) if type(rows) is tuple else None
+    if picked is None:
+        picked, _ = _check_rows(rows, _ZERO_TWIST)
+        if type(rows) is tuple and len(_ROWS) < 64:
+            _ROWS[rows] = picked
+    return picked, lam, gain
+
+
+_ROWS: dict[tuple[Any, ...], tuple[int, ...]] = {}
+
+
+def _check_gain(limit_gain: Any) -> float:
+    gain = _check_positive("limit_gain", limit_gain)
+    if gain > 1.0:
+        raise OptikError(f"limit_gain must lie in (0, 1], got {gain}")
+    return gain
+
+
+def _raise_input_error(
+    robot: Robot, q: FloatArray, twist: FloatArray, step: float, limits: bool
+) -> None:
+    """Raise the error that names the bad argument (the compiled fill found one)."""
+    q_arr = clip_into_limits(robot, "q", q) if limits else finite_array("q", q, (robot.dof,))
+    robot.check_q(q_arr)
+    finite_array("twist", twist, (6,))
+    with np.errstate(over="ignore"):  # an overflow to inf is rejected just below
+        v = twist * step
+    if not np.all(np.abs(v) <= MAX_LENGTH_M):
+        # One step of 1e9 m is no servo command, and the program's products would overflow.
+        i = int(np.argmax(~(np.abs(v) <= MAX_LENGTH_M)))
+        raise ArgumentError(
+            f"twist[{i}] * dt", float(v[i]), f"a step of magnitude <= {MAX_LENGTH_M:g}"
+        )
+    raise OptikError("diff_ik: q or twist rejected by the compiled checks")  # pragma: no cover

@@ -235,3 +235,54 @@ def reach(solver_name: str, name: str, mode: str, count: int, spread: float = 0.
         if mode == "pose":
             assert rotation_angle(T[:3, :3].T @ T_out[:3, :3]) <= 1e-6, out.message
         assert out.converged, out.message
+
+
+# ---------------------------------------------------------------------- DOBOT least squares
+#: A DOBOT least-squares step (dt = 1, default damping) where Clarabel once stopped 1.3e-8
+#: (1.1e-7 relative) from the closed form: draw 790 of the sampler below with seed 5.
+DOBOT_HARD_STEP = (
+    np.array([0.8927700129576785, 0.01422893420122294, 1.5516780005398902, 1.2270455102847282]),
+    np.array(
+        [
+            -0.00016017657841678598,
+            -0.0003464764725530579,
+            -0.0005587448433720898,
+            0.0004134462134701967,
+            -0.00015733765932735748,
+            0.0010818338856911772,
+        ]
+    ),
+)
+
+
+def dobot_least_squares_steps(count: int) -> list[tuple[np.ndarray, np.ndarray]]:
+    """DOBOT steps: q uniform inside the limits, a 6-D twist of 1e-4 to 1e-2 (dt = 1).
+
+    4 joints against 6 rows, so the twist is mostly outside the range of J; only steps
+    whose damped closed form stays inside the limits are kept. The hard step above first.
+    """
+    robot = robot_of("dobot_magician")
+    rng = np.random.default_rng(SEED + 5)
+    steps = [DOBOT_HARD_STEP]
+    while len(steps) < count:
+        q = rng.uniform(robot.lower, robot.upper)
+        twist = 10 ** rng.uniform(-4, -2) * rng.normal(size=6)
+        dq = least_squares(robot.jacobian(q), twist, damping=DEFAULT_DAMPING)
+        if np.all(q + dq > robot.lower) and np.all(q + dq < robot.upper):
+            steps.append((q, twist))
+    return steps
+
+
+def check_dobot_least_squares(solve: Callable[[DiffIKProgram], QPSolution], count: int) -> None:
+    """Every sampled DOBOT least-squares step equals its damped closed form to ACCURACY."""
+    robot = robot_of("dobot_magician")
+    for q, twist in dobot_least_squares_steps(count):
+        prog = build_program(robot, q, twist, objective="least_squares", dt=1.0)
+        reference = least_squares(prog.J, prog.v, damping=DEFAULT_DAMPING)
+        n = prog.dof
+        stacked = np.vstack([prog.J, DEFAULT_DAMPING * np.eye(n)])
+        expected = np.linalg.lstsq(stacked, np.concatenate([prog.v, np.zeros(n)]), rcond=None)[0]
+        assert_close(reference, expected, atol=1e-12, what="closed forms")
+        result = solve(prog)
+        assert result.found, result.status
+        assert_close(result.x, reference, atol=ACCURACY, what=f"{result.backend} DOBOT step")

@@ -17,6 +17,7 @@ import pytest
 from _step_programs import (
     KKT_ROBOTS,
     check_active,
+    check_dobot_least_squares,
     check_least_norm,
     check_least_squares,
     inactive_cases,
@@ -72,6 +73,11 @@ def test_conic_least_norm_matches_closed_form(name: str, plugin: str) -> None:
 def test_conic_least_squares_matches_closed_form(name: str, plugin: str) -> None:
     for case in inactive_cases(name):
         check_least_squares(conic(plugin), case)
+
+
+@pytest.mark.parametrize("plugin", PLUGINS)
+def test_conic_dobot_least_squares_steps_match_closed_form(plugin: str) -> None:
+    check_dobot_least_squares(conic(plugin), 60)
 
 
 @pytest.mark.parametrize("plugin", PLUGINS)

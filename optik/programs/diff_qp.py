@@ -74,6 +74,7 @@ __all__ = [
     "QPSolution",
     "build_program",
     "build_qp",
+    "check_velocity_limits",
     "step_bounds",
 ]
 
@@ -438,6 +439,24 @@ def _check_positive(
     return x
 
 
+def check_velocity_limits(velocity_limits: Any, dof: int) -> FloatArray:
+    """Joint speed limits (dof,), rad/s or m/s: ``>= 0``, ``inf`` allowed, NaN rejected.
+
+    Raises:
+        ShapeError: not of shape (dof,).
+        NonFiniteError: a NaN entry.
+        OptikError: a negative entry.
+    """
+    vmax = as_float_array("velocity_limits", velocity_limits)
+    if vmax.shape != (dof,):
+        raise ShapeError("velocity_limits", f"({dof},)", vmax.shape)
+    if np.any(np.isnan(vmax)):
+        raise NonFiniteError("velocity_limits", tuple(np.argwhere(np.isnan(vmax))[0]))
+    if np.any(vmax < 0.0):
+        raise OptikError(f"velocity_limits must be >= 0, got {vmax}")
+    return np.ascontiguousarray(vmax, dtype=np.float64)
+
+
 def step_bounds(
     robot: Robot,
     q: FloatArray,
@@ -482,14 +501,7 @@ def step_bounds(
         if dt is None:
             raise OptikError("velocity_limits need the time step dt")
         step = _check_positive("dt", dt)
-        vmax = as_float_array("velocity_limits", velocity_limits)
-        if vmax.shape != (n,):
-            raise ShapeError("velocity_limits", f"({n},)", vmax.shape)
-        if np.any(np.isnan(vmax)):
-            raise NonFiniteError("velocity_limits", tuple(np.argwhere(np.isnan(vmax))[0]))
-        if np.any(vmax < 0.0):
-            raise OptikError(f"velocity_limits must be >= 0, got {vmax}")
-        reach = vmax * step
+        reach = check_velocity_limits(velocity_limits, n) * step
         lb = np.maximum(lb, -reach)
         ub = np.minimum(ub, reach)
     return lb, ub

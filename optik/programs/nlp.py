@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import threading
 import weakref
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Final, Literal
 
 import casadi
@@ -38,6 +38,7 @@ import numpy as np
 from optik._checks import FloatArray, finite_array
 from optik.errors import OptikError
 from optik.model import Robot
+from optik.programs.nlp_codegen import CompileReport, compiled_nlpsol
 from optik.spatial import as_pose
 
 __all__ = [
@@ -141,6 +142,9 @@ class NLPSolution:
     objective: float
 
 
+_NOT_COMPILED: Final = CompileReport(False, 0.0, False, "code generation not asked for")
+
+
 @dataclass(frozen=True, eq=False)
 class NLPProgram:
     """The nonlinear IK program of one robot and mode, inspectable and reusable.
@@ -166,6 +170,8 @@ class NLPProgram:
         lbx: lower bounds (dof,), the joint limits (``-inf`` allowed).
         ubx: upper bounds (dof,).
         options: the options the solver was built with.
+        compile_report: whether ``solver`` runs compiled C and what building it cost
+            (:class:`~optik.programs.nlp_codegen.CompileReport`).
     """
 
     robot_name: str
@@ -187,6 +193,12 @@ class NLPProgram:
     lbx: FloatArray
     ubx: FloatArray
     options: dict[str, Any]
+    compile_report: CompileReport = _NOT_COMPILED
+    _bounds: tuple[Any, Any] = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        # The bounds as CasADi matrices once (a conversion per solve costs a few µs each).
+        object.__setattr__(self, "_bounds", (casadi.DM(self.lbx), casadi.DM(self.ubx)))
 
     @property
     def dof(self) -> int:
@@ -243,12 +255,20 @@ class NLPProgram:
         """
         params = self.parameter_vector(target, w_rot=w_rot, mu=mu, q_ref=q_ref)
         x0 = np.clip(finite_array("q0", q0, (self.dof,)), self.lbx, self.ubx)
+        return self.solve_parameters(params, x0)
+
+    def solve_parameters(self, params: FloatArray, x0: FloatArray) -> NLPSolution:
+        """Solve for a parameter vector of :meth:`parameter_vector` from ``x0``, unchecked.
+
+        The inner call of :meth:`solve` for callers that validated their inputs once
+        (``x0`` finite and inside the bounds, ``params`` from :meth:`parameter_vector`).
+        """
         try:
-            result = self.solver(x0=x0, p=params, lbx=self.lbx, ubx=self.ubx)
+            result = self.solver(x0=x0, p=params, lbx=self._bounds[0], ubx=self._bounds[1])
             stats = self.solver.stats()
         except Exception as exc:  # keep the backend's message
             return NLPSolution(x0, False, f"{type(exc).__name__}: {exc}", 0, float("nan"))
-        q = np.asarray(result["x"], dtype=np.float64).ravel()
+        q = result["x"].full().ravel()
         return NLPSolution(
             q=q,
             success=bool(stats.get("success", False)),
@@ -271,9 +291,15 @@ _lock = threading.Lock()
 _CACHE: weakref.WeakKeyDictionary[Robot, dict[tuple[Any, ...], NLPProgram]] = (
     weakref.WeakKeyDictionary()
 )
+# The same programs keyed without their options (built with the defaults only).
+_FAST: weakref.WeakKeyDictionary[Robot, dict[tuple[Any, ...], NLPProgram]] = (
+    weakref.WeakKeyDictionary()
+)
 
 
-def _new_program(robot: Robot, mode: Mode, plugin: str, options: dict[str, Any]) -> NLPProgram:
+def _new_program(
+    robot: Robot, mode: Mode, plugin: str, options: dict[str, Any], codegen: bool
+) -> NLPProgram:
     n = robot.dof
     q = casadi.SX.sym("q", n)
     p_target = casadi.SX.sym("p_target", 3)
@@ -289,9 +315,11 @@ def _new_program(robot: Robot, mode: Mode, plugin: str, options: dict[str, Any])
         orientation = casadi.SX(0.0)
     objective = casadi.sumsqr(position_error) + w_rot * orientation + mu * casadi.sumsqr(q - q_ref)
     parameters = casadi.vertcat(p_target, casadi.vec(R_target), w_rot, mu, q_ref)
-    solver = casadi.nlpsol(
-        f"ik_{plugin}_{mode}", plugin, {"x": q, "p": parameters, "f": objective}, options
-    )
+    name = f"ik_{plugin}_{mode}"
+    solver = casadi.nlpsol(name, plugin, {"x": q, "p": parameters, "f": objective}, options)
+    report = _NOT_COMPILED
+    if codegen:
+        solver, report = compiled_nlpsol(name, plugin, solver, options)
     return NLPProgram(
         robot_name=robot.name,
         mode=mode,
@@ -312,6 +340,7 @@ def _new_program(robot: Robot, mode: Mode, plugin: str, options: dict[str, Any])
         lbx=robot.lower.copy(),
         ubx=robot.upper.copy(),
         options=options,
+        compile_report=report,
     )
 
 
@@ -322,6 +351,7 @@ def build_nlp(
     plugin: str = "ipopt",
     max_iter: int = 100,
     options: dict[str, Any] | None = None,
+    codegen: bool = True,
 ) -> NLPProgram:
     """The nonlinear IK program of ``robot`` (cached: built once per robot and settings).
 
@@ -332,6 +362,10 @@ def build_nlp(
             :data:`NLP_OPTIONS`); any other plugin gets only ``options``.
         max_iter: iteration limit of the solver.
         options: extra ``nlpsol`` options, merged over the defaults (part of the cache key).
+        codegen: run the solver on its functions compiled to C
+            (:func:`optik.programs.nlp_codegen.compiled_nlpsol`, cached on disk; the SX
+            functions when no C compiler is found). ``program.compile_report`` says which
+            and what it cost.
 
     Raises:
         OptikError: an unknown mode, a ``max_iter`` below 1, or a plugin CasADi cannot load.
@@ -342,16 +376,24 @@ def build_nlp(
         raise OptikError(f"mode must be 'pose' or 'position', got {mode!r}")
     if int(max_iter) != max_iter or max_iter < 1:
         raise OptikError(f"max_iter must be an integer >= 1, got {max_iter!r}")
+    if options is None and type(max_iter) is int:
+        # The common call (the casadi:<plugin> solvers): no options to merge and key.
+        fast = _FAST.get(robot)
+        program = None if fast is None else fast.get((mode, plugin, max_iter, bool(codegen)))
+        if program is not None:
+            return program
     merged = {**NLP_OPTIONS.get(plugin, {}), **(options or {})}
     merged[_MAX_ITER_OPTION.get(plugin, "max_iter")] = int(max_iter)
-    key = (mode, plugin, repr(sorted(merged.items())))
+    key = (mode, plugin, repr(sorted(merged.items())), bool(codegen))
     with _lock:
         per_robot = _CACHE.setdefault(robot, {})
         program = per_robot.get(key)
         if program is None:
             try:
-                program = _new_program(robot, mode, plugin, merged)
+                program = _new_program(robot, mode, plugin, merged, bool(codegen))
             except RuntimeError as exc:
                 raise OptikError(f"cannot build the CasADi {plugin!r} solver: {exc}") from exc
             per_robot[key] = program
+        if options is None and type(max_iter) is int:
+            _FAST.setdefault(robot, {})[(mode, plugin, max_iter, bool(codegen))] = program
     return program

@@ -17,10 +17,15 @@ the sequence converges to a zero-residual point (the proximal-point method; meas
 
 from __future__ import annotations
 
+import math
+from collections.abc import Callable
+
 import casadi
 import numpy as np
 
+from optik import _kernels
 from optik._checks import FloatArray
+from optik.model import Robot
 from optik.programs.nlp import NLPProgram, build_nlp
 from optik.solvers._base import IKQuery, IKSolver, SolverOutput, budget_now, register_solver
 
@@ -68,7 +73,14 @@ class CasadiNLPSolver(IKSolver):
             return SolverOutput(q, 0, False, f"{type(exc).__name__}: {exc}", True)
         task_rows = 3 if query.mode == "position" else 6
         mu = self.proximal_weight if self.plugin == "ipopt" and robot.dof > task_rows else 0.0
-        e = query.error_vector(robot.fk(q))
+        fk = _pose_of(robot)
+        e = query.error_vector(fk(q))
+        # The parameters [p*, vec(R*), w_rot, mu, q_ref] (NLPProgram.parameter_vector) of
+        # the query's target, validated by the query already; each solve only moves q_ref.
+        target = query.target
+        rotation = np.eye(3) if query.mode == "position" else target[:3, :3]
+        params = np.concatenate([target[:3, 3], rotation.ravel(order="F"), [1.0, mu], q])
+        q_ref = params[-robot.dof :]
         iterations = 0
         claim, status = False, "not started"
         while True:
@@ -78,8 +90,9 @@ class CasadiNLPSolver(IKSolver):
                 return SolverOutput(q, iterations, claim, f"max_iter ({status})")
             if budget_now() > deadline:
                 return SolverOutput(q, iterations, claim, f"timeout ({status})")
+            q_ref[:] = q
             try:
-                result = program.solve(query.target, q, mu=mu, q_ref=q)
+                result = program.solve_parameters(params, q)
             except Exception as exc:  # report, never raise from a backend run
                 return SolverOutput(q, iterations, False, f"{type(exc).__name__}: {exc}", True)
             iterations += max(result.iterations, 1)
@@ -87,17 +100,32 @@ class CasadiNLPSolver(IKSolver):
             if not np.all(np.isfinite(result.q)):
                 return SolverOutput(q, iterations, False, f"non-finite answer ({status})", True)
             q_new = np.clip(result.q, robot.lower, robot.upper)
-            e_new = query.error_vector(robot.fk(q_new))
+            e_new = query.error_vector(fk(q_new))
             if float(e_new @ e_new) >= float(e @ e):
                 return SolverOutput(q, iterations, claim, f"no progress ({status})")
             q, e = q_new, e_new
 
 
+def _pose_of(robot: Robot) -> Callable[[FloatArray], FloatArray]:
+    """``q -> T`` for a ``q`` already inside the limits: the compiled FK, unvalidated."""
+    chain = robot.chain
+    K, prismatic, C = chain.K, chain.prismatic, chain.C
+    identity = chain.identity
+
+    def pose(q: FloatArray) -> FloatArray:
+        T = np.empty((4, 4))
+        _kernels.fk_into(K, prismatic, q if identity else np.ascontiguousarray(C @ q), T)
+        return T
+
+    return pose
+
+
 def _converged(e: FloatArray, tol: float) -> bool:
     """Position (m) and orientation (rad) errors both within ``tol``."""
-    if float(np.linalg.norm(e[:3])) > tol:
+    values = e.tolist()
+    if math.sqrt(sum(x * x for x in values[:3])) > tol:
         return False
-    return e.shape[0] == 3 or float(np.linalg.norm(e[3:])) <= tol
+    return len(values) == 3 or math.sqrt(sum(x * x for x in values[3:])) <= tol
 
 
 def _has_nlpsol(plugin: str) -> bool:

@@ -9,16 +9,20 @@ here stay registered (so asking for one gives an install hint) but are not liste
 
 from __future__ import annotations
 
+import math
+import threading
 import warnings
 from typing import Any, Final
 
+import numba as nb
 import numpy as np
 import qpsolvers
 import qpsolvers.solvers
 import scipy.sparse as spa
 
 from optik._checks import FloatArray
-from optik.programs.diff_qp import DiffIKProgram, QPSolution, build_program
+from optik.programs.diff_qp import ALL_ROWS, POSITION_ROWS, DiffIKProgram, QPSolution
+from optik.programs.step_arrays import FILL_OK, step_arrays
 from optik.solvers._base import (
     IKQuery,
     IKSolver,
@@ -104,6 +108,373 @@ def _backend_problem(program: DiffIKProgram, backend: str) -> tuple[qpsolvers.Pr
     return qpsolvers.Problem(P, eq.c, A=A, b=eq.b, lb=eq.lb, ub=eq.ub), eq.scale
 
 
+# ---------------------------------------------------------------------- direct backends
+#: What a direct backend returns: the point (or None), the backend's claim, its status
+#: text, its iteration count (-1 when unknown).
+DirectAnswer = tuple[FloatArray | None, bool, str, int]
+
+
+class DirectBackend:
+    """A backend's own API for step programs of one shape, its state reused across steps.
+
+    ``solve(P, c, A, b, lb, ub, warm)`` takes the equilibrated arrays (``A``/``b`` with
+    ``m`` rows, ``m = 0`` for least squares; ``lb``/``ub`` with ``-inf``/``inf`` where
+    unbounded) and never raises for a backend failure. With ``warm`` the backend starts
+    from its previous answer (its active set, or its primal-dual point) where it can;
+    without it every call is independent of the previous ones. One instance per thread:
+    the backends' workspaces are not shared between threads.
+    """
+
+    def __init__(self, backend: str, n: int, m: int) -> None:
+        self.backend = backend
+        self.n = n
+        self.m = m
+
+    def solve(
+        self,
+        P: FloatArray,
+        c: FloatArray,
+        A: FloatArray,
+        b: FloatArray,
+        lb: FloatArray,
+        ub: FloatArray,
+        warm: bool = False,
+        lower_stack: FloatArray | None = None,
+        upper_stack: FloatArray | None = None,
+    ) -> DirectAnswer:
+        """The backend's answer for the equilibrated program, unchecked.
+
+        ``lower_stack``/``upper_stack``, when given, are ``[lb; b]`` and ``[ub; b]``
+        (:class:`~optik.programs.step_arrays.StepArrays` keeps them so): backends that
+        take bounds and rows stacked use them without a copy.
+        """
+        self._stacks = lower_stack, upper_stack
+        try:
+            return self._solve(P, c, A, b, lb, ub, warm)
+        except Exception as exc:  # a backend may raise anything; keep its text
+            return None, False, f"{type(exc).__name__}: {exc}", -1
+
+    def _solve(
+        self,
+        P: FloatArray,
+        c: FloatArray,
+        A: FloatArray,
+        b: FloatArray,
+        lb: FloatArray,
+        ub: FloatArray,
+        warm: bool,
+    ) -> DirectAnswer:
+        """Through ``qpsolvers.solve_problem`` (the backends without an own-API path)."""
+        Pm: Any = P
+        Am: Any = A if self.m else None
+        if self.backend in qpsolvers.sparse_solvers and self.backend not in qpsolvers.dense_solvers:
+            Pm = spa.csc_matrix(P)
+            Am = None if Am is None else spa.csc_matrix(Am)
+        bounded = bool(np.any(np.isfinite(lb)) or np.any(np.isfinite(ub)))
+        problem = qpsolvers.Problem(
+            Pm,
+            c,
+            A=Am,
+            b=b if self.m else None,
+            lb=lb if bounded else None,
+            ub=ub if bounded else None,
+        )
+        start = self._last if warm and self._last is not None else None
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            solution = qpsolvers.solve_problem(
+                problem, self.backend, initvals=start, **BACKEND_OPTIONS.get(self.backend, {})
+            )
+        x = solution.x
+        if x is not None:
+            x = np.asarray(x, dtype=np.float64).reshape(-1)
+            if x.shape != (self.n,):
+                return None, False, f"returned x of shape {x.shape}", -1
+            if self.backend in POLISHED_BACKENDS and np.all(np.isfinite(x)):
+                polished = polish(P, c, A if self.m else None, b, lb, ub, x)
+                x = x if polished is None else polished
+        self._last = x
+        status = "; ".join(str(w.message) for w in caught) or ("solved" if solution.found else "")
+        return x, bool(solution.found and x is not None), status, _iterations(solution)
+
+    _last: FloatArray | None = None
+    _stacks: tuple[FloatArray | None, FloatArray | None] = (None, None)
+
+
+@nb.njit(cache=True, nogil=True)
+def _active_set(lam: np.ndarray, sense: np.ndarray, n: int) -> None:
+    """DAQP's warm start from its multipliers: bit 1 active, bit 2 the lower side."""
+    for i in range(n):
+        sense[i] = 1 if lam[i] > 0.0 else (3 if lam[i] < 0.0 else 0)
+
+
+#: Interior-point backends whose answer is polished (:func:`polish`): Clarabel stopped
+#: up to 1.3e-8 (1.1e-7 relative) from the closed form on DOBOT least-squares steps
+#: (1 in 3,000 sampled; tests/test_qp_solvers.py keeps it), 5e-13 after polishing.
+POLISHED_BACKENDS: Final[frozenset[str]] = frozenset({"clarabel"})
+
+#: How close (in the equilibrated program's units) a bound must be to count as active in
+#: :func:`polish`, and the tolerance of its feasibility and sign checks.
+POLISH_TOL: Final[float] = 1e-7
+
+
+def polish(
+    P: FloatArray,
+    c: FloatArray,
+    A: FloatArray | None,
+    b: FloatArray,
+    lb: FloatArray,
+    ub: FloatArray,
+    x: FloatArray,
+) -> FloatArray | None:
+    """The exact minimizer on the active set of an approximate point, or ``None``.
+
+    The bounds within :data:`POLISH_TOL` of ``x`` are fixed at their values; the free
+    joints ``F`` and the multipliers ``y`` of ``A x = b`` then solve the KKT system
+    ``[[P_FF, A_F^T], [A_F, 0]] [x_F; y] = [-(c_F + P_FA x_A); b - A_A x_A]``. The answer
+    is returned only if it is inside the bounds (to :data:`POLISH_TOL`) and the bound
+    multipliers ``g = P x + c + A^T y`` have the signs of an optimum (``g_i >= 0`` at a
+    lower bound, ``<= 0`` at an upper one): then it satisfies the KKT conditions of the
+    convex program exactly, up to rounding.
+    """
+    tol = POLISH_TOL
+    at_lower = np.isfinite(lb) & (x - lb <= tol)
+    at_upper = np.isfinite(ub) & (ub - x <= tol) & ~at_lower
+    fixed = at_lower | at_upper
+    free = ~fixed
+    out = x.copy()
+    out[at_lower] = lb[at_lower]
+    out[at_upper] = ub[at_upper]
+    nf = int(free.sum())
+    m = 0 if A is None else A.shape[0]
+    if nf == 0 or nf < m:
+        return None
+    K = np.zeros((nf + m, nf + m))
+    K[:nf, :nf] = P[np.ix_(free, free)]
+    rhs = np.empty(nf + m)
+    rhs[:nf] = -(c[free] + P[np.ix_(free, fixed)] @ out[fixed])
+    if A is not None and m:
+        AF = A[:, free]
+        K[:nf, nf:] = AF.T
+        K[nf:, :nf] = AF
+        rhs[nf:] = b - A[:, fixed] @ out[fixed]
+    try:
+        solution = np.linalg.solve(K, rhs)
+    except np.linalg.LinAlgError:
+        return None
+    if not np.all(np.isfinite(solution)):
+        return None
+    out[free] = solution[:nf]
+    if np.any(out < lb - tol) or np.any(out > ub + tol):
+        return None
+    g = P @ out + c
+    if A is not None and m:
+        g += A.T @ solution[nf:]
+    if np.any(g[at_lower] < -tol) or np.any(g[at_upper] > tol):
+        return None
+    result: FloatArray = np.clip(out, lb, ub)
+    return result
+
+
+class _Daqp(DirectBackend):
+    """DAQP's own call: the bounds as its simple bounds, the task rows as equalities."""
+
+    def __init__(self, backend: str, n: int, m: int) -> None:
+        import daqp
+
+        super().__init__(backend, n, m)
+        self._solve_daqp = daqp.solve
+        self._options = BACKEND_OPTIONS["daqp"]
+        self._upper = np.empty(n + m)
+        self._lower = np.empty(n + m)
+        self._sense = np.zeros(n + m, dtype=np.intc)
+        self._sense[n:] = 5  # equality constraints
+        self._cold = self._sense.copy()
+        self._no_rows = np.zeros((0, n))
+
+    def _solve(
+        self,
+        P: FloatArray,
+        c: FloatArray,
+        A: FloatArray,
+        b: FloatArray,
+        lb: FloatArray,
+        ub: FloatArray,
+        warm: bool,
+    ) -> DirectAnswer:
+        n = self.n
+        lower, upper = self._stacks
+        if lower is None or upper is None:
+            upper, lower = self._upper, self._lower
+            upper[:n] = ub
+            lower[:n] = lb
+            if self.m:
+                upper[n:] = b
+                lower[n:] = b
+        sense = self._sense if warm else self._cold
+        x, _, flag, info = self._solve_daqp(
+            P, c, A if self.m else self._no_rows, upper, lower, sense, **self._options
+        )
+        if warm:
+            # The active bounds of this answer start the next solve: DAQP's sense bit 1
+            # marks a constraint active, bit 2 its lower side (the sign of its multiplier).
+            _active_set(info["lam"], self._sense, n)
+        found = flag > 0
+        return (
+            (np.asarray(x) if found else None),
+            found,
+            f"daqp exit flag {flag}",
+            int(info.get("iterations", -1)),
+        )
+
+
+class _Proxqp(DirectBackend):
+    """ProxQP's dense ``QP`` object: the bounds as its box constraints, updated per step."""
+
+    def __init__(self, backend: str, n: int, m: int) -> None:
+        from proxsuite import proxqp
+
+        super().__init__(backend, n, m)
+        self._proxqp = proxqp
+        options = BACKEND_OPTIONS["proxqp"]
+        qp = proxqp.dense.QP(n, m, 0, True)
+        qp.settings.eps_abs = options["eps_abs"]
+        qp.settings.eps_rel = options["eps_rel"]
+        qp.settings.max_iter = options["max_iter"]
+        qp.settings.verbose = False
+        self._qp = qp
+        self._initialized = False
+        self._P = np.zeros((n, n))
+
+    def _solve(
+        self,
+        P: FloatArray,
+        c: FloatArray,
+        A: FloatArray,
+        b: FloatArray,
+        lb: FloatArray,
+        ub: FloatArray,
+        warm: bool,
+    ) -> DirectAnswer:
+        qp = self._qp
+        # Always cold: warm-starting from the previous result (or from its x and z) made
+        # the qp:proxqp IK loop 10-15x slower on the Panda (30 targets: median 0.86 ms cold,
+        # 12.7 ms warm), the step programs of successive iterations being too different.
+        qp.settings.initial_guess = self._proxqp.InitialGuess.NO_INITIAL_GUESS
+        A_eq = A if self.m else None
+        b_eq = b if self.m else None
+        if self._initialized:
+            # The preconditioner of the first program is kept (recomputing it doubles the
+            # cost; the programs come equilibrated, and ProxQP's stopping test is on the
+            # unscaled residuals), and an unchanged H (least norm: I) is not passed again,
+            # which spares its factorization setup.
+            H = None if np.array_equal(P, self._P) else P
+            if H is not None:
+                self._P[:] = P
+            qp.update(H, c, A_eq, b_eq, None, None, None, lb, ub, update_preconditioner=False)
+        else:
+            qp.init(P, c, A_eq, b_eq, None, None, None, lb, ub)
+            self._P[:] = P
+            self._initialized = True
+        qp.solve()
+        info = qp.results.info
+        found = info.status == self._proxqp.QPSolverOutput.PROXQP_SOLVED
+        x = np.array(qp.results.x)
+        return x, bool(found), str(info.status), int(info.iter)
+
+
+class _Osqp(DirectBackend):
+    """OSQP's own ``OSQP`` object: set up once on the dense pattern, updated per step.
+
+    Rows of its constraint matrix: the task rows (equalities, ``l = u = b``), then the
+    identity for the bounds. Its cost matrix is the upper triangle of ``P``.
+    """
+
+    def __init__(self, backend: str, n: int, m: int) -> None:
+        import osqp
+
+        super().__init__(backend, n, m)
+        self._osqp = osqp
+        self._solver: Any = None
+        rows, cols = np.triu_indices(n)
+        order = np.lexsort((rows, cols))  # CSC: column by column, rows ascending
+        self._p_rows, self._p_cols = rows[order], cols[order]
+        self._p_indptr = np.concatenate([[0], np.cumsum(np.arange(1, n + 1))])
+        self._a_data = np.empty((n, m + 1))
+        self._a_data[:, m] = 1.0
+        self._a_indices = np.concatenate([np.append(np.arange(m), m + j) for j in range(n)])
+        self._a_indptr = np.arange(0, n * (m + 1) + 1, m + 1)
+        self._l = np.empty(m + n)
+        self._u = np.empty(m + n)
+        self._zeros_x = np.zeros(n)
+        self._zeros_y = np.zeros(m + n)
+
+    def _solve(
+        self,
+        P: FloatArray,
+        c: FloatArray,
+        A: FloatArray,
+        b: FloatArray,
+        lb: FloatArray,
+        ub: FloatArray,
+        warm: bool,
+    ) -> DirectAnswer:
+        n, m = self.n, self.m
+        Px = P[self._p_rows, self._p_cols]
+        if m:
+            self._a_data[:, :m] = A.T
+        Ax = self._a_data.ravel()
+        if m:
+            self._l[:m] = b
+            self._u[:m] = b
+        self._l[m:] = lb
+        self._u[m:] = ub
+        if self._solver is None:
+            solver = self._osqp.OSQP()
+            solver.setup(
+                spa.csc_matrix((Px, self._p_rows, self._p_indptr), shape=(n, n)),
+                c,
+                spa.csc_matrix((Ax, self._a_indices, self._a_indptr), shape=(m + n, n)),
+                self._l,
+                self._u,
+                verbose=False,
+                **BACKEND_OPTIONS["osqp"],
+            )
+            self._solver = solver
+        else:
+            self._solver.update(Px=Px, Ax=Ax, q=c, l=self._l, u=self._u)
+            if not warm:
+                self._solver.warm_start(x=self._zeros_x, y=self._zeros_y)
+        result = self._solver.solve(raise_error=False)
+        status = str(result.info.status)
+        x = None if result.x is None else np.asarray(result.x, dtype=np.float64)
+        found = result.info.status_val == 1 and x is not None
+        return x, bool(found), status, int(result.info.iter)
+
+
+#: Backends called through their own API (the others through ``qpsolvers``): measured in
+#: ``benchmarks/bench_programs.py``.
+_OWN_API: Final[dict[str, type[DirectBackend]]] = {
+    "daqp": _Daqp,
+    "proxqp": _Proxqp,
+    "osqp": _Osqp,
+}
+
+_local = threading.local()
+
+
+def direct_backend(backend: str, n: int, m: int) -> DirectBackend:
+    """The calling thread's direct backend for programs of ``n`` joints and ``m`` rows."""
+    cache: dict[tuple[str, int, int], DirectBackend] | None = getattr(_local, "solvers", None)
+    if cache is None:
+        cache = _local.solvers = {}
+    key = (backend, n, m)
+    solver = cache.get(key)
+    if solver is None:
+        solver = cache[key] = _OWN_API.get(backend, DirectBackend)(backend, n, m)
+    return solver
+
+
 def solve_program(
     program: DiffIKProgram,
     backend: str,
@@ -111,6 +482,10 @@ def solve_program(
     options: dict[str, Any] | None = None,
 ) -> QPSolution:
     """Solve a step program with a ``qpsolvers`` backend; never raises for a backend failure.
+
+    Without ``options`` and ``initvals`` the backend's direct path runs
+    (:func:`direct_backend`: its own API for daqp, ProxQP and OSQP), the one
+    :func:`optik.diff_ik` uses; otherwise ``qpsolvers.solve_problem``.
 
     Args:
         program: the program (see :func:`optik.programs.diff_qp.build_program`).
@@ -122,12 +497,27 @@ def solve_program(
         The backend's answer and claim, unchecked: a :class:`QPSolution` whose ``found`` is
         False (and ``status`` holds the exception text) if the backend raised.
     """
-    kwargs = dict(BACKEND_OPTIONS.get(backend, {}))
-    if options:
-        kwargs.update(options)
     name = f"qp:{backend}"
     if not program.bounds_consistent:
         return QPSolution(None, False, "inconsistent bounds (lower > upper)", name)
+    if options is None and initvals is None:
+        eq = program.equilibrated()
+        n = program.dof
+        m = 0 if eq.A is None else program.task_dim
+        x, found, status, iterations = direct_backend(backend, n, m).solve(
+            eq.P,
+            eq.c,
+            np.zeros((0, n)) if eq.A is None else eq.A,
+            np.zeros(0) if eq.b is None else eq.b,
+            np.full(n, -np.inf) if eq.lb is None else eq.lb,
+            np.full(n, np.inf) if eq.ub is None else eq.ub,
+        )
+        return QPSolution(
+            None if x is None else x / eq.scale, bool(found), status or "", name, iterations
+        )
+    kwargs = dict(BACKEND_OPTIONS.get(backend, {}))
+    if options:
+        kwargs.update(options)
     try:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
@@ -198,15 +588,37 @@ class QPStepSolver(IKSolver):
         self.name = f"qp:{backend}"
 
     def solve(self, query: IKQuery, q0: FloatArray, max_iter: int, deadline: float) -> SolverOutput:
-        """Refine ``q0`` towards ``query.target`` (see the class docstring for the program)."""
+        """Refine ``q0`` towards ``query.target`` (see the class docstring for the program).
+
+        Each iteration is one compiled fill of the step program
+        (:class:`~optik.programs.step_arrays.StepArrays`), one call of the backend's own
+        API (:func:`direct_backend`), warm-started from the previous step's answer (DAQP's
+        active set, ProxQP's and OSQP's primal-dual point), and one compiled evaluation
+        of the step (:func:`~optik.programs.step_arrays.take_step`).
+        """
         robot = query.robot
+        n = robot.dof
+        position_only = query.mode == "position"
+        rows = POSITION_ROWS if position_only else ALL_ROWS
+        arrays = step_arrays(robot, rows, "least_squares")
+        backend = direct_backend(self.backend, n, 0)
+        target = np.ascontiguousarray(query.target, dtype=np.float64)
+        task = query.spec.packed
+        tol = query.tol
         q = np.clip(np.asarray(q0, dtype=np.float64), robot.lower, robot.upper)
-        T = robot.fk(q)
-        e = query.error_vector(T)
+        q_new = np.empty(n)
+        e = np.zeros(6)
+        e_new = np.zeros(6)
+        scratch = np.empty((3, 4))
+        vmax = np.empty(n)
+        no_rows, no_b = arrays.A_eq, arrays.b_eq
+        # The error at q0: a zero step from q0 (the program's q is q0, its bounds contain 0).
+        arrays.fill(q, e, 1.0)
+        err2, _, _ = arrays.take(np.zeros(n), target, task, q, e, scratch)
         lam = self.initial_damping
         iterations = 0
         while True:
-            if _converged(e, query.tol):
+            if _within(e, position_only, tol):
                 return SolverOutput(q, iterations, True, "converged")
             if iterations >= max_iter:
                 return SolverOutput(q, iterations, False, "max_iter")
@@ -216,32 +628,25 @@ class QPStepSolver(IKSolver):
                 return SolverOutput(
                     q, iterations, False, "stalled: no descent step (local minimum or limit)"
                 )
-            rows = None if query.mode == "pose" else (0, 1, 2)
-            radius = min(self.trust_radius, self.trust_ratio * float(np.linalg.norm(e)))
-            try:
-                program = build_program(
-                    robot,
-                    q,
-                    e,
-                    objective="least_squares",
-                    damping=lam,
-                    velocity_limits=np.full(robot.dof, radius),
-                    dt=1.0,
-                    rows=rows,
-                )
-            except Exception as exc:  # report, never raise from a backend run
-                return SolverOutput(q, iterations, False, f"{type(exc).__name__}: {exc}", True)
-            result = solve_program(program, self.backend)
-            iterations += 1
-            if result.x is None or not np.all(np.isfinite(result.x)):
+            vmax.fill(min(self.trust_radius, self.trust_ratio * math.sqrt(err2)))
+            code = arrays.fill(q, e, 1.0, velocity_limits=vmax, damping=lam)
+            if code != FILL_OK:
                 return SolverOutput(
-                    q, iterations, False, f"{self.name} failed: {result.status}", True
+                    q, iterations, False, f"step program rejected (code {code})", True
                 )
-            dq = program.clip(result.x)
-            q_new = np.clip(q + dq, robot.lower, robot.upper)
-            e_new = query.error_vector(robot.fk(q_new))
-            if float(e_new @ e_new) < float(e @ e):
-                q, e = q_new, e_new
+            x, _, status, _ = backend.solve(
+                arrays.Ps, arrays.cs, no_rows, no_b, arrays.lbs, arrays.ubs, iterations > 0
+            )
+            iterations += 1
+            if x is None:
+                return SolverOutput(q, iterations, False, f"{self.name} failed: {status}", True)
+            new_err2, _, _ = arrays.take(x, target, task, q_new, e_new, scratch)
+            if not math.isfinite(new_err2):
+                return SolverOutput(q, iterations, False, f"{self.name} failed: {status}", True)
+            if new_err2 < err2:
+                q, q_new = q_new, q
+                e, e_new = e_new, e
+                err2 = new_err2
                 lam = max(lam / 3.0, self.min_damping)
             else:
                 lam *= 10.0
@@ -258,12 +663,17 @@ class QPStepBackend(StepBackend):
         """The backend's answer and claim, unchecked; never raises for a backend failure."""
         return solve_program(program, self.backend, initvals)
 
+    def direct(self, n: int, m: int) -> DirectBackend:
+        """The calling thread's direct backend for ``n`` joints and ``m`` equality rows."""
+        return direct_backend(self.backend, n, m)
 
-def _converged(e: FloatArray, tol: float) -> bool:
-    """Position (m) and orientation (rad) errors both within ``tol``."""
-    if float(np.linalg.norm(e[:3])) > tol:
+
+def _within(e: FloatArray, position_only: bool, tol: float) -> bool:
+    """Position (m) and orientation (rad) parts of the residual ``e`` (6,) within ``tol``."""
+    x, y, z, a, b, c = e.tolist()
+    if math.sqrt(x * x + y * y + z * z) > tol:
         return False
-    return e.shape[0] == 3 or float(np.linalg.norm(e[3:])) <= tol
+    return position_only or math.sqrt(a * a + b * b + c * c) <= tol
 
 
 def _register_all() -> None:

@@ -1,0 +1,673 @@
+"""One differential-IK step program in preallocated arrays, filled by compiled code.
+
+The same programs as :mod:`optik.programs.diff_qp` (unit weights ``W = I``, ``Wt = I``),
+without building a ``qpsolvers.Problem`` per step: :class:`StepArrays` holds every array
+of one robot and task shape (task rows, objective), and :func:`fill_step` fills them in
+one compiled call from ``q`` and the twist. It validates ``q`` and the twist on the way
+(finite, within the limits up to a tolerance, lengths bounded) and returns a code;
+callers that get a nonzero code run the Python validators, which raise the error that
+names the argument. :func:`check_step` is the cheap verification of a backend's point:
+finite, inside the bounds, ``J dq = v`` (least norm) and KKT stationarity with
+multipliers fitted here on the free joints (least squares on ``J_F^T y = -g_F``, then the
+bound multipliers from the residual, with their signs enforced). A point it accepts
+satisfies the KKT conditions of the convex program, so it is the minimizer; a point it
+rejects goes to the full proof (:meth:`DiffIKProgram.kkt`, sign-constrained multipliers
+fitted by BVLS over every unknown).
+
+Arrays (``n`` joints, ``m`` task rows), written by :func:`fill_step`:
+
+* ``q`` (n,): the configuration, clipped onto the limits; ``T`` (4, 4), ``J`` (m, n),
+  ``v`` (m,) = ``twist[rows] * dt``;
+* ``lb``, ``ub`` (n,): the step bounds (``-inf``/``inf`` where unbounded);
+* ``P`` (n, n), ``c`` (n,): the cost (least norm: ``I`` and 0; least squares:
+  ``J^T J + lambda^2 I`` and ``-J^T v``);
+* the equilibrated copies for the backend (:meth:`DiffIKProgram.equilibrated`): ``Ps =
+  P / p``, ``cs = c s / p``, ``bs = v s``, ``lbs = lb s``, ``ubs = ub s`` with ``p = max
+  |P|`` and ``s = 1 / ||v||_inf`` (``scale = [p, s]``); the step is ``x / s``.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+from typing import Any, Final
+
+import numba as nb
+import numpy as np
+import qpsolvers
+
+from optik import _kernels
+from optik._checks import MAX_LENGTH_M, FloatArray
+from optik.limits import Q_CLIP_TOLERANCE
+from optik.model import Robot
+from optik.programs.diff_qp import DiffIKProgram, Objective
+from optik.task import task_error
+
+__all__ = [
+    "FILL_BAD_Q",
+    "FILL_BAD_TWIST",
+    "FILL_INCONSISTENT",
+    "FILL_OK",
+    "FILL_Q_OUTSIDE",
+    "FILL_STEP_TOO_LONG",
+    "StepArrays",
+    "check_step",
+    "fill_step",
+    "step_arrays",
+    "take_step",
+]
+
+#: :func:`fill_step` codes.
+FILL_OK: Final[int] = 0
+FILL_BAD_Q: Final[int] = 1
+FILL_Q_OUTSIDE: Final[int] = 2
+FILL_BAD_TWIST: Final[int] = 3
+FILL_STEP_TOO_LONG: Final[int] = 4
+FILL_INCONSISTENT: Final[int] = 5
+
+#: :func:`check_step` codes: accepted; not finite; bounds; ``J dq = v``; KKT.
+CHECK_OK: Final[int] = 0
+CHECK_NOT_FINITE: Final[int] = 1
+CHECK_BOUNDS: Final[int] = 2
+CHECK_TASK: Final[int] = 3
+CHECK_KKT: Final[int] = 4
+
+# Every array of a StepArrays lives in one float64 buffer, at the offsets of a layout
+# array indexed by these slots: a compiled call then takes two arrays instead of twenty
+# (numba's dispatcher spends about 0.25 µs per array argument and 0.4 µs per entry of a
+# tuple of arrays, more than the arithmetic of one step).
+# The scaled bounds and task right-hand side are stacked, lower bounds then ``bs`` and
+# upper bounds then ``bs`` again, so that a backend taking ``[bounds; rows]`` (DAQP) gets
+# them as two views without a copy.
+_Q, _THETA, _T, _J6, _WORK, _J, _V, _LB, _UB, _P, _C = range(11)
+_PS, _CS, _LBS, _BS, _UBS, _BS2, _SCALE, _DQ, _G, _R, _MA, _MB, _Y = range(11, 24)
+_SLOTS = 24
+# Constants, in a second float buffer: the chain transforms K, the coupling C, the limits;
+# and in an int buffer: the joint kinds (1 = prismatic) then the task rows.
+_K, _CC, _LO, _HI = range(4)
+# Entry of Task.packed saying 2.0 for a position task with unit weights (optik.task).
+_TASK_FAST = 10
+
+_jit = nb.njit(cache=True, nogil=True, error_model="numpy")
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _vec(buf: np.ndarray, layout: np.ndarray, slot: int) -> np.ndarray:
+    return buf[layout[slot] : layout[slot + 1]]
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _mat(buf: np.ndarray, layout: np.ndarray, slot: int, rows: int) -> np.ndarray:
+    flat = buf[layout[slot] : layout[slot + 1]]
+    return flat.reshape((rows, flat.shape[0] // rows))
+
+
+@_jit
+def fill_step(
+    const: np.ndarray,
+    const_layout: np.ndarray,
+    ints: np.ndarray,
+    q_in: np.ndarray,
+    twist: np.ndarray,
+    vmax: np.ndarray,
+    buf: np.ndarray,
+    layout: np.ndarray,
+    dt: float,
+    limits: bool,
+    clip_tol: float,
+    max_length: float,
+    gain: float,
+    use_vmax: bool,
+    least_squares: bool,
+    lam: float,
+    identity: bool,
+) -> int:
+    """Fill the program arrays of a :class:`StepArrays` (see the module); return a code.
+
+    Codes: :data:`FILL_OK`; :data:`FILL_BAD_Q` (``q`` not finite or beyond
+    ``max_length``); :data:`FILL_Q_OUTSIDE` (with ``limits``, a joint beyond its limits
+    by more than ``clip_tol``); :data:`FILL_BAD_TWIST` (not finite);
+    :data:`FILL_STEP_TOO_LONG` (an entry of ``twist * dt`` beyond ``max_length``);
+    :data:`FILL_INCONSISTENT` (a lower step bound above the upper one; every array is
+    filled).
+    """
+    n = q_in.shape[0]
+    lower = _vec(const, const_layout, _LO)
+    upper = _vec(const, const_layout, _HI)
+    nc = (const_layout[_CC + 1] - const_layout[_CC]) // n
+    K = _vec(const, const_layout, _K).reshape((nc + 1, 4, 4))
+    C = _mat(const, const_layout, _CC, nc)
+    prismatic = ints[:nc]
+    rows = ints[nc:]
+    m = rows.shape[0]
+    q = _vec(buf, layout, _Q)
+    theta = _vec(buf, layout, _THETA)
+    T = _mat(buf, layout, _T, 4)
+    J6 = _mat(buf, layout, _J6, 6)
+    work = _mat(buf, layout, _WORK, nc)
+    J = _mat(buf, layout, _J, m) if m > 0 else _mat(buf, layout, _J, 1)
+    v = _vec(buf, layout, _V)
+    lb = _vec(buf, layout, _LB)
+    ub = _vec(buf, layout, _UB)
+    P = _mat(buf, layout, _P, n)
+    c = _vec(buf, layout, _C)
+    Ps = _mat(buf, layout, _PS, n)
+    cs = _vec(buf, layout, _CS)
+    bs = _vec(buf, layout, _BS)
+    bs2 = _vec(buf, layout, _BS2)
+    lbs = _vec(buf, layout, _LBS)
+    ubs = _vec(buf, layout, _UBS)
+    scale = _vec(buf, layout, _SCALE)
+    for i in range(n):
+        x = q_in[i]
+        if not math.isfinite(x) or abs(x) > max_length:
+            return FILL_BAD_Q
+        if limits:
+            lo = lower[i]
+            hi = upper[i]
+            if not (lo <= x <= hi):
+                if not (lo - clip_tol <= x <= hi + clip_tol):
+                    return FILL_Q_OUTSIDE
+                x = min(max(x, lo), hi)
+        q[i] = x
+    for k in range(6):
+        if not math.isfinite(twist[k]):
+            return FILL_BAD_TWIST
+        if not abs(twist[k] * dt) <= max_length:
+            return FILL_STEP_TOO_LONG
+    if identity:
+        for j in range(nc):
+            theta[j] = q[j]
+    else:
+        for j in range(nc):
+            acc = 0.0
+            for i in range(n):
+                acc += C[j, i] * q[i]
+            theta[j] = acc
+    _kernels.fk_jacobian_work(K, prismatic, theta, T, J6, work)
+    vabs = 0.0
+    for r in range(m):
+        row = rows[r]
+        v[r] = twist[row] * dt
+        vabs = max(vabs, abs(v[r]))
+        if identity:
+            for i in range(n):
+                J[r, i] = J6[row, i]
+        else:
+            for i in range(n):
+                acc = 0.0
+                for j in range(nc):
+                    acc += J6[row, j] * C[j, i]
+                J[r, i] = acc
+    consistent = True
+    for i in range(n):
+        lo = -np.inf
+        hi = np.inf
+        if limits:
+            if math.isfinite(lower[i]):
+                lo = gain * (lower[i] - q[i])
+            if math.isfinite(upper[i]):
+                hi = gain * (upper[i] - q[i])
+        if use_vmax:
+            reach = vmax[i] * dt
+            lo = max(lo, -reach)
+            hi = min(hi, reach)
+        lb[i] = lo
+        ub[i] = hi
+        if not lo <= hi:
+            consistent = False
+    pmax = 0.0
+    for i in range(n):
+        if least_squares:
+            acc = 0.0
+            for r in range(m):
+                acc -= J[r, i] * v[r]
+            c[i] = acc
+            for j in range(i, n):
+                acc = 0.0
+                for r in range(m):
+                    acc += J[r, i] * J[r, j]
+                if i == j:
+                    acc += lam * lam
+                P[i, j] = acc
+                P[j, i] = acc
+                pmax = max(pmax, abs(acc))
+        else:
+            c[i] = 0.0
+            for j in range(n):
+                P[i, j] = 1.0 if i == j else 0.0
+            pmax = 1.0
+    p = pmax if pmax > 0.0 else 1.0
+    s = 1.0 / vabs if vabs > 0.0 else 1.0
+    scale[0] = p
+    scale[1] = s
+    for i in range(n):
+        for j in range(n):
+            Ps[i, j] = P[i, j] / p
+        cs[i] = c[i] * (s / p)
+        lbs[i] = lb[i] * s
+        ubs[i] = ub[i] * s
+    for r in range(m):
+        bs[r] = v[r] * s
+        bs2[r] = bs[r]
+    return FILL_OK if consistent else FILL_INCONSISTENT
+
+
+@_jit
+def _householder_lstsq(A: np.ndarray, b: np.ndarray, y: np.ndarray) -> bool:
+    """``y = argmin ||A y - b||`` for ``A`` (f, m), ``f >= m``, by Householder QR.
+
+    ``A`` and ``b`` are overwritten. Returns False on a zero column (rank deficiency
+    found; the caller then takes the full proof).
+    """
+    f, m = A.shape
+    for k in range(m):
+        norm = 0.0
+        for i in range(k, f):
+            norm += A[i, k] * A[i, k]
+        norm = math.sqrt(norm)
+        if norm == 0.0:
+            return False
+        alpha = -norm if A[k, k] >= 0.0 else norm
+        A[k, k] -= alpha
+        vnorm2 = 0.0
+        for i in range(k, f):
+            vnorm2 += A[i, k] * A[i, k]
+        if vnorm2 > 0.0:
+            for j in range(k + 1, m):
+                dot = 0.0
+                for i in range(k, f):
+                    dot += A[i, k] * A[i, j]
+                factor = 2.0 * dot / vnorm2
+                for i in range(k, f):
+                    A[i, j] -= factor * A[i, k]
+            dot = 0.0
+            for i in range(k, f):
+                dot += A[i, k] * b[i]
+            factor = 2.0 * dot / vnorm2
+            for i in range(k, f):
+                b[i] -= factor * A[i, k]
+        A[k, k] = alpha
+    for k in range(m - 1, -1, -1):
+        acc = b[k]
+        for j in range(k + 1, m):
+            acc -= A[k, j] * y[j]
+        y[k] = acc / A[k, k]
+    return True
+
+
+@_jit
+def check_step(
+    x: np.ndarray,
+    buf: np.ndarray,
+    layout: np.ndarray,
+    m: int,
+    least_squares: bool,
+    feas_rtol: float,
+    feas_atol: float,
+    kkt_rtol: float,
+) -> tuple[int, float]:
+    """Cheap verification of a backend's point ``x`` (equilibrated: ``dq = x / s``).
+
+    Fills ``dq`` with the point clipped onto the bounds and returns ``(code, value)``:
+    :data:`CHECK_OK` (accepted, value = stationarity residual), :data:`CHECK_NOT_FINITE`,
+    :data:`CHECK_BOUNDS` (value = violation), :data:`CHECK_TASK` (value = ``|J dq -
+    v|_inf``), :data:`CHECK_KKT` (value = the residual with the multipliers fitted here:
+    not a proof of non-optimality, the full proof decides). Tolerances as in
+    :func:`optik.diffik.verify_step`.
+    """
+    dq = _vec(buf, layout, _DQ)
+    n = dq.shape[0]
+    J = _mat(buf, layout, _J, m) if m > 0 else _mat(buf, layout, _J, 1)
+    v = _vec(buf, layout, _V)
+    lb = _vec(buf, layout, _LB)
+    ub = _vec(buf, layout, _UB)
+    P = _mat(buf, layout, _P, n)
+    c = _vec(buf, layout, _C)
+    g = _vec(buf, layout, _G)
+    r_vec = _vec(buf, layout, _R)
+    s = _vec(buf, layout, _SCALE)[1]
+    if x.shape[0] != n:
+        return CHECK_NOT_FINITE, np.nan
+    vabs = 0.0
+    for r in range(m):
+        vabs = max(vabs, abs(v[r]))
+    tol = feas_rtol * vabs + feas_atol
+    violation = 0.0
+    for i in range(n):
+        xi = x[i] / s
+        if not math.isfinite(xi):
+            return CHECK_NOT_FINITE, np.nan
+        violation = max(violation, lb[i] - xi, xi - ub[i])
+        dq[i] = min(max(xi, lb[i]), ub[i])
+    if violation > tol:
+        return CHECK_BOUNDS, violation
+    jmax = 0.0
+    if not least_squares:
+        residual = 0.0
+        for r in range(m):
+            acc = -v[r]
+            for i in range(n):
+                acc += J[r, i] * dq[i]
+                jmax = max(jmax, abs(J[r, i]))
+            residual = max(residual, abs(acc))
+        if residual > tol:
+            return CHECK_TASK, residual
+    pmax = 0.0
+    cmax = 0.0
+    dmax = 0.0
+    free = 0
+    for i in range(n):
+        acc = c[i]
+        for j in range(n):
+            acc += P[i, j] * dq[j]
+            pmax = max(pmax, abs(P[i, j]))
+        g[i] = acc
+        r_vec[i] = acc
+        cmax = max(cmax, abs(c[i]))
+        dmax = max(dmax, abs(dq[i]))
+        if not _active(lb[i], ub[i], dq[i], tol) > 0:
+            free += 1
+    if not least_squares and m > 0:
+        if free < m:
+            return CHECK_KKT, np.nan  # the multipliers are not fitted here: full proof
+        # y minimizing ||g_F + J_F^T y||: the multipliers of J dq = v on the free joints.
+        A = _vec(buf, layout, _MA)[: free * m].reshape((free, m))
+        b = _vec(buf, layout, _MB)[:free]
+        y = _vec(buf, layout, _Y)
+        k = 0
+        for i in range(n):
+            if _active(lb[i], ub[i], dq[i], tol) == 0:
+                for r in range(m):
+                    A[k, r] = J[r, i]
+                b[k] = -g[i]
+                k += 1
+        if not _householder_lstsq(A, b, y):
+            return CHECK_KKT, np.nan
+        for i in range(n):
+            acc = g[i]
+            for r in range(m):
+                acc += J[r, i] * y[r]
+            r_vec[i] = acc
+    stationarity = 0.0
+    for i in range(n):
+        ri = r_vec[i]
+        # g + J^T y - z_lower + z_upper = 0 with z >= 0 on the active bounds only.
+        side = _active(lb[i], ub[i], dq[i], tol)
+        if side == 3:
+            res = 0.0
+        elif side == 1:
+            res = max(-ri, 0.0)
+        elif side == 2:
+            res = max(ri, 0.0)
+        else:
+            res = abs(ri)
+        stationarity = max(stationarity, res)
+    scale = pmax * dmax + cmax + (jmax * vabs if not least_squares else 0.0)
+    if stationarity > kkt_rtol * scale + feas_atol:
+        return CHECK_KKT, stationarity
+    return CHECK_OK, stationarity
+
+
+@_jit
+def take_step(
+    const: np.ndarray,
+    const_layout: np.ndarray,
+    ints: np.ndarray,
+    buf: np.ndarray,
+    layout: np.ndarray,
+    x: np.ndarray,
+    identity: bool,
+    target: np.ndarray,
+    task: np.ndarray,
+    q_new: np.ndarray,
+    e_new: np.ndarray,
+    scratch: np.ndarray,
+) -> tuple[float, float, float]:
+    """Apply a backend's point to the filled program and measure the task there.
+
+    ``dq = clip(x / s, lb, ub)``, ``q_new = clip(q + dq, lower, upper)``; ``e_new`` (6,)
+    the task residual at ``q_new`` (:func:`optik.task.task_error`, ``task`` packed;
+    ``scratch`` (3, 4)). Returns ``(||e_new||^2, position error, orientation error)``;
+    ``||e_new||^2`` is NaN when ``x`` is not finite. The norm is over ``e_new[:3]`` for a
+    position task, else over all six entries.
+    """
+    q = _vec(buf, layout, _Q)
+    n = q.shape[0]
+    lb = _vec(buf, layout, _LB)
+    ub = _vec(buf, layout, _UB)
+    s = _vec(buf, layout, _SCALE)[1]
+    lower = _vec(const, const_layout, _LO)
+    upper = _vec(const, const_layout, _HI)
+    nc = (const_layout[_CC + 1] - const_layout[_CC]) // n
+    K = _vec(const, const_layout, _K).reshape((nc + 1, 4, 4))
+    C = _mat(const, const_layout, _CC, nc)
+    prismatic = ints[:nc]
+    theta = _vec(buf, layout, _THETA)
+    T = _mat(buf, layout, _T, 4)
+    if x.shape[0] != n:
+        return np.nan, np.nan, np.nan
+    for i in range(n):
+        dq = x[i] / s
+        if not math.isfinite(dq):
+            return np.nan, np.nan, np.nan
+        dq = min(max(dq, lb[i]), ub[i])
+        q_new[i] = min(max(q[i] + dq, lower[i]), upper[i])
+    if identity:
+        for j in range(nc):
+            theta[j] = q_new[j]
+    else:
+        for j in range(nc):
+            acc = 0.0
+            for i in range(n):
+                acc += C[j, i] * q_new[i]
+            theta[j] = acc
+    _kernels.fk_into(K, prismatic, theta, T)
+    position, orientation = task_error(T, target, task, e_new, scratch)
+    size = 3 if task[_TASK_FAST] == 2.0 else 6
+    err2 = 0.0
+    for k in range(size):
+        err2 += e_new[k] * e_new[k]
+    return err2, position, orientation
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _active(lo: float, hi: float, x: float, tol: float) -> int:
+    """0 free, 1 at the lower bound, 2 at the upper one, 3 at both (within ``tol``)."""
+    side = 0
+    if math.isfinite(lo) and x - lo <= tol:
+        side = 1
+    if math.isfinite(hi) and hi - x <= tol:
+        side += 2
+    return side
+
+
+class StepArrays:
+    """The preallocated arrays of the step programs of one robot and task shape.
+
+    Built once per robot, task rows and objective (and reused, one per thread, by
+    :func:`optik.diff_ik` and the ``qp:<backend>`` IK loop); :meth:`fill` writes a new
+    program into them. The attributes are views of one buffer (see the module docstring
+    for their meaning); they are overwritten by the next :meth:`fill`.
+    """
+
+    def __init__(self, robot: Robot, rows: tuple[int, ...], objective: Objective) -> None:
+        chain = robot.chain
+        n = robot.dof
+        nc = chain.n
+        m = len(rows)
+        self.robot = robot
+        self.objective: Objective = objective
+        self.least_squares = objective == "least_squares"
+        self.rows = rows
+        self.dof = n
+        self.task_dim = m
+        self._identity = bool(chain.identity)
+        sizes = [0] * _SLOTS
+        shapes: dict[int, tuple[int, ...]] = {
+            _Q: (n,), _THETA: (nc,), _T: (4, 4), _J6: (6, nc), _WORK: (nc, 3), _J: (m, n),
+            _V: (m,), _LB: (n,), _UB: (n,), _P: (n, n), _C: (n,), _PS: (n, n), _CS: (n,),
+            _LBS: (n,), _BS: (m,), _UBS: (n,), _BS2: (m,), _SCALE: (2,), _DQ: (n,),
+            _G: (n,), _R: (n,), _MA: (n * m,), _MB: (n,), _Y: (m,),
+        }  # fmt: skip
+        for slot, shape in shapes.items():
+            sizes[slot] = int(np.prod(shape))
+        self._layout = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
+        self._buf = np.zeros(int(self._layout[-1]))
+        views = {
+            slot: self._buf[self._layout[slot] : self._layout[slot + 1]].reshape(shape)
+            for slot, shape in shapes.items()
+        }
+        self.q, self.T, self.J, self.v = views[_Q], views[_T], views[_J], views[_V]
+        self.lb, self.ub, self.P, self.c = views[_LB], views[_UB], views[_P], views[_C]
+        self.Ps, self.cs, self.bs = views[_PS], views[_CS], views[_BS]
+        self.lbs, self.ubs, self.scale, self.dq = (
+            views[_LBS],
+            views[_UBS],
+            views[_SCALE],
+            views[_DQ],
+        )
+        self.scale[:] = 1.0
+        #: ``[lbs; bs]`` and ``[ubs; bs]`` (n + m,): the bounds then the task rows.
+        self.lower_stack = self._buf[self._layout[_LBS] : self._layout[_BS + 1]]
+        self.upper_stack = self._buf[self._layout[_UBS] : self._layout[_BS2 + 1]]
+        const = [
+            np.ascontiguousarray(chain.K, dtype=np.float64).ravel(),
+            np.ascontiguousarray(chain.C, dtype=np.float64).ravel(),
+            np.asarray(chain.lower, dtype=np.float64),
+            np.asarray(chain.upper, dtype=np.float64),
+        ]
+        self._const = np.concatenate(const)
+        self._const_layout = np.concatenate([[0], np.cumsum([a.size for a in const])]).astype(
+            np.int64
+        )
+        self._ints = np.concatenate(
+            [np.asarray(chain.prismatic, dtype=np.int64), np.array(rows, dtype=np.int64)]
+        )
+        self._no_vmax = np.zeros(n)
+        self.damping = 0.0
+        #: The backend's equality rows and right-hand side: ``J`` and ``bs`` for least
+        #: norm, empty for least squares.
+        self.A_eq = np.zeros((0, n)) if self.least_squares else self.J
+        self.b_eq = np.zeros(0) if self.least_squares else self.bs
+
+    def fill(
+        self,
+        q: FloatArray,
+        twist: FloatArray,
+        dt: float,
+        *,
+        limits: bool = True,
+        limit_gain: float = 1.0,
+        velocity_limits: FloatArray | None = None,
+        damping: float = 0.0,
+    ) -> int:
+        """Fill the program at ``q`` (dof,) for ``twist`` (6,) over ``dt``; a ``FILL_*`` code.
+
+        Arguments are not validated here beyond what :func:`fill_step` checks: ``q`` and
+        ``twist`` float64 arrays of the right shapes, ``dt > 0``, ``limit_gain`` in
+        (0, 1], ``velocity_limits`` (dof,) ``>= 0`` or ``None``, ``damping >= 0``.
+        """
+        self.damping = damping if self.least_squares else 0.0
+        vmax = self._no_vmax if velocity_limits is None else velocity_limits
+        return int(
+            fill_step(
+                self._const,
+                self._const_layout,
+                self._ints,
+                q,
+                twist,
+                vmax,
+                self._buf,
+                self._layout,
+                dt,
+                limits,
+                Q_CLIP_TOLERANCE,
+                MAX_LENGTH_M,
+                limit_gain,
+                velocity_limits is not None,
+                self.least_squares,
+                self.damping,
+                self._identity,
+            )
+        )
+
+    def check(
+        self, x: FloatArray, feas_rtol: float, feas_atol: float, kkt_rtol: float
+    ) -> tuple[int, float]:
+        """:func:`check_step` of the backend's equilibrated point ``x``; fills :attr:`dq`."""
+        return check_step(
+            x,
+            self._buf,
+            self._layout,
+            self.task_dim,
+            self.least_squares,
+            feas_rtol,
+            feas_atol,
+            kkt_rtol,
+        )
+
+    def take(
+        self,
+        x: FloatArray,
+        target: FloatArray,
+        task: FloatArray,
+        q_new: FloatArray,
+        e_new: FloatArray,
+        scratch: FloatArray,
+    ) -> tuple[float, float, float]:
+        """:func:`take_step`: the point ``x`` applied at :attr:`q`, the task measured."""
+        return take_step(
+            self._const,
+            self._const_layout,
+            self._ints,
+            self._buf,
+            self._layout,
+            x,
+            self._identity,
+            target,
+            task,
+            q_new,
+            e_new,
+            scratch,
+        )
+
+    def program(self) -> DiffIKProgram:
+        """The filled program as a :class:`DiffIKProgram` (copies of the arrays)."""
+        n = self.dof
+        bounded = bool(np.any(np.isfinite(self.lb)) or np.any(np.isfinite(self.ub)))
+        lb = self.lb.copy() if bounded else None
+        ub = self.ub.copy() if bounded else None
+        if self.least_squares:
+            qp = qpsolvers.Problem(self.P.copy(), self.c.copy(), lb=lb, ub=ub)
+        else:
+            qp = qpsolvers.Problem(
+                self.P.copy(), self.c.copy(), A=self.J.copy(), b=self.v.copy(), lb=lb, ub=ub
+            )
+        return DiffIKProgram(
+            qp=qp,
+            objective=self.objective,
+            q=self.q.copy(),
+            J=self.J.copy(),
+            v=self.v.copy(),
+            rows=self.rows,
+            lower=self.lb.copy(),
+            upper=self.ub.copy(),
+            W=np.eye(n),
+            Wt=np.eye(self.task_dim),
+            damping=self.damping,
+        )
+
+
+def _per_robot(robot: Robot) -> dict[tuple[Any, ...], StepArrays]:
+    return {}
+
+
+def step_arrays(robot: Robot, rows: tuple[int, ...], objective: Objective) -> StepArrays:
+    """The calling thread's :class:`StepArrays` of this robot and task shape (cached)."""
+    per_robot = robot.cached(_per_robot)
+    key = (threading.get_ident(), rows, objective)
+    arrays = per_robot.get(key)
+    if arrays is None:
+        arrays = per_robot[key] = StepArrays(robot, rows, objective)
+    return arrays
