@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 import warnings
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any, Final
 
 import numpy as np
@@ -30,6 +31,7 @@ from optik.errors import (
 )
 from optik.limits import Q_CLIP_TOLERANCE
 from optik.model import Robot
+from optik.posture import check_joint_weights
 from optik.programs.diff_qp import (
     ALL_ROWS,
     DEFAULT_DAMPING,
@@ -40,12 +42,14 @@ from optik.programs.diff_qp import (
     QPSolution,
     _check_positive,
     _check_rows,
+    build_program,
     check_velocity_limits,
 )
 from optik.programs.step_arrays import CHECK_OK, FILL_INCONSISTENT, FILL_OK, step_arrays
 from optik.solvers import StepBackend, available_solvers, get_solver, registered_solvers
 
 __all__ = [
+    "DEFAULT_POSTURE_GAIN",
     "FEASIBILITY_ATOL",
     "FEASIBILITY_RTOL",
     "KKT_RTOL",
@@ -55,10 +59,15 @@ __all__ = [
     "verify_step",
 ]
 
-#: Relative tolerance (times ``||v||_inf``) on ``J dq = v`` and on the bounds.
+#: Relative tolerance (times ``||v||_inf``, or the posture offset's size when larger) on
+#: ``J dq = v`` and on the bounds.
 FEASIBILITY_RTOL: Final[float] = 1e-7
 #: Absolute floor of that tolerance (m, rad).
 FEASIBILITY_ATOL: Final[float] = 1e-12
+#: Default fraction of ``posture - q`` one :func:`diff_ik` step pulls towards: the gap to
+#: the posture shrinks by about 10 % per step along the task's null space (a time constant
+#: of about 10 steps), gentle enough not to fight the task's own motion.
+DEFAULT_POSTURE_GAIN: Final[float] = 0.1
 #: Relative tolerance on KKT stationarity (times the program's scale, see ``KKTReport``).
 KKT_RTOL: Final[float] = 1e-6
 
@@ -123,17 +132,21 @@ def _resolve(solver: Any) -> StepBackend:
 
 
 def _tolerance(program: DiffIKProgram) -> float:
-    return FEASIBILITY_RTOL * float(np.max(np.abs(program.v), initial=0.0)) + FEASIBILITY_ATOL
+    return FEASIBILITY_RTOL * program.magnitude + FEASIBILITY_ATOL
 
 
 def verify_step(program: DiffIKProgram, solution: QPSolution) -> tuple[FloatArray | None, str]:
     """Check a backend's answer independently; return ``(dq, "")`` or ``(None, reason)``.
 
-    The point must be finite; within :data:`FEASIBILITY_RTOL` ``||v||_inf`` (plus
-    :data:`FEASIBILITY_ATOL`) of the bounds, after which it is clipped onto them; satisfy
-    ``J dq = v`` to the same tolerance (least norm); and satisfy KKT stationarity with
-    sign-constrained multipliers fitted by optik to :data:`KKT_RTOL` times the program's
-    scale. The backend's own claim (``solution.found``) is not needed: a point that
+    The point must be finite; within :data:`FEASIBILITY_RTOL` times the program's
+    :attr:`~optik.programs.diff_qp.DiffIKProgram.magnitude` (``||v||_inf``, or the
+    posture offset's size when larger), plus :data:`FEASIBILITY_ATOL`, of the bounds,
+    after which it is clipped onto them; satisfy ``J dq = v`` to the same tolerance (least
+    norm); and satisfy KKT stationarity with sign-constrained multipliers fitted by optik
+    to :data:`KKT_RTOL` times the program's scale, the gradient taken from the stated
+    objective (weights, damping and the posture offset, ``c = -W d``:
+    :meth:`~optik.programs.diff_qp.DiffIKProgram.gradient`). The backend's own claim
+    (``solution.found``) is not needed: a point that
     passes every check is accepted.
     """
     x = solution.x
@@ -210,21 +223,41 @@ def diff_ik(
     limit_gain: float = 1.0,
     rows: Sequence[int] | None = None,
     kkt_proof: bool = False,
+    weights: Any = None,
+    joint_weights: Any = None,
+    posture: Any = None,
+    posture_gain: float = DEFAULT_POSTURE_GAIN,
 ) -> FloatArray:
     """Joint step ``dq`` (rad, m) that moves the tool by ``twist * dt``, inside the limits.
 
     With ``v = twist * dt`` and ``J`` the geometric Jacobian at ``q`` (world frame, tool
-    point; its ``rows`` when given), the step solves
+    point; its ``rows`` when given), ``W = diag(joint_weights)`` (default ``I``),
+    ``Wt = diag(weights)`` over the task rows (default ``I``) and the posture pull
+    ``d = posture_gain (posture - q)`` (default 0), the step solves
 
-    * ``objective="least_norm"``: ``min ||dq||^2  s.t.  J dq = v,  lb <= dq <= ub``;
-    * ``objective="least_squares"``: ``min ||J dq - v||^2 + lambda^2 ||dq||^2  s.t.
-      lb <= dq <= ub`` (``lambda`` = ``damping``, default
-      :data:`~optik.programs.diff_qp.DEFAULT_DAMPING` = 1e-3; without active bounds the
-      answer is ``(J^T J + lambda^2 I)^-1 J^T v``);
+    * ``objective="least_norm"``: ``min 1/2 ||dq - d||^2_W  s.t.  J dq = v,
+      lb <= dq <= ub``; without active bounds the answer is
+      ``d + W^-1 J^T (J W^-1 J^T)^-1 (v - J d)`` (``W^-1 J^T (J W^-1 J^T)^-1 v`` without a
+      posture, ``J^T (J J^T)^-1 v`` with unit weights too);
+    * ``objective="least_squares"``: ``min 1/2 ||J dq - v||^2_Wt + 1/2 lambda^2
+      ||dq - d||^2_W  s.t.  lb <= dq <= ub`` (``lambda`` = ``damping``, default
+      :data:`~optik.programs.diff_qp.DEFAULT_DAMPING` = 1e-3); without active bounds the
+      answer is ``(J^T Wt J + lambda^2 W)^-1 (J^T Wt v + lambda^2 W d)``
+      (``(J^T J + lambda^2 I)^-1 J^T v`` with the defaults);
 
     with ``lb = max(limit_gain (lower - q), -velocity_limits dt)`` and
     ``ub = min(limit_gain (upper - q), velocity_limits dt)``, so ``q + dq`` stays inside
     the limits.
+
+    In the least-norm step the task rows hold exactly whatever the weights: a positive
+    task weight does not change the answer (the equality leaves nothing to trade off), and
+    a zero weight frees that row (it is dropped, as if left out of ``rows``). The posture
+    moves the least-norm step only in the null space of ``J`` (``J dq = v`` still holds)
+    and, without active bounds, brings ``q + dq`` nearer ``posture`` in the ``W`` norm
+    whenever ``posture - q`` has a component in that null space. Without ``weights``,
+    ``joint_weights`` and ``posture`` the step takes the compiled fast path; with any of
+    them it builds the general program (:func:`~optik.programs.diff_qp.build_program`)
+    and verifies it the same way.
 
     Args:
         robot: the robot.
@@ -250,6 +283,17 @@ def diff_ik(
             with their signs by BVLS) on an answer the cheap check already accepted. By
             default it runs only when the cheap check (multipliers fitted on the free
             joints, :func:`optik.programs.step_arrays.check_step`) rejects the answer.
+        weights: (6,) >= 0 on the twist's rows ``[vx, vy, vz, wx, wy, wz]`` (world frame,
+            no unit). Least squares: ``Wt = diag`` of the task rows' weights. Least norm: a
+            zero weight drops that row; positive weights leave the answer unchanged. With
+            ``rows``, a positive weight on a row that ``rows`` leaves out is a conflict
+            (``OptikError``); zero weights on rows of ``rows`` free them.
+        joint_weights: (dof,) > 0, the joint weights ``W = diag(joint_weights)`` (no unit):
+            a heavier joint moves less.
+        posture: a reference configuration ``q_ref`` (dof,), rad or m, the step also pulls
+            towards (see above).
+        posture_gain: fraction in (0, 1] of ``posture - q`` one step pulls towards
+            (default :data:`DEFAULT_POSTURE_GAIN` = 0.1); used only with ``posture``.
 
     Returns:
         ``dq`` of shape (dof,), verified by optik: finite, inside the bounds, ``J dq = v``
@@ -268,7 +312,10 @@ def diff_ik(
         ArgumentError: an entry of ``twist * dt`` beyond
             :data:`~optik._checks.MAX_LENGTH_M` (1e9, m or rad).
         OptikError: a non-``Robot``; ``dt`` not a number > 0, ``limits`` not a bool,
-            ``limit_gain`` outside (0, 1], a bad ``damping``, ``objective`` or ``rows``.
+            ``limit_gain`` outside (0, 1], a bad ``damping``, ``objective`` or ``rows``;
+            ``weights`` not (6,) finite and >= 0, conflicting with ``rows``, or freeing
+            every least-norm row; ``joint_weights`` not (dof,) finite and > 0;
+            ``posture`` not (dof,) finite; ``posture_gain`` outside (0, 1].
     """
     if not isinstance(robot, Robot):
         raise OptikError(f"robot must be an optik.Robot, got {type(robot).__name__}")
@@ -283,6 +330,19 @@ def diff_ik(
         vmax = check_velocity_limits(velocity_limits, robot.dof)
     q_arr = q if _is_vector(q, robot.dof) else finite_array("q", q, (robot.dof,))
     twist_arr = twist if _is_vector(twist, 6) else finite_array("twist", twist, (6,))
+    if weights is not None or joint_weights is not None or posture is not None:
+        tasks = _task_options(robot, objective, picked, weights, joint_weights, posture)
+        gain_p = (
+            posture_gain
+            if type(posture_gain) is float and 0.0 < posture_gain <= 1.0
+            else _check_posture_gain(posture_gain)
+        )
+        return _general_step(
+            robot, backend, q_arr, twist_arr, step, objective, limits, vmax, lam, gain,
+            tasks, gain_p,
+        )  # fmt: skip
+    if not (type(posture_gain) is float and 0.0 < posture_gain <= 1.0):
+        _check_posture_gain(posture_gain)
     arrays = step_arrays(robot, picked, objective)
     code = arrays.fill(
         q_arr,
@@ -330,6 +390,110 @@ def diff_ik(
     if error is not None:
         raise error
     raise SolverError(label, f"{reason}; the program has a solution")
+
+
+@dataclass(frozen=True)
+class _Tasks:
+    """The validated task keywords of :func:`diff_ik`'s general path."""
+
+    rows: tuple[int, ...]  # the rows the program keeps
+    Wt: FloatArray | None  # (len(rows),) task weights, least squares only
+    W: FloatArray | None  # (dof,) joint weights
+    posture: FloatArray | None  # (dof,) q_ref
+
+
+def _task_options(
+    robot: Robot,
+    objective: str,
+    picked: tuple[int, ...],
+    weights: Any,
+    joint_weights: Any,
+    posture: Any,
+) -> _Tasks:
+    """Validate ``weights``, ``joint_weights`` and ``posture``; the rows they leave."""
+    rows = picked
+    Wt = None
+    if weights is not None:
+        w = finite_array("weights", weights, (6,))
+        if np.any(w < 0.0):
+            raise OptikError(f"weights must be >= 0, got {w.tolist()}")
+        dropped = [i for i in range(6) if i not in picked and w[i] > 0.0]
+        if dropped:
+            raise OptikError(
+                f"weights conflict with rows {picked}: rows {dropped} have positive weights "
+                "but rows leaves them out (give them weight 0, or add them to rows)"
+            )
+        if objective == "least_norm":
+            # The equality holds exactly: a positive weight changes nothing, zero frees.
+            rows = tuple(i for i in picked if w[i] > 0.0)
+            if not rows:
+                raise OptikError(
+                    "weights free every task row: a least-norm step needs at least one "
+                    "row with a positive weight"
+                )
+        else:
+            Wt = w[list(picked)].copy()
+    W = None if joint_weights is None else check_joint_weights(joint_weights, robot.dof)
+    q_ref = None if posture is None else finite_array("posture", posture, (robot.dof,)).copy()
+    return _Tasks(rows, Wt, W, q_ref)
+
+
+def _check_posture_gain(posture_gain: Any) -> float:
+    gain = _check_positive("posture_gain", posture_gain)
+    if gain > 1.0:
+        raise OptikError(f"posture_gain must lie in (0, 1], got {gain}")
+    return gain
+
+
+def _general_step(
+    robot: Robot,
+    backend: StepBackend,
+    q: FloatArray,
+    twist: FloatArray,
+    step: float,
+    objective: Objective,
+    limits: bool,
+    vmax: FloatArray | None,
+    lam: float,
+    gain: float,
+    tasks: _Tasks,
+    posture_gain: float,
+) -> FloatArray:
+    """The step with weights or a posture: the general program, the backend, the proof."""
+    # The compiled fill validates q and the twist as on the fast path and clips q.
+    arrays = step_arrays(robot, tasks.rows, objective)
+    code = arrays.fill(
+        q, twist, step, limits=limits, limit_gain=gain, velocity_limits=vmax, damping=lam
+    )
+    if code == FILL_INCONSISTENT:
+        raise _inconsistent(arrays.program())
+    if code != FILL_OK:
+        _raise_input_error(robot, q, twist, step, limits)
+    q_start = arrays.q.copy()
+    offset = None if tasks.posture is None else posture_gain * (tasks.posture - q_start)
+    program = build_program(
+        robot,
+        q_start,
+        twist * step,
+        objective=objective,
+        dt=step,
+        W=tasks.W,
+        Wt=tasks.Wt,
+        damping=None if objective == "least_norm" else lam,
+        limits=limits,
+        limit_gain=gain,
+        velocity_limits=vmax,
+        rows=tasks.rows,
+        offset=offset,
+    )
+    solution = backend.solve(program)
+    dq, reason = verify_step(program, solution)
+    if dq is not None:
+        return dq
+    error = _no_solution(program, backend.name)
+    if error is not None:
+        raise error
+    raise SolverError(backend.name, f"{reason}; the program has a solution")
 
 
 def _check_dt(dt: Any) -> float:

@@ -8,18 +8,25 @@ lb <= x <= ub``:
 
 * **least norm** (seed 000, eq. 50, with bounds)::
 
-      min  1/2 dq^T W dq    s.t.   J dq = v,   lb <= dq <= ub
+      min  1/2 (dq - d)^T W (dq - d)    s.t.   J dq = v,   lb <= dq <= ub
 
-  ``P = W`` (default ``I``), ``c = 0``, ``A = J``, ``b = v``. Without active bounds and
-  with ``W = I`` the answer is the closed form ``J^T (J J^T)^-1 v`` (eq. 48).
+  ``P = W`` (default ``I``), ``c = -W d``, ``A = J``, ``b = v``. Without active bounds the
+  answer is the closed form ``d + W^-1 J^T (J W^-1 J^T)^-1 (v - J d)``; with ``d = 0`` it
+  is ``W^-1 J^T (J W^-1 J^T)^-1 v``, and with ``W = I`` too ``J^T (J J^T)^-1 v`` (eq. 48).
 
 * **least squares** (seed 000, eq. 63, damped, with bounds)::
 
-      min  1/2 ||J dq - v||^2_Wt + 1/2 lambda^2 dq^T W dq    s.t.   lb <= dq <= ub
+      min  1/2 ||J dq - v||^2_Wt + 1/2 lambda^2 (dq - d)^T W (dq - d)    s.t.   lb <= dq <= ub
 
-  ``P = J^T Wt J + lambda^2 W``, ``c = -J^T Wt v``. Without active bounds the answer is
-  the damped closed form ``(J^T Wt J + lambda^2 W)^-1 J^T Wt v``; with ``lambda = 0`` and
-  ``J`` of full column rank, the least-squares answer ``(J^T J)^-1 J^T v`` (eq. 47).
+  ``P = J^T Wt J + lambda^2 W``, ``c = -J^T Wt v - lambda^2 W d``. Without active bounds
+  the answer is the damped closed form ``(J^T Wt J + lambda^2 W)^-1 (J^T Wt v +
+  lambda^2 W d)``; with ``lambda = 0`` and ``J`` of full column rank, the least-squares
+  answer ``(J^T J)^-1 J^T v`` (eq. 47).
+
+The offset ``d`` (dof,), rad or m, is the step the cost pulls towards (default 0):
+:func:`optik.diff_ik` sets ``d = posture_gain (q_ref - q)`` for a posture. In the least-norm
+program it moves the step only within the null space of ``J``: the task rows still hold
+exactly.
 
 The damping ``lambda`` (default :data:`DEFAULT_DAMPING` = 1e-3, in task units per joint
 unit: m/rad for linear rows) keeps ``P`` positive definite when ``J`` has fewer rows than
@@ -122,7 +129,8 @@ class QPSolution:
 class KKTReport:
     """Karush-Kuhn-Tucker conditions of a program at a point, multipliers fitted by optik.
 
-    With ``g = P x + c`` the stationarity condition is
+    With ``g`` the gradient of the objective (:meth:`DiffIKProgram.gradient`, equal to
+    ``P x + c``) the stationarity condition is
     ``g + A^T y - z_lower + z_upper = 0`` with ``z_lower, z_upper >= 0`` supported on the
     lower / upper active bounds. The multipliers are the nonnegative least-squares fit of
     that equation over the active set (``scipy.optimize.lsq_linear``), so their signs are
@@ -185,6 +193,7 @@ class DiffIKProgram:
         W: joint-space weight (dof, dof), symmetric positive definite.
         Wt: task-space weight (m, m), symmetric positive semidefinite (least squares).
         damping: ``lambda`` of the least-squares program (0 for least norm).
+        offset: the step ``d`` (dof,) the cost pulls towards, rad or m (``None``: 0).
     """
 
     qp: qpsolvers.Problem
@@ -198,6 +207,7 @@ class DiffIKProgram:
     W: FloatArray
     Wt: FloatArray
     damping: float
+    offset: FloatArray | None = None
     _cache: dict[str, float] = field(default_factory=dict, repr=False, compare=False)
 
     # ------------------------------------------------------------------ shape
@@ -222,6 +232,14 @@ class DiffIKProgram:
         return np.asarray(self.qp.q, dtype=np.float64)
 
     @property
+    def magnitude(self) -> float:
+        """The program's size, m or rad: ``max(||v||_inf, ||d||_inf)`` (the offset ``d``)."""
+        size = float(np.max(np.abs(self.v), initial=0.0))
+        if self.offset is not None:
+            size = max(size, float(np.max(np.abs(self.offset), initial=0.0)))
+        return size
+
+    @property
     def bounds_consistent(self) -> bool:
         """Whether ``lower <= upper`` for every joint (else no ``dq`` exists)."""
         return bool(np.all(self.lower <= self.upper))
@@ -230,14 +248,14 @@ class DiffIKProgram:
         """The program rescaled for a backend, whose tolerances are absolute.
 
         The minimizer does not change when the cost is divided by ``p = max |P|``, and it
-        scales with ``(v, lb, ub)``: the backend solves for ``x' = s dq`` with
-        ``s = 1 / ||v||_inf`` (1 when ``v = 0``), so its absolute tolerances act relative
+        scales with ``(v, d, lb, ub)``: the backend solves for ``x' = s dq`` with
+        ``s = 1 /`` :attr:`magnitude` (1 when it is 0), so its absolute tolerances act relative
         to the size of the task and of the cost.
         """
         qp = self.qp
         p = float(np.max(np.abs(qp.P)))
         p = p if p > 0.0 else 1.0
-        vmax = float(np.max(np.abs(self.v), initial=0.0))
+        vmax = self.magnitude
         s = 1.0 / vmax if vmax > 0.0 else 1.0
         return Equilibrated(
             P=qp.P / p,
@@ -250,6 +268,19 @@ class DiffIKProgram:
         )
 
     # ------------------------------------------------------------------ evaluation
+    def gradient(self, dq: FloatArray) -> FloatArray:
+        """Gradient of the stated objective at ``dq`` (dof,), from ``J, v, W, Wt, d``.
+
+        Least norm: ``W (dq - d)``; least squares: ``J^T Wt (J dq - v) + lambda^2 W
+        (dq - d)``. Computed from the program's data, not from ``qp.P`` and ``qp.q``, so a
+        check built on it also checks that the QP states the objective.
+        """
+        dev = dq if self.offset is None else dq - self.offset
+        g: FloatArray = self.W @ dev
+        if self.objective == "least_squares":
+            g = self.J.T @ (self.Wt @ (self.J @ dq - self.v)) + (self.damping**2) * g
+        return g
+
     def cost(self, dq: FloatArray) -> float:
         """Objective value ``1/2 dq^T P dq + c^T dq``."""
         return float(0.5 * dq @ self.P @ dq + self.c @ dq)
@@ -320,7 +351,7 @@ class DiffIKProgram:
         :class:`KKTReport` for the conditions and how the multipliers are found.
         """
         n = self.dof
-        g = self.P @ dq + self.c
+        g = self.gradient(dq)
         at_lower = np.isfinite(self.lower) & (dq - self.lower <= active_tol)
         at_upper = np.isfinite(self.upper) & (self.upper - dq <= active_tol)
         cols = []
@@ -522,6 +553,7 @@ def build_program(
     limit_gain: float = 1.0,
     velocity_limits: Any = None,
     rows: Sequence[int] | None = None,
+    offset: Any = None,
 ) -> DiffIKProgram:
     """Build the least-norm or least-squares step program at ``q`` (see the module doc).
 
@@ -543,12 +575,15 @@ def build_program(
         velocity_limits: joint speed limits (dof,), rad/s or m/s, ``inf`` allowed.
         rows: indices (0..5) of the Jacobian rows of the task (default: all six for a
             (6,) ``v``, the position rows for a (3,) ``v``).
+        offset: the step ``d`` (dof,), rad or m, the cost pulls towards (default 0): the
+            joint term becomes ``(dq - d)^T W (dq - d)``.
 
     Returns:
         The :class:`DiffIKProgram`; its ``qp`` is the ``qpsolvers.Problem``.
 
     Raises:
-        ShapeError: ``q``, ``v``, ``W``, ``Wt`` or ``velocity_limits`` has a wrong shape.
+        ShapeError: ``q``, ``v``, ``W``, ``Wt``, ``offset`` or ``velocity_limits`` has a
+            wrong shape.
         NonFiniteError: one of them holds NaN (or infinity where not allowed).
         OptikError: an unknown objective, ``limit_gain`` outside (0, 1], ``dt <= 0``,
             ``damping < 0`` or given for least norm, bad ``rows``, or weights that are not
@@ -567,6 +602,7 @@ def build_program(
     n, m = robot.dof, len(picked)
     W_mat = _check_weight("W", W, n, definite=True)
     Wt_mat = _check_weight("Wt", Wt, m, definite=False)
+    d = None if offset is None else finite_array("offset", offset, (n,)).copy()
     if objective == "least_norm":
         if damping is not None:
             raise OptikError("damping applies to the least_squares objective only")
@@ -587,13 +623,15 @@ def build_program(
     qp_lb = lb.copy() if bounded else None
     qp_ub = ub.copy() if bounded else None
     if objective == "least_norm":
-        qp = qpsolvers.Problem(
-            W_mat.copy(), np.zeros(n), A=J.copy(), b=v_arr.copy(), lb=qp_lb, ub=qp_ub
-        )
+        c = np.zeros(n) if d is None else -(W_mat @ d)
+        qp = qpsolvers.Problem(W_mat.copy(), c, A=J.copy(), b=v_arr.copy(), lb=qp_lb, ub=qp_ub)
     else:
         P = J.T @ Wt_mat @ J + lam * lam * W_mat
         P = 0.5 * (P + P.T)
-        qp = qpsolvers.Problem(P, -(J.T @ (Wt_mat @ v_arr)), lb=qp_lb, ub=qp_ub)
+        c = -(J.T @ (Wt_mat @ v_arr))
+        if d is not None:
+            c -= lam * lam * (W_mat @ d)
+        qp = qpsolvers.Problem(P, c, lb=qp_lb, ub=qp_ub)
     return DiffIKProgram(
         qp=qp,
         objective=objective,
@@ -606,6 +644,7 @@ def build_program(
         W=W_mat,
         Wt=Wt_mat,
         damping=lam,
+        offset=d,
     )
 
 
@@ -623,11 +662,12 @@ def build_qp(
     limit_gain: float = 1.0,
     velocity_limits: Any = None,
     rows: Sequence[int] | None = None,
+    offset: Any = None,
 ) -> qpsolvers.Problem:
     """The ``qpsolvers.Problem`` of one differential-IK step.
 
-    Least norm: ``min 1/2 dq^T W dq  s.t.  J dq = v,  lb <= dq <= ub``; least squares:
-    ``min 1/2 ||J dq - v||^2_Wt + 1/2 lambda^2 dq^T W dq  s.t.  lb <= dq <= ub``. Arguments,
+    Least norm: ``min 1/2 ||dq - d||^2_W  s.t.  J dq = v,  lb <= dq <= ub``; least squares:
+    ``min 1/2 ||J dq - v||^2_Wt + 1/2 lambda^2 ||dq - d||^2_W  s.t.  lb <= dq <= ub``. Arguments,
     raises and bounds as in :func:`build_program` (which also keeps ``J``, ``v`` and the
     bounds next to the problem).
     """
@@ -644,4 +684,5 @@ def build_qp(
         limit_gain=limit_gain,
         velocity_limits=velocity_limits,
         rows=rows,
+        offset=offset,
     ).qp
