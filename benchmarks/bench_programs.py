@@ -19,7 +19,8 @@ seeded random order, garbage collection off inside the timed loop:
    difference reported).
 2. **Full IK.** ``--targets`` joint vectors uniform inside the limits, their FK poses as
    targets (full pose, tol 1e-6 m and rad); ``solve_ik`` with ``dls``, ``qp:<backend>`` and
-   ``casadi:<plugin>``, and pink + daqp iterated to convergence (``_peers.Pink``). Success
+   ``casadi:<plugin>``, and pink + daqp iterated to convergence (``optik.peers.pink.PinkPeer``).
+   Success
    is decided here from FK and the limits. The first call of each method (compilation,
    code generation) is timed apart and reported as its first-call time.
 
@@ -41,7 +42,6 @@ import gc  # noqa: E402
 import math  # noqa: E402
 import shlex  # noqa: E402
 import sys  # noqa: E402
-import tempfile  # noqa: E402
 import time  # noqa: E402
 from collections.abc import Callable, Sequence  # noqa: E402
 from dataclasses import dataclass, field  # noqa: E402
@@ -53,7 +53,6 @@ from numpy.typing import NDArray  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-import _peers  # noqa: E402
 import _record  # noqa: E402
 import bench_ik  # noqa: E402
 
@@ -266,8 +265,10 @@ def pink_step_row(
     except ImportError as exc:
         notes.append(f"pink one step: not installed ({exc})")
         return None
-    path, _, tool, _ = _peers.urdf_for(key, robot, Path(tempfile.gettempdir()))
-    model = pin.buildModelFromUrdf(str(path))
+    from optik.peers._chain import TOOL_LINK, urdf_text
+
+    tool = TOOL_LINK
+    model = pin.buildModelFromXML(urdf_text(robot, "pink"))
     data = model.createData()
     limits = [ConfigurationLimit(model, config_limit_gain=0.5)]
     task = FrameTask(tool, position_cost=1.0, orientation_cost=1.0, gain=1.0)
@@ -307,10 +308,12 @@ def ik_rows(
             return res.q
 
         rows.append(Row(f"solve_ik {solver}", call))
-    peer = _peers.Pink("pink", "pink", "pin-pink", qp_solver="daqp", restarts=10, tol=TOL)
+    from optik.peers.pink import PinkPeer
+
+    peer = PinkPeer(tol=TOL, seed=args.seed, qp_solver="daqp", restarts=10)
     try:
         peer.load()
-        peer.prepare(args.robot, robot, Path(tempfile.gettempdir()), args.seed)
+        peer.prepare(robot)
     except Exception as exc:  # not installed, or cannot model the robot
         notes.append(f"pink full IK: {type(exc).__name__}: {exc}")
     else:
