@@ -71,6 +71,7 @@ if TYPE_CHECKING:
     from optik.model import DHJoint, Robot
 
 _jit = nb.njit(cache=True, nogil=True, error_model="numpy")
+_inline = nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
 
 SPHERICAL_WRIST = 1
 """Family id of :class:`optik.analytic.spherical_wrist.SphericalWrist`."""
@@ -599,7 +600,7 @@ def spherical_wrist_candidates(
     return n
 
 
-@_jit
+@_inline
 def _ur_wrist_origin(
     dh: np.ndarray, T16: Rows12, c5t: float, sn5t: float, c6t: float, sn6t: float
 ) -> tuple[float, float, float]:
@@ -650,7 +651,7 @@ def _ur_reachable_q6(dh: np.ndarray, T16: Rows12, c5t: float, sn5t: float, t6_re
     return best
 
 
-@_jit
+@_inline
 def _ur_elbow(
     dh: np.ndarray,
     T16: Rows12,
