@@ -40,6 +40,11 @@ class _CompileTimer(event.Listener):
             if self._depth == 0:
                 self.total += time.perf_counter() - self._started
 
+    def busy(self) -> bool:
+        """Whether a compilation is under way."""
+        with self._lock:
+            return self._depth > 0
+
     def seconds(self) -> float:
         """Compilation time so far (s), including a compilation under way."""
         with self._lock:
@@ -54,6 +59,11 @@ event.register("numba:compile", _TIMER)
 def compile_seconds() -> float:
     """Wall time (s) this process has spent in numba compilations since optik's import."""
     return _TIMER.seconds()
+
+
+def compiling() -> bool:
+    """Whether numba is compiling in this process now (any thread)."""
+    return _TIMER.busy()
 
 
 def budget_clock() -> float:

@@ -272,11 +272,21 @@ class Hang(Exception):
 def time_limit(seconds: float) -> Iterator[None]:
     """Interrupt the enclosed block with :class:`Hang` after ``seconds`` (SIGALRM).
 
-    Main thread only (as pytest runs tests, also under xdist); compiled code that holds
-    the interpreter is interrupted when it returns, so a hang there still fails.
+    The limit is on optik's budget clock (:func:`optik._clock.budget_clock`): time numba
+    spends compiling a kernel does not count, and an alarm during a compilation waits for
+    it to end (interrupting numba mid-compile leaves its dispatcher broken). Main thread
+    only (as pytest runs tests, also under xdist); compiled code that holds the
+    interpreter is interrupted when it returns, so a hang there still fails.
     """
+    from optik._clock import budget_clock, compiling
+
+    end = budget_clock() + seconds
 
     def on_alarm(signum: int, frame: Any) -> None:
+        left = end - budget_clock()
+        if compiling() or left > 0.0:
+            signal.setitimer(signal.ITIMER_REAL, max(left, 0.5))
+            return
         raise Hang(f"no answer within {seconds} s")
 
     previous = signal.signal(signal.SIGALRM, on_alarm)

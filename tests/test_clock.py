@@ -57,3 +57,29 @@ def test_a_timeout_does_not_count_compilation() -> None:
         assert res.time_s >= 2.4  # the wall time, compilation included, is still reported
     finally:
         unregister_solver("test:compiling")
+
+
+def test_compiling_is_true_exactly_while_numba_compiles() -> None:
+    import numba as nb
+    from numba.core import event
+
+    from optik._clock import compiling
+
+    seen: list[bool] = []
+
+    class Probe(event.Listener):
+        def on_start(self, ev: object) -> None:
+            seen.append(compiling())  # optik's listener, registered first, has started
+
+        def on_end(self, ev: object) -> None:
+            pass
+
+    probe = Probe()
+    event.register("numba:compile", probe)
+    try:
+        assert not compiling()
+        nb.njit(lambda x: x * 3 + 1)(2)  # a fresh function: always compiles
+    finally:
+        event.unregister("numba:compile", probe)
+    assert seen and all(seen)
+    assert not compiling()
