@@ -841,7 +841,8 @@ def solve_ik_batch(
     rows = np.flatnonzero(reachable)
     table = seed_table(robot)
     given = q_start.reshape(1, -1) if q0 is not None else np.empty((0, robot.dof))
-    K, prismatic, C, identity, lower, upper = robot.chain.kernel_args()
+    chain = robot.chain.kernel_args()
+    settings = (int(max_iter), DLSSolver.w_bias, int(restarts))
     previous_threads = numba.get_num_threads()
     try:
         for lo in range(0, len(rows), BATCH_SLICE):
@@ -851,11 +852,11 @@ def solve_ik_batch(
             if parallel:
                 numba.set_num_threads(threads)
             # Target k keeps the stream seed + k whatever slice it falls in.
+            targets_part = np.ascontiguousarray(poses[part])
+            seeds = part.astype(np.int64) + int(seed)
             Qp, it, u, _ = kernel(
-                K, prismatic, C, identity, lower, upper, np.ascontiguousarray(poses[part]),
-                task.packed, given, *table, int(max_iter), DLSSolver.w_bias,
-                int(restarts), part.astype(np.int64) + int(seed),
-            )  # fmt: skip
+                chain, (targets_part, task.packed, given, table.kernel_args(), settings, seeds)
+            )
             Q[part], iterations[part], used[part] = Qp, it, u
     finally:
         numba.set_num_threads(previous_threads)

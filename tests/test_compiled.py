@@ -81,8 +81,8 @@ def _attempt(
     scratch = workspace(robot.chain.n, robot.dof)
     task = make_task("pose" if pose else "position", tol=tol)
     it, ok, _, _ = lm_attempt(
-        *robot.chain.kernel_args(), target, task.packed, q, 100, DLSSolver.w_bias, window,
-        ratio, scratch,
+        robot.chain.kernel_args(), target, task.packed, q, 100, DLSSolver.w_bias, window, ratio,
+        scratch,
     )  # fmt: skip
     return it, ok
 
@@ -125,8 +125,8 @@ def test_first_attempts_use_the_quick_stall_rule() -> None:
         order = table_order(table.features, table.centroids, table.offsets, target, task.features)
         start = table.q[order[0]]
         _, total, ran, ok, _, _ = lm_solve_restarts(
-            *panda.chain.kernel_args(), target, task.packed, np.empty((0, panda.dof)), *table,
-            100, DLSSolver.w_bias, 0, 0, 0,
+            panda.chain.kernel_args(), target, task.packed, np.empty((0, panda.dof)),
+            table.kernel_args(), 100, DLSSolver.w_bias, 0, 0, 0,
         )  # fmt: skip
         quick = _attempt(panda, target, start, QUICK_WINDOW, QUICK_RATIO, 1e-6)
         patient = _attempt(panda, target, start, STALL_WINDOW, STALL_RATIO, 1e-6)
