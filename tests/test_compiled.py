@@ -154,3 +154,16 @@ def test_batch_solves_next_to_a_folded_elbow() -> None:
     target = planar.fk(np.array([-2.82293589, 3.14129826]))[:3, 3]
     result = solve_ik_batch(planar, target[None], mode="position", seed=3860)
     assert result.success[0] and result.position_error[0] <= 1e-6
+
+
+def test_target_layout_reuses_the_compiled_solver() -> None:
+    # The kernels are specialised on layout and writability: a Fortran-ordered, read-only
+    # target must reach them as the usual C-ordered array, not compile them again.
+    panda = load_problem("panda").robot
+    T = panda.fk(panda.mid_limits + 0.1)
+    assert optik.solve_ik(panda, T, solver="dls", restarts=1).success
+    compiled = len(lm_solve_restarts.signatures)
+    odd = np.asfortranarray(T)
+    odd.flags.writeable = False
+    assert optik.solve_ik(panda, odd, solver="dls", restarts=1).success
+    assert len(lm_solve_restarts.signatures) == compiled
