@@ -1,14 +1,7 @@
 """The ``optik`` command: shared argument types, robot and target options, exit codes.
 
-Exit codes: 0 success; 1 a well-formed query without an answer (``optik solve`` found no
-solution); 2 bad input (a usage error, and every :class:`~optik.errors.OptikError` raised
-by the input, printed as one ``optik: error: ...`` line); 3 an internal error (a bug: the
-traceback is printed).
-
-Units: SI everywhere, in files, arrays and options (m, rad, s); an option in another
-unit names it (``--rpy-deg``, ``--timeout-ms``), and every option's help states its unit
-or "no unit". Output prints every value with its unit (revolute joints in rad, with
-degrees alongside).
+The exit codes and the unit conventions of every command are stated once, in
+:mod:`optik.cli`; the constants and argument types here implement them.
 """
 
 from __future__ import annotations
