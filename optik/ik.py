@@ -516,10 +516,11 @@ def _plan(
     if not isinstance(solver, str):
         raise OptikError(f"solver must be a solver name (str), got {solver!r}")
     T_target = as_target_pose(target, "position" if task.mode == "position" else "pose")
-    # A fresh C-ordered copy: the compiled solvers are specialised on the array's layout
-    # and writability, so a caller's Fortran-ordered or read-only pose would compile them
-    # anew (seconds) rather than reuse the cached code.
-    T_target = np.array(T_target, dtype=np.float64, order="C")
+    flags = T_target.flags
+    if not (flags.c_contiguous and flags.writeable):
+        # The compiled solvers are specialised on layout and writability: a Fortran-ordered
+        # or read-only pose would compile them anew (seconds), a C-ordered copy does not.
+        T_target = np.array(T_target, dtype=np.float64, order="C")
     q_start = check_q0(robot, q0)
     bounds = _bounds(robot, frozen, limit_margin)
     numeric: IKSolver | None = None if solver == "auto" else get_solver(solver)
