@@ -92,11 +92,28 @@ def check_real(
             raise ArgumentError(name, raw, "a positive number")
         if nonnegative and not number >= 0:
             raise ArgumentError(name, raw, "a number >= 0")
-        if minimum is not None and number < minimum:
-            raise ArgumentError(name, raw, f"a number >= {minimum:g}")
-        if maximum is not None and number > maximum:
-            raise ArgumentError(name, raw, f"a number <= {maximum:g}")
+        _check_range(name, raw, number, (minimum, maximum), "a number", "g")
     return number
+
+
+def _check_range(
+    name: str,
+    raw: Any,
+    number: float,
+    bounds: tuple[float | None, float | None],
+    what: str,
+    spec: str = "",
+) -> None:
+    """Raise :class:`ArgumentError` when ``number`` lies outside ``bounds`` (either ``None``).
+
+    The message asks for ``what >= minimum`` (or ``<= maximum``), the bound formatted
+    with ``spec`` (``"g"`` for real numbers, ``""`` for integers).
+    """
+    minimum, maximum = bounds
+    if minimum is not None and number < minimum:
+        raise ArgumentError(name, raw, f"{what} >= {minimum:{spec}}")
+    if maximum is not None and number > maximum:
+        raise ArgumentError(name, raw, f"{what} <= {maximum:{spec}}")
 
 
 def check_int(
@@ -119,10 +136,7 @@ def check_int(
         number = int(float(value))
     else:
         raise ArgumentError(name, raw, "an integer")
-    if minimum is not None and number < minimum:
-        raise ArgumentError(name, raw, f"an integer >= {minimum}")
-    if maximum is not None and number > maximum:
-        raise ArgumentError(name, raw, f"an integer <= {maximum}")
+    _check_range(name, raw, number, (minimum, maximum), "an integer")
     return number
 
 

@@ -15,19 +15,27 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
+from optik.chain import KernelChain
 from optik.task import task_error
 
 _jit = nb.njit(cache=True, nogil=True, error_model="numpy")
 
+Rows12 = tuple[float, float, float, float, float, float, float, float, float, float, float, float]
+"""The top three rows of a 4x4 transform, row-major, held in scalars."""
+
 
 @nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _chain_step(
-    a: tuple[float, float, float, float, float, float, float, float, float, float, float, float],
-    prismatic: bool,
-    t: float,
-    K: np.ndarray,
-    j: int,
-) -> tuple[float, float, float, float, float, float, float, float, float, float, float, float]:
+def _top_rows(K: np.ndarray, j: int) -> Rows12:
+    """The top three rows of ``K[j]`` (indexed in place, see :func:`_chain_step`)."""
+    return (
+        K[j, 0, 0], K[j, 0, 1], K[j, 0, 2], K[j, 0, 3],
+        K[j, 1, 0], K[j, 1, 1], K[j, 1, 2], K[j, 1, 3],
+        K[j, 2, 0], K[j, 2, 1], K[j, 2, 2], K[j, 2, 3],
+    )  # fmt: skip
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _chain_step(a: Rows12, prismatic: bool, t: float, K: np.ndarray, j: int) -> Rows12:
     """One link of the chain on the top 3x4 rows held in scalars: ``T @ M(t) @ K[j]``.
 
     Scalars instead of a 4x4 array: this is every solver's inner loop, and it runs about
@@ -63,10 +71,7 @@ def _chain_step(
 
 
 @nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _store(
-    a: tuple[float, float, float, float, float, float, float, float, float, float, float, float],
-    out: np.ndarray,
-) -> None:
+def _store(a: Rows12, out: np.ndarray) -> None:
     """Write the top 3x4 rows held in scalars, and the row ``0 0 0 1``, into ``out`` (4, 4)."""
     for r in range(3):
         for c in range(4):
@@ -84,18 +89,10 @@ def fk_into(K: np.ndarray, prismatic: np.ndarray, theta: np.ndarray, out: np.nda
     The running transform lives in scalars (see :func:`fk_jacobian_work`).
     """
     n = prismatic.shape[0]
-    a00, a01, a02, a03 = K[0, 0, 0], K[0, 0, 1], K[0, 0, 2], K[0, 0, 3]
-    a10, a11, a12, a13 = K[0, 1, 0], K[0, 1, 1], K[0, 1, 2], K[0, 1, 3]
-    a20, a21, a22, a23 = K[0, 2, 0], K[0, 2, 1], K[0, 2, 2], K[0, 2, 3]
+    a = _top_rows(K, 0)
     for i in range(n):
-        a00, a01, a02, a03, a10, a11, a12, a13, a20, a21, a22, a23 = _chain_step(
-            (a00, a01, a02, a03, a10, a11, a12, a13, a20, a21, a22, a23),
-            prismatic[i],
-            theta[i],
-            K,
-            i + 1,
-        )
-    _store((a00, a01, a02, a03, a10, a11, a12, a13, a20, a21, a22, a23), out)
+        a = _chain_step(a, prismatic[i], theta[i], K, i + 1)
+    _store(a, out)
 
 
 @_jit
@@ -126,24 +123,17 @@ def fk_jacobian_work(
     allocating. The running transform lives in scalars: this is every solver's inner loop.
     """
     n = prismatic.shape[0]
-    a00, a01, a02, a03 = K[0, 0, 0], K[0, 0, 1], K[0, 0, 2], K[0, 0, 3]
-    a10, a11, a12, a13 = K[0, 1, 0], K[0, 1, 1], K[0, 1, 2], K[0, 1, 3]
-    a20, a21, a22, a23 = K[0, 2, 0], K[0, 2, 1], K[0, 2, 2], K[0, 2, 3]
+    a = _top_rows(K, 0)
     for i in range(n):
-        J_out[3, i] = a02
-        J_out[4, i] = a12
-        J_out[5, i] = a22
-        work[i, 0] = a03
-        work[i, 1] = a13
-        work[i, 2] = a23
-        a00, a01, a02, a03, a10, a11, a12, a13, a20, a21, a22, a23 = _chain_step(
-            (a00, a01, a02, a03, a10, a11, a12, a13, a20, a21, a22, a23),
-            prismatic[i],
-            theta[i],
-            K,
-            i + 1,
-        )
-    _store((a00, a01, a02, a03, a10, a11, a12, a13, a20, a21, a22, a23), T_out)
+        J_out[3, i] = a[2]
+        J_out[4, i] = a[6]
+        J_out[5, i] = a[10]
+        work[i, 0] = a[3]
+        work[i, 1] = a[7]
+        work[i, 2] = a[11]
+        a = _chain_step(a, prismatic[i], theta[i], K, i + 1)
+    _store(a, T_out)
+    px, py, pz = a[3], a[7], a[11]
     for i in range(n):
         zx = J_out[3, i]
         zy = J_out[4, i]
@@ -156,9 +146,9 @@ def fk_jacobian_work(
             J_out[4, i] = 0.0
             J_out[5, i] = 0.0
         else:
-            dx = a03 - work[i, 0]
-            dy = a13 - work[i, 1]
-            dz = a23 - work[i, 2]
+            dx = px - work[i, 0]
+            dy = py - work[i, 1]
+            dz = pz - work[i, 2]
             J_out[0, i] = zy * dz - zz * dy
             J_out[1, i] = zz * dx - zx * dz
             J_out[2, i] = zx * dy - zy * dx
@@ -206,33 +196,21 @@ def joint_frames(
     n = prismatic.shape[0]
     out = np.empty((n + 2, 4, 4))
     out[0] = T_base
-    a00, a01, a02, a03 = K[0, 0, 0], K[0, 0, 1], K[0, 0, 2], K[0, 0, 3]
-    a10, a11, a12, a13 = K[0, 1, 0], K[0, 1, 1], K[0, 1, 2], K[0, 1, 3]
-    a20, a21, a22, a23 = K[0, 2, 0], K[0, 2, 1], K[0, 2, 2], K[0, 2, 3]
+    a = _top_rows(K, 0)
     for i in range(n):
-        running = (a00, a01, a02, a03, a10, a11, a12, a13, a20, a21, a22, a23)
-        _store(_chain_step(running, prismatic[i], theta[i], E, i), out[i + 1])
-        a00, a01, a02, a03, a10, a11, a12, a13, a20, a21, a22, a23 = _chain_step(
-            running, prismatic[i], theta[i], K, i + 1
-        )
-    _store((a00, a01, a02, a03, a10, a11, a12, a13, a20, a21, a22, a23), out[n + 1])
+        _store(_chain_step(a, prismatic[i], theta[i], E, i), out[i + 1])
+        a = _chain_step(a, prismatic[i], theta[i], K, i + 1)
+    _store(a, out[n + 1])
     return out
 
 
 @_jit
 def pose_errors_into(
-    K: np.ndarray,
-    prismatic: np.ndarray,
-    C: np.ndarray,
-    identity: bool,
-    lower: np.ndarray,
-    upper: np.ndarray,
-    Q: np.ndarray,
-    targets: np.ndarray,
-    task: np.ndarray,
-    out: np.ndarray,
+    chain: KernelChain, Q: np.ndarray, targets: np.ndarray, task: np.ndarray, out: np.ndarray
 ) -> None:
     """Verify configurations ``Q`` (N, dof) against ``targets`` (N or 1, 4, 4) from FK.
+
+    ``chain`` is :meth:`optik.chain.Chain.kernel_args`: the limits checked are its own.
 
     Row ``k`` of ``out`` (N, 3) gets the task's judged position error (m) and
     orientation error (rad) (:func:`optik.task.task_error`: for a full pose
@@ -240,6 +218,7 @@ def pose_errors_into(
     excursion beyond a limit (rad or m, 0 inside). A row with a non-finite entry gets
     ``inf`` for all three.
     """
+    K, prismatic, C, identity, lower, upper = chain
     N = Q.shape[0]
     T = np.empty((4, 4))
     e = np.empty(6)

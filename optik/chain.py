@@ -27,6 +27,10 @@ from optik._checks import FloatArray
 
 JointKind = Literal["revolute", "prismatic"]
 
+KernelChain = tuple[FloatArray, np.ndarray, FloatArray, bool, FloatArray, FloatArray]
+"""``(K, prismatic, C, identity, lower, upper)``: a chain as the compiled solvers take it
+(one argument: numba accepts a tuple of arrays)."""
+
 
 @dataclass(frozen=True)
 class Mimic:
@@ -101,11 +105,15 @@ class Chain(NamedTuple):
         """Number of joint coordinates (entries of ``q``)."""
         return int(self.lower.shape[0])
 
-    def kernel_args(
-        self,
-    ) -> tuple[FloatArray, np.ndarray, FloatArray, bool, FloatArray, FloatArray]:
-        """``(K, prismatic, C, identity, lower, upper)``: the leading arguments of the solvers."""
-        return self.K, self.prismatic, self.C, self.identity, self.lower, self.upper
+    def kernel_args(self, bounds: tuple[FloatArray, FloatArray] | None = None) -> KernelChain:
+        """The :data:`KernelChain` of the compiled solvers, with ``bounds`` as its limits.
+
+        Args:
+            bounds: ``(lower, upper)`` (dof,) each, the box the solver keeps ``q`` in;
+                ``None`` for the chain's own limits.
+        """
+        lower, upper = (self.lower, self.upper) if bounds is None else bounds
+        return self.K, self.prismatic, self.C, self.identity, lower, upper
 
 
 def read_only(array: np.ndarray) -> np.ndarray:

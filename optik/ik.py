@@ -1,4 +1,7 @@
-"""The IK API: :func:`solve_ik`, :func:`solve_ik_batch` and :class:`IKResult`.
+"""The IK API: :func:`solve_ik`, :func:`solve_ik_all` and :class:`IKResult`.
+
+:func:`solve_ik_batch` and :class:`IKBatchResult` live in :mod:`optik.ik_batch` and are
+importable from here too.
 
 Warm-start policy: when the robot has a closed-form family that solves the mode, its
 branches inside the limits (nearest ``q0`` first) are the starting points; with
@@ -21,64 +24,50 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
-import numba
 import numpy as np
 
 from optik._checks import (
     FloatArray,
-    as_float_array,
     check_choice,
     check_int,
     check_real,
     finite_array,
 )
+from optik._ik_options import (
+    DEFAULT_RESTARTS,
+    MAX_ITERATIONS,
+    MAX_SEED,
+    UNLIMITED_RESTARTS,
+    check_options,
+    check_q0,
+)
 from optik.analytic import AnalyticFamily, analytic_ik, family_of
 from optik.chain import read_only
-from optik.diffik import clip_into_limits
-from optik.errors import ArgumentError, JointLimitError, OptikError, ShapeError
+from optik.errors import JointLimitError, OptikError
+
+# The batch path lives in its own module; its names stay importable from here.
+from optik.ik_batch import (
+    BATCH_SLICE,
+    BATCH_STATUSES,
+    MAX_BATCH_RESTARTS,
+    PARALLEL_BATCH,
+    IKBatchResult,
+    solve_ik_batch,
+)
 from optik.limits import LIMIT_TOLERANCE
 from optik.model import Robot
 from optik.poses import as_target_pose
 from optik.posture import check_joint_weights, refine_posture
 from optik.solvers import get_solver
 from optik.solvers._base import IKQuery, IKSolver, RunOutput, budget_now, now
-from optik.solvers._lm_kernel import lm_solve_batch, lm_solve_batch_serial
-from optik.solvers._seeds import seed_table, start_sequence
+from optik.solvers._seeds import start_sequence
 from optik.solvers._starts import StartSequence
-from optik.solvers.iterative import DLSSolver
-from optik.spatial import as_pose
 from optik.task import make_task
-from optik.verify import verify, verify_one
+from optik.verify import verify_one
 
 AUTO_NUMERIC_SOLVER = "dls"
 """What ``solver="auto"`` uses without a closed form: the fastest solver that meets the
 tolerance in ``benchmarks/bench_ik.py`` (compiled damped least squares)."""
-
-DEFAULT_RESTARTS = 100
-"""Restarts after the first attempt when neither ``restarts`` nor ``timeout_s`` is given."""
-
-PARALLEL_BATCH = 64
-"""Batches at least this large run in parallel threads; smaller ones on one thread."""
-
-UNLIMITED_RESTARTS = 2**62
-"""The restart budget within a finite ``timeout_s`` when ``restarts`` is not given."""
-
-BATCH_SLICE = 4096
-"""Targets per compiled call of :func:`solve_ik_batch`: between calls Python lets a
-``KeyboardInterrupt`` through."""
-
-MAX_ITERATIONS = 100_000
-"""Largest ``max_iter``: one attempt runs inside compiled code without looking at the
-clock, so its length must be bounded (100,000 LM iterations of a 7-dof arm take about
-0.1 s); the deadline is checked between attempts."""
-
-MAX_BATCH_RESTARTS = 10_000
-"""Largest ``restarts`` of :func:`solve_ik_batch`: a target's restarts run inside one
-compiled call, and the batch returns to Python (and Ctrl-C) only between slices of
-:data:`BATCH_SLICE` targets."""
-
-MAX_SEED = 2**63 - 1
-"""Largest ``seed`` (the streams are 64-bit)."""
 
 STATUSES = ("converged", "unreachable", "outside_limits", "max_iter", "timeout", "solver_failed")
 
@@ -122,44 +111,6 @@ class IKResult:
     backend_converged: bool | None = None
 
 
-def _check_q0(robot: Robot, q0: Any) -> FloatArray:
-    """``q0`` as a (dof,) array inside the limits; see :func:`optik.diffik.clip_into_limits`."""
-    if q0 is None:
-        return robot.mid_limits
-    return clip_into_limits(robot, "q0", q0)
-
-
-def _check_options(
-    mode: Any,
-    tol: Any,
-    warm_start: Any,
-    timeout_s: Any,
-    restarts: Any,
-    max_iter: Any = None,
-    seed: Any = 0,
-) -> None:
-    """Validate the keywords shared by :func:`solve_ik` and :func:`solve_ik_batch`."""
-    check_choice("warm_start", warm_start, ("analytic", "q0"))
-    if timeout_s is not None:
-        check_real("timeout_s", timeout_s, positive=True, allow_inf=True)
-    if restarts is not None:
-        check_int("restarts", restarts, minimum=0, maximum=UNLIMITED_RESTARTS)
-    if max_iter is not None:
-        check_int("max_iter", max_iter, minimum=1, maximum=MAX_ITERATIONS)
-    check_int("seed", seed, minimum=0, maximum=MAX_SEED)
-
-
-def _check_threads(threads: Any) -> int:
-    """``threads`` for :func:`solve_ik_batch`: ``None`` means numba's current count."""
-    if threads is None:
-        return int(numba.get_num_threads())
-    available = int(numba.config.NUMBA_NUM_THREADS)  # type: ignore[attr-defined]
-    if isinstance(threads, float):  # an integral float is not a thread count
-        raise ArgumentError("threads", threads, f"an integer from 1 to {available}")
-    # NUMBA_NUM_THREADS is numba's ceiling: set_num_threads refuses more.
-    return check_int("threads", threads, minimum=1, maximum=available)
-
-
 def _result(
     robot: Robot,
     q: FloatArray,
@@ -187,6 +138,40 @@ def _result(
         solver=solver,
         message=message if not success else "",
         backend_converged=claim,
+    )
+
+
+def _from_run(query: IKQuery, start_time: float, solver: str, run: RunOutput) -> IKResult:
+    """The result of a numeric run: its answer, or its best attempt and why it failed."""
+    return _result(
+        query.robot,
+        run.q,
+        query,
+        start_time,
+        status_if_failed=run.status_if_failed,
+        iterations=run.iterations,
+        restarts=run.restarts,
+        solver=solver,
+        message=run.message,
+        claim=run.converged,
+    )
+
+
+def _answer(
+    plan: _Plan, q: FloatArray, solver: str, iterations: int = 0, restarts: int = 0
+) -> IKResult:
+    """A found answer (a closed-form branch, or a run's verified ``q``), verified again."""
+    return _result(
+        plan.query.robot,
+        q,
+        plan.query,
+        plan.start_time,
+        status_if_failed="max_iter",
+        iterations=iterations,
+        restarts=restarts,
+        solver=solver,
+        message="",
+        claim=None if solver == "analytic" else True,
     )
 
 
@@ -222,20 +207,8 @@ def _closed_form_proof(
     numeric = get_solver(AUTO_NUMERIC_SOLVER)
     sequence = start_sequence(robot, query.target, query.spec, given, seed)
     run = numeric.run(query, sequence, numeric.default_max_iter, CROSS_CHECK_RESTARTS, math.inf)
-    found = verify_one(robot, run.q, query.target, query.spec)[3]
-    if found:
-        return _result(
-            robot,
-            run.q,
-            query,
-            start_time,
-            status_if_failed="max_iter",
-            iterations=run.iterations,
-            restarts=run.restarts,
-            solver=numeric.name,
-            message="",
-            claim=run.converged,
-        )
+    if verify_one(robot, run.q, query.target, query.spec)[3]:
+        return _from_run(query, start_time, numeric.name, run)
     status = "outside_limits" if outside else "unreachable"
     reason = (
         "closed form: every branch lies outside the joint limits"
@@ -343,60 +316,16 @@ def solve_ik(
     if posture is not None:
         return _posture_answer(plan, posture, joint_weights)
     if plan.branches and plan.numeric is None:
-        return _result(
-            robot,
-            plan.branches[0],
-            plan.query,
-            plan.start_time,
-            status_if_failed="max_iter",
-            iterations=0,
-            restarts=0,
-            solver="analytic",
-            message="",
-            claim=None,
-        )
+        return _answer(plan, plan.branches[0], "analytic")
     numeric = plan.numeric or get_solver(AUTO_NUMERIC_SOLVER)
     if select == "first":
         run = numeric.run(plan.query, plan.starts, plan.max_iter, plan.last, plan.deadline)
-        return _result(
-            robot,
-            run.q,
-            plan.query,
-            plan.start_time,
-            status_if_failed=run.status_if_failed,
-            iterations=run.iterations,
-            restarts=run.restarts,
-            solver=numeric.name,
-            message=run.message,
-            claim=run.converged,
-        )
+        return _from_run(plan.query, plan.start_time, numeric.name, run)
     found, last_run = _collect(plan, numeric, want=None, min_separation=0.0)
     if not found:
-        return _result(
-            robot,
-            last_run.q,
-            plan.query,
-            plan.start_time,
-            status_if_failed=last_run.status_if_failed,
-            iterations=last_run.iterations,
-            restarts=last_run.restarts,
-            solver=numeric.name,
-            message=last_run.message,
-            claim=last_run.converged,
-        )
+        return _from_run(plan.query, plan.start_time, numeric.name, last_run)
     nearest = min(found, key=lambda f: float(np.linalg.norm(f[0] - plan.q_start)))
-    return _result(
-        robot,
-        nearest[0],
-        plan.query,
-        plan.start_time,
-        status_if_failed="max_iter",
-        iterations=last_run.iterations,
-        restarts=last_run.restarts,
-        solver=numeric.name,
-        message="",
-        claim=True,
-    )
+    return _answer(plan, nearest[0], numeric.name, last_run.iterations, last_run.restarts)
 
 
 def _posture_answer(plan: _Plan, posture: Any, joint_weights: Any) -> IKResult:
@@ -415,12 +344,7 @@ def _posture_answer(plan: _Plan, posture: Any, joint_weights: Any) -> IKResult:
     if not found:
         if last_run is None:  # pragma: no cover - a closed form always has branches here
             raise OptikError("posture: no answer and no run to report")
-        return _result(
-            robot, last_run.q, plan.query, plan.start_time,
-            status_if_failed=last_run.status_if_failed, iterations=last_run.iterations,
-            restarts=last_run.restarts, solver=solver_name, message=last_run.message,
-            claim=last_run.converged,
-        )  # fmt: skip
+        return _from_run(plan.query, plan.start_time, solver_name, last_run)
 
     def cost(q: FloatArray) -> float:
         d = q - q_ref
@@ -430,11 +354,7 @@ def _posture_answer(plan: _Plan, posture: Any, joint_weights: Any) -> IKResult:
     best = min(refined, key=cost)
     iterations = last_run.iterations if last_run is not None else 0
     restarts = found[-1][2]
-    return _result(
-        robot, best, plan.query, plan.start_time, status_if_failed="max_iter",
-        iterations=iterations, restarts=restarts, solver=solver_name, message="",
-        claim=None if solver_name == "analytic" else True,
-    )  # fmt: skip
+    return _answer(plan, best, solver_name, iterations, restarts)
 
 
 def solve_ik_all(
@@ -503,21 +423,7 @@ def solve_ik_all(
         found, _ = _collect(plan, numeric, want=count, min_separation=separation)
         solver_name = numeric.name
     found.sort(key=lambda f: float(np.linalg.norm(f[0] - plan.q_start)))
-    results = [
-        _result(
-            robot,
-            q,
-            plan.query,
-            plan.start_time,
-            status_if_failed="max_iter",
-            iterations=iterations,
-            restarts=used,
-            solver=solver_name,
-            message="",
-            claim=None if solver_name == "analytic" else True,
-        )
-        for q, iterations, used in found[:count]
-    ]
+    results = [_answer(plan, q, solver_name, its, used) for q, its, used in found[:count]]
     return [r for r in results if r.success]
 
 
@@ -605,12 +511,17 @@ def _plan(
     start_time = now()
     if not isinstance(robot, Robot):
         raise OptikError(f"robot must be an optik.Robot, got {type(robot).__name__}")
-    _check_options(mode, tol, warm_start, timeout_s, restarts, max_iter, seed)
+    check_options(mode, tol, warm_start, timeout_s, restarts, max_iter, seed)
     task = make_task(mode, axis=axis, weights=weights, tol=tol)
     if not isinstance(solver, str):
         raise OptikError(f"solver must be a solver name (str), got {solver!r}")
     T_target = as_target_pose(target, "position" if task.mode == "position" else "pose")
-    q_start = _check_q0(robot, q0)
+    flags = T_target.flags
+    if not (flags.c_contiguous and flags.writeable):
+        # The compiled solvers are specialised on layout and writability: a Fortran-ordered
+        # or read-only pose would compile them anew (seconds), a C-ordered copy does not.
+        T_target = np.array(T_target, dtype=np.float64, order="C")
+    q_start = check_q0(robot, q0)
     bounds = _bounds(robot, frozen, limit_margin)
     numeric: IKSolver | None = None if solver == "auto" else get_solver(solver)
     plain = task.is_pose_or_position and bounds is None
@@ -722,153 +633,21 @@ def _collect(
     return found, run
 
 
-BATCH_STATUSES = ("converged", "unreachable", "max_iter")
-"""Per-target statuses of :func:`solve_ik_batch`: ``unreachable`` is proved (the target
-lies outside the robot's reach sphere, :attr:`optik.Robot.reach_sphere`)."""
-
-
-@dataclass
-class IKBatchResult:
-    """Verified outcomes of :func:`solve_ik_batch`, one row per target.
-
-    Attributes:
-        q: (N, dof) joint vectors (the best attempt where unsuccessful; NaN where the
-            target was proved unreachable and not solved).
-        success: (N,) verified success (FK errors within ``tol``, limits respected).
-        status: (N,) strings from :data:`BATCH_STATUSES`.
-        position_error: (N,) m (inf where not solved).
-        orientation_error: (N,) rad (0 in position mode).
-        limit_violation: (N,) largest excursion beyond a limit (rad or m).
-        iterations: (N,) iterations over all attempts.
-        restarts: (N,) attempts after the first.
-        time_s: wall time of the whole batch.
-    """
-
-    q: FloatArray
-    success: np.ndarray
-    status: np.ndarray
-    position_error: FloatArray
-    orientation_error: FloatArray
-    limit_violation: FloatArray
-    iterations: np.ndarray
-    restarts: np.ndarray
-    time_s: float
-
-
-def _batch_poses(targets: Any, mode: str) -> FloatArray:
-    """(N, 4, 4) validated target poses (identity rotations in position mode)."""
-    array = as_float_array("targets", targets)  # rejects ragged, complex, bool, strings
-    if array.ndim >= 1 and array.shape[0] == 0:
-        expected = (3,) if (mode == "position" and array.ndim == 2) else (4, 4)
-        return np.empty((0, 4, 4)) if array.shape[1:] in ((4, 4), expected) else _bad(array)
-    if mode == "position" and array.ndim == 2 and array.shape[1:] == (3,):
-        poses = np.broadcast_to(np.eye(4), (array.shape[0], 4, 4)).copy()
-        poses[:, :3, 3] = finite_array("targets", array, (3,), batch=True)
-        return poses
-    if array.ndim == 3 and array.shape[1:] == (4, 4):
-        poses = as_pose("targets", array, batch=True)
-        if mode == "position":
-            poses = poses.copy()
-            poses[:, :3, :3] = np.eye(3)
-        return np.ascontiguousarray(poses, dtype=np.float64)
-    return _bad(array)
-
-
-def _bad(array: np.ndarray) -> FloatArray:
-    raise ShapeError("targets", "(N, 4, 4) (or (N, 3) in position mode)", array.shape)
-
-
-def solve_ik_batch(
-    robot: Robot,
-    targets: Any,
-    *,
-    mode: str = "pose",
-    axis: str = "z",
-    weights: Any = None,
-    q0: Any = None,
-    tol: float | tuple[float, float] = 1e-6,
-    max_iter: int = 100,
-    restarts: int = DEFAULT_RESTARTS,
-    seed: int = 0,
-    threads: int | None = None,
-) -> IKBatchResult:
-    """Solve many targets with the compiled damped least squares, in parallel threads.
-
-    Every target starts from ``q0`` when given, then from the seed table's entries nearest
-    it and seeded uniform draws (:mod:`optik.solvers._starts`; target ``k`` uses the stream
-    ``seed + k``, so results do not depend on the thread count or the slicing). Targets
-    outside the robot's reach sphere are not solved: their status is ``"unreachable"``.
-
-    Args:
-        robot: the robot.
-        targets: (N, 4, 4) world poses (in position mode only translations count; an
-            (N, 3) array of positions is accepted too); N may be 0.
-        mode: ``"pose"``, ``"position"``, ``"orientation"`` or ``"axis"``
-            (:func:`solve_ik`).
-        axis: the tool axis of ``mode="axis"``.
-        weights: (6,) task weights in the target frame (:func:`solve_ik`).
-        q0: shared initial guess (dof,).
-        tol: one tolerance, or ``(position_tol_m, orientation_tol_rad)``.
-        max_iter: iterations per attempt.
-        restarts: attempts after the first, 0 to :data:`MAX_BATCH_RESTARTS`.
-        seed: base seed of the restarts.
-        threads: worker threads (default: numba's current thread count,
-            ``numba.get_num_threads()``); 1 solves on the calling thread. Batches smaller
-            than :data:`PARALLEL_BATCH` always do.
-    """
-    start_time = now()
-    if not isinstance(robot, Robot):
-        raise OptikError(f"robot must be an optik.Robot, got {type(robot).__name__}")
-    _check_options(mode, tol, "q0", None, restarts, max_iter, seed)
-    check_int("restarts", restarts, minimum=0, maximum=MAX_BATCH_RESTARTS)
-    task = make_task(mode, axis=axis, weights=weights, tol=tol)
-    mode = "position" if task.mode == "position" else "pose"  # the targets' form
-    if seed > MAX_SEED - 2**40:  # target k uses seed + k
-        raise OptikError(f"seed must be at most 2**63 - 2**40 in a batch, got {seed!r}")
-    threads = _check_threads(threads)
-    poses = _batch_poses(targets, mode)
-    q_start = _check_q0(robot, q0)
-    N = poses.shape[0]
-    Q = np.full((N, robot.dof), math.nan)
-    iterations = np.zeros(N, dtype=np.int64)
-    used = np.zeros(N, dtype=np.int64)
-    centre, radius = robot.reach_sphere
-    with np.errstate(over="ignore"):  # a target 1e154 m away is simply unreachable
-        distance = np.linalg.norm(poses[:, :3, 3] - centre, axis=1)
-    reachable = distance <= radius * (1 + 1e-9) + task.position_tol
-    if not task.constrains_position:  # a freed position axis: the sphere proves nothing
-        reachable = np.isfinite(distance) | np.ones(N, dtype=bool)
-    rows = np.flatnonzero(reachable)
-    table = seed_table(robot)
-    given = q_start.reshape(1, -1) if q0 is not None else np.empty((0, robot.dof))
-    K, prismatic, C, identity, lower, upper = robot.chain.kernel_args()
-    previous_threads = numba.get_num_threads()
-    try:
-        for lo in range(0, len(rows), BATCH_SLICE):
-            part = rows[lo : lo + BATCH_SLICE]
-            parallel = threads > 1 and len(part) >= PARALLEL_BATCH
-            kernel = lm_solve_batch if parallel else lm_solve_batch_serial
-            if parallel:
-                numba.set_num_threads(threads)
-            # Target k keeps the stream seed + k whatever slice it falls in.
-            Qp, it, u, _ = kernel(
-                K, prismatic, C, identity, lower, upper, np.ascontiguousarray(poses[part]),
-                task.packed, given, *table, int(max_iter), DLSSolver.w_bias,
-                int(restarts), part.astype(np.int64) + int(seed),
-            )  # fmt: skip
-            Q[part], iterations[part], used[part] = Qp, it, u
-    finally:
-        numba.set_num_threads(previous_threads)
-    verdict = verify(robot, Q, poses, task)
-    status = np.where(verdict.success, "converged", np.where(reachable, "max_iter", "unreachable"))
-    return IKBatchResult(
-        Q,
-        verdict.success,
-        status.astype(object),
-        verdict.position_error,
-        verdict.orientation_error,
-        verdict.limit_violation,
-        iterations,
-        used,
-        now() - start_time,
-    )
+__all__ = [
+    "AUTO_NUMERIC_SOLVER",
+    "BATCH_SLICE",
+    "BATCH_STATUSES",
+    "CROSS_CHECK_RESTARTS",
+    "DEFAULT_RESTARTS",
+    "MAX_BATCH_RESTARTS",
+    "MAX_ITERATIONS",
+    "MAX_SEED",
+    "PARALLEL_BATCH",
+    "STATUSES",
+    "UNLIMITED_RESTARTS",
+    "IKBatchResult",
+    "IKResult",
+    "solve_ik",
+    "solve_ik_all",
+    "solve_ik_batch",
+]

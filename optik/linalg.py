@@ -505,22 +505,9 @@ def least_squares(
     ``damping = lambda > 0`` it returns ``(A^T A + lambda^2 I)^-1 A^T b`` for any shape,
     the minimizer of ``||A x - b||^2 + lambda^2 ||x||^2`` (damped least squares).
 
-    Args:
-        A: matrix or stack of matrices, shape ``(..., m, n)``, ``m >= n`` unless damped.
-        b: right-hand side, shape ``(..., m)`` or ``(..., m, k)``; the same batch axes.
-        damping: ``lambda >= 0``, in the units of ``b / x`` (0: no damping).
-        max_condition: undamped, ``cond_2(A)`` above this raises (default 1e12).
-
-    Returns:
-        ``x`` of shape ``(..., n)`` or ``(..., n, k)``.
-
-    Raises:
-        ShapeError: ``A`` or ``b`` has a wrong shape, or ``m < n`` undamped.
-        NonFiniteError: ``A``, ``b`` or ``damping`` holds NaN or infinity.
-        SingularMatrixError: undamped and ``cond_2(A) > max_condition`` (rank deficient);
-            its ``condition_number`` is the worst ``cond_2(A)`` in the stack.
-        ArgumentError: ``damping`` is not a real number in ``[0, MAX_DAMPING]``, or
-            ``max_condition`` not a real number >= 1.
+    The arguments, the result and the errors are those of :func:`min_norm`, with
+    ``A`` of shape ``(..., m, n)``, ``m >= n`` unless damped (a ``ShapeError`` for
+    ``m < n`` undamped).
     """
     return _solve(A, b, damping, max_condition, "least_squares")
 
@@ -534,21 +521,9 @@ def solve_square(
     instead of returning an LU answer dominated by rounding. With ``damping > 0`` it
     returns the damped answer ``(A^T A + lambda^2 I)^-1 A^T b`` (any shape then).
 
-    Args:
-        A: shape ``(..., n, n)`` (any ``(..., m, n)`` when damped).
-        b: shape ``(..., n)`` or ``(..., n, k)``; the same batch axes.
-        damping: ``lambda >= 0`` (0: no damping).
-        max_condition: undamped, ``cond_2(A)`` above this raises (default 1e12).
-
-    Returns:
-        ``x`` of shape ``(..., n)`` or ``(..., n, k)``.
-
-    Raises:
-        ShapeError: wrong shapes, or a non-square ``A`` undamped.
-        NonFiniteError: ``A``, ``b`` or ``damping`` holds NaN or infinity.
-        SingularMatrixError: undamped and ``cond_2(A) > max_condition``.
-        ArgumentError: ``damping`` is not a real number in ``[0, MAX_DAMPING]``, or
-            ``max_condition`` not a real number >= 1.
+    The arguments, the result and the errors are those of :func:`min_norm`, with ``A``
+    of shape ``(..., n, n)`` (any ``(..., m, n)`` when damped; a ``ShapeError`` for a
+    non-square ``A`` undamped).
     """
     return _solve(A, b, damping, max_condition, "square")
 
@@ -562,21 +537,8 @@ def generalized_solve(
     :func:`least_squares` (m > n); with ``damping > 0`` all three return the same damped
     answer ``(A^T A + lambda^2 I)^-1 A^T b``.
 
-    Args:
-        A: shape ``(..., m, n)``, any ``m, n >= 1``.
-        b: shape ``(..., m)`` or ``(..., m, k)``; the same batch axes.
-        damping: ``lambda >= 0`` (0: no damping).
-        max_condition: undamped, ``cond_2(A)`` above this raises (default 1e12).
-
-    Returns:
-        ``x`` of shape ``(..., n)`` or ``(..., n, k)``.
-
-    Raises:
-        ShapeError: ``A`` or ``b`` has a wrong shape.
-        NonFiniteError: ``A``, ``b`` or ``damping`` holds NaN or infinity.
-        SingularMatrixError: undamped and ``cond_2(A) > max_condition``.
-        ArgumentError: ``damping`` is not a real number in ``[0, MAX_DAMPING]``, or
-            ``max_condition`` not a real number >= 1.
+    The arguments, the result and the errors are those of :func:`min_norm`, with ``A``
+    of any shape ``(..., m, n)``, ``m, n >= 1``.
     """
     return _solve(A, b, damping, max_condition, "any")
 

@@ -122,9 +122,8 @@ def arc(start: Any, end: Any, center: Any, step: float, *, long_way: bool = Fals
     is the shorter one unless ``long_way``. Orientation is slerped along the arc.
 
     Raises:
-        OptikError: a pose that is not a rigid transform (or is complex, boolean, ...), a
-            coordinate beyond ``MAX_LENGTH_M``, a ``step`` that is not a positive finite
-            number, or more than :data:`MAX_PATH_SAMPLES` samples.
+        OptikError: as :func:`line`; also ends at different (or zero) distances from
+            ``center``, or collinear with it.
     """
     step = _step(step)
     long_way = check_bool("long_way", long_way)
@@ -152,9 +151,7 @@ def circle(start: Any, center: Any, normal: Any, step: float) -> FloatArray:
     the last sample coincides with the first.
 
     Raises:
-        OptikError: a pose that is not a rigid transform (or is complex, boolean, ...), a
-            coordinate beyond ``MAX_LENGTH_M``, a ``step`` that is not a positive finite
-            number, or more than :data:`MAX_PATH_SAMPLES` samples.
+        OptikError: as :func:`line`; also a zero ``normal``.
     """
     step = _step(step)
     T0 = _endpoint("start", start)

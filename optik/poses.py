@@ -375,18 +375,8 @@ def to_quat_xyzw(T: Any) -> FloatArray:
 def to_quat_wxyz(T: Any) -> FloatArray:
     """The unit quaternion ``(w, x, y, z)`` (scalar first) of a pose's rotation.
 
-    The sign is chosen as in :func:`to_quat_xyzw` (``w >= 0``).
-
-    Args:
-        T: pose (4, 4) or (N, 4, 4), validated as :func:`optik.spatial.as_pose`.
-
-    Returns:
-        Quaternion (4,) or (N, 4).
-
-    Raises:
-        ShapeError: wrong shape or last row.
-        NonFiniteError: a NaN or infinite entry.
-        InvalidRotationError: the rotation block is not a proper rotation.
+    :func:`to_quat_xyzw` with the scalar moved first: the same argument (a pose (4, 4) or
+    (N, 4, 4)), sign rule (``w >= 0``) and errors; returns (4,) or (N, 4).
     """
     return np.roll(to_quat_xyzw(T), 1, axis=-1)
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 import os
 import sys
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -337,21 +337,32 @@ def _pose_from(
     return "position", transform(None, position)
 
 
+def _named_tables(
+    reader: _Reader, data: Mapping[str, Any], key: str, keys: set[str]
+) -> Iterator[tuple[str, Mapping[str, Any], str]]:
+    """``(table label, table, name)`` of each ``[[key]]`` table, checked; names unique."""
+    items = data.get(key, [])
+    if not isinstance(items, list):
+        raise reader.fail("", key, f"expected [[{key}]] tables")
+    names: set[str] = set()
+    for i, item in enumerate(items):
+        table = f"{key}[{i}]"
+        if not isinstance(item, Mapping):
+            raise reader.fail(table, "", "must be a table")
+        reader.check_keys(item, table, keys)
+        name = reader.string(item, table, "name")
+        if name in names:
+            raise reader.fail(table, "name", f"duplicate {key[:-1]} name {name!r}")
+        names.add(name)
+        yield table, item, name
+
+
 def _targets(
     reader: _Reader, data: Mapping[str, Any], length: float, angle: float
 ) -> dict[str, Target]:
     out: dict[str, Target] = {}
-    items = data.get("targets", [])
-    if not isinstance(items, list):
-        raise reader.fail("", "targets", "expected [[targets]] tables")
-    for i, item in enumerate(items):
-        table = f"targets[{i}]"
-        if not isinstance(item, Mapping):
-            raise reader.fail(table, "", "must be a table")
-        reader.check_keys(item, table, {"name", "position", "rpy", "tolerance", "angle_tolerance"})
-        name = reader.string(item, table, "name")
-        if name in out:
-            raise reader.fail(table, "name", f"duplicate target name {name!r}")
+    keys = {"name", "position", "rpy", "tolerance", "angle_tolerance"}
+    for table, item, name in _named_tables(reader, data, "targets", keys):
         mode, pose = _pose_from(reader, item, table, length, angle)
         tol = reader.number(item, table, "tolerance", DEFAULT_TOLERANCE / length) * length
         atol = reader.number(item, table, "angle_tolerance", DEFAULT_TOLERANCE / angle) * angle
@@ -365,17 +376,8 @@ def _paths(
     reader: _Reader, data: Mapping[str, Any], length: float, angle: float
 ) -> dict[str, CartesianPath]:
     out: dict[str, CartesianPath] = {}
-    items = data.get("paths", [])
-    if not isinstance(items, list):
-        raise reader.fail("", "paths", "expected [[paths]] tables")
-    for i, item in enumerate(items):
-        table = f"paths[{i}]"
-        if not isinstance(item, Mapping):
-            raise reader.fail(table, "", "must be a table")
-        reader.check_keys(item, table, {"name", "positions", "rpy", "tolerance"})
-        name = reader.string(item, table, "name")
-        if name in out:
-            raise reader.fail(table, "name", f"duplicate path name {name!r}")
+    keys = {"name", "positions", "rpy", "tolerance"}
+    for table, item, name in _named_tables(reader, data, "paths", keys):
         points = item.get("positions")
         if not isinstance(points, list) or not points:
             raise reader.fail(table, "positions", "expected a non-empty list of [x, y, z]")

@@ -44,11 +44,7 @@ def pose_errors(robot: Robot, Q: FloatArray, targets: FloatArray, mode: str | Ta
     Q2 = np.ascontiguousarray(np.asarray(Q, dtype=np.float64).reshape(-1, robot.dof))
     T = np.ascontiguousarray(np.asarray(targets, dtype=np.float64).reshape(-1, 4, 4))
     out = np.empty((Q2.shape[0], 3))
-    chain = robot.chain
-    pose_errors_into(
-        chain.K, chain.prismatic, chain.C, chain.identity, chain.lower, chain.upper,
-        Q2, T, as_task(mode).packed, out,
-    )  # fmt: skip
+    pose_errors_into(robot.chain.kernel_args(), Q2, T, as_task(mode).packed, out)
     return out
 
 

@@ -12,11 +12,12 @@ import pytest
 from conftest import random_q, robot_of
 
 import optik
-from optik import _kernels
+from optik import _kernels, _math
 from optik.analytic import (
     AnalyticBatch,
     _compiled,
     _finish,
+    _pipeline,
     analytic_ik,
     analytic_ik_batch,
     family_of,
@@ -170,7 +171,7 @@ def test_fk_shared_prefix_is_fk_into_bit_for_bit(rng: np.random.Generator) -> No
             block[r] = q
             block[_compiled.MAX_BRANCHES + r] = [math.sin(v) for v in q]
             block[2 * _compiled.MAX_BRANCHES + r] = [math.cos(v) for v in q]
-            depth = _compiled._fk_shared(params, block, r, pre, depth)
+            depth = _pipeline._fk_shared(params, block, r, pre, depth)
             _kernels.fk_into(K, prismatic, q, out)
             np.testing.assert_array_equal(pre[n], out[:3].reshape(-1))
 
@@ -197,7 +198,7 @@ def test_inline_sincos_is_within_one_ulp_of_libm(rng: np.random.Generator) -> No
         chunk = x[start : start + 6 * m]
         rows = -(-len(chunk) // 6)
         block[:rows] = np.resize(chunk, (rows, 6))  # pads the last row by repetition
-        _compiled._sincos_block(block.reshape(-1), rows * 6)
+        _pipeline._sincos_block(block.reshape(-1), rows * 6)
         S[start : start + len(chunk)] = block[m : m + rows].reshape(-1)[: len(chunk)]
         C[start : start + len(chunk)] = block[2 * m : 2 * m + rows].reshape(-1)[: len(chunk)]
     finite = np.isfinite(x)
@@ -209,10 +210,10 @@ def test_inline_sincos_is_within_one_ulp_of_libm(rng: np.random.Generator) -> No
         assert err.max() <= 2e-16  # absolute, everywhere (also next to the zeros)
         away = np.abs(ref) > 1e-3  # relative, away from the zeros: at most one ulp
         assert np.all(err[away] <= np.spacing(np.abs(ref[away])))
-    assert math.copysign(1.0, _compiled.sincos(-0.0)[0]) == -1.0
+    assert math.copysign(1.0, _math.sincos(-0.0)[0]) == -1.0
     for i in range(0, len(x), 97):
         if finite[i]:
-            assert _compiled.sincos(x[i]) == (S[i], C[i])
+            assert _math.sincos(x[i]) == (S[i], C[i])
 
 
 def test_singular_coefficients_make_a_free_joint_or_no_root(rng: np.random.Generator) -> None:
@@ -244,7 +245,7 @@ def test_compiled_pose_checks_match_as_pose(rng: np.random.Generator) -> None:
             valid = True
         except OptikError:
             valid = False
-        assert (_compiled.pose_defect(T[None], 0, rot_tol, row_tol) == 0) == valid
+        assert (_math.pose_defect(T[None], 0, rot_tol, row_tol) == 0) == valid
 
 
 @pytest.mark.parametrize("name", ["puma560", "ur5", "stanford_arm", "jumbo_drill_6dof"])

@@ -81,8 +81,8 @@ def _attempt(
     scratch = workspace(robot.chain.n, robot.dof)
     task = make_task("pose" if pose else "position", tol=tol)
     it, ok, _, _ = lm_attempt(
-        *robot.chain.kernel_args(), target, task.packed, q, 100, DLSSolver.w_bias, window,
-        ratio, scratch,
+        robot.chain.kernel_args(), target, task.packed, q, 100, DLSSolver.w_bias, window, ratio,
+        scratch,
     )  # fmt: skip
     return it, ok
 
@@ -125,8 +125,8 @@ def test_first_attempts_use_the_quick_stall_rule() -> None:
         order = table_order(table.features, table.centroids, table.offsets, target, task.features)
         start = table.q[order[0]]
         _, total, ran, ok, _, _ = lm_solve_restarts(
-            *panda.chain.kernel_args(), target, task.packed, np.empty((0, panda.dof)), *table,
-            100, DLSSolver.w_bias, 0, 0, 0,
+            panda.chain.kernel_args(), target, task.packed, np.empty((0, panda.dof)),
+            table.kernel_args(), 100, DLSSolver.w_bias, 0, 0, 0,
         )  # fmt: skip
         quick = _attempt(panda, target, start, QUICK_WINDOW, QUICK_RATIO, 1e-6)
         patient = _attempt(panda, target, start, STALL_WINDOW, STALL_RATIO, 1e-6)
@@ -154,3 +154,16 @@ def test_batch_solves_next_to_a_folded_elbow() -> None:
     target = planar.fk(np.array([-2.82293589, 3.14129826]))[:3, 3]
     result = solve_ik_batch(planar, target[None], mode="position", seed=3860)
     assert result.success[0] and result.position_error[0] <= 1e-6
+
+
+def test_target_layout_reuses_the_compiled_solver() -> None:
+    # The kernels are specialised on layout and writability: a Fortran-ordered, read-only
+    # target must reach them as the usual C-ordered array, not compile them again.
+    panda = load_problem("panda").robot
+    T = panda.fk(panda.mid_limits + 0.1)
+    assert optik.solve_ik(panda, T, solver="dls", restarts=1).success
+    compiled = len(lm_solve_restarts.signatures)
+    odd = np.asfortranarray(T)
+    odd.flags.writeable = False
+    assert optik.solve_ik(panda, odd, solver="dls", restarts=1).success
+    assert len(lm_solve_restarts.signatures) == compiled

@@ -5,7 +5,7 @@ problem file or the ``analytic=`` argument of its constructor), or
 :func:`detect_family` finds the first registered family that fits its joint structure.
 
 :func:`analytic_ik` solves one target and :func:`analytic_ik_batch` many. Families with a
-compiled pipeline (``spherical_wrist`` and ``ur``: :mod:`optik.analytic._compiled`) run
+compiled pipeline (``spherical_wrist`` and ``ur``: :mod:`optik.analytic._pipeline`) run
 the closed form, the wrapping into the limits, the limit filter, the FK check, the
 de-duplication and the sort in one compiled call; the others run their closed form in
 Python and the same steps in numpy (:func:`wrap_into_limits`, ``Robot.fk``).
@@ -21,7 +21,7 @@ from numpy.typing import NDArray
 
 from optik._checks import FloatArray, as_float_array, check_bool, check_finite, finite_array
 from optik._math import first_bad_pose
-from optik.analytic import (  # noqa: F401
+from optik.analytic import (  # noqa: F401  (importing a family registers it: this order)
     _compiled,
     dobot,
     planar_2r,
@@ -29,6 +29,10 @@ from optik.analytic import (  # noqa: F401
     spherical_wrist,
     ur,
 )
+
+# isort: split
+# After the families: the pipeline imports two of them, which would register them first.
+from optik.analytic import _pipeline
 from optik.analytic._base import (
     DUPLICATE_TOLERANCE,
     FAMILIES,
@@ -51,9 +55,9 @@ _F64 = np.dtype(np.float64)
 _SHAPE_4x4 = (4, 4)
 _SHAPE_DOF = (_compiled.DOF,)
 _SHAPE_OUT = (_compiled.MAX_BRANCHES, _compiled.DOF)
-_SORT = _compiled.SORT
-_WITHIN_LIMITS = _compiled.WITHIN_LIMITS
-_solve = _compiled.solve
+_SORT = _pipeline.SORT
+_WITHIN_LIMITS = _pipeline.WITHIN_LIMITS
+_solve = _pipeline.solve
 
 __all__ = [
     "FAMILIES",
@@ -331,7 +335,7 @@ def _finish(
 ) -> list[FloatArray]:
     """Wrap, filter by the limits, verify by FK, dedupe and sort raw branches (numpy).
 
-    The steps of the compiled pipeline (:func:`optik.analytic._compiled.solve`), for the
+    The steps of the compiled pipeline (:func:`optik.analytic._pipeline.solve`), for the
     families that run in Python.
     """
     if not raw:
@@ -443,7 +447,7 @@ def analytic_ik_batch(
     """:func:`analytic_ik` over a batch of targets, in one compiled loop where possible.
 
     For a family with a compiled pipeline (``spherical_wrist``, ``ur``) the whole batch is
-    one call of :func:`optik.analytic._compiled.solve_batch` (serial, one core); other
+    one call of :func:`optik.analytic._pipeline.solve_batch` (serial, one core); other
     families loop over :func:`analytic_ik` in Python. Either way target ``i`` gets exactly
     the branches, in the same order, that ``analytic_ik(robot, targets[i], mode,
     q_ref_i, within_limits)`` returns.
@@ -483,10 +487,10 @@ def analytic_ik_batch(
     if family.kernel and mode == "pose":
         params = _compiled.params_of(robot, family.kernel)
         ref = _compiled.mid_limits(params).reshape(1, dof) if refs is None else _plain(refs)
-        flags = (0 if refs is None else _compiled.SORT) | (
-            _compiled.WITHIN_LIMITS if within_limits else 0
+        flags = (0 if refs is None else _pipeline.SORT) | (
+            _pipeline.WITHIN_LIMITS if within_limits else 0
         )
-        Q, counts = _compiled.solve_batch(params, T, ref, flags)
+        Q, counts = _pipeline.solve_batch(params, T, ref, flags)
         # Rows without a branch get the single call's polish (degenerate poses), so the
         # batch gives what analytic_ik gives, target by target.
         for row in np.flatnonzero(counts == 0).tolist():

@@ -30,6 +30,10 @@ VERIFY_TOLERANCE = 1e-9
 DUPLICATE_TOLERANCE = 1e-9
 """Two branches closer than this (max-abs, rad or m) are one."""
 
+WRIST_SINGULAR = 1e-10
+"""``|sin q5|`` below which a six-joint arm's wrist axes 4 and 6 count as aligned: only
+``q4 + q6`` (or ``q6`` alone) is defined, and the free joint takes its reference."""
+
 
 class AnalyticFamily(ABC):
     """A closed-form IK solver for one kinematic structure.

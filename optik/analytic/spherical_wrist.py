@@ -25,29 +25,39 @@ perpendicular to axes 4 and 6, axis 2 perpendicular to axis 1, and axes 2 and 3 
 with the same direction. The equivalent table of :mod:`optik.analytic.geometry` then
 carries the closed form.
 
-The closed form is compiled: :func:`optik.analytic._compiled.spherical_wrist_candidates`
-is its one implementation, and :func:`optik.analytic.analytic_ik` runs it together with
-the wrapping, limit filter and FK check in one compiled call.
+The closed form is compiled: :func:`spherical_wrist_candidates` is its one
+implementation, and :func:`optik.analytic.analytic_ik` runs it together with the wrapping,
+limit filter and FK check in one compiled call (:mod:`optik.analytic._pipeline`).
 """
 
 from __future__ import annotations
 
-from optik._checks import FloatArray
+import math
+
+import numba as nb
+import numpy as np
+
+from optik._math import sincos, trig_roots
 from optik.analytic import _compiled
-from optik.analytic._base import (
-    AnalyticFamily,
-    deg,
-    fit_model,
-    is_right_angle,
-    opposite,
-    register,
-    table_target,
+from optik.analytic._base import deg, fit_model, is_right_angle, opposite, register
+from optik.analytic._compiled import (
+    CompiledFamily,
+    closed_form_tols,
+    cos_sin,
+    dh_rot,
+    dh_rotation,
+    dh_row,
+    mul3,
+    mul3tn,
+    store_branch,
 )
 from optik.analytic.geometry import DHModel
-from optik.errors import AnalyticIKError
 from optik.model import DHJoint, Robot
 
 _EPS = 1e-12
+_RADICAND_TOL = 1e-12  # RRP arm: a negative radicand above -tol * max(rho^2, 1) is 0
+
+_jit = nb.njit(cache=True, nogil=True, error_model="numpy")
 
 
 def _zero(*values: float) -> bool:
@@ -93,39 +103,149 @@ def rows_reason(rows: tuple[DHJoint, ...]) -> str | None:
     return _arm_reason(rows)
 
 
-def _fit(robot: Robot) -> DHModel | str:
-    return fit_model(robot, rows_reason, ())
+# ---------------------------------------------------------------------- the compiled closed form
+@_jit
+def _sw_wrist(
+    dh: np.ndarray,
+    R36: tuple[float, float, float, float, float, float, float, float, float],
+    ref: np.ndarray,
+    kr: int,
+    arm0: float,
+    arm1: float,
+    arm2: float,
+    wrist_tol: float,
+    cand: np.ndarray,
+    n: int,
+) -> int:
+    """Append the wrist branches (q4, q5, q6) of ``A4 A5 A6 = R36`` after the arm values.
+
+    Writes rows ``n, n + 1`` (or only ``n`` at the wrist singularity, ``|sin q5| <
+    wrist_tol``) of ``cand``; returns the new row count.
+    """
+    _, _, _, th4, _, ca4, sa4, s4 = dh_row(dh, 3)
+    _, _, _, th5, _, ca5, sa5, s5 = dh_row(dh, 4)
+    _, _, _, th6, _, ca6, sa6, _ = dh_row(dh, 5)
+    # M = R36 Rx(alpha6)^T
+    M = mul3(R36, (1.0, 0.0, 0.0, 0.0, ca6, sa6, 0.0, -sa6, ca6))
+    c5 = -s4 * s5 * M[8]
+    s5_mag = math.sqrt(M[2] * M[2] + M[5] * M[5])
+    count = 1 if s5_mag < wrist_tol else 2
+    for b in range(count):
+        if count == 1:
+            t5 = math.atan2(0.0, c5)
+            t4 = th4 + ref[kr, 3]
+            sn4, c4 = sincos(t4)
+            sn5t, c5t = sincos(t5)
+        else:
+            sign = 1.0 if b == 0 else -1.0
+            t5 = math.atan2(sign * s5_mag, c5)
+            t4 = math.atan2(s5 * sign * M[5], s5 * sign * M[2])
+            c4, sn4 = cos_sin(t4, t4, s5 * sign * M[2], s5 * sign * M[5])
+            c5t, sn5t = cos_sin(t5, t5, c5, sign * s5_mag)
+        # q6 from the residual rotation N = (A4 A5)^T M given q4 and q5, not from M's row
+        # alone: near the singularity q4 carries an error of eps / sin(q5), which this q6
+        # absorbs exactly.
+        P = mul3(dh_rot(c4, sn4, ca4, sa4), dh_rot(c5t, sn5t, ca5, sa5))
+        n00 = P[0] * M[0] + P[3] * M[3] + P[6] * M[6]
+        n10 = P[1] * M[0] + P[4] * M[3] + P[7] * M[6]
+        t6 = math.atan2(n10, n00)
+        n = store_branch(cand, n, (arm0, arm1, arm2, t4 - th4, t5 - th5, t6 - th6))
+    return n
+
+
+@_jit
+def spherical_wrist_candidates(
+    dh: np.ndarray, T: np.ndarray, ref: np.ndarray, kr: int, tols: np.ndarray, cand: np.ndarray
+) -> int:
+    """Raw branches of the 3+3 partition (RRR or RRP arm, spherical wrist) into ``cand``.
+
+    A family kernel (:data:`optik.analytic._compiled.CandidateKernel`): up to 8 rows, in
+    the family's order: shoulder, then elbow (or stroke sign), then wrist (``sin q5 >= 0``
+    first). Joint values in rad, and m for a prismatic joint 3.
+    """
+    trig_tol, eps, free_tol, wrist_tol = closed_form_tols(tols)
+    a1, _, d1, th1, _, ca1, sa1, s1 = dh_row(dh, 0)
+    a2, _, d2, th2, _, ca2, sa2, right2 = dh_row(dh, 1)
+    a3, _, d3, th3, prismatic3, ca3, sa3, _ = dh_row(dh, 2)
+    d4 = dh_row(dh, 3)[2]
+    _, _, d6, _, _, ca6, sa6, _ = dh_row(dh, 5)
+    rrp = prismatic3 != 0.0
+    R = (T[0, 0], T[0, 1], T[0, 2], T[1, 0], T[1, 1], T[1, 2], T[2, 0], T[2, 1], T[2, 2])
+    # 1. Wrist centre W = p - d6 R (0, sin alpha6, cos alpha6).
+    wx = T[0, 3] - d6 * (R[0] * 0.0 + R[1] * sa6 + R[2] * ca6)
+    wy = T[1, 3] - d6 * (R[3] * 0.0 + R[4] * sa6 + R[5] * ca6)
+    wz = T[2, 3] - d6 * (R[6] * 0.0 + R[7] * sa6 + R[8] * ca6)
+    # 2. Arm joints from W = A1 A2 A3 (0, 0, d4).
+    b3 = -sa3 * d4
+    if rrp:
+        st3, ct3 = sincos(th3)
+        ex = ct3 * a3 - st3 * b3
+        ey = st3 * a3 + ct3 * b3
+        s2 = right2
+        h = d2 + s2 * ey
+        R3 = dh_rot(ct3, st3, ca3, sa3)  # constant: joint 3 slides
+    else:
+        ex = 0.0
+        s2 = 0.0
+        h = d2 + d3 + ca3 * d4
+        R3 = dh_rot(1.0, 0.0, ca3, sa3)
+    n = 0
+    n1, t1a, t1b = trig_roots(wy, -wx, -s1 * h, th1 + ref[kr, 0], trig_tol, eps, free_tol)
+    for i1 in range(n1):
+        t1 = t1a if i1 == 0 else t1b
+        sn1, c1 = sincos(t1)
+        vx = c1 * wx + sn1 * wy - a1
+        vy = s1 * (wz - d1)
+        rho2 = vx * vx + vy * vy
+        phi_v = math.atan2(vy, vx)
+        q1 = t1 - th1
+        theta1 = th1 + q1
+        # A zero offset (the usual case) reuses c1, s1.
+        R1 = dh_rot(c1, sn1, ca1, sa1) if theta1 == t1 else dh_rotation(theta1, ca1, sa1)
+        if not rrp:
+            rhs = rho2 - a2 * a2 - a3 * a3 - b3 * b3
+            n3, t3a, t3b = trig_roots(
+                2 * a2 * a3, -2 * a2 * b3, rhs, th3 + ref[kr, 2], trig_tol, eps, free_tol
+            )
+            for i3 in range(n3):
+                t3 = t3a if i3 == 0 else t3b
+                sn3, c3 = sincos(t3)
+                ux = a2 + a3 * c3 - b3 * sn3
+                uy = a3 * sn3 + b3 * c3
+                t2 = phi_v - math.atan2(uy, ux)
+                q2 = t2 - th2
+                q3 = t3 - th3
+                theta3 = th3 + q3
+                R3 = dh_rot(c3, sn3, ca3, sa3) if theta3 == t3 else dh_rotation(theta3, ca3, sa3)
+                R03 = mul3(mul3(R1, dh_rotation(th2 + q2, ca2, sa2)), R3)
+                n = _sw_wrist(dh, mul3tn(R03, R), ref, kr, q1, q2, q3, wrist_tol, cand, n)
+        else:
+            base = ex + a2
+            radicand = rho2 - base * base
+            if radicand < -_RADICAND_TOL * max(rho2, 1.0):
+                continue
+            root = math.sqrt(max(radicand, 0.0))
+            n_len = 1 if root == 0.0 else 2
+            for iL in range(n_len):
+                L = root if iL == 0 else -root
+                t2 = phi_v - math.atan2(-s2 * L, base)
+                q2 = t2 - th2
+                q3 = L - ca3 * d4 - d3
+                R03 = mul3(mul3(R1, dh_rotation(th2 + q2, ca2, sa2)), R3)
+                n = _sw_wrist(dh, mul3tn(R03, R), ref, kr, q1, q2, q3, wrist_tol, cand, n)
+    return n
 
 
 @register
-class SphericalWrist(AnalyticFamily):
+class SphericalWrist(CompiledFamily):
     """6-dof arms (RRR or RRP arm) with a spherical wrist, by the 3+3 partition."""
 
     name = "spherical_wrist"
-    modes = ("pose",)
     kernel = _compiled.SPHERICAL_WRIST
+    closed_form = spherical_wrist_candidates
+    mismatch = "robot {name!r}: no spherical wrist family"
 
-    def fits(self, robot: Robot) -> bool:
-        """See the module docstring for the structure required."""
-        return not isinstance(robot.cached(_fit), str)
-
-    def explain(self, robot: Robot) -> str | None:
-        """The first relation of the structure that fails, or ``None``."""
-        found = robot.cached(_fit)
-        return found if isinstance(found, str) else None
-
-    def model(self, robot: Robot) -> DHModel:
-        """The table of ``robot`` (its own rows or the equivalent from its axes)."""
-        found = robot.cached(_fit)
-        if isinstance(found, str):
-            raise AnalyticIKError(f"robot {robot.name!r}: no spherical wrist family: {found}")
-        return found
-
-    def candidates(
-        self, robot: Robot, T_0_target: FloatArray, mode: str, q_ref: FloatArray
-    ) -> list[FloatArray]:
-        """Up to eight branches: two shoulders x two elbows x two wrists."""
-        T = table_target(robot, self.model(robot), T_0_target)
-        return _compiled.raw_candidates(
-            _compiled.spherical_wrist_candidates, robot, self.kernel, T, q_ref
-        )
+    @staticmethod
+    def fit(robot: Robot) -> DHModel | str:
+        """The family's table of ``robot`` (see the module docstring), or why there is none."""
+        return fit_model(robot, rows_reason, ())

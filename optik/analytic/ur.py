@@ -19,27 +19,32 @@ same direction, axis 5 perpendicular to axis 4 and meeting it, axis 6 perpendicu
 axis 5 and meeting it. The equivalent table of :mod:`optik.analytic.geometry` (twist signs
 chosen as above) then carries the closed form.
 
-The closed form is compiled: :func:`optik.analytic._compiled.ur_candidates` is its one
-implementation, and :func:`optik.analytic.analytic_ik` runs it together with the
-wrapping, limit filter and FK check in one compiled call.
+The closed form is compiled: :func:`ur_candidates` is its one implementation, and
+:func:`optik.analytic.analytic_ik` runs it together with the wrapping, limit filter and FK
+check in one compiled call (:mod:`optik.analytic._pipeline`).
 """
 
 from __future__ import annotations
 
 import math
 
-from optik._checks import FloatArray
+import numba as nb
+import numpy as np
+
+from optik._kernels import Rows12
+from optik._math import sincos, trig_roots, wrap_angle
 from optik.analytic import _compiled
-from optik.analytic._base import (
-    AnalyticFamily,
-    deg,
-    fit_model,
-    opposite,
-    register,
-    table_target,
+from optik.analytic._base import deg, fit_model, opposite, register
+from optik.analytic._compiled import (
+    CompiledFamily,
+    closed_form_tols,
+    cos_sin,
+    dh_rot,
+    dh_row,
+    store_branch,
+    times_inverse_dh,
 )
 from optik.analytic.geometry import DHModel
-from optik.errors import AnalyticIKError
 from optik.model import DHJoint, Robot
 
 _ALPHAS_DEG = (90.0, 0.0, 0.0, 90.0, -90.0, 0.0)
@@ -79,37 +84,197 @@ def rows_reason(rows: tuple[DHJoint, ...]) -> str | None:
     return None
 
 
-def _fit(robot: Robot) -> DHModel | str:
-    return fit_model(robot, rows_reason, _SIGNS)
+_jit = nb.njit(cache=True, nogil=True, error_model="numpy")
+_inline = nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+
+
+# ---------------------------------------------------------------------- the compiled closed form
+@_inline
+def _ur_wrist_origin(
+    dh: np.ndarray, T16: Rows12, c5t: float, sn5t: float, c6t: float, sn6t: float
+) -> tuple[float, float, float]:
+    """Frame 4 of a UR-type arm from ``T_16`` and joints 5 and 6 (cosine, sine).
+
+    Returns its origin's (x, y) in the plane of joints 2-4 and the angle of its first
+    column (theta2 + theta3 + theta4).
+    """
+    a5, _, d5, _, _, ca5, sa5, _ = dh_row(dh, 4)
+    a6, _, d6, _, _, ca6, sa6, _ = dh_row(dh, 5)
+    T15 = times_inverse_dh(T16, c6t, sn6t, ca6, sa6, a6, d6)
+    T14 = times_inverse_dh(T15, c5t, sn5t, ca5, sa5, a5, d5)
+    return T14[3], T14[7], math.atan2(T14[4], T14[0])
+
+
+@_jit
+def _ur_reachable_q6(dh: np.ndarray, T16: Rows12, c5t: float, sn5t: float, t6_ref: float) -> float:
+    """At the wrist singularity, a theta6 (rad) whose elbow can reach, nearest ``t6_ref``.
+
+    It puts the elbow's squared reach ``x^2 + y^2`` at the middle of its range
+    ``[(a2 - a3)^2, (a2 + a3)^2]``, or as near as it gets (then on the range if any q6 is).
+
+    With axes 4 and 6 aligned, the origin of frame 4 circles axis 6 as q6 turns, in the
+    plane of the parallel joints, so ``x^2 + y^2 = A + B cos t6 + C sin t6`` exactly.
+    """
+    a2 = dh_row(dh, 1)[0]
+    a3 = dh_row(dh, 2)[0]
+    x, y, _ = _ur_wrist_origin(dh, T16, c5t, sn5t, 1.0, 0.0)
+    r0 = x * x + y * y
+    x, y, _ = _ur_wrist_origin(dh, T16, c5t, sn5t, 0.0, 1.0)
+    r1 = x * x + y * y
+    x, y, _ = _ur_wrist_origin(dh, T16, c5t, sn5t, -1.0, 0.0)
+    r2 = x * x + y * y
+    A = 0.5 * (r0 + r2)
+    B = 0.5 * (r0 - r2)
+    C = r1 - A
+    R = math.sqrt(B * B + C * C)
+    middle = 0.5 * ((a2 - a3) ** 2 + (a2 + a3) ** 2)
+    if R < 1e-300:
+        return t6_ref
+    phi = math.atan2(C, B)
+    off = math.acos(min(max((middle - A) / R, -1.0), 1.0))
+    best = t6_ref
+    gap = np.inf
+    for t in (phi + off, phi - off):
+        d = abs(wrap_angle(t - t6_ref))
+        if d < gap:
+            gap = d
+            best = t6_ref + wrap_angle(t - t6_ref)
+    return best
+
+
+@_inline
+def _ur_elbow(
+    dh: np.ndarray,
+    T16: Rows12,
+    t1: float,
+    t5: float,
+    t6: float,
+    c5t: float,
+    sn5t: float,
+    c6t: float,
+    sn6t: float,
+    ref: np.ndarray,
+    kr: int,
+    tols: np.ndarray,
+    cand: np.ndarray,
+    n: int,
+) -> int:
+    """The elbow branches (joints 2-4, a planar two-link arm) for given joints 1, 5, 6.
+
+    Writes rows ``n`` onwards of ``cand``; returns the new row count.
+    """
+    a2, _, _, th2, _, _, _, _ = dh_row(dh, 1)
+    a3, _, _, th3, _, _, _, _ = dh_row(dh, 2)
+    th1, th4, th5, th6 = dh_row(dh, 0)[3], dh_row(dh, 3)[3], dh_row(dh, 4)[3], dh_row(dh, 5)[3]
+    trig_tol, eps, free_tol, _ = closed_form_tols(tols)
+    x, y, t234 = _ur_wrist_origin(dh, T16, c5t, sn5t, c6t, sn6t)
+    phi = math.atan2(y, x)
+    n3, t3a, t3b = trig_roots(
+        2 * a2 * a3,
+        0.0,
+        x * x + y * y - a2 * a2 - a3 * a3,
+        th3 + ref[kr, 2],
+        trig_tol,
+        eps,
+        free_tol,
+    )
+    for i3 in range(n3):
+        t3 = t3a if i3 == 0 else t3b
+        sn3, c3 = sincos(t3)
+        t2 = phi - math.atan2(a3 * sn3, a2 + a3 * c3)
+        t4 = t234 - t2 - t3
+        n = store_branch(cand, n, (t1 - th1, t2 - th2, t3 - th3, t4 - th4, t5 - th5, t6 - th6))
+    return n
+
+
+@_jit
+def ur_candidates(
+    dh: np.ndarray, T: np.ndarray, ref: np.ndarray, kr: int, tols: np.ndarray, cand: np.ndarray
+) -> int:
+    """Raw branches of a UR-type arm (three parallel axes, joints 2-4) into ``cand``.
+
+    A family kernel (:data:`optik.analytic._compiled.CandidateKernel`): up to 8 rows of
+    joint angles (rad), in the family's order: shoulder, then wrist (``sin q5 >= 0``
+    first), then elbow.
+    """
+    trig_tol, eps, free_tol, wrist_tol = closed_form_tols(tols)
+    a1, _, d1, th1, _, ca1, sa1, _ = dh_row(dh, 0)
+    th5 = dh_row(dh, 4)[3]
+    _, _, d6, th6, _, _, _, _ = dh_row(dh, 5)
+    h = dh_row(dh, 1)[2] + dh_row(dh, 2)[2] + dh_row(dh, 3)[2]
+    # 1. p5 = p - d6 z6; joint 1 from s1 p5x - c1 p5y = h.
+    p5x = T[0, 3] - d6 * T[0, 2]
+    p5y = T[1, 3] - d6 * T[1, 2]
+    n = 0
+    n1, t1a, t1b = trig_roots(-p5y, p5x, h, th1 + ref[kr, 0], trig_tol, eps, free_tol)
+    for i1 in range(n1):
+        t1 = t1a if i1 == 0 else t1b
+        # 2. T_16 = A1^-1 T (its top rows, a row-major 12-tuple).
+        theta1 = th1 + (t1 - th1)
+        st1, ct1 = sincos(theta1)
+        R1 = dh_rot(ct1, st1, ca1, sa1)
+        px = a1 * ct1
+        py = a1 * st1
+        pz = d1
+        p0 = R1[0] * px + R1[3] * py + R1[6] * pz  # R1^T p
+        p1 = R1[1] * px + R1[4] * py + R1[7] * pz
+        p2 = R1[2] * px + R1[5] * py + R1[8] * pz
+        T16 = (
+            R1[0] * T[0, 0] + R1[3] * T[1, 0] + R1[6] * T[2, 0],
+            R1[0] * T[0, 1] + R1[3] * T[1, 1] + R1[6] * T[2, 1],
+            R1[0] * T[0, 2] + R1[3] * T[1, 2] + R1[6] * T[2, 2],
+            R1[0] * T[0, 3] + R1[3] * T[1, 3] + R1[6] * T[2, 3] - p0,
+            R1[1] * T[0, 0] + R1[4] * T[1, 0] + R1[7] * T[2, 0],
+            R1[1] * T[0, 1] + R1[4] * T[1, 1] + R1[7] * T[2, 1],
+            R1[1] * T[0, 2] + R1[4] * T[1, 2] + R1[7] * T[2, 2],
+            R1[1] * T[0, 3] + R1[4] * T[1, 3] + R1[7] * T[2, 3] - p1,
+            R1[2] * T[0, 0] + R1[5] * T[1, 0] + R1[8] * T[2, 0],
+            R1[2] * T[0, 1] + R1[5] * T[1, 1] + R1[8] * T[2, 1],
+            R1[2] * T[0, 2] + R1[5] * T[1, 2] + R1[8] * T[2, 2],
+            R1[2] * T[0, 3] + R1[5] * T[1, 3] + R1[8] * T[2, 3] - p2,
+        )
+        # cos q5 = T_16[2, 2] and sin q5 (c6, -s6) = T_16[2, :2]: atan2 of both keeps q5
+        # accurate near 0 and pi, where the cosine alone is flat.
+        s5_mag = math.sqrt(T16[8] * T16[8] + T16[9] * T16[9])
+        c5 = T16[10]
+        n_wrist = 1 if s5_mag < wrist_tol else 2
+        for iw in range(n_wrist):
+            sign = 1.0 if iw == 0 else -1.0
+            if n_wrist == 2:
+                t5 = math.atan2(sign * s5_mag, c5)
+                t6 = math.atan2(-sign * T16[9], sign * T16[8])
+                theta5 = th5 + (t5 - th5)
+                theta6 = th6 + (t6 - th6)
+                c5t, sn5t = cos_sin(theta5, t5, c5, sign * s5_mag)
+                c6t, sn6t = cos_sin(theta6, t6, sign * T16[8], -sign * T16[9])
+                n = _ur_elbow(dh, T16, t1, t5, t6, c5t, sn5t, c6t, sn6t, ref, kr, tols, cand, n)
+                continue
+            # Wrist singular (axes 4 and 6 aligned): q6 is free. It takes the reference,
+            # unless the elbow then cannot reach; then the q6 whose elbow reach is the
+            # middle of the elbow's range (nearest the reference of the two).
+            t5 = math.atan2(0.0, c5)
+            sn5t, c5t = sincos(t5)
+            t6 = th6 + ref[kr, 5]
+            sn6t, c6t = sincos(t6)
+            before = n
+            n = _ur_elbow(dh, T16, t1, t5, t6, c5t, sn5t, c6t, sn6t, ref, kr, tols, cand, n)
+            if n == before:
+                t6 = _ur_reachable_q6(dh, T16, c5t, sn5t, t6)
+                sn6t, c6t = sincos(t6)
+                n = _ur_elbow(dh, T16, t1, t5, t6, c5t, sn5t, c6t, sn6t, ref, kr, tols, cand, n)
+    return n
 
 
 @register
-class URArm(AnalyticFamily):
+class URArm(CompiledFamily):
     """Universal Robots-type 6R arms (UR3/5/10 and e-series share the structure)."""
 
     name = "ur"
-    modes = ("pose",)
     kernel = _compiled.UR
+    closed_form = ur_candidates
+    mismatch = "robot {name!r} is not of the UR type"
 
-    def fits(self, robot: Robot) -> bool:
-        """The UR structure, in the robot's DH rows or in its joint axes."""
-        return not isinstance(robot.cached(_fit), str)
-
-    def explain(self, robot: Robot) -> str | None:
-        """The first UR relation that fails, or ``None``."""
-        found = robot.cached(_fit)
-        return found if isinstance(found, str) else None
-
-    def model(self, robot: Robot) -> DHModel:
-        """The UR table of ``robot`` (its own rows or the equivalent from its axes)."""
-        found = robot.cached(_fit)
-        if isinstance(found, str):
-            raise AnalyticIKError(f"robot {robot.name!r} is not of the UR type: {found}")
-        return found
-
-    def candidates(
-        self, robot: Robot, T_0_target: FloatArray, mode: str, q_ref: FloatArray
-    ) -> list[FloatArray]:
-        """Up to eight branches: two shoulders x two wrists x two elbows."""
-        T = table_target(robot, self.model(robot), T_0_target)
-        return _compiled.raw_candidates(_compiled.ur_candidates, robot, self.kernel, T, q_ref)
+    @staticmethod
+    def fit(robot: Robot) -> DHModel | str:
+        """The UR table of ``robot`` (see the module docstring), or why there is none."""
+        return fit_model(robot, rows_reason, _SIGNS)

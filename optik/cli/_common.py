@@ -1,14 +1,7 @@
 """The ``optik`` command: shared argument types, robot and target options, exit codes.
 
-Exit codes: 0 success; 1 a well-formed query without an answer (``optik solve`` found no
-solution); 2 bad input (a usage error, and every :class:`~optik.errors.OptikError` raised
-by the input, printed as one ``optik: error: ...`` line); 3 an internal error (a bug: the
-traceback is printed).
-
-Units: SI everywhere, in files, arrays and options (m, rad, s); an option in another
-unit names it (``--rpy-deg``, ``--timeout-ms``), and every option's help states its unit
-or "no unit". Output prints every value with its unit (revolute joints in rad, with
-degrees alongside).
+The exit codes and the unit conventions of every command are stated once, in
+:mod:`optik.cli`; the constants and argument types here implement them.
 """
 
 from __future__ import annotations
@@ -317,43 +310,36 @@ def add_robot_arguments(p: argparse.ArgumentParser, *, positional: bool = True) 
 
 
 # ---------------------------------------------------------------------------- poses
+ORIENTATION_FLAGS = (
+    ("--rpy", ("R", "P", "Y"), "roll, pitch, yaw in rad, R = Rz(Y) Ry(P) Rx(R) (URDF convention)"),
+    (
+        "--rpy-deg",
+        ("R", "P", "Y"),
+        "roll, pitch, yaw in deg, R = Rz(Y) Ry(P) Rx(R) (URDF convention)",
+    ),
+    ("--quat-wxyz", ("W", "X", "Y", "Z"), "a unit quaternion, scalar first (no unit)"),
+    (
+        "--quat-xyzw",
+        ("X", "Y", "Z", "W"),
+        "a unit quaternion, scalar last, as scipy and ROS (no unit)",
+    ),
+)
+"""The orientation options: flag, the names of its numbers, and what they are."""
+
+
 def add_orientation_arguments(p: Any, what: str) -> None:
     """One of --rpy, --rpy-deg, --quat-wxyz, --quat-xyzw on ``p`` (a parser or a group)."""
     group = p.add_mutually_exclusive_group()
-    group.add_argument(
-        "--rpy",
-        nargs=3,
-        type=finite_float,
-        metavar=("R", "P", "Y"),
-        help=f"{what}: roll, pitch, yaw in rad, R = Rz(Y) Ry(P) Rx(R) (URDF convention)",
-    )
-    group.add_argument(
-        "--rpy-deg",
-        nargs=3,
-        type=finite_float,
-        metavar=("R", "P", "Y"),
-        help=f"{what}: roll, pitch, yaw in deg, R = Rz(Y) Ry(P) Rx(R) (URDF convention)",
-    )
-    group.add_argument(
-        "--quat-wxyz",
-        nargs=4,
-        type=finite_float,
-        metavar=("W", "X", "Y", "Z"),
-        help=f"{what}: a unit quaternion, scalar first (no unit)",
-    )
-    group.add_argument(
-        "--quat-xyzw",
-        nargs=4,
-        type=finite_float,
-        metavar=("X", "Y", "Z", "W"),
-        help=f"{what}: a unit quaternion, scalar last, as scipy and ROS (no unit)",
-    )
+    for flag, metavar, meaning in ORIENTATION_FLAGS:
+        group.add_argument(
+            flag, nargs=len(metavar), type=finite_float, metavar=metavar, help=f"{what}: {meaning}"
+        )
 
 
 def orientation_flag(args: argparse.Namespace) -> str | None:
-    for flag in ("rpy", "rpy_deg", "quat_wxyz", "quat_xyzw"):
-        if getattr(args, flag) is not None:
-            return "--" + flag.replace("_", "-")
+    for flag, _, _ in ORIENTATION_FLAGS:
+        if getattr(args, flag[2:].replace("-", "_")) is not None:
+            return flag
     return None
 
 

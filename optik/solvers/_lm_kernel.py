@@ -19,18 +19,36 @@ import numpy as np
 from optik._kernels import fk_jacobian_work
 from optik._math import cholesky_solve
 from optik._nrt import borrowed
+from optik.chain import KernelChain
 from optik.solvers._starts import nearest_table, start_into
 from optik.task import task_converged, task_error, task_features, task_rows
 
 _jit = nb.njit(cache=True, nogil=True, error_model="numpy")
 
+KernelTable = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+"""A seed table as the solvers take it: :meth:`optik.solvers._seeds.SeedTable.kernel_args`."""
+
+BatchJob = tuple[
+    np.ndarray, np.ndarray, np.ndarray, KernelTable, tuple[int, float, int], np.ndarray
+]
+"""A batch's targets and settings: ``(targets (N, 4, 4), task (packed, :mod:`optik.task`),
+given starts (G, dof), seed table, (max_iter, w_bias, restarts), seeds (N,))``; target
+``k`` uses the random stream ``seeds[k]``."""
+
+BatchOutput = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+"""A batch's answers: ``(q (N, dof), iterations (N,), restarts (N,), ok (N,))``."""
+
+
+@nb.njit(cache=True, nogil=True, inline="always")
+def _borrow_chain(chain: KernelChain) -> KernelChain:
+    """Borrowed views (:mod:`optik._nrt`) of the chain's arrays; the caller owns ``chain``."""
+    K, prismatic, C, identity, lower, upper = chain
+    return borrowed(K), borrowed(prismatic), borrowed(C), identity, borrowed(lower), borrowed(upper)
+
 
 @_jit
 def _evaluate(
-    K: np.ndarray,
-    prismatic: np.ndarray,
-    C: np.ndarray,
-    identity: bool,
+    chain: KernelChain,
     q: np.ndarray,
     target: np.ndarray,
     task: np.ndarray,
@@ -45,6 +63,7 @@ def _evaluate(
 
     Returns the judged (position, orientation) errors (:mod:`optik.task`).
     """
+    K, prismatic, C, identity, _, _ = chain
     if identity:
         fk_jacobian_work(K, prismatic, q, T, J, work)
     else:
@@ -112,12 +131,7 @@ def workspace(n_chain: int, dof: int) -> tuple[np.ndarray, ...]:
 
 @_jit
 def lm_attempt(
-    K: np.ndarray,
-    prismatic: np.ndarray,
-    C: np.ndarray,
-    identity: bool,
-    lower: np.ndarray,
-    upper: np.ndarray,
+    chain: KernelChain,
     target: np.ndarray,
     task: np.ndarray,
     q_inout: np.ndarray,
@@ -140,11 +154,9 @@ def lm_attempt(
     """
     # Borrowed views (optik._nrt): the iteration passes these arrays to helpers many
     # times; their owners are this call's arguments.
-    K = borrowed(K)
-    prismatic = borrowed(prismatic)
-    C = borrowed(C)
-    lower = borrowed(lower)
-    upper = borrowed(upper)
+    view = _borrow_chain(chain)
+    lower = view[4]
+    upper = view[5]
     target = borrowed(target)
     task = borrowed(task)
     q = borrowed(q_inout)
@@ -167,7 +179,7 @@ def lm_attempt(
     m = 3 if task[10] == 2.0 else 6  # optik.task: a plain point uses three rows
     for i in range(dof):
         q[i] = min(max(q[i], lower[i]), upper[i])
-    pos, rot = _evaluate(K, prismatic, C, identity, q, target, task, T, Jc, J, e, work, M)
+    pos, rot = _evaluate(view, q, target, task, T, Jc, J, e, work, M)
     E = 0.0
     for r in range(m):
         E += e[r] * e[r]
@@ -212,9 +224,7 @@ def lm_attempt(
             continue
         for i in range(dof):
             q_new[i] = min(max(q[i] + dq[i], lower[i]), upper[i])
-        pos_n, rot_n = _evaluate(
-            K, prismatic, C, identity, q_new, target, task, T_new, Jc, J_new, e_new, work, M
-        )
+        pos_n, rot_n = _evaluate(view, q_new, target, task, T_new, Jc, J_new, e_new, work, M)
         E_new = 0.0
         for r in range(m):
             E_new += e_new[r] * e_new[r]
@@ -236,12 +246,7 @@ def lm_attempt(
 
 @_jit
 def lm_solve(
-    K: np.ndarray,
-    prismatic: np.ndarray,
-    C: np.ndarray,
-    identity: bool,
-    lower: np.ndarray,
-    upper: np.ndarray,
+    chain: KernelChain,
     target: np.ndarray,
     task: np.ndarray,
     q0: np.ndarray,
@@ -255,29 +260,20 @@ def lm_solve(
         means both errors are at most ``tol`` (m, rad) with ``q`` inside the limits.
     """
     q = q0.copy()
-    scratch = workspace(prismatic.shape[0], q0.shape[0])
+    scratch = workspace(chain[1].shape[0], q0.shape[0])
     it, ok, pos, rot = lm_attempt(
-        K, prismatic, C, identity, lower, upper, target, task, q, max_iter, w_bias,
-        STALL_WINDOW, STALL_RATIO, scratch,
-    )  # fmt: skip
+        chain, target, task, q, max_iter, w_bias, STALL_WINDOW, STALL_RATIO, scratch
+    )
     return q, it, ok, pos, rot
 
 
 @_jit
 def lm_solve_restarts(
-    K: np.ndarray,
-    prismatic: np.ndarray,
-    C: np.ndarray,
-    identity: bool,
-    lower: np.ndarray,
-    upper: np.ndarray,
+    chain: KernelChain,
     target: np.ndarray,
     task: np.ndarray,
     given: np.ndarray,
-    table_q: np.ndarray,
-    table_features: np.ndarray,
-    table_centroids: np.ndarray,
-    table_offsets: np.ndarray,
+    table: KernelTable,
     max_iter: int,
     w_bias: float,
     first: int,
@@ -287,7 +283,7 @@ def lm_solve_restarts(
     """:func:`lm_attempt` from starts ``first`` to ``last`` (inclusive) until one converges.
 
     Start ``k`` is :func:`optik.solvers._starts.start_into`'s: the ``given`` starts (closed
-    -form branches nearest ``q0``, or ``q0``), then the seed table's entries (``table_*``:
+    -form branches nearest ``q0``, or ``q0``), then the seed table's entries (``table``:
     :class:`optik.solvers._seeds.SeedTable`) nearest the target first and seeded uniform
     draws inside the limits in turn. Start
     ``k`` depends on ``k`` and ``seed`` only, so a caller may run the attempts in slices
@@ -299,41 +295,31 @@ def lm_solve_restarts(
         orientation_error)`` of the first converged attempt, else of the best one (the
         smallest sum of both errors; the earliest among equals).
     """
-    scratch = workspace(prismatic.shape[0], lower.shape[0])
-    return _restarts(
-        K, prismatic, C, identity, lower, upper, target, task, task_features(task), given,
-        table_q, table_features, table_centroids, table_offsets, max_iter, w_bias, first,
-        last, seed, scratch,
-    )  # fmt: skip
+    scratch = workspace(chain[1].shape[0], chain[4].shape[0])
+    mask = task_features(task)
+    starts = (given, table, first, last, seed)
+    return _restarts(chain, target, task, mask, starts, max_iter, w_bias, scratch)
 
 
 @_jit
 def _restarts(
-    K: np.ndarray,
-    prismatic: np.ndarray,
-    C: np.ndarray,
-    identity: bool,
-    lower: np.ndarray,
-    upper: np.ndarray,
+    chain: KernelChain,
     target: np.ndarray,
     task: np.ndarray,
     mask: np.ndarray,
-    given: np.ndarray,
-    table_q: np.ndarray,
-    table_features: np.ndarray,
-    table_centroids: np.ndarray,
-    table_offsets: np.ndarray,
+    starts: tuple[np.ndarray, KernelTable, int, int, int],
     max_iter: int,
     w_bias: float,
-    first: int,
-    last: int,
-    seed: int,
     scratch: tuple[np.ndarray, ...],
 ) -> tuple[np.ndarray, int, int, bool, float, float]:
     """:func:`lm_solve_restarts` in the caller's ``scratch`` (:func:`workspace`).
 
-    ``mask`` is :func:`optik.task.task_features` of ``task``.
+    ``mask`` is :func:`optik.task.task_features` of ``task``; ``starts`` is
+    ``(given, table, first, last, seed)``.
     """
+    given, table, first, last, seed = starts
+    table_q, table_features, table_centroids, table_offsets = table
+    lower, upper = chain[4], chain[5]
     dof = lower.shape[0]
     nearest = nearest_table(table_features, table_centroids, table_offsets, target, mask)
     q = np.empty(dof)
@@ -347,11 +333,11 @@ def _restarts(
     while attempt <= last:
         start_into(attempt, given, nearest, table_q, lower, upper, seed, q)
         quick = attempt < QUICK_ATTEMPTS
+        window = QUICK_WINDOW if quick else STALL_WINDOW
+        ratio = QUICK_RATIO if quick else STALL_RATIO
         it, ok, pos, rot = lm_attempt(
-            K, prismatic, C, identity, lower, upper, target, task, q, max_iter, w_bias,
-            QUICK_WINDOW if quick else STALL_WINDOW, QUICK_RATIO if quick else STALL_RATIO,
-            scratch,
-        )  # fmt: skip
+            chain, target, task, q, max_iter, w_bias, window, ratio, scratch
+        )
         total += it
         if ok or pos + rot < best_err or attempt == first:
             best_q[:] = q
@@ -367,47 +353,37 @@ BATCH_CHUNK = 32
 
 
 @_jit
-def _solve_chunk(
-    c: int,
-    K: np.ndarray,
-    prismatic: np.ndarray,
-    C: np.ndarray,
-    identity: bool,
-    lower: np.ndarray,
-    upper: np.ndarray,
-    targets: np.ndarray,
-    task: np.ndarray,
-    given: np.ndarray,
-    table_q: np.ndarray,
-    table_features: np.ndarray,
-    table_centroids: np.ndarray,
-    table_offsets: np.ndarray,
-    max_iter: int,
-    w_bias: float,
-    restarts: int,
-    seeds: np.ndarray,
-    Q: np.ndarray,
-    iters: np.ndarray,
-    used: np.ndarray,
-    ok: np.ndarray,
-) -> None:
+def _solve_chunk(c: int, chain: KernelChain, batch: BatchJob, out: BatchOutput) -> None:
     """Chunk ``c`` of a batch (:data:`BATCH_CHUNK` targets) in one scratch workspace.
 
     Target ``k`` is :func:`lm_solve_restarts` with the random stream ``seeds[k]``. Every
     attempt overwrites the scratch before it reads it, so sharing it changes no answer.
     """
-    scratch = workspace(prismatic.shape[0], lower.shape[0])
+    targets, task, given, table, settings, seeds = batch
+    max_iter, w_bias, restarts = settings
+    Q, iters, used, ok = out
+    scratch = workspace(chain[1].shape[0], chain[4].shape[0])
     mask = task_features(task)
     for k in range(c * BATCH_CHUNK, min((c + 1) * BATCH_CHUNK, targets.shape[0])):
+        starts = (given, table, 0, restarts, seeds[k])
         q, it, u, good, _, _ = _restarts(
-            K, prismatic, C, identity, lower, upper, targets[k], task, mask, given, table_q,
-            table_features, table_centroids, table_offsets, max_iter, w_bias, 0, restarts,
-            seeds[k], scratch,
-        )  # fmt: skip
+            chain, targets[k], task, mask, starts, max_iter, w_bias, scratch
+        )
         Q[k] = q
         iters[k] = it
         used[k] = u - 1
         ok[k] = good
+
+
+@_jit
+def _batch_output(N: int, dof: int) -> BatchOutput:
+    """``(q (N, dof), iterations (N,), restarts (N,), ok (N,))``, to be filled."""
+    return (
+        np.empty((N, dof)),
+        np.empty(N, dtype=np.int64),
+        np.empty(N, dtype=np.int64),
+        np.empty(N, dtype=np.bool_),
+    )
 
 
 # The parallel and the serial batch are two functions, not one function jitted twice:
@@ -416,87 +392,39 @@ def _solve_chunk(
 
 
 @nb.njit(cache=True, nogil=True, error_model="numpy", parallel=True)
-def lm_solve_batch(
-    K: np.ndarray,
-    prismatic: np.ndarray,
-    C: np.ndarray,
-    identity: bool,
-    lower: np.ndarray,
-    upper: np.ndarray,
-    targets: np.ndarray,
-    task: np.ndarray,
-    given: np.ndarray,
-    table_q: np.ndarray,
-    table_features: np.ndarray,
-    table_centroids: np.ndarray,
-    table_offsets: np.ndarray,
-    max_iter: int,
-    w_bias: float,
-    restarts: int,
-    seeds: np.ndarray,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`lm_solve_restarts` for every target (N, 4, 4), in numba's threads (``prange``).
+def lm_solve_batch(chain: KernelChain, batch: BatchJob) -> BatchOutput:
+    """:func:`lm_solve_restarts` for every target of ``batch``, in numba's threads (``prange``).
 
     Target ``k`` uses the random stream ``seeds[k]``, so results do not depend on the
     number of threads. Returns ``(q (N, dof), iterations (N,), restarts (N,), ok (N,))``.
     """
+    targets, task, given, table, settings, seeds = batch
     N = targets.shape[0]
-    Q = np.empty((N, lower.shape[0]))
-    iters = np.empty(N, dtype=np.int64)
-    used = np.empty(N, dtype=np.int64)
-    ok = np.empty(N, dtype=np.bool_)
+    out = _batch_output(N, chain[4].shape[0])
     # Borrowed views (optik._nrt): every thread passes these to each target's solve, and
-    # counting references to one shared array from several threads serialises them.
-    K_, prismatic_, C_ = borrowed(K), borrowed(prismatic), borrowed(C)
-    lower_, upper_, targets_, given_ = (
-        borrowed(lower),
-        borrowed(upper),
-        borrowed(targets),
-        borrowed(given),
-    )
-    table_q_, table_features_ = borrowed(table_q), borrowed(table_features)
-    table_centroids_, table_offsets_ = borrowed(table_centroids), borrowed(table_offsets)
-    Q_, iters_, used_, ok_ = borrowed(Q), borrowed(iters), borrowed(used), borrowed(ok)
-    seeds_, task_ = borrowed(seeds), borrowed(task)
+    # counting references to one shared array from several threads serialises them. The
+    # loop body gets arrays and scalars only (numba's parallel loops take no tuple of
+    # arrays from outside) and rebuilds the tuples.
+    K, prismatic, C, identity, lower, upper = _borrow_chain(chain)
+    table_q, features, centroids, offsets = table
+    table_q, features, centroids = borrowed(table_q), borrowed(features), borrowed(centroids)
+    offsets, targets, task = borrowed(offsets), borrowed(targets), borrowed(task)
+    given, seeds = borrowed(given), borrowed(seeds)
+    max_iter, w_bias, restarts = settings
+    Q, iters, used, ok = out
+    Q, iters, used, ok = borrowed(Q), borrowed(iters), borrowed(used), borrowed(ok)
     for c in nb.prange((N + BATCH_CHUNK - 1) // BATCH_CHUNK):
-        _solve_chunk(
-            c, K_, prismatic_, C_, identity, lower_, upper_, targets_, task_, given_,
-            table_q_, table_features_, table_centroids_, table_offsets_, max_iter, w_bias,
-            restarts, seeds_, Q_, iters_, used_, ok_,
-        )  # fmt: skip
-    return Q, iters, used, ok
+        table_ = (table_q, features, centroids, offsets)
+        batch_ = (targets, task, given, table_, (max_iter, w_bias, restarts), seeds)
+        _solve_chunk(c, (K, prismatic, C, identity, lower, upper), batch_, (Q, iters, used, ok))
+    return out
 
 
 @_jit
-def lm_solve_batch_serial(
-    K: np.ndarray,
-    prismatic: np.ndarray,
-    C: np.ndarray,
-    identity: bool,
-    lower: np.ndarray,
-    upper: np.ndarray,
-    targets: np.ndarray,
-    task: np.ndarray,
-    given: np.ndarray,
-    table_q: np.ndarray,
-    table_features: np.ndarray,
-    table_centroids: np.ndarray,
-    table_offsets: np.ndarray,
-    max_iter: int,
-    w_bias: float,
-    restarts: int,
-    seeds: np.ndarray,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def lm_solve_batch_serial(chain: KernelChain, batch: BatchJob) -> BatchOutput:
     """:func:`lm_solve_batch` on the calling thread: small batches, where threads cost more."""
-    N = targets.shape[0]
-    Q = np.empty((N, lower.shape[0]))
-    iters = np.empty(N, dtype=np.int64)
-    used = np.empty(N, dtype=np.int64)
-    ok = np.empty(N, dtype=np.bool_)
+    N = batch[0].shape[0]
+    out = _batch_output(N, chain[4].shape[0])
     for c in range((N + BATCH_CHUNK - 1) // BATCH_CHUNK):
-        _solve_chunk(
-            c, K, prismatic, C, identity, lower, upper, targets, task, given, table_q,
-            table_features, table_centroids, table_offsets, max_iter, w_bias, restarts,
-            seeds, Q, iters, used, ok,
-        )  # fmt: skip
-    return Q, iters, used, ok
+        _solve_chunk(c, chain, batch, out)
+    return out

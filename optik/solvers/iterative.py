@@ -109,15 +109,8 @@ class DLSSolver(IKSolver):
 
     def solve(self, query: IKQuery, q0: FloatArray, max_iter: int, deadline: float) -> SolverOutput:
         """Run the compiled projected LM from ``q0``."""
-        robot = query.robot
-        K, prismatic, C, identity, _, _ = robot.chain.kernel_args()
         q, it, ok, _, _ = lm_solve(
-            K,
-            prismatic,
-            C,
-            identity,
-            query.lower,
-            query.upper,
+            query.robot.chain.kernel_args(query.bounds),
             query.target,
             query.spec.packed,
             np.ascontiguousarray(q0, dtype=float),
@@ -144,9 +137,7 @@ class DLSSolver(IKSolver):
         slices start at one attempt and double up to :data:`TIMED_SLICE`; without one they
         hold :data:`UNTIMED_SLICE` attempts.
         """
-        robot = query.robot
-        K, prismatic, C, identity, _, _ = robot.chain.kernel_args()
-        lower, upper = query.lower, query.upper
+        chain = query.robot.chain.kernel_args(query.bounds)
         timed = math.isfinite(deadline)
         size = 1 if timed else UNTIMED_SLICE
         first = start
@@ -156,8 +147,7 @@ class DLSSolver(IKSolver):
         while True:
             hi = min(first + size - 1, last)
             q, it, ran, ok, pos, rot = lm_solve_restarts(
-                K, prismatic, C, identity, lower, upper, query.target, query.spec.packed,
-                starts.given, *starts.table, int(max_iter),
+                chain, query.target, query.spec.packed, starts.given, starts.table, int(max_iter),
                 self.w_bias, first, hi, starts.seed,
             )  # fmt: skip
             total += int(it)

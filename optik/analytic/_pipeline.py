@@ -1,0 +1,456 @@
+"""The compiled IK pipeline of the six-joint families: closed form, then every check.
+
+For a family with a compiled closed form (:class:`optik.analytic._compiled.CompiledFamily`:
+``spherical_wrist``, ``ur``), one call runs the post-processing that
+:func:`optik.analytic.analytic_ik` applies to every family:
+
+1. raw candidate branches from the closed form (up to :data:`MAX_BRANCHES`);
+2. drop non-finite rows; shift revolute angles by multiples of 2 pi into the limits,
+   nearest ``q_ref`` (the rule of :func:`optik.analytic.wrap_into_limits`);
+3. drop out-of-limit rows (tolerance :data:`optik.limits.LIMIT_TOLERANCE`), unless asked;
+4. verify each row by forward kinematics: the robot's own chain ``_K`` (the kinematics of
+   ``Robot.fk``, not the DH rows) multiplied out with the arithmetic of
+   :func:`optik._kernels.fk_into`, expression for expression (:func:`_fk_shared`; rows
+   that share leading joint values share that part of the product); position error (m)
+   and orientation error (rad, the robust ``atan2`` angle of
+   :func:`optik.spatial.rotation_angle`) both within
+   :data:`optik.analytic._base.VERIFY_TOLERANCE`;
+5. drop duplicates (max-abs difference below ``DUPLICATE_TOLERANCE``);
+6. with a caller's ``q_ref``, a stable sort by the Euclidean distance to it.
+
+Every step gives what the numpy steps of :func:`optik.analytic.analytic_ik` give on the
+same raw branches (a test checks it row for row). One deliberate difference: sines and
+cosines come from inline fdlibm kernels (:func:`optik._math.sincos`, at most 1 ulp and
+2e-16 from libm's) rather than libm calls, which cost more than the rest of the FK check;
+the FK check then agrees with ``Robot.fk`` to a few 1e-16, far below the 1e-9 it enforces.
+
+The robot comes as its parameter vector (:func:`optik.analytic._compiled.pack_params`).
+Hot paths index arrays rather than slicing or reshaping them per pose (a reshape is a C
+call, a view a reference count): scratch arrays are made once per call or batch.
+Every kernel is serial (``nogil``): callers may run them from several threads.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+import numpy as np
+
+from optik._math import _SINCOS_RANGE, _sincos_core, mod_two_pi, pose_defect, sincos
+from optik.analytic._compiled import (
+    AT_BASE_INV,
+    AT_CHAIN,
+    AT_DH,
+    AT_FAMILY,
+    AT_LOWER,
+    AT_TOLS,
+    AT_TOOL_INV,
+    AT_UPPER,
+    COL_PRISMATIC,
+    COS_ROWS,
+    DOF,
+    MAX_BRANCHES,
+    NCOL,
+    SIN_ROWS,
+    SPHERICAL_WRIST,
+    TOL_BOTTOM_ROW,
+    TOL_DUPLICATE,
+    TOL_LIMIT,
+    TOL_ROTATION,
+    TOL_VERIFY,
+    UR,
+    mul3tn,
+)
+from optik.analytic.spherical_wrist import spherical_wrist_candidates
+from optik.analytic.ur import ur_candidates
+
+_jit = nb.njit(cache=True, nogil=True, error_model="numpy")
+_TWO_PI = 2.0 * math.pi
+
+
+@_jit
+def candidates(
+    family: int,
+    dh: np.ndarray,
+    T: np.ndarray,
+    ref: np.ndarray,
+    kr: int,
+    tols: np.ndarray,
+    cand: np.ndarray,
+) -> int:
+    """Raw branches of compiled family ``family`` (:data:`SPHERICAL_WRIST`, :data:`UR`)."""
+    if family == SPHERICAL_WRIST:
+        return spherical_wrist_candidates(dh, T, ref, kr, tols, cand)
+    if family == UR:
+        return ur_candidates(dh, T, ref, kr, tols, cand)
+    return 0
+
+
+@_jit
+def _sincos_block(flat: np.ndarray, n: int) -> None:
+    """Sines and cosines of the first ``n`` values of the pipeline's scratch block.
+
+    ``flat`` is the (24, 6) block (rows, their sines, their cosines) seen flat: value
+    ``i`` gets its sine at ``48 + i`` and its cosine at ``96 + i``. One branch-free loop
+    over contiguous memory when every value is in range; the offsets are compile-time
+    constants, so LLVM sees that the writes never overlap the reads and vectorises it.
+    """
+    s0 = SIN_ROWS * DOF
+    c0 = COS_ROWS * DOF
+    inside = True
+    for i in range(n):
+        if not abs(flat[i]) < _SINCOS_RANGE:
+            inside = False
+    if inside:
+        for i in range(n):
+            flat[s0 + i], flat[c0 + i] = _sincos_core(flat[i])
+    else:
+        for i in range(n):
+            flat[s0 + i], flat[c0 + i] = sincos(flat[i])
+
+
+@_jit
+def _transform_target(params: np.ndarray, T: np.ndarray, k: int, out: np.ndarray) -> None:
+    """``out <- T_base_world @ T[k] @ T_tool_flange``: the flange target in frame 0."""
+    B = AT_BASE_INV
+    E = AT_TOOL_INV
+    for i in range(4):
+        b0 = params[B + 4 * i]
+        b1 = params[B + 4 * i + 1]
+        b2 = params[B + 4 * i + 2]
+        b3 = params[B + 4 * i + 3]
+        bt0 = b0 * T[k, 0, 0] + b1 * T[k, 1, 0] + b2 * T[k, 2, 0] + b3 * T[k, 3, 0]
+        bt1 = b0 * T[k, 0, 1] + b1 * T[k, 1, 1] + b2 * T[k, 2, 1] + b3 * T[k, 3, 1]
+        bt2 = b0 * T[k, 0, 2] + b1 * T[k, 1, 2] + b2 * T[k, 2, 2] + b3 * T[k, 3, 2]
+        bt3 = b0 * T[k, 0, 3] + b1 * T[k, 1, 3] + b2 * T[k, 2, 3] + b3 * T[k, 3, 3]
+        for j in range(4):
+            out[i, j] = (
+                bt0 * params[E + j]
+                + bt1 * params[E + 4 + j]
+                + bt2 * params[E + 8 + j]
+                + bt3 * params[E + 12 + j]
+            )
+
+
+@_jit
+def _fk_shared(params: np.ndarray, block: np.ndarray, r: int, pre: np.ndarray, depth: int) -> int:
+    """Forward kinematics of ``block[r]`` into ``pre[n]``, reusing the previous call's prefix.
+
+    The chain product of :func:`optik._kernels.fk_into`, ``K[0] M(q1) K[1] ... M(qn) K[n]``
+    (``K`` the robot's ``_K``, stored in ``params``), with its arithmetic expression for
+    expression (``_apply_motion`` then ``_right_multiply``), kept in scalars. The sines
+    and cosines come precomputed in ``block[8 + r]`` and ``block[16 + r]``: given libm's
+    values the pose is ``fk_into``'s bit for bit (a test checks it).
+
+    ``pre`` (n + 2, 12) holds the top three rows of each prefix product, row-major:
+    ``pre[i]`` is the product up to joint ``i`` (``pre[0] = K[0]``, set by the caller);
+    ``pre[n + 1, :n]`` the joint values of the previous call, whose first ``depth``
+    prefixes are valid. Leading joints equal to those are not recomputed (branches share
+    their shoulder and arm joints). Returns the new ``depth`` (n).
+    """
+    n = block.shape[1]
+    last = n + 1
+    j = 0
+    while j < depth and block[r, j] == pre[last, j]:
+        j += 1
+    a00, a01, a02, a03 = pre[j, 0], pre[j, 1], pre[j, 2], pre[j, 3]
+    a10, a11, a12, a13 = pre[j, 4], pre[j, 5], pre[j, 6], pre[j, 7]
+    a20, a21, a22, a23 = pre[j, 8], pre[j, 9], pre[j, 10], pre[j, 11]
+    for i in range(j, n):
+        t = block[r, i]
+        pre[last, i] = t
+        # _apply_motion(T, prismatic[i], t)
+        if params[AT_DH + NCOL * i + COL_PRISMATIC] != 0.0:
+            a03 += t * a02
+            a13 += t * a12
+            a23 += t * a22
+        else:
+            s = block[SIN_ROWS + r, i]
+            c = block[COS_ROWS + r, i]
+            a00, a01 = c * a00 + s * a01, -s * a00 + c * a01
+            a10, a11 = c * a10 + s * a11, -s * a10 + c * a11
+            a20, a21 = c * a20 + s * a21, -s * a20 + c * a21
+        # _right_multiply(T, K[i + 1], out)
+        o = AT_CHAIN + 12 * (i + 1)
+        k00, k01, k02, k03 = params[o], params[o + 1], params[o + 2], params[o + 3]
+        k10, k11, k12, k13 = params[o + 4], params[o + 5], params[o + 6], params[o + 7]
+        k20, k21, k22, k23 = params[o + 8], params[o + 9], params[o + 10], params[o + 11]
+        a00, a01, a02, a03 = (
+            a00 * k00 + a01 * k10 + a02 * k20,
+            a00 * k01 + a01 * k11 + a02 * k21,
+            a00 * k02 + a01 * k12 + a02 * k22,
+            a00 * k03 + a01 * k13 + a02 * k23 + a03,
+        )
+        a10, a11, a12, a13 = (
+            a10 * k00 + a11 * k10 + a12 * k20,
+            a10 * k01 + a11 * k11 + a12 * k21,
+            a10 * k02 + a11 * k12 + a12 * k22,
+            a10 * k03 + a11 * k13 + a12 * k23 + a13,
+        )
+        a20, a21, a22, a23 = (
+            a20 * k00 + a21 * k10 + a22 * k20,
+            a20 * k01 + a21 * k11 + a22 * k21,
+            a20 * k02 + a21 * k12 + a22 * k22,
+            a20 * k03 + a21 * k13 + a22 * k23 + a23,
+        )
+        k = i + 1
+        pre[k, 0], pre[k, 1], pre[k, 2], pre[k, 3] = a00, a01, a02, a03
+        pre[k, 4], pre[k, 5], pre[k, 6], pre[k, 7] = a10, a11, a12, a13
+        pre[k, 8], pre[k, 9], pre[k, 10], pre[k, 11] = a20, a21, a22, a23
+    return n
+
+
+@_jit
+def _wrap_row(params: np.ndarray, rows: np.ndarray, r: int, ref: np.ndarray, kr: int) -> None:
+    """Revolute angles of ``rows[r]`` into the limits, the representative nearest ``ref[kr]``.
+
+    The steps of :func:`optik.analytic.wrap_into_limits`, bit for bit: numpy's floor-mod,
+    ``ceil`` / ``floor`` with 1e-12 slack, round half to even, clamps.
+    """
+    for j in range(rows.shape[1]):
+        if params[AT_DH + NCOL * j + COL_PRISMATIC] != 0.0:
+            continue
+        lower = params[AT_LOWER + j]
+        upper = params[AT_UPPER + j]
+        base = ref[kr, j] + mod_two_pi(rows[r, j] - ref[kr, j] + math.pi) - math.pi
+        if abs(ref[kr, j] - base) <= math.pi and lower <= base <= upper:
+            # The usual case, without divisions: |ref - base| <= pi makes k_near below
+            # exactly 0 (|x / 2 pi| <= 1/2 rounds half to even to 0), and a representative
+            # inside the limits gives k_min <= 0 <= k_max, so k stays 0.
+            rows[r, j] = base
+            continue
+        k = np.rint((ref[kr, j] - base) / _TWO_PI)
+        k_min = np.ceil((lower - base) / _TWO_PI - 1e-12)
+        k_max = np.floor((upper - base) / _TWO_PI + 1e-12)
+        if math.isfinite(k_min):
+            k = max(k, k_min)
+        if math.isfinite(k_max):
+            k = min(k, k_max)
+        if k_min > k_max or not math.isfinite(k):
+            k = 0.0
+        rows[r, j] = base + _TWO_PI * k
+
+
+@_jit
+def _postprocess(
+    params: np.ndarray,
+    T: np.ndarray,
+    k: int,
+    ref: np.ndarray,
+    kr: int,
+    sort: bool,
+    within: bool,
+    rows: np.ndarray,
+    flat: np.ndarray,
+    n: int,
+    pre: np.ndarray,
+    Q: np.ndarray,
+) -> int:
+    """Wrap, filter by the limits, verify by FK, dedupe and sort ``rows[:n]`` into ``Q[k]``.
+
+    ``T[k]`` is the validated world target of the tool and ``ref[kr]`` the reference;
+    ``rows`` (24, 6) holds the raw branches in its first 8 rows (wrapped and compacted
+    in place), then their sines and cosines, and ``flat`` is the same memory seen flat;
+    ``pre`` (8, 12) is FK scratch. Returns the number of rows written to ``Q[k]``.
+    """
+    limit_tol = params[AT_TOLS + TOL_LIMIT]
+    verify_tol = params[AT_TOLS + TOL_VERIFY]
+    dup_tol = params[AT_TOLS + TOL_DUPLICATE]
+    dof = rows.shape[1]
+    # 1. Finite rows, wrapped, inside the limits (when asked): compacted to rows[:kept].
+    kept = 0
+    for r in range(n):
+        finite = True
+        for j in range(dof):
+            if not math.isfinite(rows[r, j]):
+                finite = False
+        if not finite:
+            continue
+        _wrap_row(params, rows, r, ref, kr)
+        if within:
+            inside = True
+            for j in range(dof):
+                v = rows[r, j]
+                if not (
+                    v >= params[AT_LOWER + j] - limit_tol and v <= params[AT_UPPER + j] + limit_tol
+                ):
+                    inside = False
+            if not inside:
+                continue
+        if kept != r:
+            for j in range(dof):
+                rows[kept, j] = rows[r, j]
+        kept += 1
+    # 2. Sines and cosines of every kept joint value at once (a vectorised loop).
+    _sincos_block(flat, kept * dof)
+    # 3. Verify each by the robot's own chain (fk_into's arithmetic), dedupe in order.
+    for i in range(12):
+        pre[0, i] = params[AT_CHAIN + i]
+    depth = 0
+    m = 0
+    for r in range(kept):
+        depth = _fk_shared(params, rows, r, pre, depth)
+        dx = pre[dof, 3] - T[k, 0, 3]
+        dy = pre[dof, 7] - T[k, 1, 3]
+        dz = pre[dof, 11] - T[k, 2, 3]
+        if not math.sqrt(dx * dx + dy * dy + dz * dz) <= verify_tol:
+            continue
+        # R_rel = R_fk^T R_target; angle = atan2(|vee(R_rel - R_rel^T)| / 2, (tr - 1) / 2).
+        rr = mul3tn(
+            (
+                pre[dof, 0],
+                pre[dof, 1],
+                pre[dof, 2],
+                pre[dof, 4],
+                pre[dof, 5],
+                pre[dof, 6],
+                pre[dof, 8],
+                pre[dof, 9],
+                pre[dof, 10],
+            ),
+            (
+                T[k, 0, 0],
+                T[k, 0, 1],
+                T[k, 0, 2],
+                T[k, 1, 0],
+                T[k, 1, 1],
+                T[k, 1, 2],
+                T[k, 2, 0],
+                T[k, 2, 1],
+                T[k, 2, 2],
+            ),
+        )
+        sx = rr[7] - rr[5]
+        sy = rr[2] - rr[6]
+        sz = rr[3] - rr[1]
+        s = 0.5 * math.sqrt(sx * sx + sy * sy + sz * sz)
+        c = 0.5 * (rr[0] + rr[4] + rr[8] - 1.0)
+        # atan2(s, c) <= s / c for s >= 0 < c: a tiny ratio accepts without the libm call.
+        if not (s <= 0.5 * verify_tol * c or math.atan2(s, c) <= verify_tol):
+            continue
+        duplicate = False
+        for other in range(m):
+            diff = 0.0
+            for j in range(dof):
+                diff = max(diff, abs(rows[r, j] - Q[k, other, j]))
+            if diff < dup_tol:
+                duplicate = True
+                break
+        if duplicate:
+            continue
+        for j in range(dof):
+            Q[k, m, j] = rows[r, j]
+        m += 1
+    if sort and m > 1:
+        # 4. Stable insertion sort by ||q - ref|| (Python's list.sort is stable too); the
+        # distances go in the (now free) sine rows.
+        for r in range(m):
+            acc = 0.0
+            for j in range(dof):
+                acc += (Q[k, r, j] - ref[kr, j]) ** 2
+            rows[SIN_ROWS, r] = math.sqrt(acc)
+        for r in range(1, m):
+            key = rows[SIN_ROWS, r]
+            p = r - 1
+            while p >= 0 and rows[SIN_ROWS, p] > key:
+                p -= 1
+            if p + 1 < r:
+                # Rotate rows p+1..r right by one (row r moves to p + 1).
+                for j in range(dof):
+                    moved = Q[k, r, j]
+                    for i in range(r, p + 1, -1):
+                        Q[k, i, j] = Q[k, i - 1, j]
+                    Q[k, p + 1, j] = moved
+                for i in range(r, p + 1, -1):
+                    rows[SIN_ROWS, i] = rows[SIN_ROWS, i - 1]
+                rows[SIN_ROWS, p + 1] = key
+    return m
+
+
+SORT = 1
+"""Flag of :func:`solve` / :func:`solve_batch`: sort the branches by distance to ``ref``."""
+WITHIN_LIMITS = 2
+"""Flag of :func:`solve` / :func:`solve_batch`: drop branches outside the joint limits."""
+
+
+@_jit
+def solve(params: np.ndarray, T: np.ndarray, ref: np.ndarray, flags: int, out: np.ndarray) -> int:
+    """The whole pipeline for one target: validate, solve, wrap, filter, verify, sort.
+
+    Five arguments only: the numba dispatcher's cost grows with each (about 0.15 us per
+    array), and a single call is meant to take a few microseconds.
+
+    Args:
+        params: the robot's parameter vector (:func:`optik.analytic._compiled.pack_params`),
+            family included.
+        T: (4, 4) world target of the tool.
+        ref: (6,) reference configuration (rad, m).
+        flags: :data:`SORT` and / or :data:`WITHIN_LIMITS`.
+        out: (8, 6) output rows.
+
+    Returns:
+        The number of branches written to ``out`` (0 to 8); -1 when ``T`` is not a valid
+        pose (see :func:`optik._math.pose_defect`), -2 when ``ref`` is not finite. The caller raises
+        the matching optik error.
+    """
+    T1 = T[None]
+    if pose_defect(T1, 0, params[AT_TOLS + TOL_ROTATION], params[AT_TOLS + TOL_BOTTOM_ROW]) != 0:
+        return -1
+    for j in range(ref.shape[0]):
+        if not math.isfinite(ref[j]):
+            return -2
+    # Scratch (a reshape is a C call: the per-pose path indexes instead), then the steps.
+    ref1 = ref[None]
+    T0 = np.empty((4, 4))
+    pre = np.empty((DOF + 2, 12))
+    flat = np.empty(3 * MAX_BRANCHES * DOF)
+    rows = flat.reshape((3 * MAX_BRANCHES, DOF))
+    _transform_target(params, T1, 0, T0)
+    dh = params[AT_DH:AT_LOWER].reshape((DOF, NCOL))
+    n = candidates(int(params[AT_FAMILY]), dh, T0, ref1, 0, params[AT_TOLS:], rows)
+    sort = (flags & SORT) != 0
+    within = (flags & WITHIN_LIMITS) != 0
+    return _postprocess(params, T1, 0, ref1, 0, sort, within, rows, flat, n, pre, out[None])
+
+
+@_jit
+def solve_batch(
+    params: np.ndarray, T: np.ndarray, ref: np.ndarray, flags: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """The pipeline of :func:`solve` over validated targets ``T`` (N, 4, 4), serially.
+
+    Args:
+        params: the robot's parameter vector (:func:`optik.analytic._compiled.pack_params`),
+            family included.
+        T: (N, 4, 4) world targets of the tool, already validated
+            (:func:`optik._math.first_bad_pose`).
+        ref: (1, 6) one reference for every target, or (N, 6) one per target; finite.
+        flags: :data:`SORT` and / or :data:`WITHIN_LIMITS`.
+
+    Returns:
+        ``Q`` (N, 8, 6): branches, rows past each count filled with NaN; ``counts`` (N,).
+    """
+    N = T.shape[0]
+    shared = ref.shape[0] == 1
+    sort = (flags & SORT) != 0
+    within = (flags & WITHIN_LIMITS) != 0
+    family = int(params[AT_FAMILY])
+    dh = params[AT_DH:AT_LOWER].reshape((DOF, NCOL))
+    tols = params[AT_TOLS:]
+    T0 = np.empty((4, 4))
+    pre = np.empty((DOF + 2, 12))
+    flat = np.empty(3 * MAX_BRANCHES * DOF)
+    rows = flat.reshape((3 * MAX_BRANCHES, DOF))
+    Q = np.empty((N, MAX_BRANCHES, DOF))
+    counts = np.zeros(N, dtype=np.int64)
+    for k in range(N):
+        kr = 0 if shared else k
+        _transform_target(params, T, k, T0)
+        n = candidates(family, dh, T0, ref, kr, tols, rows)
+        m = _postprocess(params, T, k, ref, kr, sort, within, rows, flat, n, pre, Q)
+        counts[k] = m
+        for r in range(m, MAX_BRANCHES):
+            for j in range(DOF):
+                Q[k, r, j] = np.nan
+    return Q, counts

@@ -1,0 +1,203 @@
+"""Many IK targets at once: :func:`solve_ik_batch` and :class:`IKBatchResult`.
+
+Every target runs the compiled damped least squares (:mod:`optik.solvers._lm_kernel`) in
+numba's threads, with its own random stream, and the batch is verified in one compiled
+call (:func:`optik.verify.verify`). Importable from :mod:`optik.ik` and :mod:`optik` too.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numba
+import numpy as np
+
+from optik._checks import FloatArray, as_float_array, check_int, finite_array
+from optik._ik_options import DEFAULT_RESTARTS, MAX_SEED, check_options, check_q0
+from optik.errors import ArgumentError, OptikError, ShapeError
+from optik.model import Robot
+from optik.solvers._base import now
+from optik.solvers._lm_kernel import lm_solve_batch, lm_solve_batch_serial
+from optik.solvers._seeds import seed_table
+from optik.solvers.iterative import DLSSolver
+from optik.spatial import as_pose
+from optik.task import make_task
+from optik.verify import verify
+
+PARALLEL_BATCH = 64
+"""Batches at least this large run in parallel threads; smaller ones on one thread."""
+
+BATCH_SLICE = 4096
+"""Targets per compiled call of :func:`solve_ik_batch`: between calls Python lets a
+``KeyboardInterrupt`` through."""
+
+MAX_BATCH_RESTARTS = 10_000
+"""Largest ``restarts`` of :func:`solve_ik_batch`: a target's restarts run inside one
+compiled call, and the batch returns to Python (and Ctrl-C) only between slices of
+:data:`BATCH_SLICE` targets."""
+
+
+def _check_threads(threads: Any) -> int:
+    """``threads`` for :func:`solve_ik_batch`: ``None`` means numba's current count."""
+    if threads is None:
+        return int(numba.get_num_threads())
+    available = int(numba.config.NUMBA_NUM_THREADS)  # type: ignore[attr-defined]
+    if isinstance(threads, float):  # an integral float is not a thread count
+        raise ArgumentError("threads", threads, f"an integer from 1 to {available}")
+    # NUMBA_NUM_THREADS is numba's ceiling: set_num_threads refuses more.
+    return check_int("threads", threads, minimum=1, maximum=available)
+
+
+BATCH_STATUSES = ("converged", "unreachable", "max_iter")
+"""Per-target statuses of :func:`solve_ik_batch`: ``unreachable`` is proved (the target
+lies outside the robot's reach sphere, :attr:`optik.Robot.reach_sphere`)."""
+
+
+@dataclass
+class IKBatchResult:
+    """Verified outcomes of :func:`solve_ik_batch`, one row per target.
+
+    Attributes:
+        q: (N, dof) joint vectors (the best attempt where unsuccessful; NaN where the
+            target was proved unreachable and not solved).
+        success: (N,) verified success (FK errors within ``tol``, limits respected).
+        status: (N,) strings from :data:`BATCH_STATUSES`.
+        position_error: (N,) m (inf where not solved).
+        orientation_error: (N,) rad (0 in position mode).
+        limit_violation: (N,) largest excursion beyond a limit (rad or m).
+        iterations: (N,) iterations over all attempts.
+        restarts: (N,) attempts after the first.
+        time_s: wall time of the whole batch.
+    """
+
+    q: FloatArray
+    success: np.ndarray
+    status: np.ndarray
+    position_error: FloatArray
+    orientation_error: FloatArray
+    limit_violation: FloatArray
+    iterations: np.ndarray
+    restarts: np.ndarray
+    time_s: float
+
+
+def _batch_poses(targets: Any, mode: str) -> FloatArray:
+    """(N, 4, 4) validated target poses (identity rotations in position mode)."""
+    array = as_float_array("targets", targets)  # rejects ragged, complex, bool, strings
+    if array.ndim >= 1 and array.shape[0] == 0:
+        expected = (3,) if (mode == "position" and array.ndim == 2) else (4, 4)
+        return np.empty((0, 4, 4)) if array.shape[1:] in ((4, 4), expected) else _bad(array)
+    if mode == "position" and array.ndim == 2 and array.shape[1:] == (3,):
+        poses = np.broadcast_to(np.eye(4), (array.shape[0], 4, 4)).copy()
+        poses[:, :3, 3] = finite_array("targets", array, (3,), batch=True)
+        return poses
+    if array.ndim == 3 and array.shape[1:] == (4, 4):
+        poses = as_pose("targets", array, batch=True)
+        if mode == "position":
+            poses = poses.copy()
+            poses[:, :3, :3] = np.eye(3)
+        return np.ascontiguousarray(poses, dtype=np.float64)
+    return _bad(array)
+
+
+def _bad(array: np.ndarray) -> FloatArray:
+    raise ShapeError("targets", "(N, 4, 4) (or (N, 3) in position mode)", array.shape)
+
+
+def solve_ik_batch(
+    robot: Robot,
+    targets: Any,
+    *,
+    mode: str = "pose",
+    axis: str = "z",
+    weights: Any = None,
+    q0: Any = None,
+    tol: float | tuple[float, float] = 1e-6,
+    max_iter: int = 100,
+    restarts: int = DEFAULT_RESTARTS,
+    seed: int = 0,
+    threads: int | None = None,
+) -> IKBatchResult:
+    """Solve many targets with the compiled damped least squares, in parallel threads.
+
+    Every target starts from ``q0`` when given, then from the seed table's entries nearest
+    it and seeded uniform draws (:mod:`optik.solvers._starts`; target ``k`` uses the stream
+    ``seed + k``, so results do not depend on the thread count or the slicing). Targets
+    outside the robot's reach sphere are not solved: their status is ``"unreachable"``.
+
+    Args:
+        robot: the robot.
+        targets: (N, 4, 4) world poses (in position mode only translations count; an
+            (N, 3) array of positions is accepted too); N may be 0.
+        mode: ``"pose"``, ``"position"``, ``"orientation"`` or ``"axis"``
+            (:func:`solve_ik`).
+        axis: the tool axis of ``mode="axis"``.
+        weights: (6,) task weights in the target frame (:func:`solve_ik`).
+        q0: shared initial guess (dof,).
+        tol: one tolerance, or ``(position_tol_m, orientation_tol_rad)``.
+        max_iter: iterations per attempt.
+        restarts: attempts after the first, 0 to :data:`MAX_BATCH_RESTARTS`.
+        seed: base seed of the restarts.
+        threads: worker threads (default: numba's current thread count,
+            ``numba.get_num_threads()``); 1 solves on the calling thread. Batches smaller
+            than :data:`PARALLEL_BATCH` always do.
+    """
+    start_time = now()
+    if not isinstance(robot, Robot):
+        raise OptikError(f"robot must be an optik.Robot, got {type(robot).__name__}")
+    check_options(mode, tol, "q0", None, restarts, max_iter, seed)
+    check_int("restarts", restarts, minimum=0, maximum=MAX_BATCH_RESTARTS)
+    task = make_task(mode, axis=axis, weights=weights, tol=tol)
+    mode = "position" if task.mode == "position" else "pose"  # the targets' form
+    if seed > MAX_SEED - 2**40:  # target k uses seed + k
+        raise OptikError(f"seed must be at most 2**63 - 2**40 in a batch, got {seed!r}")
+    threads = _check_threads(threads)
+    poses = _batch_poses(targets, mode)
+    q_start = check_q0(robot, q0)
+    N = poses.shape[0]
+    Q = np.full((N, robot.dof), math.nan)
+    iterations = np.zeros(N, dtype=np.int64)
+    used = np.zeros(N, dtype=np.int64)
+    centre, radius = robot.reach_sphere
+    with np.errstate(over="ignore"):  # a target 1e154 m away is simply unreachable
+        distance = np.linalg.norm(poses[:, :3, 3] - centre, axis=1)
+    reachable = distance <= radius * (1 + 1e-9) + task.position_tol
+    if not task.constrains_position:  # a freed position axis: the sphere proves nothing
+        reachable = np.isfinite(distance) | np.ones(N, dtype=bool)
+    rows = np.flatnonzero(reachable)
+    table = seed_table(robot)
+    given = q_start.reshape(1, -1) if q0 is not None else np.empty((0, robot.dof))
+    chain = robot.chain.kernel_args()
+    settings = (int(max_iter), DLSSolver.w_bias, int(restarts))
+    previous_threads = numba.get_num_threads()
+    try:
+        for lo in range(0, len(rows), BATCH_SLICE):
+            part = rows[lo : lo + BATCH_SLICE]
+            parallel = threads > 1 and len(part) >= PARALLEL_BATCH
+            kernel = lm_solve_batch if parallel else lm_solve_batch_serial
+            if parallel:
+                numba.set_num_threads(threads)
+            # Target k keeps the stream seed + k whatever slice it falls in.
+            targets_part = np.ascontiguousarray(poses[part])
+            seeds = part.astype(np.int64) + int(seed)
+            Qp, it, u, _ = kernel(
+                chain, (targets_part, task.packed, given, table.kernel_args(), settings, seeds)
+            )
+            Q[part], iterations[part], used[part] = Qp, it, u
+    finally:
+        numba.set_num_threads(previous_threads)
+    verdict = verify(robot, Q, poses, task)
+    status = np.where(verdict.success, "converged", np.where(reachable, "max_iter", "unreachable"))
+    return IKBatchResult(
+        Q,
+        verdict.success,
+        status.astype(object),
+        verdict.position_error,
+        verdict.orientation_error,
+        verdict.limit_violation,
+        iterations,
+        used,
+        now() - start_time,
+    )
