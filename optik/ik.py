@@ -338,8 +338,13 @@ def _posture_answer(plan: _Plan, posture: Any, joint_weights: Any) -> IKResult:
         solver_name = "analytic"
         last_run = None
     else:
+        from optik.posture import posture_answers
+
         numeric = plan.numeric or get_solver(AUTO_NUMERIC_SOLVER)
-        found, last_run = _collect(plan, numeric, want=None, min_separation=0.0)
+        found, last_run = posture_answers(
+            plan.query, numeric, plan.given, q_ref, weights, plan.seed, plan.max_iter,
+            plan.last, plan.deadline,
+        )  # fmt: skip
         solver_name = numeric.name
     if not found:
         if last_run is None:  # pragma: no cover - a closed form always has branches here
@@ -350,7 +355,10 @@ def _posture_answer(plan: _Plan, posture: Any, joint_weights: Any) -> IKResult:
         d = q - q_ref
         return float(d @ (weights * d))
 
-    refined = [refine_posture(plan.query, q, q_ref, weights) for q, _, _ in found]
+    if solver_name == "analytic":
+        refined = [refine_posture(plan.query, q, q_ref, weights) for q, _, _ in found]
+    else:  # refined already, nearest first
+        refined = [q for q, _, _ in found]
     best = min(refined, key=cost)
     iterations = last_run.iterations if last_run is not None else 0
     restarts = found[-1][2]

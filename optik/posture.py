@@ -6,29 +6,57 @@ applied to the whole configuration::
     min  1/2 ||q - q_ref||_W^2   s.t.   task(q) = target,   lower <= q <= upper
 
 with ``W = diag(joint_weights)``. :func:`refine_posture` solves it from a verified answer
-by sequential quadratic programming on the equality constraint: each step is the closed
-form ``dq = d + W^-1 J^T (J W^-1 J^T)^-1 (e - J d)`` with ``d = q_ref - q`` (``J`` the task's
-Jacobian rows, ``e`` its residual), followed by Gauss–Newton restoration onto the task and
-accepted only if the task still holds within its tolerances and the weighted distance
-fell. Joints on a bound whose step points outward are held there. At the end, with the
-limits inactive, ``W (q - q_ref)`` lies in the row space of ``J`` (first-order
-optimality): a local optimum, not a global one — :func:`optik.solve_ik` refines every
-answer its restarts find and keeps the best.
+by sequential quadratic programming on the equality constraint, compiled
+(:mod:`optik.solvers._posture_kernel`): the first step is the closed form ``dq = d + W^-1
+J^T (J W^-1 J^T)^-1 (e - J d)`` with ``d = q_ref - q`` (``J`` the task's Jacobian rows,
+``e`` its residual), later ones use a quasi-Newton model of the Lagrangian's curvature;
+each is followed by Gauss–Newton restoration onto the task and accepted only if the task
+still holds within its tolerances and the distance fell. Joints on a bound whose step
+points outward are held there. At the end, with the limits inactive, ``W (q - q_ref)``
+lies in the row space of ``J`` (first-order optimality): a local optimum, not a global one.
+
+:func:`posture_candidates` chooses what to refine: the answer of a start at ``q_ref``
+itself, then up to :data:`POSTURE_ANSWERS` - 1 more verified answers of the ordinary
+start sequence within :data:`POSTURE_ATTEMPTS` attempts (more only while none is found);
+:func:`optik.solve_ik` refines each and keeps the nearest.
 """
 
 from __future__ import annotations
+
+from typing import NamedTuple
 
 import numpy as np
 
 from optik._checks import FloatArray, finite_array
 from optik.errors import OptikError
-from optik.solvers._base import IKQuery
+from optik.solvers._base import IKQuery, IKSolver, RunOutput, budget_now
+from optik.solvers._posture_kernel import TIGHTEN, posture_refine, posture_search
+from optik.solvers._seeds import start_sequence
+from optik.solvers.iterative import DLSSolver
+from optik.verify import verify_one
 
 POSTURE_STEPS = 200
 """Largest number of SQP steps of one refinement."""
 
-RESTORE_STEPS = 10
-"""Gauss–Newton steps that bring a trial point back onto the task."""
+POSTURE_ANSWERS = 2
+"""Verified answers that are refined: the one from ``q_ref``, then the first others."""
+
+POSTURE_ATTEMPTS = 4
+"""Attempts (after the start at ``q_ref``) within which the other answers are collected;
+beyond them the search goes on only until a first answer is found."""
+
+__all__ = [
+    "POSTURE_ANSWERS",
+    "POSTURE_ATTEMPTS",
+    "POSTURE_STEPS",
+    "TIGHTEN",
+    "Refinement",
+    "check_joint_weights",
+    "posture_answers",
+    "posture_candidates",
+    "refine",
+    "refine_posture",
+]
 
 
 def check_joint_weights(weights: object, dof: int) -> FloatArray:
@@ -41,27 +69,50 @@ def check_joint_weights(weights: object, dof: int) -> FloatArray:
     return w
 
 
-TIGHTEN = 1e-3
-"""Restoration aims at this fraction of the task's tolerances: steps taken inside the
-tolerance band would stop the descent at the band's edge, short of the optimum."""
+class Refinement(NamedTuple):
+    """The outcome of :func:`refine`.
+
+    Attributes:
+        q: (dof,) the refined configuration (rad / m).
+        converged: the first-order optimality measure is at most
+            :data:`optik.solvers._posture_kernel.OPTIMALITY_TOL`.
+        measure: ``||g - J^T lambda|| / ||g||`` with ``g = W (q - q_ref)`` over the joints
+            not held on a bound, ``lambda`` its least-squares fit (no unit); ``inf`` when
+            ``q`` could not be brought within :data:`TIGHTEN` of the tolerances.
+        iterations: SQP steps taken.
+    """
+
+    q: FloatArray
+    converged: bool
+    measure: float
+    iterations: int
 
 
-def _task_step(query: IKQuery, q: FloatArray) -> tuple[FloatArray, FloatArray, bool]:
-    """Task rows ``J`` (m, dof), residual ``e`` (m,) and tight convergence at ``q``."""
-    T, J = query.robot.fk_jacobian(q)
-    position, orientation = query.errors(T)
-    task = query.spec
-    tight = position <= TIGHTEN * task.position_tol and (
-        orientation <= TIGHTEN * task.orientation_tol
-    )
-    return query.task_rows(J), query.error_vector(T), tight
+def refine(
+    query: IKQuery,
+    q: FloatArray,
+    q_ref: FloatArray,
+    weights: FloatArray,
+    max_iter: int = POSTURE_STEPS,
+) -> Refinement:
+    """:func:`refine_posture` with its convergence report.
 
-
-def _weighted_min_norm(J: FloatArray, v: FloatArray, w_inv: FloatArray) -> FloatArray:
-    """``W^-1 J^T (J W^-1 J^T)^-1 v`` with a small ridge for rank-deficient ``J``."""
-    A = (J * w_inv) @ J.T
-    A[np.diag_indices_from(A)] += 1e-12 * max(1.0, float(np.trace(A)))
-    return w_inv * (J.T @ np.linalg.solve(A, v))
+    Args:
+        query: the IK query (its task, tolerances and box ``query.lower/upper``).
+        q: a configuration (dof,) that solves the query.
+        q_ref: the reference posture (dof,), rad / m.
+        weights: (dof,) > 0, the joint weights ``W``.
+        max_iter: most SQP steps.
+    """
+    robot = query.robot
+    K, prismatic, C, identity, _, _ = robot.chain.kernel_args()
+    out = np.array(q, dtype=np.float64)
+    iterations, converged, measure = posture_refine(
+        K, prismatic, C, identity, query.lower, query.upper, query.target,
+        query.spec.packed, out, np.ascontiguousarray(q_ref, dtype=np.float64),
+        np.ascontiguousarray(weights, dtype=np.float64), int(max_iter),
+    )  # fmt: skip
+    return Refinement(out, bool(converged), float(measure), int(iterations))
 
 
 def refine_posture(
@@ -77,56 +128,118 @@ def refine_posture(
 
     Returns:
         A configuration that still solves the query (to :data:`TIGHTEN` of its
-        tolerances), usually nearer ``q_ref``; ``q`` itself if it cannot be tightened.
+        tolerances), a local optimum of the distance to ``q_ref`` within
+        :data:`POSTURE_STEPS` steps; ``q`` itself (clipped into the box) if it cannot be
+        tightened.
     """
-    lower, upper = query.lower, query.upper
-    w_inv = 1.0 / weights
-    q = np.array(q, dtype=np.float64)
+    return refine(query, q, q_ref, weights).q
 
-    def cost(x: FloatArray) -> float:
-        d = x - q_ref
+
+def posture_candidates(
+    query: IKQuery,
+    numeric: IKSolver,
+    given: list[FloatArray],
+    q_ref: FloatArray,
+    seed: int,
+    max_iter: int,
+    last: int,
+    deadline: float,
+) -> tuple[list[tuple[FloatArray, int, int]], RunOutput]:
+    """The verified answers worth refining, from starts at ``q_ref`` then the usual ones.
+
+    The start sequence is ``q_ref`` clipped into the box, then ``given`` and the ordinary
+    sequence (:mod:`optik.solvers._starts`). Answers are collected until
+    :data:`POSTURE_ANSWERS` are found, or :data:`POSTURE_ATTEMPTS` attempts after the
+    first have run and at least one was found, or ``last`` / ``deadline`` runs out.
+
+    Returns:
+        The answers ``(q, iterations so far, restarts so far)`` and the last run's output.
+    """
+    start = np.clip(q_ref, query.lower, query.upper)
+    starts = start_sequence(
+        query.robot, query.target, query.spec, [start, *given], seed, query.bounds
+    )
+    found: list[tuple[FloatArray, int, int]] = []
+    first = 0
+    iterations = 0
+    run: RunOutput | None = None
+    while first <= last:
+        # Within the small budget, stop at its end; beyond it, at the first answer.
+        stop = min(last, POSTURE_ATTEMPTS) if first <= POSTURE_ATTEMPTS else last
+        run = numeric.run(query, starts, max_iter, stop, deadline, start=first)
+        iterations += run.iterations
+        first += run.restarts + 1
+        if run.converged and verify_one(query.robot, run.q, query.target, query.spec)[3]:
+            found.append((run.q, iterations, first - 1))
+            if len(found) >= POSTURE_ANSWERS:
+                break
+        if found and first > POSTURE_ATTEMPTS:
+            break
+        if budget_now() > deadline:
+            break
+    if run is None:  # pragma: no cover - the budget always admits one attempt
+        raise OptikError("no IK attempt ran")
+    return found, run
+
+
+def posture_answers(
+    query: IKQuery,
+    numeric: IKSolver,
+    given: list[FloatArray],
+    q_ref: FloatArray,
+    weights: FloatArray,
+    seed: int,
+    max_iter: int,
+    last: int,
+    deadline: float,
+) -> tuple[list[tuple[FloatArray, int, int]], RunOutput]:
+    """The refined answers of :func:`posture_candidates`, nearest ``q_ref`` first.
+
+    With the compiled ``dls`` the first :data:`POSTURE_ATTEMPTS` + 1 attempts and the
+    refinements run in one compiled call (:func:`optik.solvers._posture_kernel.
+    posture_search`, which does not look at the clock: a few hundred microseconds on a
+    7-dof arm); only when they find no answer do further attempts run, within ``last``
+    and ``deadline``. Other solvers collect with :func:`posture_candidates`.
+
+    Returns:
+        The refined answers ``(q, iterations so far, restarts so far)``, each within
+        :data:`TIGHTEN` of the tolerances (they are to be verified), sorted by their
+        weighted distance to ``q_ref``, and the last run's output.
+    """
+
+    def cost(q: FloatArray) -> float:
+        d = q - q_ref
         return float(d @ (weights * d))
 
-    start = q.copy()
-    for _ in range(RESTORE_STEPS):  # first onto the task, tightly
-        J, e, tight = _task_step(query, q)
-        if tight:
-            break
-        q = np.clip(q + _weighted_min_norm(J, e, w_inv), lower, upper)
-    if not tight:
-        return start
-    best = cost(q)
-    for _ in range(POSTURE_STEPS):
-        J, e, _ = _task_step(query, q)
-        d = q_ref - q
-        free = np.ones(len(q), dtype=bool)
-        for _ in range(2):  # hold joints on a bound whose step points outward
-            Jf = J * free
-            dq = np.where(free, d, 0.0) + _weighted_min_norm(Jf, e - Jf @ d, w_inv * free)
-            blocked = ((q <= lower) & (dq < 0.0)) | ((q >= upper) & (dq > 0.0))
-            if not np.any(blocked & free):
-                break
-            free &= ~blocked
-        accepted = False
-        step = 1.0
-        for _ in range(8):
-            trial = np.clip(q + step * dq, lower, upper)
-            ok = False
-            for _ in range(RESTORE_STEPS):
-                Jt, et, ok = _task_step(query, trial)
-                if ok:
-                    break
-                trial = np.clip(
-                    trial + _weighted_min_norm(Jt * free, et, w_inv * free), lower, upper
-                )
-            if ok and cost(trial) < best:
-                accepted = True
-                break
-            step *= 0.5
-        if not accepted:
-            break
-        moved = float(np.max(np.abs(trial - q)))
-        q, best = trial, cost(trial)
-        if moved < 1e-12:
-            break
-    return q
+    if not isinstance(numeric, DLSSolver):
+        found, run = posture_candidates(
+            query, numeric, given, q_ref, seed, max_iter, last, deadline
+        )
+        refined = [(refine_posture(query, q, q_ref, weights), it, r) for q, it, r in found]
+        return sorted(refined, key=lambda f: cost(f[0])), run
+    robot = query.robot
+    K, prismatic, C, identity, _, _ = robot.chain.kernel_args()
+    start = np.clip(q_ref, query.lower, query.upper)
+    starts = start_sequence(robot, query.target, query.spec, [start, *given], seed, query.bounds)
+    stop = min(last, POSTURE_ATTEMPTS)
+    _, refined_q, kept, _, _, count, iterations, attempts = posture_search(
+        K, prismatic, C, identity, query.lower, query.upper, query.target, query.spec.packed,
+        starts.given, *starts.table, int(max_iter), numeric.w_bias, stop, starts.seed,
+        np.ascontiguousarray(q_ref, dtype=np.float64),
+        np.ascontiguousarray(weights, dtype=np.float64), POSTURE_ANSWERS, POSTURE_STEPS,
+    )  # fmt: skip
+    used = int(attempts) - 1
+    if count > 0:
+        found = [(refined_q[k].copy(), int(iterations), used) for k in range(int(count)) if kept[k]]
+        run = RunOutput(found[0][0], int(iterations), used, True, "converged", "max_iter")
+        return sorted(found, key=lambda f: cost(f[0])), run
+    run = RunOutput(start, int(iterations), used, False, "stalled or max_iter", "max_iter")
+    if stop >= last:
+        return [], run
+    run = numeric.run(query, starts, max_iter, last, deadline, start=stop + 1)
+    total = int(iterations) + run.iterations
+    used = stop + 1 + run.restarts
+    if not run.converged:
+        return [], RunOutput(run.q, total, used, False, run.message, run.status_if_failed)
+    q = refine_posture(query, run.q, q_ref, weights)
+    return [(q, total, used)], RunOutput(run.q, total, used, True, "converged", "max_iter")
