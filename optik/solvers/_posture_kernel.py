@@ -318,7 +318,9 @@ def _restore(
     """
     m = rows.shape[0]
     dof = x.shape[0]
-    pos, rot = _evaluate(K, prismatic, C, identity, x, target, task, T, Jc, J, e, work, M)
+    pos, rot = _evaluate(
+        (K, prismatic, C, identity, lower, upper), x, target, task, T, Jc, J, e, work, M
+    )
     tight = task_converged(pos, rot, tight_task)
     k = 0
     while not tight and k < RESTORE_STEPS:
@@ -341,7 +343,9 @@ def _restore(
                 break
         for i in range(dof):
             x[i] = min(max(x[i] + step[i], lower[i]), upper[i])
-        pos, rot = _evaluate(K, prismatic, C, identity, x, target, task, T, Jc, J, e, work, M)
+        pos, rot = _evaluate(
+            (K, prismatic, C, identity, lower, upper), x, target, task, T, Jc, J, e, work, M
+        )
         tight = task_converged(pos, rot, tight_task)
         k += 1
     return tight
@@ -613,7 +617,7 @@ def posture_search(
         start_into(attempt, given, nearest, table_q, lower, upper, seed, q)
         quick = attempt < QUICK_ATTEMPTS
         it, ok, _, _ = lm_attempt(
-            K, prismatic, C, identity, lower, upper, target, task, q, max_iter, w_bias,
+            (K, prismatic, C, identity, lower, upper), target, task, q, max_iter, w_bias,
             QUICK_WINDOW if quick else STALL_WINDOW, QUICK_RATIO if quick else STALL_RATIO,
             scratch,
         )  # fmt: skip
