@@ -293,10 +293,12 @@ def solve_ik(
         select: ``"first"`` (the first verified answer) or ``"nearest"`` (the verified
             answer nearest ``q0`` among all found within ``restarts`` / ``timeout_s``;
             with a closed form, the branch nearest ``q0``).
-        posture: ``q_ref`` (dof,): among the answers, one nearest it in the
-            ``joint_weights`` norm: every answer found within the budget (every branch of
-            a closed form) is refined by :func:`optik.posture.refine_posture` (a local
-            optimum of ``min ||q - q_ref||_W s.t. the task``) and the nearest is kept.
+        posture: ``q_ref`` (dof,): an answer nearest it in the ``joint_weights`` norm:
+            the answer from a start at ``q_ref``, then up to one more of the ordinary
+            starts (more only while none is found), each refined by
+            :func:`optik.posture.refine_posture` (a local optimum of
+            ``min ||q - q_ref||_W s.t. the task``, compiled), the nearest kept; with a
+            closed form, every branch is refined.
         joint_weights: (dof,) > 0, the norm of ``posture`` (default ones).
 
     Returns:
