@@ -19,7 +19,14 @@ from typing import Any, NamedTuple, cast
 import numpy as np
 from numpy.typing import NDArray
 
-from optik._checks import FloatArray, as_float_array, check_bool, check_finite, finite_array
+from optik._checks import (
+    FloatArray,
+    as_float_array,
+    check_bool,
+    check_finite,
+    check_real,
+    finite_array,
+)
 from optik._math import first_bad_pose
 from optik.analytic import (  # noqa: F401  (importing a family registers it: this order)
     _compiled,
@@ -32,7 +39,7 @@ from optik.analytic import (  # noqa: F401  (importing a family registers it: th
 
 # isort: split
 # After the families: the pipeline imports two of them, which would register them first.
-from optik.analytic import _pipeline
+from optik.analytic import _pipeline, free_joint
 from optik.analytic._base import (
     DUPLICATE_TOLERANCE,
     FAMILIES,
@@ -44,6 +51,7 @@ from optik.analytic._base import (
 )
 from optik.analytic._polish import polish
 from optik.errors import AnalyticIKError, OptikError, ShapeError
+from optik.limits import LIMIT_TOLERANCE
 from optik.model import DECLARED_FAMILY_CHECKS, Robot
 from optik.poses import as_target_pose
 from optik.spatial import as_pose, invert_transform, rotation_angle
@@ -58,6 +66,7 @@ _SHAPE_OUT = (_compiled.MAX_BRANCHES, _compiled.DOF)
 _SORT = _pipeline.SORT
 _WITHIN_LIMITS = _pipeline.WITHIN_LIMITS
 _solve = _pipeline.solve
+_TOLERANCES = _compiled.tolerance_block()
 
 __all__ = [
     "FAMILIES",
@@ -184,6 +193,8 @@ def analytic_ik(
     mode: str = "pose",
     q_ref: Any = None,
     within_limits: bool = True,
+    free_joint: str | None = None,
+    free_value: float | None = None,
 ) -> list[FloatArray]:
     """Every closed-form IK branch reaching ``target``, each verified by FK.
 
@@ -197,16 +208,27 @@ def analytic_ik(
             distance to it. Default: mid-limits (branches then keep the family's order).
         within_limits: drop branches outside the joint limits (default; a bool). With ``False``
             they are kept (still wrapped into the limits where a 2 pi shift allows).
+        free_joint: for a seven-joint arm, the name of the joint held at ``free_value``;
+            the other six are solved in closed form (:mod:`optik.analytic.free_joint`:
+            a spherical-shoulder, spherical-wrist arm such as the KUKA iiwa, holding any
+            joint but the elbow). Pose mode only.
+        free_value: the held joint's value (rad), inside its limits; required with
+            ``free_joint``. ``q_ref``'s entry for the held joint is not used.
 
     Returns:
         A list of joint vectors (dof,), possibly empty (unreachable, or reachable only
-        outside the limits). Each reaches the target within ``VERIFY_TOLERANCE``.
+        outside the limits). Each reaches the target within ``VERIFY_TOLERANCE``; with
+        ``free_joint``, each has exactly ``free_value`` there.
 
     Raises:
         AnalyticIKError: the robot has no family, or the family does not solve ``mode``
-            (e.g. position-only IK of a 6-dof arm, which has infinitely many solutions).
-        OptikError: malformed target or ``q_ref``.
+            (e.g. position-only IK of a 6-dof arm, which has infinitely many solutions);
+            with ``free_joint``: the other six joints fit no closed form (and why).
+        OptikError: malformed target or ``q_ref``; an unknown ``free_joint``, a
+            ``free_value`` missing, not finite or outside the joint's limits.
     """
+    if free_joint is not None or free_value is not None:
+        return _free_joint_ik(robot, target, mode, q_ref, within_limits, free_joint, free_value)
     if not isinstance(robot, Robot):
         _check_robot(robot)
     within_limits = _check_within(within_limits)
@@ -332,16 +354,20 @@ def _finish(
     ref: FloatArray,
     sort: bool,
     within_limits: bool,
+    held: tuple[int, float] | None = None,
 ) -> list[FloatArray]:
     """Wrap, filter by the limits, verify by FK, dedupe and sort raw branches (numpy).
 
     The steps of the compiled pipeline (:func:`optik.analytic._pipeline.solve`), for the
-    families that run in Python.
+    families that run in Python. ``held = (index, value)``: that joint keeps exactly
+    ``value`` (no 2 pi shift).
     """
     if not raw:
         return []
     Q = np.array(raw, dtype=float)
     Q = wrap_into_limits(Q[np.all(np.isfinite(Q), axis=1)], robot, ref)
+    if held is not None:
+        Q[:, held[0]] = held[1]
     if within_limits:
         Q = Q[np.asarray(robot.within_limits(Q), dtype=bool).reshape(-1)]
     if len(Q) == 0:
@@ -360,6 +386,118 @@ def _finish(
     if sort:
         branches.sort(key=lambda q: float(np.linalg.norm(q - ref)))
     return branches
+
+
+# ---------------------------------------------------------------------- a held joint
+def _free_joint_plans(robot: Robot) -> dict[int, free_joint.FreeJointPlan]:
+    """Per robot, the plans of the joints held so far (filled by :func:`_free_plan`)."""
+    return {}
+
+
+def _free_plan(robot: Robot, k: int) -> free_joint.FreeJointPlan:
+    """The cached :func:`optik.analytic.free_joint.free_joint_plan` of joint ``k``."""
+    plans = robot.cached(_free_joint_plans)
+    if k not in plans:
+        plans[k] = free_joint.free_joint_plan(robot, k)
+    return plans[k]
+
+
+def _held_joint(robot: Robot, free_joint: Any, free_value: Any) -> tuple[int, float]:
+    """The held joint's index and value, checked (the errors of :func:`analytic_ik`)."""
+    names = robot.joint_names
+    if not isinstance(free_joint, str) or free_joint not in names:
+        raise OptikError(
+            f"free_joint must name a joint of robot {robot.name!r} ({', '.join(names)}), "
+            f"got {free_joint!r}"
+        )
+    if free_value is None:
+        raise OptikError(f"free_value is required with free_joint={free_joint!r}")
+    value = check_real("free_value", free_value)
+    k = names.index(free_joint)
+    lower, upper = float(robot.lower[k]), float(robot.upper[k])
+    if not lower - LIMIT_TOLERANCE <= value <= upper + LIMIT_TOLERANCE:
+        raise OptikError(
+            f"free_value = {value!r} is outside the limits of joint {free_joint!r} "
+            f"[{lower!r}, {upper!r}]"
+        )
+    return k, value
+
+
+def _free_joint_ik(
+    robot: Robot,
+    target: Any,
+    mode: Any,
+    q_ref: Any,
+    within_limits: Any,
+    free_joint_name: Any,
+    free_value: Any,
+) -> list[FloatArray]:
+    """:func:`analytic_ik` with one joint held (:mod:`optik.analytic.free_joint`)."""
+    _check_robot(robot)
+    within = _check_within(within_limits)
+    if free_joint_name is None:
+        raise OptikError("free_value is given without free_joint (the joint to hold)")
+    k, value = _held_joint(robot, free_joint_name, free_value)
+    if not isinstance(mode, str) or mode != "pose":
+        raise AnalyticIKError(f"with free_joint, mode must be 'pose', got {mode!r}")
+    plan = _free_plan(robot, k)
+    if plan.reason:
+        raise AnalyticIKError(
+            f"robot {robot.name!r} with joint {free_joint_name!r} held has no closed form: "
+            f"{plan.reason}"
+        )
+    T_target = _plain(as_target_pose(target, "pose"))
+    sort = q_ref is not None
+    ref = np.array(robot.mid_limits if q_ref is None else _check_ref(robot, q_ref), dtype=float)
+    ref[k] = value
+    if _beyond_reach(robot, T_target):
+        return []
+    held = (k, value)
+    raw = _free_joint_raw(plan, value, T_target, ref)
+    branches = _finish(robot, raw, T_target, "pose", ref, sort, within, held)
+    if branches:
+        return branches
+    polished = polish(robot, T_target, "pose", [*raw, ref], 0.1 * VERIFY_TOLERANCE, held=k)
+    branches = _finish(robot, polished, T_target, "pose", ref, sort, within, held)
+    if branches or not within or not _finish(robot, raw, T_target, "pose", ref, False, False, held):
+        return branches
+    # Branches exist, all outside the limits. At a singularity a free angle took the
+    # reference and pushed a dependent one out: other references for the free angles.
+    found: list[FloatArray] = []
+    for fraction in _FREE_RETRIES:
+        trial = np.where(
+            np.isfinite(robot.lower + robot.upper),
+            robot.lower + fraction * (robot.upper - robot.lower),
+            ref,
+        )
+        trial[k] = value
+        found += _free_joint_raw(plan, value, T_target, trial)
+    return _finish(robot, found, T_target, "pose", ref, sort, within, held)
+
+
+_FREE_RETRIES = (0.5, 0.25, 0.75, 0.1, 0.9)
+"""References (fractions of each joint's range) retried for the angles a singularity
+leaves free, when the reference's own choice puts every branch outside the limits."""
+
+
+def _free_joint_raw(
+    plan: free_joint.FreeJointPlan, value: float, T_target: FloatArray, ref: FloatArray
+) -> list[FloatArray]:
+    """The raw branches of the held-joint closed form (free angles at ``ref``)."""
+    cand = np.empty((_compiled.MAX_BRANCHES, len(ref)))
+    n = free_joint.free_joint_candidates(
+        plan.directions,
+        plan.points,
+        plan.tool,
+        plan.held,
+        value,
+        plan.reverse,
+        T_target,
+        ref,
+        _TOLERANCES,
+        cand,
+    )
+    return list(cand[:n])
 
 
 # ---------------------------------------------------------------------- batches

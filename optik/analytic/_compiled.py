@@ -182,18 +182,25 @@ def pack_params(robot: Robot, family: int) -> FloatArray:
     params[AT_TOOL_INV:AT_MID] = invert_transform(model.T_n_tool).reshape(-1)
     params[AT_MID:AT_CHAIN] = robot.mid_limits
     params[AT_CHAIN:AT_TOLS] = robot.chain.K[:, :3, :].reshape(-1)
-    params[AT_TOLS:] = (
-        TRIG_TOL,
-        SINGULAR_EPS,
-        FREE_RHS_TOL,
-        LIMIT_TOLERANCE,
-        VERIFY_TOLERANCE,
-        DUPLICATE_TOLERANCE,
-        ROTATION_TOLERANCE,
-        _BOTTOM_ROW_TOL,
-        WRIST_SINGULAR,
-    )
+    params[AT_TOLS:] = tolerance_block()
     return params
+
+
+def tolerance_block() -> FloatArray:
+    """The tolerances, from their home modules, in the order of ``_TOL_NAMES``."""
+    return np.array(
+        [
+            TRIG_TOL,
+            SINGULAR_EPS,
+            FREE_RHS_TOL,
+            LIMIT_TOLERANCE,
+            VERIFY_TOLERANCE,
+            DUPLICATE_TOLERANCE,
+            ROTATION_TOLERANCE,
+            _BOTTOM_ROW_TOL,
+            WRIST_SINGULAR,
+        ]
+    )
 
 
 def params_of(robot: Robot, family: int) -> FloatArray:

@@ -30,7 +30,12 @@ the polish refines near-solutions, it does not search."""
 
 
 def polish(
-    robot: Robot, target: FloatArray, mode: str, starts: list[FloatArray], tol: float
+    robot: Robot,
+    target: FloatArray,
+    mode: str,
+    starts: list[FloatArray],
+    tol: float,
+    held: int | None = None,
 ) -> list[FloatArray]:
     """Candidates refined towards ``target`` (4x4 world pose; a point in position mode).
 
@@ -40,6 +45,8 @@ def polish(
         mode: ``"pose"`` or ``"position"``.
         starts: configurations (dof,) to refine.
         tol: stop a candidate once both errors are below this (m, rad).
+        held: index of a joint that keeps its start value (its Jacobian column is
+            zeroed, so the pseudoinverse never moves it).
 
     Returns:
         The refined configurations, unverified (the caller's FK check decides).
@@ -61,6 +68,8 @@ def polish(
                 break
             rows = np.ascontiguousarray(J)
             m = task_rows(rows, target, task.packed)
+            if held is not None:
+                rows[:m, held] = 0.0
             dq = np.linalg.pinv(rows[:m], rcond=1e-10) @ e[:m]
             norm = float(np.linalg.norm(dq))
             if not np.isfinite(norm):

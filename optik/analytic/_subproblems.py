@@ -1,0 +1,274 @@
+"""Compiled Paden–Kahan subproblems on joint axes: rotations of points about lines.
+
+The closed forms found from the joint axes (:mod:`optik.analytic.pair_wrist`) reduce to
+three questions about rotations ``R(w, t)`` about unit directions ``w`` (right-handed,
+rad); vectors are 3-tuples of floats (m, or unitless directions):
+
+- :func:`sp1_angle`: the angle ``t`` with ``R(w, t) u = v`` (subproblem 1);
+- :func:`sp2_angles`: the angles ``(ta, tb)`` with ``R(wa, ta) R(wb, tb) p = q``, two
+  axes through one point (subproblem 2): up to two pairs;
+- :func:`distance_angles`: the angle ``t`` that puts a point rotated about a line at a
+  given distance from a centre (subproblem 3): up to two angles.
+
+Each is solved as a trig equation ``a cos t + b sin t = c`` normalised to ``a^2 + b^2``
+of order 1 (:func:`optik._math.trig_roots`, with its tangent and free-angle rules), then
+by ``atan2`` of projections, never by a square root of a difference of squares: near a
+singularity (a point on an axis) the angle stays accurate to rounding, and the rotated
+point to rounding in absolute terms. An angle that the data leave free (a point on its
+axis, within ``axis_tol`` relative) takes the caller's reference.
+
+Every function is serial and ``nogil``; tolerances come as arguments (numba freezes
+globals into its cache).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+
+from optik._math import sincos, trig_roots
+
+Vec3 = tuple[float, float, float]
+"""A vector (or point) in scalars."""
+Rot9 = tuple[float, float, float, float, float, float, float, float, float]
+"""A 3x3 rotation, row-major, in scalars."""
+
+_inline = nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+_jit = nb.njit(cache=True, nogil=True, error_model="numpy")
+
+
+@_inline
+def dot(a: Vec3, b: Vec3) -> float:
+    """``a . b``."""
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+@_inline
+def cross(a: Vec3, b: Vec3) -> Vec3:
+    """``a x b``."""
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+@_inline
+def sub(a: Vec3, b: Vec3) -> Vec3:
+    """``a - b``."""
+    return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
+
+
+@_inline
+def axpy(s: float, a: Vec3, b: Vec3) -> Vec3:
+    """``s a + b``."""
+    return (s * a[0] + b[0], s * a[1] + b[1], s * a[2] + b[2])
+
+
+@_inline
+def norm(a: Vec3) -> float:
+    """``|a|``."""
+    return math.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
+
+
+@_inline
+def perp(w: Vec3, a: Vec3) -> Vec3:
+    """The component of ``a`` perpendicular to the unit direction ``w``."""
+    return axpy(-dot(w, a), w, a)
+
+
+@_inline
+def rotate(w: Vec3, s: float, c: float, v: Vec3) -> Vec3:
+    """``R(w, t) v`` from ``s, c = sin t, cos t`` (Rodrigues: ``v c + (w x v) s + ...``)."""
+    k = dot(w, v) * (1.0 - c)
+    x = cross(w, v)
+    return (
+        v[0] * c + x[0] * s + w[0] * k,
+        v[1] * c + x[1] * s + w[1] * k,
+        v[2] * c + x[2] * s + w[2] * k,
+    )
+
+
+@_inline
+def rotation(w: Vec3, t: float) -> Rot9:
+    """``R(w, t)`` as a row-major 9-tuple (``w`` a unit direction, ``t`` in rad)."""
+    s, c = sincos(t)
+    k = 1.0 - c
+    return (
+        c + w[0] * w[0] * k,
+        w[0] * w[1] * k - w[2] * s,
+        w[0] * w[2] * k + w[1] * s,
+        w[1] * w[0] * k + w[2] * s,
+        c + w[1] * w[1] * k,
+        w[1] * w[2] * k - w[0] * s,
+        w[2] * w[0] * k - w[1] * s,
+        w[2] * w[1] * k + w[0] * s,
+        c + w[2] * w[2] * k,
+    )
+
+
+@_inline
+def apply(R: Rot9, v: Vec3) -> Vec3:
+    """``R v``."""
+    return (
+        R[0] * v[0] + R[1] * v[1] + R[2] * v[2],
+        R[3] * v[0] + R[4] * v[1] + R[5] * v[2],
+        R[6] * v[0] + R[7] * v[1] + R[8] * v[2],
+    )
+
+
+@_inline
+def apply_t(R: Rot9, v: Vec3) -> Vec3:
+    """``R^T v``."""
+    return (
+        R[0] * v[0] + R[3] * v[1] + R[6] * v[2],
+        R[1] * v[0] + R[4] * v[1] + R[7] * v[2],
+        R[2] * v[0] + R[5] * v[1] + R[8] * v[2],
+    )
+
+
+@_jit
+def sp1_angle(w: Vec3, u: Vec3, v: Vec3, free: float, axis_tol: float) -> float:
+    """The angle ``t`` (rad, in (-pi, pi]) that turns ``u`` onto ``v`` about ``w``.
+
+    Only the components perpendicular to ``w`` count (the caller makes the others agree).
+    When either is shorter than ``axis_tol`` times ``max(|u|, |v|)`` (a point on the axis)
+    every angle does: ``free`` is returned.
+    """
+    up = perp(w, u)
+    vp = perp(w, v)
+    size = max(norm(u), norm(v))
+    if not (norm(up) > axis_tol * size and norm(vp) > axis_tol * size):
+        return free
+    return math.atan2(dot(w, cross(up, vp)), dot(up, vp))
+
+
+@_jit
+def sp2_angles(
+    wa: Vec3,
+    wb: Vec3,
+    p: Vec3,
+    q: Vec3,
+    ref_a: float,
+    ref_b: float,
+    gap_tol: float,
+    axis_tol: float,
+) -> tuple[int, float, float, float, float]:
+    """Angles with ``R(wa, ta) R(wb, tb) p = q`` (axes through the origin, not parallel).
+
+    Returns ``(count, ta_1, tb_1, ta_2, tb_2)`` (count 0, 1 or 2). The middle point
+    ``m = R(wb, tb) p = R(wa, -ta) q`` has ``wa . m = wa . q``, ``wb . m = wb . p`` and
+    ``|m| = |p|``: ``m = x wa + y wb + g n`` with ``n`` the unit normal ``wa x wb / s``
+    and ``g^2 = r_q^2 - (wb . p - k wa . q)^2 / s^2`` (``k = wa . wb``, ``s^2 = 1 - k^2``,
+    ``r_q`` the distance of ``q`` from axis a), or the same with the roles of ``p`` and
+    ``q`` exchanged: the one of the smaller distance, formed as a product
+    ``(r - d)(r + d)`` so that a point near its axis keeps ``g`` accurate (at a wrist
+    near alignment, ``g`` is the sine of the small angle). ``g^2`` below
+    ``-gap_tol |p|^2``: no solution; else ``g = +-sqrt(max(g^2, 0))``, positive first
+    (one solution when 0). The angles then follow by :func:`sp1_angle`; a point on its
+    axis (relative ``axis_tol``) leaves its angle free, at ``ref_a`` or ``ref_b``.
+    ``|p| = |q|`` is assumed (the caller's FK check decides otherwise).
+    """
+    size = max(norm(p), norm(q))
+    if not size > 0.0:
+        return 1, ref_a, ref_b, ref_a, ref_b
+    k = dot(wa, wb)
+    qa = dot(wa, q)
+    pb = dot(wb, p)
+    rq = norm(perp(wa, q))
+    rp = norm(perp(wb, p))
+    if rq <= axis_tol * size:  # q on axis a: ta free
+        s, c = sincos(ref_a)
+        tb = sp1_angle(wb, p, rotate(wa, -s, c, q), ref_b, axis_tol)
+        return 1, ref_a, tb, ref_a, tb
+    if rp <= axis_tol * size:  # p on axis b: tb free
+        s, c = sincos(ref_b)
+        ta = sp1_angle(wa, rotate(wb, s, c, p), q, ref_a, axis_tol)
+        return 1, ta, ref_b, ta, ref_b
+    nrm = cross(wa, wb)
+    sn = norm(nrm)
+    nrm = (nrm[0] / sn, nrm[1] / sn, nrm[2] / sn)
+    den = sn * sn
+    x = (qa - k * pb) / den
+    y = (pb - k * qa) / den
+    if rq <= rp:
+        d = abs(pb - k * qa) / sn
+        g2 = (rq - d) * (rq + d)
+    else:
+        d = abs(qa - k * pb) / sn
+        g2 = (rp - d) * (rp + d)
+    if g2 < -gap_tol * size * size:
+        return 0, 0.0, 0.0, 0.0, 0.0
+    g = math.sqrt(g2) if g2 > 0.0 else 0.0
+    count = 2 if g > 0.0 else 1
+    base = axpy(y, wb, (x * wa[0], x * wa[1], x * wa[2]))
+    m1 = axpy(g, nrm, base)
+    m2 = axpy(-g, nrm, base)
+    ta1 = sp1_angle(wa, m1, q, ref_a, axis_tol)
+    tb1 = sp1_angle(wb, p, m1, ref_b, axis_tol)
+    ta2 = sp1_angle(wa, m2, q, ref_a, axis_tol)
+    tb2 = sp1_angle(wb, p, m2, ref_b, axis_tol)
+    return count, ta1, tb1, ta2, tb2
+
+
+@_jit
+def distance_angles(
+    w: Vec3,
+    on_axis: Vec3,
+    point: Vec3,
+    centre: Vec3,
+    dist2: float,
+    ref: float,
+    trig_tol: float,
+    eps: float,
+    free_tol: float,
+    reach_tol: float,
+) -> tuple[int, float, float]:
+    """Angles ``t`` with ``|R_line(t) point - centre|^2 = dist2``: ``(count, t_1, t_2)``.
+
+    ``R_line(t)`` turns about the line through ``on_axis`` with unit direction ``w``. The
+    rotated point is ``o + u cos t + (w x u) sin t`` (``o`` the foot of ``point`` on the
+    line, ``u = point - o``), so the condition is ``2 d.u cos t + 2 d.(w x u) sin t =
+    dist2 - |d|^2 - |u|^2`` with ``d = o - centre``, divided by ``|d|^2 + |u|^2``. Both
+    ``d.u`` and ``d.(w x u)`` vanish (the distance does not depend on ``t``: ``centre`` or
+    ``point`` on the line) -> :func:`optik._math.trig_roots`'s free rule, ``ref``.
+    A distance beyond the reachable range by at most ``reach_tol`` (relative, in the
+    normalised equation) gives the tangent angle: axes that meet only to within the
+    geometry's tolerance put a stretched arm's target just out of its exact reach.
+    """
+    rel = sub(point, on_axis)
+    foot = axpy(dot(w, rel), w, on_axis)
+    u = sub(point, foot)
+    v = cross(w, u)
+    d = sub(foot, centre)
+    scale = dot(d, d) + dot(u, u)
+    if not scale > 0.0:
+        return 1, ref, ref
+    a = 2.0 * dot(d, u) / scale
+    b = 2.0 * dot(d, v) / scale
+    c = (dist2 - scale) / scale
+    n, t1, t2 = trig_roots(a, b, c, ref, trig_tol, eps, free_tol)
+    r = math.sqrt(a * a + b * b)
+    if n == 0 and r > eps and abs(c) <= r * (1.0 + reach_tol):
+        # Just beyond the farthest (or nearest) distance, by less than the geometry's
+        # tolerance: the tangent angle, whose miss the caller's FK check judges.
+        t = math.atan2(b, a) + (0.0 if c > 0.0 else math.pi)
+        t = math.atan2(math.sin(t), math.cos(t))
+        return 1, t, t
+    return n, t1, t2
+
+
+@_jit
+def meeting_point(w1: Vec3, p1: Vec3, w2: Vec3, p2: Vec3) -> Vec3:
+    """The midpoint of the common normal of two non-parallel lines (their meeting point).
+
+    Lines through ``p1``, ``p2`` with unit directions ``w1``, ``w2``; for lines that meet
+    it is the point they share.
+    """
+    k = dot(w1, w2)
+    r = sub(p2, p1)
+    den = 1.0 - k * k
+    a = dot(r, w1)
+    b = dot(r, w2)
+    s = (a - k * b) / den
+    t = (k * a - b) / den
+    x1 = axpy(s, w1, p1)
+    x2 = axpy(t, w2, p2)
+    return (0.5 * (x1[0] + x2[0]), 0.5 * (x1[1] + x2[1]), 0.5 * (x1[2] + x2[2]))

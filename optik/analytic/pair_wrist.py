@@ -1,0 +1,352 @@
+"""Six revolute axes: a meeting pair, an elbow, a spherical wrist (from the joint axes).
+
+The structure (in the product-of-exponentials form of the joint axes at ``q = 0``,
+:func:`optik.analytic.geometry.joint_axes`: ``fk(q) = R_1(q_1) ... R_6(q_6) M``, each
+``R_i`` a rotation about axis ``i`` and ``M`` the tool's pose at ``q = 0``):
+
+- axes 1 and 2 meet at the shoulder point ``S``;
+- axes 4, 5 and 6 meet at the wrist centre ``W`` (axis 5 not parallel to 4 or 6);
+- axis 3 (the elbow) passes through neither, so it alone sets ``|W - S|``.
+
+It is what a seven-joint arm with a spherical shoulder and a spherical wrist (the KUKA
+iiwa, ...) leaves when one joint of the shoulder is held (:mod:`optik.analytic.free_joint`),
+and the same with the chain reversed when a joint of the wrist is held. The closed form,
+with ``G = T_target M^-1`` (all in the world frame):
+
+1. ``W_t = G W``: the wrist centre's target (the wrist rotations fix ``W``).
+2. ``|R_3(q_3) W - S| = |W_t - S|`` (``R_1``, ``R_2`` fix ``S``): a trig equation in
+   ``q_3`` (:func:`optik.analytic._subproblems.distance_angles`), up to two elbows.
+3. ``R_1(q_1) R_2(q_2) (R_3(q_3) W - S) = W_t - S``: two rotations about axes through
+   ``S`` (subproblem 2, :func:`~optik.analytic._subproblems.sp2_angles`), up to two
+   shoulders.
+4. ``R_4 R_5 R_6 = (R_1 R_2 R_3)^T G`` (rotation parts): ``q_4, q_5`` by subproblem 2 on
+   axis 6's direction (which ``R_6`` fixes), ``q_6`` by subproblem 1 on a direction across
+   axis 6 from the residual rotation, so ``q_6`` absorbs any rounding of ``q_4``.
+
+Up to 2 x 2 x 2 = 8 branches, in this order: elbow, shoulder, wrist (each pair in the
+ascending order of the angle solved first). At a singularity a free angle takes the
+reference: the shoulder's ``q_1`` with ``W_t - S`` on axis 1, the wrist's ``q_4`` with
+axes 4 and 6 aligned (``q_6`` then takes up the rest), the elbow with ``S`` or ``W`` on
+axis 3 only when the distance already matches.
+
+Tolerances are those of the compiled families (:data:`optik.analytic._compiled.TOL_TRIG`
+...): the trig equations are normalised to coefficients of order 1, and "on its axis" is
+``WRIST_SINGULAR`` relative to the point's distance from the axes' meeting point.
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+from optik._checks import FloatArray
+from optik._math import sincos
+from optik.analytic._compiled import MAX_BRANCHES, closed_form_tols
+from optik.analytic._subproblems import (
+    Rot9,
+    Vec3,
+    apply,
+    apply_t,
+    cross,
+    distance_angles,
+    meeting_point,
+    norm,
+    rotate,
+    rotation,
+    sp1_angle,
+    sp2_angles,
+    sub,
+)
+from optik.analytic.geometry import ANGLE_TOL, LENGTH_TOL, Axes
+
+_jit = nb.njit(cache=True, nogil=True, error_model="numpy")
+
+REACH_TOL = 1e-9
+"""A wrist centre beyond the elbow's reach by at most this (relative) takes the tangent
+elbow (:func:`optik.analytic._subproblems.distance_angles`); the FK check and the
+polish judge the rest."""
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _vec(a: np.ndarray, i: int) -> Vec3:
+    return (a[i, 0], a[i, 1], a[i, 2])
+
+
+@_jit
+def _mul(A: Rot9, B: Rot9) -> Rot9:
+    return (
+        A[0] * B[0] + A[1] * B[3] + A[2] * B[6],
+        A[0] * B[1] + A[1] * B[4] + A[2] * B[7],
+        A[0] * B[2] + A[1] * B[5] + A[2] * B[8],
+        A[3] * B[0] + A[4] * B[3] + A[5] * B[6],
+        A[3] * B[1] + A[4] * B[4] + A[5] * B[7],
+        A[3] * B[2] + A[4] * B[5] + A[5] * B[8],
+        A[6] * B[0] + A[7] * B[3] + A[8] * B[6],
+        A[6] * B[1] + A[7] * B[4] + A[8] * B[7],
+        A[6] * B[2] + A[7] * B[5] + A[8] * B[8],
+    )
+
+
+@_jit
+def _mul_tn(A: Rot9, B: Rot9) -> Rot9:
+    return _mul((A[0], A[3], A[6], A[1], A[4], A[7], A[2], A[5], A[8]), B)
+
+
+@_jit
+def pair_wrist_candidates(
+    z: np.ndarray,
+    p: np.ndarray,
+    M: np.ndarray,
+    T: np.ndarray,
+    ref: np.ndarray,
+    tols: np.ndarray,
+    cand: np.ndarray,
+) -> int:
+    """Raw branches of the pair-elbow-wrist closed form into ``cand`` (>= 8, 6).
+
+    Args:
+        z: (6, 3) unit joint directions at ``q = 0`` (world frame).
+        p: (6, 3) a point on each axis (m).
+        M: (4, 4) world pose of the tool at ``q = 0``.
+        T: (4, 4) world target of the tool.
+        ref: (6,) reference angles for free joints (rad).
+        tols: the tolerance block of :mod:`optik.analytic._compiled`.
+        cand: output rows (joint angles, rad, not wrapped).
+
+    Returns:
+        The number of rows written (0 to 8), in the order of the module docstring.
+    """
+    trig_tol, eps, free_tol, axis_tol = closed_form_tols(tols)
+    z1, z2, z3, z4, z5, z6 = _vec(z, 0), _vec(z, 1), _vec(z, 2), _vec(z, 3), _vec(z, 4), _vec(z, 5)
+    S = meeting_point(z1, _vec(p, 0), z2, _vec(p, 1))
+    W = meeting_point(z4, _vec(p, 3), z5, _vec(p, 4))
+    # G = T M^-1: rotation R_G = R_T R_M^T, translation t_T - R_G t_M.
+    RT = (T[0, 0], T[0, 1], T[0, 2], T[1, 0], T[1, 1], T[1, 2], T[2, 0], T[2, 1], T[2, 2])
+    RMt = (M[0, 0], M[1, 0], M[2, 0], M[0, 1], M[1, 1], M[2, 1], M[0, 2], M[1, 2], M[2, 2])
+    RG = _mul(RT, RMt)
+    tM = (M[0, 3], M[1, 3], M[2, 3])
+    GtM = apply(RG, tM)
+    tG = (T[0, 3] - GtM[0], T[1, 3] - GtM[1], T[2, 3] - GtM[2])
+    GW = apply(RG, W)
+    Wt = (GW[0] + tG[0], GW[1] + tG[1], GW[2] + tG[2])
+    q = sub(Wt, S)
+    dist2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2]
+    # The wrist's constant direction (axis 6, fixed by R_6) and one across it.
+    across = cross(z5, z6)
+    na = norm(across)
+    across = (across[0] / na, across[1] / na, across[2] / na)
+    p3 = _vec(p, 2)
+    n = 0
+    n3, e1, e2 = distance_angles(z3, p3, W, S, dist2, ref[2], trig_tol, eps, free_tol, REACH_TOL)
+    for i3 in range(n3):
+        t3 = e1 if i3 == 0 else e2
+        s3, c3 = sincos(t3)
+        W3 = sub(W, p3)
+        W3 = rotate(z3, s3, c3, W3)
+        P = sub((W3[0] + p3[0], W3[1] + p3[1], W3[2] + p3[2]), S)
+        n12, ta1, tb1, ta2, tb2 = sp2_angles(z1, z2, P, q, ref[0], ref[1], trig_tol, axis_tol)
+        R3 = rotation(z3, t3)
+        for i12 in range(n12):
+            t1 = ta1 if i12 == 0 else ta2
+            t2 = tb1 if i12 == 0 else tb2
+            R123 = _mul(_mul(rotation(z1, t1), rotation(z2, t2)), R3)
+            H = _mul_tn(R123, RG)
+            n45, ta, tb, tc, td = sp2_angles(
+                z4, z5, z6, apply(H, z6), ref[3], ref[4], trig_tol, axis_tol
+            )
+            for i45 in range(n45):
+                t4 = ta if i45 == 0 else tc
+                t5 = tb if i45 == 0 else td
+                R45 = _mul(rotation(z4, t4), rotation(z5, t5))
+                target = apply_t(R45, apply(H, across))
+                t6 = sp1_angle(z6, across, target, ref[5], axis_tol)
+                if n < cand.shape[0]:
+                    cand[n, 0] = t1
+                    cand[n, 1] = t2
+                    cand[n, 2] = t3
+                    cand[n, 3] = t4
+                    cand[n, 4] = t5
+                    cand[n, 5] = t6
+                    refine(z, p, M, T, cand, n)
+                    n += 1
+    return n
+
+
+REFINE_DAMPING = 1e-6
+"""Damping of :func:`refine`'s least-squares step (the Jacobian's scale is 1 m or 1):
+directions of the Jacobian with singular values far below it (at a singularity) are not
+moved, so a free angle keeps its reference."""
+REFINE_MAX_STEP = 1e-4
+"""Largest correction (rad) :func:`refine` applies: a larger one means an ill-posed
+system, and the closed form's values are kept."""
+
+
+@_jit
+def _pose_error(
+    z: np.ndarray, p: np.ndarray, M: np.ndarray, T: np.ndarray, q: np.ndarray, J: np.ndarray
+) -> tuple[float, float, float, float, float, float]:
+    """``T``'s position and small-angle orientation error against ``fk(q)``; ``J`` (6, 6).
+
+    The product of exponentials ``R_1(q_1) ... R_6(q_6) M``; ``J`` receives the world
+    Jacobian at the tool point (rows: linear, then angular velocity). The orientation
+    error is the axial vector of the skew part of ``R_T R^T`` (exact to second order).
+    """
+    R: Rot9 = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
+    t = (0.0, 0.0, 0.0)
+    for i in range(6):
+        w = apply(R, _vec(z, i))
+        c = apply(R, _vec(p, i))
+        c = (c[0] + t[0], c[1] + t[1], c[2] + t[2])
+        for a in range(3):
+            J[3 + a, i] = w[a]
+        J[0, i] = c[0]
+        J[1, i] = c[1]
+        J[2, i] = c[2]
+        Ri = rotation(_vec(z, i), q[i])
+        # Moving frame: the joint turns about its line through p_i.
+        pi = _vec(p, i)
+        Rp = apply(Ri, pi)
+        ti = (pi[0] - Rp[0], pi[1] - Rp[1], pi[2] - Rp[2])
+        Rti = apply(R, ti)
+        t = (t[0] + Rti[0], t[1] + Rti[1], t[2] + Rti[2])
+        R = _mul(R, Ri)
+    RM = (M[0, 0], M[0, 1], M[0, 2], M[1, 0], M[1, 1], M[1, 2], M[2, 0], M[2, 1], M[2, 2])
+    Rq = _mul(R, RM)
+    tq = apply(R, (M[0, 3], M[1, 3], M[2, 3]))
+    tq = (tq[0] + t[0], tq[1] + t[1], tq[2] + t[2])
+    for i in range(6):
+        # Linear velocity of the tool point: w x (tool - point on the turned axis).
+        w = (J[3, i], J[4, i], J[5, i])
+        v = cross(w, (tq[0] - J[0, i], tq[1] - J[1, i], tq[2] - J[2, i]))
+        J[0, i] = v[0]
+        J[1, i] = v[1]
+        J[2, i] = v[2]
+    RT = (T[0, 0], T[0, 1], T[0, 2], T[1, 0], T[1, 1], T[1, 2], T[2, 0], T[2, 1], T[2, 2])
+    E = _mul(RT, (Rq[0], Rq[3], Rq[6], Rq[1], Rq[4], Rq[7], Rq[2], Rq[5], Rq[8]))
+    return (
+        T[0, 3] - tq[0],
+        T[1, 3] - tq[1],
+        T[2, 3] - tq[2],
+        0.5 * (E[7] - E[5]),
+        0.5 * (E[2] - E[6]),
+        0.5 * (E[3] - E[1]),
+    )
+
+
+@_jit
+def refine(
+    z: np.ndarray, p: np.ndarray, M: np.ndarray, T: np.ndarray, cand: np.ndarray, r: int
+) -> None:
+    """One Newton step of ``cand[r]`` towards ``T`` on the product of exponentials.
+
+    Axes that meet only to within the geometry's tolerances (a URDF angle written to 11
+    digits) make the closed form exact to about 1e-12; near a singularity that error is
+    magnified in the joints that the singularity couples. One damped least-squares step
+    (:data:`REFINE_DAMPING`) restores the branch to rounding. It is kept only when it is
+    small (:data:`REFINE_MAX_STEP`) and lowers the error.
+    """
+    J = np.empty((6, 6))
+    q = np.empty(6)
+    for i in range(6):
+        q[i] = cand[r, i]
+    e = _pose_error(z, p, M, T, q, J)
+    before = max(abs(e[0]), abs(e[1]), abs(e[2]), abs(e[3]), abs(e[4]), abs(e[5]))
+    if before == 0.0:
+        return
+    # Damped normal equations (J^T J + lambda^2 I) dq = J^T e, solved by Gaussian
+    # elimination (the matrix is symmetric positive definite: no pivoting needed).
+    A = np.empty((6, 6))
+    b = np.empty(6)
+    for i in range(6):
+        acc = 0.0
+        for m in range(6):
+            acc += J[m, i] * e[m]
+        b[i] = acc
+        for j in range(6):
+            acc = 0.0
+            for m in range(6):
+                acc += J[m, i] * J[m, j]
+            A[i, j] = acc
+        A[i, i] += REFINE_DAMPING * REFINE_DAMPING
+    for col in range(6):
+        for row in range(col + 1, 6):
+            f = A[row, col] / A[col, col]
+            for j in range(col, 6):
+                A[row, j] -= f * A[col, j]
+            b[row] -= f * b[col]
+    for col in range(5, -1, -1):
+        acc = b[col]
+        for j in range(col + 1, 6):
+            acc -= A[col, j] * b[j]
+        b[col] = acc / A[col, col]
+    for i in range(6):
+        if not abs(b[i]) <= REFINE_MAX_STEP:
+            return
+        q[i] += b[i]
+    e = _pose_error(z, p, M, T, q, J)
+    after = max(abs(e[0]), abs(e[1]), abs(e[2]), abs(e[3]), abs(e[4]), abs(e[5]))
+    if after < before:
+        for i in range(6):
+            cand[r, i] = q[i]
+
+
+# ---------------------------------------------------------------------- the structure
+def _line_distance(z1: FloatArray, p1: FloatArray, z2: FloatArray, p2: FloatArray) -> float:
+    """Distance (m) between two lines (unit directions ``z``, points ``p``)."""
+    c = np.cross(z1, z2)
+    sn = float(np.linalg.norm(c))
+    r = p2 - p1
+    if sn <= ANGLE_TOL:
+        return float(np.linalg.norm(r - (r @ z1) * z1))
+    return abs(float(r @ c)) / sn
+
+
+def _point_line_distance(z: FloatArray, p: FloatArray, x: FloatArray) -> float:
+    r = x - p
+    return float(np.linalg.norm(r - (r @ z) * z))
+
+
+def structure_reason(axes: Axes, names: tuple[str, ...]) -> str | None:
+    """Why six axes are not a meeting pair, an elbow and a spherical wrist, or ``None``.
+
+    Args:
+        axes: the six joint axes at ``q = 0`` (:func:`optik.analytic.geometry.joint_axes`).
+        names: the six joints' names, for the messages.
+    """
+    z = axes.directions
+    p = axes.points
+    tol = LENGTH_TOL * axes.size
+
+    def label(i: int) -> str:
+        return f"{i + 1} ({names[i]})"
+
+    for i, j in ((0, 1), (3, 4), (4, 5)):
+        if float(np.linalg.norm(np.cross(z[i], z[j]))) <= ANGLE_TOL:
+            return f"axes {label(i)} and {label(j)} are parallel"
+        dist = _line_distance(z[i], p[i], z[j], p[j])
+        if dist > tol:
+            return f"axes {label(i)} and {label(j)} do not meet ({dist:.3g} m apart)"
+    W = np.array(meeting_point(*(tuple(v) for v in (z[3], p[3], z[4], p[4]))))
+    miss = _point_line_distance(z[5], p[5], W)
+    if miss > tol:
+        return f"axis {label(5)} misses the point of axes {label(3)}, {label(4)} by {miss:.3g} m"
+    S = np.array(meeting_point(*(tuple(v) for v in (z[0], p[0], z[1], p[1]))))
+    for point, what in ((S, "the point of axes 1 and 2"), (W, "the wrist centre")):
+        if _point_line_distance(z[2], p[2], point) <= tol:
+            return (
+                f"axis {label(2)} passes through {what}: it does not change the distance "
+                "from the shoulder to the wrist"
+            )
+    return None
+
+
+def axes_tuple(axes: Axes) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """``(directions, points, tool)`` as C-contiguous float64 arrays for the kernel."""
+    return (
+        np.ascontiguousarray(axes.directions, dtype=np.float64),
+        np.ascontiguousarray(axes.points, dtype=np.float64),
+        np.ascontiguousarray(axes.tool, dtype=np.float64),
+    )
+
+
+__all__ = ["MAX_BRANCHES", "axes_tuple", "pair_wrist_candidates", "structure_reason"]
