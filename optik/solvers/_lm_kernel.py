@@ -194,17 +194,29 @@ def lm_attempt(
         it += 1
         lam = scale * (0.5 * E + w_bias)
         for a in range(dof):
+            if lower[a] == upper[a]:
+                # A frozen joint (a zero-width box): its column is out of the step.
+                g[a] = 0.0
+                for b in range(a):
+                    A[a, b] = 0.0
+                    A[b, a] = 0.0
+                A[a, a] = 1.0
+                continue
             s = 0.0
             for r in range(m):
                 s += J[r, a] * e[r]
             g[a] = s
-            for b in range(a + 1):
+            for b in range(a):
                 s = 0.0
-                for r in range(m):
-                    s += J[r, a] * J[r, b]
+                if lower[b] != upper[b]:
+                    for r in range(m):
+                        s += J[r, a] * J[r, b]
                 A[a, b] = s
                 A[b, a] = s
-            A[a, a] += lam
+            s = lam
+            for r in range(m):
+                s += J[r, a] * J[r, a]
+            A[a, a] = s
         if not cholesky_solve(A, g, dq, L):
             scale *= 10.0
             continue
