@@ -1,8 +1,9 @@
 """Many IK targets at once: :func:`solve_ik_batch` and :class:`IKBatchResult`.
 
 Every target runs the compiled damped least squares (:mod:`optik.solvers._lm_kernel`) in
-numba's threads, with its own random stream, and the batch is verified in one compiled
-call (:func:`optik.verify.verify`). Importable from :mod:`optik.ik` and :mod:`optik` too.
+worker threads (:mod:`optik.solvers._batch_threads`), with its own random stream, and the
+batch is verified in one compiled call (:func:`optik.verify.verify`). Importable from
+:mod:`optik.ik` and :mod:`optik` too.
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ from optik._ik_options import DEFAULT_RESTARTS, MAX_SEED, check_options, check_q
 from optik.errors import ArgumentError, OptikError, ShapeError
 from optik.model import Robot
 from optik.solvers._base import now
-from optik.solvers._lm_kernel import lm_solve_batch, lm_solve_batch_serial
+from optik.solvers._batch_threads import solve_batch
 from optik.solvers._seeds import seed_table
 from optik.solvers.iterative import DLSSolver
 from optik.spatial import as_pose
@@ -171,23 +172,15 @@ def solve_ik_batch(
     given = q_start.reshape(1, -1) if q0 is not None else np.empty((0, robot.dof))
     chain = robot.chain.kernel_args()
     settings = (int(max_iter), DLSSolver.w_bias, int(restarts))
-    previous_threads = numba.get_num_threads()
-    try:
-        for lo in range(0, len(rows), BATCH_SLICE):
-            part = rows[lo : lo + BATCH_SLICE]
-            parallel = threads > 1 and len(part) >= PARALLEL_BATCH
-            kernel = lm_solve_batch if parallel else lm_solve_batch_serial
-            if parallel:
-                numba.set_num_threads(threads)
-            # Target k keeps the stream seed + k whatever slice it falls in.
-            targets_part = np.ascontiguousarray(poses[part])
-            seeds = part.astype(np.int64) + int(seed)
-            Qp, it, u, _ = kernel(
-                chain, (targets_part, task.packed, given, table.kernel_args(), settings, seeds)
-            )
-            Q[part], iterations[part], used[part] = Qp, it, u
-    finally:
-        numba.set_num_threads(previous_threads)
+    for lo in range(0, len(rows), BATCH_SLICE):
+        part = rows[lo : lo + BATCH_SLICE]
+        workers = threads if len(part) >= PARALLEL_BATCH else 1
+        # Target k keeps the stream seed + k whatever slice or thread it falls in.
+        targets_part = np.ascontiguousarray(poses[part])
+        seeds = part.astype(np.int64) + int(seed)
+        job = (targets_part, task.packed, given, table.kernel_args(), settings, seeds)
+        Qp, it, u, _ = solve_batch(chain, job, workers)
+        Q[part], iterations[part], used[part] = Qp, it, u
     verdict = verify(robot, Q, poses, task)
     status = np.where(verdict.success, "converged", np.where(reachable, "max_iter", "unreachable"))
     return IKBatchResult(

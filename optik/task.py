@@ -118,8 +118,12 @@ def make_task(mode: Any = "pose", *, axis: Any = "z", weights: Any = None, tol: 
         OptikError: an unknown mode or axis, weights with NaN, infinities, negative
             entries or an unsupported rotational pattern, a non-positive tolerance.
     """
-    if weights is None and type(mode) is str and type(axis) is str and type(tol) in (float, int):
-        key = (mode, axis, type(tol), tol)  # the type keeps True apart from 1
+    if type(mode) is str and type(axis) is str and type(tol) in (float, int):
+        # Queries repeat their task: cache it by value. The types keep True apart from 1.
+        w_key = _weights_key(weights)
+        if w_key is None:
+            return _make_task(mode, axis, weights, tol)
+        key = (mode, axis, type(tol), tol, w_key)
         cached = _PLAIN_TASKS.get(key)
         if cached is None:
             cached = _make_task(mode, axis, weights, tol)
@@ -130,6 +134,27 @@ def make_task(mode: Any = "pose", *, axis: Any = "z", weights: Any = None, tol: 
 
 
 _PLAIN_TASKS: dict[tuple[Any, ...], Task] = {}
+
+
+def _weights_key(weights: Any) -> tuple[Any, ...] | None:
+    """A hashable copy of ``weights`` for the task cache, or ``None`` when not cacheable.
+
+    ``None`` (no weights) is ``()``; a list or tuple of six plain floats or ints, or a
+    float64 array of shape (6,), is the tuple of its values. Anything else (bools, other
+    types, other shapes) is validated afresh each time.
+    """
+    if weights is None:
+        return ()
+    if type(weights) in (list, tuple):
+        if len(weights) == 6 and all(type(x) in (float, int) for x in weights):
+            try:
+                return tuple(float(x) for x in weights)
+            except OverflowError:  # an int beyond float range: let validation name it
+                return None
+        return None
+    if isinstance(weights, np.ndarray) and weights.dtype == np.float64 and weights.shape == (6,):
+        return tuple(weights.tolist())
+    return None
 
 
 def _make_task(mode: Any, axis: Any, weights: Any, tol: Any) -> Task:

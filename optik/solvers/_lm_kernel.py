@@ -194,17 +194,29 @@ def lm_attempt(
         it += 1
         lam = scale * (0.5 * E + w_bias)
         for a in range(dof):
+            if lower[a] == upper[a]:
+                # A frozen joint (a zero-width box): its column is out of the step.
+                g[a] = 0.0
+                for b in range(a):
+                    A[a, b] = 0.0
+                    A[b, a] = 0.0
+                A[a, a] = 1.0
+                continue
             s = 0.0
             for r in range(m):
                 s += J[r, a] * e[r]
             g[a] = s
-            for b in range(a + 1):
+            for b in range(a):
                 s = 0.0
-                for r in range(m):
-                    s += J[r, a] * J[r, b]
+                if lower[b] != upper[b]:
+                    for r in range(m):
+                        s += J[r, a] * J[r, b]
                 A[a, b] = s
                 A[b, a] = s
-            A[a, a] += lam
+            s = lam
+            for r in range(m):
+                s += J[r, a] * J[r, a]
+            A[a, a] = s
         if not cholesky_solve(A, g, dq, L):
             scale *= 10.0
             continue
@@ -386,45 +398,26 @@ def _batch_output(N: int, dof: int) -> BatchOutput:
     )
 
 
-# The parallel and the serial batch are two functions, not one function jitted twice:
-# numba's on-disk cache keys entries by the function (file, name, line) and signature,
-# not by `parallel`, so one source compiled both ways would share (and swap) one entry.
+@_jit
+def lm_solve_batch_serial(chain: KernelChain, batch: BatchJob) -> BatchOutput:
+    """:func:`lm_solve_restarts` for every target of ``batch``, on the calling thread.
 
-
-@nb.njit(cache=True, nogil=True, error_model="numpy", parallel=True)
-def lm_solve_batch(chain: KernelChain, batch: BatchJob) -> BatchOutput:
-    """:func:`lm_solve_restarts` for every target of ``batch``, in numba's threads (``prange``).
-
-    Target ``k`` uses the random stream ``seeds[k]``, so results do not depend on the
-    number of threads. Returns ``(q (N, dof), iterations (N,), restarts (N,), ok (N,))``.
+    Target ``k`` uses the random stream ``seeds[k]``, so a batch split into pieces
+    (:mod:`optik.solvers._batch_threads`) gets the same answers. Returns ``(q (N, dof),
+    iterations (N,), restarts (N,), ok (N,))``.
     """
     targets, task, given, table, settings, seeds = batch
     N = targets.shape[0]
     out = _batch_output(N, chain[4].shape[0])
-    # Borrowed views (optik._nrt): every thread passes these to each target's solve, and
-    # counting references to one shared array from several threads serialises them. The
-    # loop body gets arrays and scalars only (numba's parallel loops take no tuple of
-    # arrays from outside) and rebuilds the tuples.
-    K, prismatic, C, identity, lower, upper = _borrow_chain(chain)
+    # Borrowed views (optik._nrt): threads that solve pieces of one batch share the chain,
+    # the table and the task, and counting references to a shared array from several
+    # threads serialises them. The owners are this call's arguments and ``out``.
     table_q, features, centroids, offsets = table
-    table_q, features, centroids = borrowed(table_q), borrowed(features), borrowed(centroids)
-    offsets, targets, task = borrowed(offsets), borrowed(targets), borrowed(task)
-    given, seeds = borrowed(given), borrowed(seeds)
-    max_iter, w_bias, restarts = settings
+    table_ = (borrowed(table_q), borrowed(features), borrowed(centroids), borrowed(offsets))
+    batch_ = (borrowed(targets), borrowed(task), borrowed(given), table_, settings, borrowed(seeds))
     Q, iters, used, ok = out
-    Q, iters, used, ok = borrowed(Q), borrowed(iters), borrowed(used), borrowed(ok)
-    for c in nb.prange((N + BATCH_CHUNK - 1) // BATCH_CHUNK):
-        table_ = (table_q, features, centroids, offsets)
-        batch_ = (targets, task, given, table_, (max_iter, w_bias, restarts), seeds)
-        _solve_chunk(c, (K, prismatic, C, identity, lower, upper), batch_, (Q, iters, used, ok))
-    return out
-
-
-@_jit
-def lm_solve_batch_serial(chain: KernelChain, batch: BatchJob) -> BatchOutput:
-    """:func:`lm_solve_batch` on the calling thread: small batches, where threads cost more."""
-    N = batch[0].shape[0]
-    out = _batch_output(N, chain[4].shape[0])
+    out_ = (borrowed(Q), borrowed(iters), borrowed(used), borrowed(ok))
+    chain_ = _borrow_chain(chain)
     for c in range((N + BATCH_CHUNK - 1) // BATCH_CHUNK):
-        _solve_chunk(c, chain, batch, out)
+        _solve_chunk(c, chain_, batch_, out_)
     return out
