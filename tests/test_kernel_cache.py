@@ -1,0 +1,100 @@
+"""Cached kernels go stale when any kernel source changes, not only their own file."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import numba
+
+import optik
+from optik import _kernel_cache
+from optik.solvers import _lm_kernel
+
+CALLER = """
+import numba
+from {package}._probe_callee import callee
+
+@numba.njit(cache=True)
+def caller():
+    return callee() + 1
+"""
+CALLEE = """
+import numba
+
+@numba.njit(cache=True)
+def callee():
+    return {value}
+"""
+
+
+def test_every_loaded_optik_kernel_is_stamped_with_the_fingerprint() -> None:
+    stamped = 0
+    for name, module in list(sys.modules.items()):
+        if not (name == "optik" or name.startswith("optik.")):
+            continue
+        for value in vars(module).values():
+            cache = getattr(value, "_cache", None)
+            if isinstance(value, numba.core.registry.CPUDispatcher) and hasattr(
+                cache, "_cache_file"
+            ):
+                stamp = cache._cache_file._source_stamp
+                assert isinstance(stamp, tuple), f"{name}.{value.__name__} is not stamped"
+                assert stamp[1] == _kernel_cache.sources_fingerprint()
+                stamped += 1
+    assert stamped >= 20  # the solvers, the closed forms, the task, FK
+    assert isinstance(_lm_kernel.lm_attempt._cache._cache_file._source_stamp, tuple)
+
+
+def test_fingerprint_follows_kernel_sources_only(tmp_path: Path) -> None:
+    (tmp_path / "a.py").write_text("import numba\nX = 1\n")
+    (tmp_path / "b.py").write_text("Y = 1\n")
+    first = _kernel_cache.fingerprint(tmp_path)
+    (tmp_path / "b.py").write_text("Y = 2\n")  # no numba: not a kernel source
+    assert _kernel_cache.fingerprint(tmp_path) == first
+    (tmp_path / "a.py").write_text("import numba\nX = 2\n")
+    assert _kernel_cache.fingerprint(tmp_path) != first
+
+
+def _run(root: Path, package: str, cache_dir: Path) -> int:
+    env = {**os.environ, "PYTHONPATH": str(root), "NUMBA_CACHE_DIR": str(cache_dir)}
+    code = f"import {package}._probe_caller as m; print(m.caller())"
+    out = subprocess.run(
+        [sys.executable, "-c", code],
+        env=env,
+        cwd=root,
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    return int(out.stdout.strip())
+
+
+def _two_runs(root: Path, package: str, cache_dir: Path) -> tuple[int, int]:
+    """The caller's answer, before and after the callee's file changes (cache kept)."""
+    pkg = root / package
+    (pkg / "_probe_caller.py").write_text(textwrap.dedent(CALLER.format(package=package)))
+    (pkg / "_probe_callee.py").write_text(CALLEE.format(value=1))
+    before = _run(root, package, cache_dir)
+    (pkg / "_probe_callee.py").write_text(CALLEE.format(value=5))
+    return before, _run(root, package, cache_dir)
+
+
+def test_a_changed_callee_is_recompiled_in_optik_and_not_by_numba_alone(
+    tmp_path: Path,
+) -> None:
+    # numba alone: the caller's cache entry survives its callee's change (stale answer).
+    plain = tmp_path / "plain"
+    (plain / "probepkg").mkdir(parents=True)
+    (plain / "probepkg" / "__init__.py").write_text("")
+    assert _two_runs(plain, "probepkg", tmp_path / "cache-plain") == (2, 2)
+    # A copy of optik: the stamp carries every kernel source, so the caller recompiles.
+    copy = tmp_path / "copy"
+    shutil.copytree(
+        Path(optik.__file__).parent, copy / "optik", ignore=shutil.ignore_patterns("__pycache__")
+    )
+    assert _two_runs(copy, "optik", tmp_path / "cache-optik") == (2, 6)
