@@ -58,7 +58,7 @@ def install() -> bool:
 
     def __init__(self: Any, py_func: Any) -> None:
         original(self, py_func)
-        cache_file = getattr(self, "_cache_file", None)
+        cache_file: Any = getattr(self, "_cache_file", None)
         if _is_optik(py_func) and hasattr(cache_file, "_source_stamp"):
             cache_file._source_stamp = (cache_file._source_stamp, sources_fingerprint())
 
