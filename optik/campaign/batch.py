@@ -39,7 +39,7 @@ from optik.campaign.provenance import (
     versions,
 )
 from optik.errors import OptikError, OutputFileError, ShapeError
-from optik.ik import DEFAULT_RESTARTS, MAX_SEED, solve_ik_batch
+from optik.ik import DEFAULT_RESTARTS, MAX_BATCH_RESTARTS, MAX_ITERATIONS, MAX_SEED, solve_ik_batch
 from optik.model import Robot
 from optik.poses import pose
 from optik.spatial import as_pose
@@ -296,8 +296,8 @@ def solve_batch(
     require("pyarrow", "a batch")
     check_choice("mode", mode, MODES)
     task = make_task(mode, axis=axis, tol=tol)
-    restarts = check_int("restarts", restarts, minimum=0, maximum=10_000)
-    max_iter = check_int("max_iter", max_iter, minimum=1, maximum=100_000)
+    restarts = check_int("restarts", restarts, minimum=0, maximum=MAX_BATCH_RESTARTS)
+    max_iter = check_int("max_iter", max_iter, minimum=1, maximum=MAX_ITERATIONS)
     seed = check_int("seed", seed, minimum=0, maximum=MAX_SEED - 2**41)
     chunk = check_int("chunk", chunk, minimum=1, maximum=10_000_000)
     resume = check_bool("resume", resume)
