@@ -9,11 +9,12 @@ from __future__ import annotations
 
 import sys
 import time
-from types import TracebackType
 from typing import TextIO
 
+from optik._closing import Closing
 
-class Progress:
+
+class Progress(Closing):
     """A one-line bar ``[#####.....]  12/40  note``, redrawn in place (carriage return).
 
     It draws only when ``enabled`` is true, or, by default, when ``stream`` is a TTY; so
@@ -78,14 +79,3 @@ class Progress:
             self.stream.write("\n")
             self.stream.flush()
             self._last_length = 0
-
-    def __enter__(self) -> Progress:
-        return self
-
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        traceback: TracebackType | None,
-    ) -> None:
-        self.close()

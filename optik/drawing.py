@@ -22,12 +22,15 @@ from optik._checks import FloatArray
 from optik._pyplot import pyplot
 from optik.errors import OptikError
 from optik.model import Robot
+from optik.spatial import invert_transform
 
 __all__ = [
     "ArmGeometry",
     "arm_geometry",
     "draw_robot",
     "extent_points",
+    "joint_frames",
+    "link_points",
     "robot_figure",
     "set_equal_3d",
     "show_robot",
@@ -61,24 +64,45 @@ class ArmGeometry:
     scale: float
 
 
-def arm_geometry(robot: Robot, q: Any) -> ArmGeometry:
-    """The links, joint axes and frames of ``robot`` at ``q`` (dof,) rad or m.
+def joint_frames(robot: Robot, frames: FloatArray) -> FloatArray:
+    """(n, 4, 4) world frames of the chain joints, z along each joint's axis.
 
-    A chain joint's motion frame (the one whose z is its axis) is link frame ``i``
-    with the constant link offset ``E[i]`` undone: ``frames[i + 1] @ inv(E[i])``.
+    Link frame ``i + 1`` is the frame after motion ``i`` times the constant link offset
+    ``E[i]`` (:class:`optik.chain.Chain`); undoing ``E[i]`` gives the moved joint frame,
+    whose z axis is the axis (a rotation about z or a translation along it keeps it).
+
+    Args:
+        robot: the robot.
+        frames: ``robot.frames(q)``, every frame 0..n and the tool (world frame, m).
     """
-    F = robot.frames(q)
-    E = robot.chain.E
-    motion = F[1:-1] @ np.linalg.inv(E)
-    ordered = [F[0, :3, 3]]
-    for i in range(len(E)):
-        ordered += [motion[i, :3, 3], F[i + 1, :3, 3]]
-    ordered.append(F[-1, :3, 3])
+    return frames[1:-1] @ invert_transform(robot.chain.E)
+
+
+def link_points(frames: FloatArray, joints: FloatArray) -> FloatArray:
+    """(K, 3) the link polyline: frame 0, each joint's origin and link frame, the tool (m).
+
+    Args:
+        frames: ``robot.frames(q)`` (n + 2, 4, 4).
+        joints: :func:`joint_frames` of those frames (n, 4, 4).
+
+    Consecutive repeats (a joint at its link frame's origin) are dropped.
+    """
+    ordered = [frames[0, :3, 3]]
+    for i in range(len(joints)):
+        ordered += [joints[i, :3, 3], frames[i + 1, :3, 3]]
+    ordered.append(frames[-1, :3, 3])
     points = [ordered[0]]
     for p in ordered[1:]:
         if np.linalg.norm(p - points[-1]) > 1e-9:
             points.append(p)
-    P = np.array(points)
+    return np.array(points)
+
+
+def arm_geometry(robot: Robot, q: Any) -> ArmGeometry:
+    """The links, joint axes and frames of ``robot`` at ``q`` (dof,) rad or m."""
+    F = robot.frames(q)
+    motion = joint_frames(robot, F)
+    P = link_points(F, motion)
     extent = float(np.max(np.ptp(P, axis=0))) if len(P) > 1 else 0.0
     return ArmGeometry(
         points=P,

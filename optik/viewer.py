@@ -34,14 +34,15 @@ from typing import Any
 import numpy as np
 
 from optik._checks import FloatArray, check_bool, check_choice, check_int, check_real
+from optik._closing import Closing
 from optik.analytic import analytic_ik, family_of
+from optik.drawing import joint_frames, link_points
 from optik.errors import AnalyticIKError, OptikError
 from optik.ik import IKResult, solve_ik
 from optik.model import Robot
 from optik.planning import PathPlan
 from optik.poses import as_target_pose, pose, to_quat_wxyz
 from optik.solvers import available_solvers
-from optik.spatial import invert_transform
 
 VIEW_MODES = ("pose", "axis", "position")
 """Task modes of the viewer's dropdown (``axis``: the tool's z axis along the target's)."""
@@ -98,33 +99,14 @@ def result_text(result: IKResult) -> str:
     return line
 
 
-def _axis_frames(robot: Robot, frames: FloatArray) -> FloatArray:
-    """(n, 4, 4) world frames of the chain joints: z is the joint's axis.
-
-    Link frame ``i`` is the frame after motion ``i`` times ``E[i - 1]``
-    (:class:`optik.chain.Chain`); undoing ``E`` gives the moved joint frame, whose z axis
-    is the axis (a rotation about z or a translation along it keeps that axis).
-    """
-    E = robot.chain.E
-    return np.stack([frames[i + 1] @ invert_transform(E[i]) for i in range(E.shape[0])])
-
-
 def stick_points(robot: Robot, q: FloatArray) -> FloatArray:
     """(k, 3) points of the stick figure at ``q``: base, every joint and link origin, tool.
 
-    Consecutive duplicates (a joint at its link frame's origin) are dropped.
+    Consecutive duplicates (a joint at its link frame's origin) are dropped; the same
+    polyline as :func:`optik.drawing.arm_geometry`'s.
     """
     frames = robot.frames(q)
-    joints = _axis_frames(robot, frames)
-    points = [frames[0, :3, 3]]
-    for i in range(joints.shape[0]):
-        points += [joints[i, :3, 3], frames[i + 1, :3, 3]]
-    points.append(frames[-1, :3, 3])
-    kept = [points[0]]
-    for p in points[1:]:
-        if np.linalg.norm(p - kept[-1]) > 1e-9:
-            kept.append(p)
-    return np.array(kept)
+    return link_points(frames, joint_frames(robot, frames))
 
 
 def _is_point(target: Any) -> bool:
@@ -142,7 +124,7 @@ def _cylinder_pose(T_axis: FloatArray) -> tuple[FloatArray, FloatArray]:
     return T_axis[:3, 3], to_quat_wxyz(T_axis)
 
 
-class Viewer:
+class Viewer(Closing):
     """A local web page that shows a robot and solves IK as its target is dragged.
 
     Args:
@@ -332,8 +314,8 @@ class Viewer:
         """Move the scene's robot and the GUI's joint read-outs to ``self._q``."""
         q = self._q
         frames = self.robot.frames(q)
-        axes = _axis_frames(self.robot, frames)
-        points = stick_points(self.robot, q)
+        axes = joint_frames(self.robot, frames)
+        points = link_points(frames, axes)
         segments = np.stack([points[:-1], points[1:]], axis=1) if len(points) > 1 else None
         with self._server.atomic():
             if segments is not None:
@@ -751,9 +733,3 @@ class Viewer:
         self._player.join(timeout=2.0)
         with _quiet():
             self._server.stop()
-
-    def __enter__(self) -> Viewer:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()

@@ -8,6 +8,7 @@ formulas, against targets it draws itself.
 from __future__ import annotations
 
 import importlib.util
+import json
 import math
 import os
 from pathlib import Path
@@ -167,6 +168,20 @@ def test_registry_holds_one_adapter_per_peer() -> None:
     assert peer_names() == ("rtb", "ikpy", "pink", "eaik", "pybullet")
     assert {name: cls.name for name, cls in PEERS.items()} == {n: n for n in peer_names()}
     assert [p.name for p in available_peers()] == list(peer_names())
+
+
+def test_adapter_options_are_keywords_stored_as_their_kind_of_number() -> None:
+    peer = get_peer("pink", tol=1e-5, seed=np.int64(7), max_iter=12.0, restarts=np.int64(3))
+    assert (peer.tol, peer.seed, peer.max_iter, peer.restarts) == (1e-5, 7, 12, 3)
+    assert [type(v) for v in (peer.seed, peer.max_iter, peer.restarts)] == [int, int, int]
+    assert json.loads(json.dumps(peer.settings()))["max_iter"] == 12
+    assert get_peer("rtb", tol=1e-4).rtb_tol == pytest.approx(0.5e-8)  # ½·tol² by default
+    assert get_peer("rtb", rtb_tol=1e-6).rtb_tol == 1e-6
+    with pytest.raises(TypeError):
+        PEERS["ikpy"](1e-6, 0, None, 10)  # options are keywords only
+    for bad in ({"tol": 0.0}, {"tol": math.inf}, {"timeout_s": -1.0}):
+        with pytest.raises(OptikError, match=next(iter(bad))):
+            get_peer("ikpy", **bad)
 
 
 @pytest.mark.parametrize("name", ["ur5", "panda", "stanford_arm", "jumbo_spherical_arm"])

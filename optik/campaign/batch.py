@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import functools
 import json
-from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -26,9 +25,13 @@ import numpy as np
 
 from optik._checks import FloatArray, as_float_array, check_bool, check_choice, check_int
 from optik._files import prepare_folder, write_atomic, write_atomic_with
-from optik._progress import Progress
 from optik.campaign._deps import require
-from optik.campaign.engine import chunk_count, open_engine, run_chunks
+from optik.campaign.engine import (
+    ProgressOption,
+    chunk_count,
+    open_engine,
+    run_chunks_with_progress,
+)
 from optik.campaign.provenance import (
     array_fingerprint,
     check_same_run,
@@ -36,7 +39,7 @@ from optik.campaign.provenance import (
     versions,
 )
 from optik.errors import OptikError, OutputFileError, ShapeError
-from optik.ik import DEFAULT_RESTARTS, MAX_SEED, solve_ik_batch
+from optik.ik import DEFAULT_RESTARTS, MAX_BATCH_RESTARTS, MAX_ITERATIONS, MAX_SEED, solve_ik_batch
 from optik.model import Robot
 from optik.poses import pose
 from optik.spatial import as_pose
@@ -254,7 +257,7 @@ def solve_batch(
     scheduler: str | None = None,
     out: str | Path | None = None,
     resume: bool = False,
-    progress: bool | Callable[[int, int], object] | None = None,
+    progress: ProgressOption = None,
 ) -> Any:
     """Solve many targets chunk by chunk, in-process or on Dask, to Parquet part files.
 
@@ -293,8 +296,8 @@ def solve_batch(
     require("pyarrow", "a batch")
     check_choice("mode", mode, MODES)
     task = make_task(mode, axis=axis, tol=tol)
-    restarts = check_int("restarts", restarts, minimum=0, maximum=10_000)
-    max_iter = check_int("max_iter", max_iter, minimum=1, maximum=100_000)
+    restarts = check_int("restarts", restarts, minimum=0, maximum=MAX_BATCH_RESTARTS)
+    max_iter = check_int("max_iter", max_iter, minimum=1, maximum=MAX_ITERATIONS)
     seed = check_int("seed", seed, minimum=0, maximum=MAX_SEED - 2**41)
     chunk = check_int("chunk", chunk, minimum=1, maximum=10_000_000)
     resume = check_bool("resume", resume)
@@ -323,18 +326,7 @@ def solve_batch(
         threads = engine.threads_for(chunk_count(len(poses), chunk))
         spec = BatchSpec(robot, task.mode, axis, tol, restarts, max_iter, seed, threads)
         work = functools.partial(solve_chunk, spec)
-        if callable(progress):
-            run_chunks(engine, work, items, store, progress=progress)
-        else:
-            with Progress(chunk_count(len(poses), chunk), enabled=progress) as bar:
-                note = f"batch {robot.name} ({engine.description})"
-                run_chunks(
-                    engine,
-                    work,
-                    items,
-                    store,
-                    progress=lambda done, total: bar.advance(done - bar.done, note=note),
-                )
+        run_chunks_with_progress(engine, work, items, store, progress, f"batch {robot.name}")
     table = store.table()
     if table is None:
         pa = require("pyarrow", "a batch")

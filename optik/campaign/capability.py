@@ -34,7 +34,6 @@ from __future__ import annotations
 import functools
 import math
 import shutil
-from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -42,9 +41,8 @@ from typing import Any
 import numpy as np
 
 from optik._checks import FloatArray, check_bool, check_choice, check_int, check_real
-from optik._progress import Progress
 from optik.campaign._deps import require
-from optik.campaign.engine import Engine, open_engine, run_chunks
+from optik.campaign.engine import Engine, ProgressOption, open_engine, run_chunks_with_progress
 from optik.campaign.provenance import check_same_run, robot_fingerprint, versions
 from optik.campaign.sampling import AXES, lattice
 from optik.campaign.sampling import orientations as sample_orientations
@@ -464,7 +462,7 @@ def capability_map(
     scheduler: str | None = None,
     out: str | Path | None = None,
     resume: bool = False,
-    progress: bool | Callable[[int, int], object] | None = None,
+    progress: ProgressOption = None,
 ) -> Any:
     """The capability map of a robot on a voxel grid (see the module for its contents).
 
@@ -566,18 +564,12 @@ def _run(
     engine: Engine,
     spec: MapSpec,
     store: MapStore | MemoryMapStore,
-    progress: bool | Callable[[int, int], object] | None,
+    progress: ProgressOption,
 ) -> int:
-    blocks = spec.blocks
     work = functools.partial(solve_block, spec)
-    if callable(progress):
-        return run_chunks(engine, work, blocks, store, progress=progress)
-    with Progress(len(blocks), enabled=progress) as bar:
-
-        def advance(done: int, total: int) -> None:
-            bar.advance(done - bar.done, note=f"map {spec.robot.name} ({engine.description})")
-
-        return run_chunks(engine, work, blocks, store, progress=advance)
+    return run_chunks_with_progress(
+        engine, work, spec.blocks, store, progress, f"map {spec.robot.name}"
+    )
 
 
 __all__ = [

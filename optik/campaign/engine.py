@@ -31,17 +31,22 @@ import math
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ThreadPoolExecutor, wait
 from dataclasses import dataclass, field
-from types import TracebackType
 from typing import Any, Protocol, TypeVar
 
 import numba
 
 from optik._checks import check_int, check_real
+from optik._closing import Closing
+from optik._progress import Progress
 from optik.campaign._deps import require
 from optik.errors import ArgumentError, OptikError
 
 T = TypeVar("T")
 R = TypeVar("R")
+
+ProgressOption = bool | Callable[[int, int], object] | None
+"""A campaign's ``progress`` argument: a bar on or off (``None``: when stderr is a
+terminal), or a callable ``progress(done, total)`` (chunks)."""
 
 MAX_WORKERS = 1024
 """Largest ``workers`` of a local cluster."""
@@ -51,7 +56,7 @@ CONNECT_TIMEOUT_S = 5.0
 
 
 @dataclass
-class Engine:
+class Engine(Closing):
     """Runs chunk functions in this process or on a Dask cluster (see the module).
 
     Build one with :func:`open_engine` and close it (or use it as a context manager):
@@ -144,17 +149,6 @@ class Engine:
             thing = self._owned.pop()
             with contextlib.suppress(Exception):  # shutting down: nothing left to save
                 thing.close()
-
-    def __enter__(self) -> Engine:
-        return self
-
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        traceback: TracebackType | None,
-    ) -> None:
-        self.close()
 
 
 def open_engine(
@@ -264,6 +258,43 @@ def run_chunks(
     return computed
 
 
+def run_chunks_with_progress(
+    engine: Engine,
+    fn: Callable[[T], Any],
+    chunks: Sequence[T],
+    store: ChunkStore,
+    progress: ProgressOption,
+    note: str,
+) -> int:
+    """:func:`run_chunks` with a campaign's ``progress`` option.
+
+    Args:
+        engine: where to run (:func:`open_engine`).
+        fn: the chunk function (see :func:`run_chunks`).
+        chunks: every chunk of the campaign.
+        store: the finished chunks and where to write new ones.
+        progress: a callable ``progress(done, total)`` is called as :func:`run_chunks`
+            calls it; otherwise a :class:`~optik._progress.Progress` bar of the chunks,
+            on, off or (``None``) drawn when stderr is a terminal.
+        note: what runs, shown beside the bar with where (``"map ur5"`` ->
+            ``"map ur5 (in-process)"``).
+
+    Returns:
+        The number of chunks computed by this call.
+    """
+    if callable(progress):
+        return run_chunks(engine, fn, chunks, store, progress=progress)
+    label = f"{note} ({engine.description})"
+    with Progress(len(chunks), enabled=progress) as bar:
+        return run_chunks(
+            engine,
+            fn,
+            chunks,
+            store,
+            progress=lambda done, total: bar.advance(done - bar.done, note=label),
+        )
+
+
 def chunk_count(total: int, chunk: int) -> int:
     """Number of chunks of ``chunk`` items that cover ``total`` items."""
     return max(math.ceil(total / chunk), 0)
@@ -274,7 +305,9 @@ __all__ = [
     "MAX_WORKERS",
     "ChunkStore",
     "Engine",
+    "ProgressOption",
     "chunk_count",
     "open_engine",
     "run_chunks",
+    "run_chunks_with_progress",
 ]

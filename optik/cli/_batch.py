@@ -10,15 +10,18 @@ from typing import Any
 from optik.campaign.batch import DEFAULT_CHUNK, solve_batch
 from optik.cli._common import (
     EXIT_OK,
+    add_engine_arguments,
+    add_out_argument,
     add_robot_arguments,
+    campaign_keywords,
     command,
     non_negative_int,
     path_text,
     positive_float,
+    positive_int,
     problem_from_args,
     seed_int,
 )
-from optik.cli._map import add_engine_arguments, positive_int
 from optik.ik import DEFAULT_RESTARTS
 
 
@@ -26,21 +29,7 @@ def _cmd_batch(args: argparse.Namespace) -> int:
     problem = problem_from_args(args)
     robot = problem.robot
     start = time.perf_counter()
-    table = solve_batch(
-        robot,
-        args.targets,
-        mode=args.mode,
-        axis=args.axis,
-        tol=args.tol,
-        restarts=args.restarts,
-        max_iter=args.max_iter,
-        seed=args.seed,
-        chunk=args.chunk,
-        workers=args.workers,
-        scheduler=args.scheduler,
-        out=args.out,
-        resume=args.resume,
-    )
+    table = solve_batch(robot, args.targets, max_iter=args.max_iter, **campaign_keywords(args))
     wall = time.perf_counter() - start
     n = table.num_rows
     counts = Counter(table.column("status").to_pylist())
@@ -113,12 +102,8 @@ def add_batch_command(sub: Any) -> None:
         default=DEFAULT_CHUNK,
         help=f"targets per chunk (no unit; default {DEFAULT_CHUNK})",
     )
-    p.add_argument(
-        "--out",
-        required=True,
-        metavar="PATH",
-        type=path_text,
-        help="the Parquet folder to write (no unit); it must not exist unless --resume",
+    add_out_argument(
+        p, "PATH", "the Parquet folder to write (no unit); it must not exist unless --resume"
     )
     add_engine_arguments(p)
     p.set_defaults(func=_cmd_batch)

@@ -19,6 +19,7 @@ import numpy as np
 from optik._checks import MAX_LENGTH_M
 from optik.errors import OptikError
 from optik.model import Robot
+from optik.paths import read_path
 from optik.poses import pose
 from optik.problems import PROBLEMS_DIR, Problem, builtin_problems, load_problem, load_robot
 from optik.robot_text import read_urdf_tree
@@ -69,6 +70,14 @@ def non_negative_float(text: str) -> float:
 def non_negative_int(text: str) -> int:
     """An argparse type: an integer >= 0."""
     return int(_number(text, int, lambda v: v >= 0, "an integer >= 0"))
+
+
+def positive_int(text: str) -> int:
+    """An argparse type: an integer >= 1."""
+    value = non_negative_int(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {text!r:.40}")
+    return value
 
 
 #: Largest ``--seed`` (the planner's bound, so that one seed works for every command).
@@ -360,6 +369,55 @@ def named(problem: Problem, table: dict[str, Any], kind: str, name: str) -> Any:
     return table[name]
 
 
+def add_path_group(
+    p: argparse.ArgumentParser, title: str, path_help: str, *, line: bool = False
+) -> Any:
+    """The group ``title`` of a command's path: one of ``--path FILE``, ``--problem-path NAME``.
+
+    Args:
+        p: the command's parser.
+        title: the group's title in the help.
+        path_help: what ``--path`` is, for this command.
+        line: also offer ``--line X0 Y0 Z0 X1 Y1 Z1`` (m), a straight line.
+
+    Returns:
+        The argument group, for the command's own options of the path.
+    """
+    group = p.add_argument_group(title)
+    source = group.add_mutually_exclusive_group()
+    source.add_argument("--path", metavar="FILE", type=path_text, help=path_help)
+    if line:
+        source.add_argument(
+            "--line",
+            nargs=6,
+            type=length_float,
+            metavar=("X0", "Y0", "Z0", "X1", "Y1", "Z1"),
+            help="a straight line between two positions, m",
+        )
+    source.add_argument(
+        "--problem-path", metavar="NAME", help="a named path of the problem file (no unit)"
+    )
+    return group
+
+
+def path_from_args(problem: Problem, args: argparse.Namespace) -> tuple[np.ndarray, str] | None:
+    """The (N, 4, 4) poses and mode of ``--path FILE`` or ``--problem-path NAME``.
+
+    Returns:
+        ``(poses, mode)`` (``mode`` ``"pose"`` for a path with orientations, else
+        ``"position"``), or ``None`` when neither option is given.
+
+    Raises:
+        OptikError: an unreadable path file, or a name the problem has no path of.
+    """
+    if args.path is not None:
+        return read_path(args.path)
+    if args.problem_path is not None:
+        stored = named(problem, problem.paths, "path", args.problem_path)
+        return stored.poses, stored.mode
+    return None
+
+
 def target_from_args(problem: Problem, args: argparse.Namespace) -> tuple[np.ndarray, str]:
     orientation = orientation_flag(args)
     if args.target is not None:
@@ -377,6 +435,56 @@ def target_from_args(problem: Problem, args: argparse.Namespace) -> tuple[np.nda
     if mode == "position" and orientation is not None:
         raise OptikError(f"--mode position ignores the orientation: drop {orientation}")
     return pose_from_args(args.position, args), mode
+
+
+# ---------------------------------------------------------------------------- outputs
+def add_out_argument(
+    p: argparse.ArgumentParser, metavar: str, help: str, default: str | None = None
+) -> None:
+    """``--out``, where a command writes (a :func:`path_text`; required without a default)."""
+    p.add_argument(
+        "--out",
+        required=default is None,
+        default=default,
+        metavar=metavar,
+        type=path_text,
+        help=help,
+    )
+
+
+def add_engine_arguments(p: argparse.ArgumentParser) -> None:
+    """``--workers N`` or ``--scheduler ADDRESS``, and ``--resume``: where a campaign runs."""
+    where = p.add_mutually_exclusive_group()
+    where.add_argument(
+        "--workers",
+        type=positive_int,
+        metavar="N",
+        help="run on a local Dask cluster of N worker processes, 1 thread each (no unit; "
+        "default: in this process, on numba's threads)",
+    )
+    where.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="run on the running Dask scheduler at ADDRESS, e.g. tcp://host:8786 (no unit)",
+    )
+    p.add_argument(
+        "--resume",
+        action="store_true",
+        help="finish the run already at --out (same settings), skipping finished chunks (no unit)",
+    )
+
+
+#: The options of ``optik map`` and ``optik batch`` passed as they are to the campaign
+#: (the IK options, ``--chunk``, ``--out``, and those of :func:`add_engine_arguments`).
+CAMPAIGN_OPTIONS: tuple[str, ...] = (
+    *("mode", "axis", "tol", "restarts", "seed", "chunk", "out"),
+    *("workers", "scheduler", "resume"),
+)
+
+
+def campaign_keywords(args: argparse.Namespace) -> dict[str, Any]:
+    """:data:`CAMPAIGN_OPTIONS` of ``args`` as keywords of a campaign function."""
+    return {name: getattr(args, name) for name in CAMPAIGN_OPTIONS}
 
 
 def command(sub: Any, name: str, summary: str, description: str, examples: str) -> Any:

@@ -11,46 +11,20 @@ import numpy as np
 from optik.campaign import capability_map, plot_map
 from optik.cli._common import (
     EXIT_OK,
+    add_engine_arguments,
+    add_out_argument,
     add_robot_arguments,
+    campaign_keywords,
     command,
     length_float,
     non_negative_int,
     path_text,
     positive_float,
+    positive_int,
     problem_from_args,
     seed_int,
 )
 from optik.errors import OptikError
-
-
-def positive_int(text: str) -> int:
-    """An argparse type: an integer >= 1."""
-    value = non_negative_int(text)
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {text!r:.40}")
-    return value
-
-
-def add_engine_arguments(p: argparse.ArgumentParser) -> None:
-    """``--workers N`` or ``--scheduler ADDRESS``, and ``--resume`` (shared with batch)."""
-    where = p.add_mutually_exclusive_group()
-    where.add_argument(
-        "--workers",
-        type=positive_int,
-        metavar="N",
-        help="run on a local Dask cluster of N worker processes, 1 thread each (no unit; "
-        "default: in this process, on numba's threads)",
-    )
-    where.add_argument(
-        "--scheduler",
-        metavar="ADDRESS",
-        help="run on the running Dask scheduler at ADDRESS, e.g. tcp://host:8786 (no unit)",
-    )
-    p.add_argument(
-        "--resume",
-        action="store_true",
-        help="finish the run already at --out (same settings), skipping finished chunks (no unit)",
-    )
 
 
 def _cmd_map(args: argparse.Namespace) -> int:
@@ -64,17 +38,8 @@ def _cmd_map(args: argparse.Namespace) -> int:
         bounds=bounds,
         orientations=args.orientations,
         rolls=args.rolls,
-        mode=args.mode,
-        axis=args.axis,
-        tol=args.tol,
-        restarts=args.restarts,
-        seed=args.seed,
-        chunk=args.chunk,
         keep_q=args.keep_q,
-        workers=args.workers,
-        scheduler=args.scheduler,
-        out=args.out,
-        resume=args.resume,
+        **campaign_keywords(args),
     )
     wall = time.perf_counter() - start
     settings = ds.attrs["settings"]
@@ -172,12 +137,8 @@ def add_map_command(sub: Any) -> None:
         action="store_true",
         help="also store every reached sample's joint values, rad or m (no unit)",
     )
-    p.add_argument(
-        "--out",
-        required=True,
-        metavar="PATH",
-        type=path_text,
-        help="the Zarr folder to write (no unit); it must not exist unless --resume",
+    add_out_argument(
+        p, "PATH", "the Zarr folder to write (no unit); it must not exist unless --resume"
     )
     p.add_argument(
         "--plots",

@@ -12,14 +12,14 @@ from optik._progress import Progress
 from optik.cli._common import (
     EXIT_OK,
     add_orientation_arguments,
+    add_out_argument,
+    add_path_group,
     add_robot_arguments,
     command,
     finite_float,
-    length_float,
-    named,
     non_negative_float,
     orientation_flag,
-    path_text,
+    path_from_args,
     pose_from_args,
     positive_float,
     problem_from_args,
@@ -27,7 +27,7 @@ from optik.cli._common import (
 )
 from optik.cli._task import ORIENTED_MODES, add_task_arguments, task_keywords
 from optik.errors import OptikError
-from optik.paths import line, read_path
+from optik.paths import line
 from optik.planning import PLAN_STATUSES, plan_path
 from optik.problems import Problem
 from optik.trajectory import rate_limits
@@ -41,16 +41,14 @@ def _plan_poses(problem: Problem, args: argparse.Namespace) -> tuple[np.ndarray,
             f"{orientation} sets the orientation of --line only; a {source} gives its own "
             "orientations (in rad) or none"
         )
-    if args.path is not None:
-        return read_path(args.path)
     if args.line is not None:
         mode = "pose" if orientation is not None else "position"
         return line(
             pose_from_args(args.line[:3], args), pose_from_args(args.line[3:], args), args.step
         ), mode
-    if args.problem_path is not None:
-        stored = named(problem, problem.paths, "path", args.problem_path)
-        return stored.poses, stored.mode
+    stored = path_from_args(problem, args)
+    if stored is not None:
+        return stored
     raise OptikError("give --path FILE, --line X0 Y0 Z0 X1 Y1 Z1 (m) or --problem-path NAME")
 
 
@@ -153,23 +151,11 @@ def add_plan_command(sub: Any) -> None:
         "      --trajectory --acceleration-limits 5\n",
     )
     add_robot_arguments(p)
-    path_group = p.add_argument_group("path (one of --path, --line, --problem-path)")
-    source = path_group.add_mutually_exclusive_group()
-    source.add_argument(
-        "--path",
-        metavar="FILE",
-        type=path_text,
-        help="path file (.csv, .npz, .toml; positions in m, rpy in rad; see docs/planning.md)",
-    )
-    source.add_argument(
-        "--line",
-        nargs=6,
-        type=length_float,
-        metavar=("X0", "Y0", "Z0", "X1", "Y1", "Z1"),
-        help="a straight line between two positions, m",
-    )
-    source.add_argument(
-        "--problem-path", metavar="NAME", help="a named path of the problem file (no unit)"
+    path_group = add_path_group(
+        p,
+        "path (one of --path, --line, --problem-path)",
+        "path file (.csv, .npz, .toml; positions in m, rpy in rad; see docs/planning.md)",
+        line=True,
     )
     p.add_argument(
         "--step",
@@ -222,11 +208,5 @@ def add_plan_command(sub: Any) -> None:
         help="joint acceleration limits, one for all or one per joint: rad/s^2 or m/s^2 "
         "(default: the problem file's)",
     )
-    p.add_argument(
-        "--out",
-        default="optik-plan",
-        metavar="DIR",
-        type=path_text,
-        help="output folder (no unit; default ./optik-plan)",
-    )
+    add_out_argument(p, "DIR", "output folder (no unit; default ./optik-plan)", "optik-plan")
     p.set_defaults(func=_cmd_plan)

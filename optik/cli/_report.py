@@ -9,6 +9,7 @@ from typing import Any
 
 from optik.cli._common import (
     EXIT_OK,
+    add_out_argument,
     add_robot_arguments,
     command,
     count_int,
@@ -197,13 +198,7 @@ def add_report_command(subparsers: Any) -> argparse.ArgumentParser:
         metavar="SOLVER=N",
         help="run SOLVER on at most N targets per robot (no unit; repeatable)",
     )
-    p.add_argument(
-        "--out",
-        default="optik-report",
-        metavar="DIR",
-        type=path_text,
-        help="output folder (no unit; default optik-report)",
-    )
+    add_out_argument(p, "DIR", "output folder (no unit; default optik-report)", "optik-report")
     p.add_argument(
         "--quick",
         action="store_true",

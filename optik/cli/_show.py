@@ -7,10 +7,10 @@ from typing import Any
 
 from optik.cli._common import (
     EXIT_OK,
+    add_out_argument,
     add_robot_arguments,
     command,
     finite_float,
-    path_text,
     problem_from_args,
 )
 from optik.errors import OptikError
@@ -78,12 +78,8 @@ def add_show_command(sub: Any) -> None:
         action="store_true",
         help="do not draw the --urdf file's visual meshes (no unit)",
     )
-    p.add_argument(
-        "--out",
-        default="robot.png",
-        metavar="FILE",
-        type=path_text,
-        help="image file, .png, .svg or .pdf (no unit; default ./robot.png)",
+    add_out_argument(
+        p, "FILE", "image file, .png, .svg or .pdf (no unit; default ./robot.png)", "robot.png"
     )
     p.set_defaults(func=_cmd_show)
 

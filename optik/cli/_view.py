@@ -9,15 +9,14 @@ from typing import Any
 
 from optik.cli._common import (
     EXIT_OK,
+    add_path_group,
     add_robot_arguments,
     command,
     finite_float,
-    named,
-    path_text,
+    path_from_args,
     positive_float,
     problem_from_args,
 )
-from optik.paths import read_path
 from optik.planning import PathPlan, plan_path
 from optik.problems import Problem
 from optik.solvers import available_solvers
@@ -39,13 +38,10 @@ def _port(text: str) -> int:
 
 def _plan(problem: Problem, args: argparse.Namespace) -> PathPlan | None:
     """The plan of ``--path`` or ``--problem-path``, or ``None`` without either."""
-    if args.path is not None:
-        poses, mode = read_path(args.path)
-    elif args.problem_path is not None:
-        stored = named(problem, problem.paths, "path", args.problem_path)
-        poses, mode = stored.poses, stored.mode
-    else:
+    stored = path_from_args(problem, args)
+    if stored is None:
         return None
+    poses, mode = stored
     return plan_path(
         problem.robot,
         poses if mode == "pose" else poses[:, :3, 3],
@@ -149,16 +145,10 @@ def add_view_command(sub: Any) -> None:
         default=250.0,
         help="wall-time budget of each live solve, ms (default 250)",
     )
-    plan_group = p.add_argument_group("plan to play back (one of --path, --problem-path)")
-    source = plan_group.add_mutually_exclusive_group()
-    source.add_argument(
-        "--path",
-        metavar="FILE",
-        type=path_text,
-        help="path file to plan and play (.csv, .npz, .toml; positions in m, rpy in rad)",
-    )
-    source.add_argument(
-        "--problem-path", metavar="NAME", help="a named path of the problem file (no unit)"
+    plan_group = add_path_group(
+        p,
+        "plan to play back (one of --path, --problem-path)",
+        "path file to plan and play (.csv, .npz, .toml; positions in m, rpy in rad)",
     )
     plan_group.add_argument(
         "--max-joint-step",

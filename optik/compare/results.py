@@ -15,6 +15,7 @@ from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import IO, Any, Final, TextIO
 
+from optik._closing import Closing
 from optik._files import prepare_folder, write_atomic_with
 from optik.errors import OutputFileError, ResultsFileError
 from optik.problems import Problem
@@ -254,7 +255,7 @@ def _parse(raw: bytes, path: Path) -> list[ResultRow]:
     return rows
 
 
-class ResultsFile:
+class ResultsFile(Closing):
     """The raw table on disk, appended one flushed row at a time.
 
     Without ``resume`` the file is started afresh (header only). With ``resume`` an
@@ -309,12 +310,6 @@ class ResultsFile:
     def close(self) -> None:
         """Close the file."""
         self._file.close()
-
-    def __enter__(self) -> ResultsFile:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
 
 
 def _csv_line(cells: Sequence[str]) -> str:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -27,7 +28,7 @@ from optik.compare.seeds import (
     dobot_chapter_rows,
     planar_2r_example,
 )
-from optik.compare.steps import StepCase, _closed_form_row, closed_form_cases
+from optik.compare.steps import _closed_form_row, closed_form_cases
 from optik.compare.targets import _solve_seed, random_configurations
 from optik.problems import Problem, load_problem
 
@@ -49,6 +50,27 @@ def _problem(problem: str | Problem) -> Problem:
     return problem if isinstance(problem, Problem) else load_problem(problem)
 
 
+def _rows(row: Callable[..., ResultRow], *args: Any) -> list[ResultRow]:
+    """``[row(*args)]``: a task of one row."""
+    return [row(*args)]
+
+
+def _peer_rows(answers: dict[Key, FloatArray], *args: Any) -> list[ResultRow]:
+    """``[_peer_row(*args)]``, its answer ``q`` (when any) kept in ``answers``."""
+    row, q = _peer_row(*args)
+    if q is not None:
+        answers[row.key()] = q
+    return [row]
+
+
+def _try_step(program: Any, backend: str) -> object:
+    """A warm-up solve of a step program: its answer, or the exception it raised."""
+    try:
+        return solve_step(program, backend)
+    except Exception as exc:  # the timed call will record it
+        return exc
+
+
 def _ik_tasks(config: RunConfig, problems: Sequence[Problem]) -> Iterator[_Task]:
     for problem in problems:
         robot = problem.robot
@@ -56,31 +78,18 @@ def _ik_tasks(config: RunConfig, problems: Sequence[Problem]) -> Iterator[_Task]
         total = max(counts.values(), default=0)
         Q = random_configurations(robot, problem.name, total, config.seed)
         poses = robot.fk(Q) if total else np.empty((0, 4, 4))
+        home = robot.fk(robot.mid_limits)
         for solver in config.solvers:
             settings = ik_settings(config, solver)
+            warm_up = functools.partial(_ik_row, problem, "warm-up", home, solver, config, 0)
             for k in range(counts[solver]):
                 target_id = f"t{k:04d}"
-                pose = poses[k]
-
-                def produce(
-                    problem: Problem = problem,
-                    t: str = target_id,
-                    pose: FloatArray = pose,
-                    solver: str = solver,
-                    k: int = k,
-                ) -> list[ResultRow]:
-                    seed = _solve_seed(config.seed, problem.name, k)
-                    return [_ik_row(problem, t, pose, solver, config, seed)]
-
-                def warm_up(problem: Problem = problem, solver: str = solver) -> object:
-                    robot = problem.robot
-                    return _ik_row(
-                        problem, "warm-up", robot.fk(robot.mid_limits), solver, config, 0
-                    )
-
+                seed = _solve_seed(config.seed, problem.name, k)
                 yield _Task(
                     [("ik", problem.name, target_id, solver, settings)],
-                    produce,
+                    functools.partial(
+                        _rows, _ik_row, problem, target_id, poses[k], solver, config, seed
+                    ),
                     f"ik {problem.name} {solver}",
                     ("ik", problem.name, solver),
                     warm_up,
@@ -96,6 +105,7 @@ def _peer_tasks(
     """The peers' rows: each prepared peer on the problem's ``ik`` targets."""
     for problem in problems:
         robot = problem.robot
+        home = robot.fk(robot.mid_limits)
         for name in config.peers:
             peer, status = prepare_peer(name, problem, config.mode, config.tol, config.timeout_s)
             statuses.append(status)
@@ -105,31 +115,25 @@ def _peer_tasks(
             settings = peer_settings(peer, config.mode, config.seed, config.timeout_s, config.tol)
             count = config.targets_for(solver)
             poses = robot.fk(random_configurations(robot, problem.name, count, config.seed))
+            warm_up = functools.partial(
+                _peer_row, problem, "warm-up", home, peer, "", config.tol, 0
+            )
             for k in range(count):
-
-                def produce(
-                    problem: Problem = problem,
-                    t: str = f"t{k:04d}",
-                    pose: FloatArray = poses[k],
-                    peer: Any = peer,
-                    settings: str = settings,
-                    k: int = k,
-                ) -> list[ResultRow]:
-                    seed = _solve_seed(config.seed, problem.name, k)
-                    row, q = _peer_row(problem, t, pose, peer, settings, config.tol, seed)
-                    if q is not None:
-                        answers[row.key()] = q
-                    return [row]
-
-                def warm_up(problem: Problem = problem, peer: Any = peer) -> object:
-                    robot = problem.robot
-                    return _peer_row(
-                        problem, "warm-up", robot.fk(robot.mid_limits), peer, "", config.tol, 0
-                    )
-
+                target_id = f"t{k:04d}"
+                seed = _solve_seed(config.seed, problem.name, k)
                 yield _Task(
-                    [("ik", problem.name, f"t{k:04d}", solver, settings)],
-                    produce,
+                    [("ik", problem.name, target_id, solver, settings)],
+                    functools.partial(
+                        _peer_rows,
+                        answers,
+                        problem,
+                        target_id,
+                        poses[k],
+                        peer,
+                        settings,
+                        config.tol,
+                        seed,
+                    ),
                     f"ik {problem.name} {solver}",
                     ("ik", problem.name, solver),
                     warm_up,
@@ -147,29 +151,16 @@ def _closed_form_tasks(
             program = case.program(problem.robot)
             settings = case.settings(config.seed)
             for backend in backends:
-
-                def produce(
-                    problem: Problem = problem,
-                    case: StepCase = case,
-                    backend: str = backend,
-                    program: Any = program,
-                ) -> list[ResultRow]:
-                    return [_closed_form_row(problem, case, backend, config.seed, program)]
-
-                def warm_up(backend: str = backend, program: Any = program) -> object:
-                    try:
-                        return solve_step(program, backend)
-                    except Exception as exc:  # the timed call will record it
-                        return exc
-
                 key = ("closed_form", problem.name, case.target, backend, settings)
                 shape = (str(program.dof), str(program.task_dim), case.objective)
                 yield _Task(
                     [key],
-                    produce,
+                    functools.partial(
+                        _rows, _closed_form_row, problem, case, backend, config.seed, program
+                    ),
                     f"closed form {problem.name} {backend}",
                     ("closed_form", backend, *shape),
-                    warm_up,
+                    functools.partial(_try_step, program, backend),
                 )
 
 

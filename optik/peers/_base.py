@@ -17,7 +17,7 @@ import math
 import time
 from abc import ABC, abstractmethod
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field, fields
 from typing import Any, ClassVar, Final
 
 import numpy as np
@@ -88,10 +88,15 @@ def fk_mismatch(
     return worst
 
 
+@dataclass(eq=False)
 class Peer(ABC):
     """One peer IK method: :meth:`load` once, :meth:`prepare` per robot, then :meth:`solve`.
 
-    Subclasses set the class attributes and implement :meth:`_prepare` and :meth:`solve`.
+    Subclasses are dataclasses (``@dataclass(eq=False, kw_only=True)``): they set the
+    class attributes, declare their options as fields after the three shared ones (an
+    option whose default is a number is stored as that kind of number) and their own
+    state as fields with ``init=False, repr=False``, and implement :meth:`_prepare` and
+    :meth:`solve`.
 
     Attributes:
         name: registry name (``"rtb"``, ``"ikpy"``...).
@@ -116,17 +121,22 @@ class Peer(ABC):
     #: The model check's bound on ``|fk_peer - fk_optik|`` (m, or rotation entry).
     fk_tol: ClassVar[float] = FK_MATCH_TOL
 
-    def __init__(self, tol: float = 1e-6, seed: int = 0, timeout_s: float | None = None) -> None:
-        if not (tol > 0 and math.isfinite(tol)):
-            raise OptikError(f"tol must be positive and finite, got {tol!r}")
-        if timeout_s is not None and not (timeout_s > 0):
-            raise OptikError(f"timeout_s must be positive or None, got {timeout_s!r}")
-        self.tol = float(tol)
-        self.seed = int(seed)
-        self.timeout_s = timeout_s
-        self.version = ""
-        self.notes: list[str] = []
-        self._robot: Robot | None = None
+    tol: float = 1e-6
+    seed: int = 0
+    timeout_s: float | None = None
+    version: str = field(default="", init=False)
+    notes: list[str] = field(default_factory=list, init=False)
+    _robot: Robot | None = field(default=None, init=False, repr=False)
+    _rng: np.random.Generator = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        if not (self.tol > 0 and math.isfinite(self.tol)):
+            raise OptikError(f"tol must be positive and finite, got {self.tol!r}")
+        if self.timeout_s is not None and not (self.timeout_s > 0):
+            raise OptikError(f"timeout_s must be positive or None, got {self.timeout_s!r}")
+        for option in fields(self):  # 10.0 or numpy.int64(10) as 10: settings are JSON
+            if option.init and isinstance(option.default, int | float):
+                setattr(self, option.name, type(option.default)(getattr(self, option.name)))
         self._rng = np.random.default_rng(self.seed)
 
     def load(self) -> None:

@@ -11,6 +11,7 @@ EAIK's least-squares fallbacks) is moved by whole turns into optik's limits, nea
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
 import numpy as np
@@ -26,6 +27,7 @@ __all__ = ["EAIKPeer"]
 MAX_JOINTS = 6
 
 
+@dataclass(eq=False)
 class EAIKPeer(Peer):
     """EAIK closed form on optik's chain; branches filtered by optik's limits.
 
@@ -41,9 +43,7 @@ class EAIKPeer(Peer):
     title: ClassVar[str] = "EAIK closed form (subproblem decomposition)"
     reports_iterations: ClassVar[bool] = False
 
-    def __init__(self, tol: float = 1e-6, seed: int = 0, timeout_s: float | None = None) -> None:
-        super().__init__(tol, seed, timeout_s)
-        self._bot: Any = None
+    _bot: Any = field(default=None, init=False, repr=False)
 
     def settings(self) -> dict[str, Any]:
         """The branch rule (no numeric options)."""

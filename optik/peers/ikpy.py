@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 import tempfile
 import time
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -26,6 +27,7 @@ from optik.spatial import pose_error
 __all__ = ["IKPyPeer"]
 
 
+@dataclass(eq=False, kw_only=True)
 class IKPyPeer(Peer):
     """ikpy ``Chain.inverse_kinematics_frame`` (scipy least squares, bounds = limits).
 
@@ -44,19 +46,9 @@ class IKPyPeer(Peer):
     title: ClassVar[str] = "ikpy, scipy least_squares with bounds"
     reports_iterations: ClassVar[bool] = False
 
-    def __init__(
-        self,
-        tol: float = 1e-6,
-        seed: int = 0,
-        timeout_s: float | None = None,
-        *,
-        restarts: int = 10,
-        ikpy_tol: float = 1e-12,
-    ) -> None:
-        super().__init__(tol, seed, timeout_s)
-        self.restarts = int(restarts)
-        self.ikpy_tol = float(ikpy_tol)
-        self._chain: Any = None
+    restarts: int = 10
+    ikpy_tol: float = 1e-12
+    _chain: Any = field(default=None, init=False, repr=False)
 
     def settings(self) -> dict[str, Any]:
         """Restarts, ikpy's tolerance, the orientation mode."""

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 import time
+from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
 import numpy as np
@@ -25,6 +26,7 @@ from optik.spatial import pose_error
 __all__ = ["PinkPeer"]
 
 
+@dataclass(eq=False, kw_only=True)
 class PinkPeer(Peer):
     """pink ``solve_ik`` iterated with ``dt = 1`` from ``q0``, then random restarts.
 
@@ -44,26 +46,14 @@ class PinkPeer(Peer):
     distribution: ClassVar[str] = "pin-pink"
     title: ClassVar[str] = "pink differential IK (Pinocchio), iterated"
 
-    def __init__(
-        self,
-        tol: float = 1e-6,
-        seed: int = 0,
-        timeout_s: float | None = None,
-        *,
-        qp_solver: str = "daqp",
-        max_iter: int = 100,
-        restarts: int = 10,
-        limit_gain: float = 0.5,
-    ) -> None:
-        super().__init__(tol, seed, timeout_s)
-        self.qp_solver = qp_solver
-        self.max_iter = int(max_iter)
-        self.restarts = int(restarts)
-        self.limit_gain = float(limit_gain)
-        self._model: Any = None
-        self._data: Any = None
-        self._task: Any = None
-        self._limits: list[Any] = []
+    qp_solver: str = "daqp"
+    max_iter: int = 100
+    restarts: int = 10
+    limit_gain: float = 0.5
+    _model: Any = field(default=None, init=False, repr=False)
+    _data: Any = field(default=None, init=False, repr=False)
+    _task: Any = field(default=None, init=False, repr=False)
+    _limits: Any = field(default=None, init=False, repr=False)
 
     def settings(self) -> dict[str, Any]:
         """QP backend, steps, restarts, limit gain, tolerance."""

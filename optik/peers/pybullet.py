@@ -21,6 +21,8 @@ from __future__ import annotations
 import math
 import tempfile
 import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, ClassVar, Final
 
@@ -60,6 +62,7 @@ def _quaternion_xyzw(R: FloatArray) -> list[float]:
     return [float(x), float(y), float(z), float(w)]
 
 
+@dataclass(eq=False, kw_only=True)
 class PyBulletPeer(Peer):
     """pybullet ``calculateInverseKinematics``, repeated from its answer, with restarts.
 
@@ -82,28 +85,15 @@ class PyBulletPeer(Peer):
     reports_iterations: ClassVar[bool] = False
     fk_tol: ClassVar[float] = FLOAT32_FK_TOL
 
-    def __init__(
-        self,
-        tol: float = 1e-6,
-        seed: int = 0,
-        timeout_s: float | None = None,
-        *,
-        max_iterations: int = 100,
-        residual: float = 1e-12,
-        rounds: int = 20,
-        restarts: int = 10,
-        null_space: bool = False,
-    ) -> None:
-        super().__init__(tol, seed, timeout_s)
-        self.max_iterations = int(max_iterations)
-        self.residual = float(residual)
-        self.rounds = int(rounds)
-        self.restarts = int(restarts)
-        self.null_space = bool(null_space)
-        self._client: int | None = None
-        self._body = -1
-        self._joints: list[int] = []
-        self._tool = -1
+    max_iterations: int = 100
+    residual: float = 1e-12
+    rounds: int = 20
+    restarts: int = 10
+    null_space: bool = False
+    _client: int | None = field(default=None, init=False, repr=False)
+    _body: int = field(default=-1, init=False, repr=False)
+    _joints: Sequence[int] = field(default=(), init=False, repr=False)
+    _tool: int = field(default=-1, init=False, repr=False)
 
     def settings(self) -> dict[str, Any]:
         """Iterations, residual, rounds, restarts, null space, tolerance."""

@@ -19,6 +19,7 @@ from __future__ import annotations
 import ctypes
 import ctypes.util
 import math
+from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
 import numpy as np
@@ -31,6 +32,7 @@ from optik.peers._chain import chain_of
 __all__ = ["RTBPeer"]
 
 
+@dataclass(eq=False, kw_only=True)
 class RTBPeer(Peer):
     """Robotics Toolbox for Python, ``ETS.ik_LM`` (C++), joint limits enforced.
 
@@ -49,21 +51,14 @@ class RTBPeer(Peer):
     distribution: ClassVar[str] = "roboticstoolbox-python"
     title: ClassVar[str] = "Robotics Toolbox for Python, ETS.ik_LM (C++)"
 
-    def __init__(
-        self,
-        tol: float = 1e-6,
-        seed: int = 0,
-        timeout_s: float | None = None,
-        *,
-        ilimit: int = 30,
-        slimit: int = 100,
-        rtb_tol: float | None = None,
-    ) -> None:
-        super().__init__(tol, seed, timeout_s)
-        self.ilimit = int(ilimit)
-        self.slimit = int(slimit)
-        self.rtb_tol = 0.5 * self.tol * self.tol if rtb_tol is None else float(rtb_tol)
-        self._ets: Any = None
+    ilimit: int = 30
+    slimit: int = 100
+    rtb_tol: float | None = None
+    _ets: Any = field(default=None, init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        self.rtb_tol = 0.5 * self.tol * self.tol if self.rtb_tol is None else float(self.rtb_tol)
 
     def settings(self) -> dict[str, Any]:
         """RTB's tolerance, iteration and search limits."""
