@@ -91,3 +91,32 @@ def test_solve_ik_casadi_runs_compiled(tmp_path: Path, monkeypatch: pytest.Monke
     result = optik.solve_ik(robot, target, solver="casadi:sqpmethod", warm_start="q0")
     assert result.status == "converged"
     assert len(list((tmp_path / "casadi").glob("*.so"))) == (find_compiler() is not None)
+
+
+def test_compiled_task_programs_give_the_sx_answers(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """An axis task with weights and narrowed bounds: one library per task shape."""
+    monkeypatch.setenv("OPTIK_CACHE_DIR", str(tmp_path))
+    robot = _fresh_robot()
+    rng = np.random.default_rng(SEED + 1)
+    weights = [1.0, 0.5, 2.0, 1.0, 3.0, 0.0]  # the tool's z axis, roll free
+    lower, upper = robot.lower + 0.1, robot.upper - 0.1
+    for plugin in ("sqpmethod", "ipopt"):
+        compiled = nlp_backend(robot, "axis", plugin=plugin)
+        plain = nlp_backend(robot, "axis", plugin=plugin, codegen=False)
+        assert compiled.gauss_newton and plain.gauss_newton
+        assert compiled.compile_report.compiled == (find_compiler() is not None)
+        for _ in range(2):
+            q_true = rng.uniform(lower, upper)
+            q0 = np.clip(q_true + 0.05 * rng.normal(size=6), lower, upper)
+            target = robot.fk(q_true)
+            a = compiled.solve(target, q0, weights=weights, bounds=(lower, upper))
+            b = plain.solve(target, q0, weights=weights, bounds=(lower, upper))
+            assert a.iterations == b.iterations
+            assert_close(a.q, b.q, atol=1e-10, what=f"{plugin} compiled vs SX")
+            axis, goal = robot.fk(a.q)[:3, 2], target[:3, 2]
+            angle = np.arctan2(np.linalg.norm(np.cross(axis, goal)), float(axis @ goal))
+            assert angle < 1e-6
+    if find_compiler() is not None:
+        assert len(list((tmp_path / "casadi").glob("*.so"))) == 2
