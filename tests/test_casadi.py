@@ -26,14 +26,13 @@ from _step_programs import (
 )
 from conftest import PROBLEM_NAMES, SEED, assert_close, random_q, robot_of
 
-import optik.solvers.casadi_nlp  # noqa: F401  (registers casadi:ipopt, casadi:sqpmethod)
 from optik.errors import InvalidRotationError, OptikError, ShapeError, UnknownSolverError
 from optik.model import DHJoint, Robot
 from optik.programs import nlp as nlp_module
 from optik.programs.casadi_qp import build_conic
 from optik.programs.diff_qp import DiffIKProgram, QPSolution
 from optik.programs.nlp import build_nlp, symbolic_fk
-from optik.solvers import casadi_conic
+from optik.solvers import casadi_conic, casadi_nlp
 from optik.solvers._base import IKQuery, available_solvers, get_solver
 from optik.solvers.casadi_conic import (
     CONIC_OPTIONS,
@@ -41,6 +40,7 @@ from optik.solvers.casadi_conic import (
     casadi_conic_plugins,
     solve_conic,
 )
+from optik.solvers.casadi_nlp import nlp_backend
 from optik.spatial import rotation_angle
 
 PLUGINS = casadi_conic_plugins()
@@ -143,18 +143,42 @@ def test_nlp_is_inspectable() -> None:
     prog = build_nlp(robot, "pose")
     q = random_q(robot, np.random.default_rng(SEED))
     T = robot.fk(q)
-    params = prog.parameter_vector(T, w_rot=2.0, mu=0.5, q_ref=q + 0.1)
+    params = prog.parameter_vector(T, weights=[1, 1, 1, 2, 2, 2], mu=0.5, q_ref=q + 0.1)
     f = casadi.Function("f", [prog.q, prog.parameters], [prog.objective])
     # At the target's own q: only the regularisation remains, mu * |q - q_ref|^2.
     assert float(f(q, params)) == pytest.approx(0.5 * 6 * 0.01, rel=1e-12)
-    # The orientation measure is 3 - trace(R*^T R) = 2 (1 - cos(angle)).
+    # With unit weights the rotation rows give 3 - trace(R*^T R) = 2 (1 - cos(angle)).
+    unit = prog.parameter_vector(T)
     m = casadi.Function("m", [prog.q, prog.parameters], [prog.orientation_measure])
     q2 = q + 0.05
     angle = rotation_angle(T[:3, :3].T @ robot.fk(q2)[:3, :3])
-    assert float(m(q2, params)) == pytest.approx(2.0 * (1.0 - np.cos(angle)), rel=1e-9)
+    assert float(m(q2, unit)) == pytest.approx(2.0 * (1.0 - np.cos(angle)), rel=1e-9)
+    # Rotation weights of 2 double it to first order (the off-diagonal rows carry phi).
+    assert float(m(q2, params)) == pytest.approx(4.0 * (1.0 - np.cos(angle)), rel=1e-2)
     assert prog.dof == 6
+    assert prog.shape == ("pose", -1)
     assert_close(prog.lbx, robot.lower)
     assert_close(prog.ubx, robot.upper)
+
+
+def test_nlp_hessian_is_gauss_newton() -> None:
+    """The program's Hessian is 2 (J_r^T J_r + (damping + mu) I), J_r by finite differences."""
+    robot = robot_of("panda")
+    prog = build_nlp(robot, "axis")
+    rng = np.random.default_rng(SEED)
+    q = random_q(robot, rng)
+    params = prog.parameter_vector(robot.fk(random_q(robot, rng)), weights=[1, 2, 0.5, 3, 1, 0])
+    r = casadi.Function("r", [prog.q, prog.parameters], [prog.residual])
+    H = casadi.Function("H", [prog.q, prog.parameters], [prog.hessian])
+    h = 1e-6
+    J = np.column_stack(
+        [
+            (np.asarray(r(q + h * e, params)) - np.asarray(r(q - h * e, params))).ravel() / (2 * h)
+            for e in np.eye(robot.dof)
+        ]
+    )
+    expected = 2.0 * (J.T @ J + nlp_module.GN_DAMPING * np.eye(robot.dof))
+    assert_close(np.asarray(H(q, params)), expected, atol=1e-7)
 
 
 def test_nlp_is_cached_per_robot_and_released_with_it() -> None:
@@ -162,22 +186,25 @@ def test_nlp_is_cached_per_robot_and_released_with_it() -> None:
     first = build_nlp(robot, "position")
     assert build_nlp(robot, "position") is first
     assert build_nlp(robot, "pose") is not first
-    assert build_nlp(robot, "position", plugin="sqpmethod") is not first
+    solver = nlp_backend(robot, "position", plugin="sqpmethod")
+    assert solver.program is first
+    assert nlp_backend(robot, "position", plugin="sqpmethod") is solver
+    assert nlp_backend(robot, "position", plugin="ipopt") is not solver
     ref = weakref.ref(robot)
     del robot
     gc.collect()
-    assert ref() is None  # the cache holds the robot weakly
+    assert ref() is None  # both caches hold the robot weakly
     assert all(r.name != "2r" for r in nlp_module._CACHE)
+    assert all(r.name != "2r" for r in casadi_nlp._BACKENDS)
 
 
 def test_nlp_position_mode_accepts_a_point() -> None:
     robot = robot_of("puma560")
-    prog = build_nlp(robot, "position")
+    backend = nlp_backend(robot, "position")
     q = random_q(robot, np.random.default_rng(SEED))
     p = robot.fk(q)[:3, 3]
-    sol = prog.solve(p, np.clip(q + 0.05, robot.lower, robot.upper))
-    assert sol.success, sol.status
-    assert np.linalg.norm(robot.fk(sol.q)[:3, 3] - p) < 1e-8
+    sol = backend.solve(p, np.clip(q + 0.05, robot.lower, robot.upper))
+    assert np.linalg.norm(robot.fk(sol.q)[:3, 3] - p) < 1e-8, sol.status
 
 
 @pytest.mark.parametrize(
@@ -185,8 +212,10 @@ def test_nlp_position_mode_accepts_a_point() -> None:
     [
         ({"target": np.eye(3)}, ShapeError),
         ({"target": np.diag([1.0, 1.0, -1.0, 1.0])}, InvalidRotationError),
-        ({"w_rot": -1.0}, OptikError),
+        ({"weights": [1, 1, 1, -1, 1, 1]}, OptikError),
+        ({"weights": [1, 1, 1, 1, 1, 0]}, OptikError),  # an axis task, not this program's
         ({"mu": np.nan}, OptikError),
+        ({"mu": -1.0}, OptikError),
         ({"q_ref": np.zeros(5)}, ShapeError),
     ],
 )
@@ -200,31 +229,33 @@ def test_nlp_bad_parameters(kwargs: dict, error: type[Exception]) -> None:
 def test_build_nlp_bad_arguments() -> None:
     robot = robot_of("puma560")
     with pytest.raises(OptikError):
-        build_nlp(robot, "orientation")  # type: ignore[arg-type]
+        build_nlp(robot, "orient")
     with pytest.raises(OptikError):
-        build_nlp(robot, "pose", max_iter=0)
+        build_nlp("puma560", "pose")  # type: ignore[arg-type]
     with pytest.raises(OptikError):
-        build_nlp(robot, "pose", plugin="no_such_nlpsol")
+        nlp_backend(robot, "pose", max_iter=0)
+    with pytest.raises(OptikError):
+        nlp_backend(robot, "pose", plugin="no_such_nlpsol")
+    backend = nlp_backend(robot, "pose")
+    with pytest.raises(OptikError):
+        backend.solve(np.eye(4), robot.mid_limits, bounds=(robot.lower - 1.0, robot.upper))
 
 
 @pytest.mark.parametrize(
     ("name", "plugin"), [("puma560", "ipopt"), ("puma560", "sqpmethod"), ("panda", "sqpmethod")]
 )
 def test_nlp_reaches_targets_inside_bounds(name: str, plugin: str) -> None:
-    """One solve per target from a start 0.05 rad away: the program alone (no restarts).
-
-    Ipopt alone on the redundant panda stalls near 1e-6 (docs/programs.md); the
-    ``casadi:ipopt`` solver's proximal restarts reach it (test_nlp_solver_reaches_targets).
-    """
+    """One solve per target from a start 0.05 rad away: the program alone (no restarts)."""
     robot = robot_of(name)
-    prog = build_nlp(robot, "pose", plugin=plugin, max_iter=200)
+    backend = nlp_backend(robot, "pose", plugin=plugin, max_iter=200)
     rng = np.random.default_rng(SEED + 3)
     for q_true in random_q(robot, rng, 5):
         T = robot.fk(q_true)
         q0 = np.clip(q_true + 0.05 * rng.normal(size=robot.dof), robot.lower, robot.upper)
-        sol = prog.solve(T, q0)
-        assert robot.within_limits(sol.q, tol=0.0)
-        T_out = robot.fk(sol.q)
+        sol = backend.solve(T, q0)
+        q = np.clip(sol.q, robot.lower, robot.upper)  # Ipopt may relax a bound by 1e-8
+        assert np.max(np.abs(q - sol.q)) < 1e-7
+        T_out = robot.fk(q)
         assert np.linalg.norm(T_out[:3, 3] - T[:3, 3]) < 1e-6, sol.status
         assert rotation_angle(T[:3, :3].T @ T_out[:3, :3]) < 1e-6, sol.status
 

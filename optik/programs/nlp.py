@@ -1,36 +1,56 @@
-"""The full nonlinear IK program in CasADi, built once per robot and reused per target.
+"""The full nonlinear IK program in CasADi, as data: built once per robot and task shape.
 
-Decision variable ``q`` (dof,), parameters ``p*`` (3,), ``R*`` (3, 3), ``w_rot``, ``mu``
-and ``q_ref`` (dof,)::
+Decision variable ``q`` (dof,); parameters ``p*`` (3,), ``R*`` (3, 3), ``s`` (6,) the
+square roots of the task's weights on ``[x, y, z, rx, ry, rz]`` (target frame), ``mu`` and
+``q_ref`` (dof,)::
 
-    min   ||p(q) - p*||^2 + w_rot (3 - trace(R*^T R(q))) + mu ||q - q_ref||^2
+    min   ||r(q)||^2 + mu ||q - q_ref||^2
     s.t.  lower <= q <= upper
+
+``r`` is the task's weighted residual (:mod:`optik.task`), in the target frame, with
+``E = R*^T R(q)`` the rotation from the target to the tool:
+
+- position rows (absent in ``"orientation"`` mode): ``s_i (R*^T (p(q) - p*))_i``, a zero
+  weight frees that target axis;
+- full orientation (``"pose"``, ``"orientation"``): the nine entries of ``E - I``, the
+  off-diagonal ``E_lm`` weighted by ``s_k / sqrt(2)`` (``k`` the third index: near the
+  target ``E ~ I + [phi]x`` with ``phi`` the target-frame rotation vector, so ``E_lm``
+  and ``E_ml`` are ``-+phi_k``), the diagonal ``E_jj - 1`` (second order in ``phi``) by
+  ``sqrt((s_k^2 + s_l^2) / 4)``;
+- tool axis ``k`` (``"axis"``): column ``k`` of ``E`` less ``e_k``, ``E_lk`` weighted by
+  ``s_m`` (``m`` the third index), ``E_kk - 1`` by ``sqrt((s_l^2 + s_m^2) / 2)``; the
+  rotation about the axis does not enter.
+
+To first order ``||r||^2`` is ``||sqrt(w) [R*^T dp; phi]||^2``, the residual of the compiled
+``dls``; with unit weights its rotation part is exactly ``3 - trace(R*^T R) = 2 (1 - cos
+theta)`` (``theta`` the error angle) for a full orientation and ``||a - a*||^2 = 2 (1 -
+cos theta)`` for a tool axis: polynomials in ``R``, smooth everywhere, zero only at the
+target (the diagonal rows rule out ``theta = pi``), with no other stationary point in
+``theta`` but the maximum at ``pi``. See ``docs/programs.md``.
+
+The program is a sum of squares, so it carries its Gauss–Newton Hessian
+``2 (J_r^T J_r + (lambda + mu) I)`` (``J_r`` the residual's Jacobian, ``lambda`` =
+:data:`GN_DAMPING`) next to the objective; the solvers (:mod:`optik.solvers.casadi_nlp`)
+use it instead of the exact Hessian of the Lagrangian, which is indefinite away from the
+target.
 
 ``(p(q), R(q))`` is the tool pose from a symbolic copy of the robot's chain,
 ``T = K[0] M(t_1) K[1] ... M(t_n) K[n]`` with ``t = C q`` (the same constants
-``robot.chain`` (:class:`optik.chain.Chain`) that the compiled kernels of
-``Robot.fk`` use), so it cannot drift from ``Robot.fk``. In ``"position"`` mode the
-orientation term is left out.
+``robot.chain`` (:class:`optik.chain.Chain`) that the compiled kernels of ``Robot.fk`` use),
+so it cannot drift from ``Robot.fk``.
 
-Orientation measure: ``3 - trace(R*^T R) = 2 (1 - cos theta)``, with ``theta`` the angle
-of ``R*^T R`` (the error angle optik reports). It is a polynomial in the entries of ``R``,
-so smooth everywhere; it behaves like ``theta^2`` near the target (the same scale as the
-squared position error, hence ``w_rot`` in m^2 per rad^2), and its only stationary points
-in ``theta`` are the target (minimum) and ``theta = pi`` (maximum). The squared vee of the
-skew part, ``||vee(R*^T R - R^T R*)||^2 / 4 = sin^2 theta``, has a spurious minimum at
-``theta = pi``; the squared log map is not smooth there. See ``docs/programs.md``.
-
-The targets and weights are CasADi parameters, so the solver (``casadi.nlpsol``) is built
-once per ``(robot, mode, plugin, max_iter)`` and cached on the robot (weakly: it goes
-away with the robot) and every call only passes numbers; ``q0`` warm-starts it.
+This module only describes the program: :func:`build_nlp` returns an inspectable
+:class:`NLPProgram` (cached per robot and task shape); the ``casadi.nlpsol`` solvers built
+on it, and their compiled functions, belong to :mod:`optik.solvers.casadi_nlp`.
 """
 
 from __future__ import annotations
 
+import math
 import threading
 import weakref
-from dataclasses import dataclass, field
-from typing import Any, Final, Literal
+from dataclasses import dataclass
+from typing import Any, Final
 
 import casadi
 import numpy as np
@@ -38,58 +58,38 @@ import numpy as np
 from optik._checks import FloatArray, finite_array
 from optik.errors import OptikError
 from optik.model import Robot
-from optik.programs.nlp_codegen import CompileReport, compiled_nlpsol
 from optik.spatial import as_pose
+from optik.task import AXES, MODES, Task, make_task
 
 __all__ = [
-    "NLP_OPTIONS",
+    "GN_DAMPING",
     "NLPProgram",
     "NLPSolution",
     "build_nlp",
     "symbolic_fk",
+    "task_shape",
 ]
 
-Mode = Literal["pose", "position"]
+#: ``lambda`` of the Gauss–Newton Hessian ``2 (J^T J + lambda I)``: keeps it positive
+#: definite on a redundant task (its null space) without changing the answer (the
+#: objective is not damped), and small enough that steps near the target are Gauss–Newton
+#: steps (quadratic convergence at a zero residual).
+GN_DAMPING: Final[float] = 1e-6
 
-#: Options of each nonlinear solver: quiet, tight. Ipopt keeps a warm start where it is
-#: (tiny ``bound_push``/``bound_frac``, initial barrier parameter 1e-9); sqpmethod uses
-#: CasADi's own active-set QP solver ``qrqp`` and reflects negative Hessian eigenvalues
-#: (the objective is not convex; ``eigen-clip`` and ``regularize`` were measured to stall
-#: far from the target, see ``docs/programs.md``).
-NLP_OPTIONS: Final[dict[str, dict[str, Any]]] = {
-    "ipopt": {
-        "print_time": False,
-        "ipopt.print_level": 0,
-        "ipopt.sb": "yes",
-        "ipopt.tol": 1e-12,
-        "ipopt.acceptable_tol": 1e-10,
-        "ipopt.acceptable_iter": 5,
-        "ipopt.mu_init": 1e-9,
-        "ipopt.bound_push": 1e-10,
-        "ipopt.bound_frac": 1e-10,
-        "ipopt.warm_start_init_point": "yes",
-    },
-    "sqpmethod": {
-        "print_time": False,
-        "print_header": False,
-        "print_iteration": False,
-        "print_status": False,
-        "qpsol": "qrqp",
-        "qpsol_options": {
-            "print_iter": False,
-            "print_header": False,
-            "print_info": False,
-            "error_on_fail": False,
-        },
-        "hessian_approximation": "exact",
-        "convexify_strategy": "eigen-reflect",
-        "tol_pr": 1e-10,
-        "tol_du": 1e-10,
-        "min_step_size": 1e-16,
-    },
-}
 
-_MAX_ITER_OPTION: Final[dict[str, str]] = {"ipopt": "ipopt.max_iter", "sqpmethod": "max_iter"}
+def task_shape(task: str | Task) -> tuple[str, int]:
+    """``(mode, axis)`` of a task: what the program's rows are (its weights are parameters).
+
+    ``axis`` is the tool axis (0 x, 1 y, 2 z) of ``mode="axis"``, else -1.
+
+    Raises:
+        OptikError: an unknown mode.
+    """
+    if isinstance(task, Task):
+        return task.mode, task.axis
+    if task not in MODES:
+        raise OptikError(f"mode must be one of {MODES} or an optik Task, got {task!r}")
+    return str(task), (AXES.index("z") if task == "axis" else -1)
 
 
 def _motion(prismatic: bool, t: casadi.SX) -> casadi.SX:
@@ -133,6 +133,7 @@ class NLPSolution:
         status: its return status text.
         iterations: iterations it reports.
         objective: the objective value at ``q``.
+        failed: the solver raised (its text in ``status``; ``q`` is the start).
     """
 
     q: FloatArray
@@ -140,94 +141,110 @@ class NLPSolution:
     status: str
     iterations: int
     objective: float
-
-
-_NOT_COMPILED: Final = CompileReport(False, 0.0, False, "code generation not asked for")
+    failed: bool = False
 
 
 @dataclass(frozen=True, eq=False)
 class NLPProgram:
-    """The nonlinear IK program of one robot and mode, inspectable and reusable.
+    """The nonlinear IK program of one robot and task shape: data, solved elsewhere.
 
     Attributes:
         robot_name: name of the robot it was built for (the robot is not kept).
-        mode: ``"pose"`` or ``"position"``.
-        plugin: the ``casadi.nlpsol`` plugin (``"ipopt"`` or ``"sqpmethod"``).
+        mode: the task's mode (``"pose"``, ``"position"``, ``"orientation"``, ``"axis"``).
+        axis: the tool axis of ``"axis"`` mode (0 x, 1 y, 2 z), else -1.
         q: decision variable, SX (dof,).
-        p_target: parameter, target position (3,), m.
+        p_target: parameter, target position (3,), m (unused in orientation mode).
         R_target: parameter, target rotation (3, 3) (unused in position mode).
-        w_rot: parameter, weight of the orientation term (m^2 per unit of ``3 - trace``).
+        sqrt_weights: parameter, the square roots of the task's weights (6,).
         mu: parameter, weight of the regularisation ``||q - q_ref||^2``.
         q_ref: parameter, regularisation reference (dof,).
-        parameters: all parameters stacked, ``[p*, vec(R*) (column-major), w_rot, mu,
+        parameters: all parameters stacked, ``[p*, vec(R*) (column-major), sqrt(w), mu,
             q_ref]``, in the order :meth:`parameter_vector` fills them.
         T: symbolic tool pose (4, 4).
-        position_error: ``p(q) - p*`` (3,).
-        orientation_measure: ``3 - trace(R*^T R(q))`` (0 in position mode).
-        objective: the objective expression.
+        position_error: ``p(q) - p*`` (3,), world frame.
+        residual: the task's weighted residual ``r`` (see the module).
+        orientation_measure: the rotation rows' part of ``||r||^2`` (0 without orientation).
+        objective: ``||r||^2 + mu ||q - q_ref||^2``.
+        hessian: its Gauss–Newton Hessian ``2 (J_r^T J_r + (GN_DAMPING + mu) I)``.
         fk: ``casadi.Function`` ``q -> T``.
-        solver: the ``casadi.nlpsol`` function.
         lbx: lower bounds (dof,), the joint limits (``-inf`` allowed).
         ubx: upper bounds (dof,).
-        options: the options the solver was built with.
-        compile_report: whether ``solver`` runs compiled C and what building it cost
-            (:class:`~optik.programs.nlp_codegen.CompileReport`).
     """
 
     robot_name: str
-    mode: Mode
-    plugin: str
+    mode: str
+    axis: int
     q: casadi.SX
     p_target: casadi.SX
     R_target: casadi.SX
-    w_rot: casadi.SX
+    sqrt_weights: casadi.SX
     mu: casadi.SX
     q_ref: casadi.SX
     parameters: casadi.SX
     T: casadi.SX
     position_error: casadi.SX
+    residual: casadi.SX
     orientation_measure: casadi.SX
     objective: casadi.SX
+    hessian: casadi.SX
     fk: casadi.Function
-    solver: casadi.Function
     lbx: FloatArray
     ubx: FloatArray
-    options: dict[str, Any]
-    compile_report: CompileReport = _NOT_COMPILED
-    _bounds: tuple[Any, Any] = field(init=False, repr=False)
-
-    def __post_init__(self) -> None:
-        # The bounds as CasADi matrices once (a conversion per solve costs a few µs each).
-        object.__setattr__(self, "_bounds", (casadi.DM(self.lbx), casadi.DM(self.ubx)))
 
     @property
     def dof(self) -> int:
         """Number of joint coordinates."""
         return int(self.q.shape[0])
 
+    @property
+    def shape(self) -> tuple[str, int]:
+        """``(mode, axis)``: what identifies the program for a robot (:func:`task_shape`)."""
+        return self.mode, self.axis
+
+    def default_task(self) -> Task:
+        """The task of this shape with unit weights (tolerance 1e-6)."""
+        return make_task(self.mode, axis=AXES[max(self.axis, 0)])
+
     def parameter_vector(
-        self, target: Any, *, w_rot: float = 1.0, mu: float = 0.0, q_ref: Any = None
+        self,
+        target: Any,
+        *,
+        weights: Any = None,
+        mu: float = 0.0,
+        q_ref: Any = None,
     ) -> FloatArray:
         """The numeric parameter vector for a target.
 
         Args:
             target: 4x4 pose; in position mode a 3-vector or a 4x4 (translation used).
-            w_rot: orientation weight (>= 0).
+            weights: (6,) task weights on ``[x, y, z, rx, ry, rz]`` (target frame), a
+                :class:`~optik.task.Task` of this shape, or ``None`` (the shape's unit
+                weights). Their pattern must be this program's shape.
             mu: regularisation weight (>= 0).
             q_ref: regularisation reference (dof,), default the middle of the limits.
 
         Raises:
             ShapeError, NonFiniteError, InvalidRotationError: a bad target or ``q_ref``.
-            OptikError: a negative or non-finite weight.
+            OptikError: bad weights, or weights of another task shape; a negative or
+                non-finite ``mu``.
         """
         p, R = _target(self.mode, target)
-        for name, value in (("w_rot", w_rot), ("mu", mu)):
-            try:
-                number = float(value)
-            except (TypeError, ValueError) as exc:
-                raise OptikError(f"{name} must be a number, got {value!r}") from exc
-            if not np.isfinite(number) or number < 0.0:
-                raise OptikError(f"{name} must be finite and >= 0, got {value!r}")
+        if weights is None:
+            task = self.default_task()
+        elif isinstance(weights, Task):
+            task = weights
+        else:
+            task = make_task(self.mode, axis=AXES[max(self.axis, 0)], weights=weights)
+        if task_shape(task) != self.shape:
+            raise OptikError(
+                f"weights: task {task_shape(task)} does not match the program's {self.shape}"
+            )
+        try:
+            number = float(mu)
+        except (TypeError, ValueError) as exc:
+            raise OptikError(f"mu must be a number, got {mu!r}") from exc
+        if not math.isfinite(number) or number < 0.0:
+            raise OptikError(f"mu must be finite and >= 0, got {mu!r}")
         if q_ref is None:
             finite = np.isfinite(self.lbx) & np.isfinite(self.ubx)
             ref = np.where(
@@ -237,45 +254,7 @@ class NLPProgram:
             )
         else:
             ref = finite_array("q_ref", q_ref, (self.dof,))
-        return np.concatenate([p, R.ravel(order="F"), [float(w_rot), float(mu)], ref])
-
-    def solve(
-        self,
-        target: Any,
-        q0: Any,
-        *,
-        w_rot: float = 1.0,
-        mu: float = 0.0,
-        q_ref: Any = None,
-    ) -> NLPSolution:
-        """Solve for one target from the warm start ``q0`` (dof,) (clipped into the limits).
-
-        Arguments as in :meth:`parameter_vector`. A solver exception comes back as
-        ``success=False`` with its text in ``status`` (and ``q0`` as ``q``).
-        """
-        params = self.parameter_vector(target, w_rot=w_rot, mu=mu, q_ref=q_ref)
-        x0 = np.clip(finite_array("q0", q0, (self.dof,)), self.lbx, self.ubx)
-        return self.solve_parameters(params, x0)
-
-    def solve_parameters(self, params: FloatArray, x0: FloatArray) -> NLPSolution:
-        """Solve for a parameter vector of :meth:`parameter_vector` from ``x0``, unchecked.
-
-        The inner call of :meth:`solve` for callers that validated their inputs once
-        (``x0`` finite and inside the bounds, ``params`` from :meth:`parameter_vector`).
-        """
-        try:
-            result = self.solver(x0=x0, p=params, lbx=self._bounds[0], ubx=self._bounds[1])
-            stats = self.solver.stats()
-        except Exception as exc:  # keep the backend's message
-            return NLPSolution(x0, False, f"{type(exc).__name__}: {exc}", 0, float("nan"))
-        q = result["x"].full().ravel()
-        return NLPSolution(
-            q=q,
-            success=bool(stats.get("success", False)),
-            status=str(stats.get("return_status", "")),
-            iterations=int(stats.get("iter_count", -1)),
-            objective=float(result["f"]),
-        )
+        return np.concatenate([p, R.ravel(order="F"), np.sqrt(task.weights), [number], ref])
 
 
 def _target(mode: str, target: Any) -> tuple[FloatArray, FloatArray]:
@@ -287,113 +266,106 @@ def _target(mode: str, target: Any) -> tuple[FloatArray, FloatArray]:
     return T[:3, 3].copy(), np.array(R)
 
 
-_lock = threading.Lock()
-_CACHE: weakref.WeakKeyDictionary[Robot, dict[tuple[Any, ...], NLPProgram]] = (
-    weakref.WeakKeyDictionary()
-)
-# The same programs keyed without their options (built with the defaults only).
-_FAST: weakref.WeakKeyDictionary[Robot, dict[tuple[Any, ...], NLPProgram]] = (
-    weakref.WeakKeyDictionary()
-)
+def _rotation_rows(E: casadi.SX, s: casadi.SX, mode: str, axis: int) -> list[casadi.SX]:
+    """The weighted rotation rows of the residual (see the module) for ``E = R*^T R``."""
+    if mode in ("pose", "orientation"):
+        rows = []
+        for m in range(3):
+            for l in range(3):  # noqa: E741 - the index names of the module docstring
+                k = 3 - l - m
+                if l == m:
+                    weight = casadi.sqrt((s[(l + 1) % 3] ** 2 + s[(l + 2) % 3] ** 2) / 4.0)
+                    rows.append(weight * (E[l, l] - 1.0))
+                else:
+                    rows.append(s[k] / math.sqrt(2.0) * E[l, m])
+        return rows
+    if mode == "axis":
+        k = axis
+        rows = []
+        for l in range(3):  # noqa: E741
+            if l == k:
+                others = [i for i in range(3) if i != k]
+                weight = casadi.sqrt((s[others[0]] ** 2 + s[others[1]] ** 2) / 2.0)
+                rows.append(weight * (E[k, k] - 1.0))
+            else:
+                rows.append(s[3 - l - k] * E[l, k])
+        return rows
+    return []
 
 
-def _new_program(
-    robot: Robot, mode: Mode, plugin: str, options: dict[str, Any], codegen: bool
-) -> NLPProgram:
+def _new_program(robot: Robot, mode: str, axis: int) -> NLPProgram:
     n = robot.dof
     q = casadi.SX.sym("q", n)
     p_target = casadi.SX.sym("p_target", 3)
     R_target = casadi.SX.sym("R_target", 3, 3)
-    w_rot = casadi.SX.sym("w_rot")
+    sqrt_weights = casadi.SX.sym("sqrt_weights", 6)
     mu = casadi.SX.sym("mu")
     q_ref = casadi.SX.sym("q_ref", n)
     T = _fk_expression(robot, q)
     position_error = T[:3, 3] - p_target
-    if mode == "pose":
-        orientation = 3.0 - casadi.sum1(casadi.sum2(R_target * T[:3, :3]))
-    else:
-        orientation = casadi.SX(0.0)
-    objective = casadi.sumsqr(position_error) + w_rot * orientation + mu * casadi.sumsqr(q - q_ref)
-    parameters = casadi.vertcat(p_target, casadi.vec(R_target), w_rot, mu, q_ref)
-    name = f"ik_{plugin}_{mode}"
-    solver = casadi.nlpsol(name, plugin, {"x": q, "p": parameters, "f": objective}, options)
-    report = _NOT_COMPILED
-    if codegen:
-        solver, report = compiled_nlpsol(name, plugin, solver, options)
+    rows: list[casadi.SX] = []
+    if mode != "orientation":
+        local = casadi.mtimes(R_target.T, position_error)
+        rows += [sqrt_weights[i] * local[i] for i in range(3)]
+    rotation = _rotation_rows(casadi.mtimes(R_target.T, T[:3, :3]), sqrt_weights[3:], mode, axis)
+    residual = casadi.vertcat(*rows, *rotation)
+    orientation = casadi.sumsqr(casadi.vertcat(*rotation)) if rotation else casadi.SX(0.0)
+    objective = casadi.sumsqr(residual) + mu * casadi.sumsqr(q - q_ref)
+    J = casadi.jacobian(residual, q)
+    hessian = 2.0 * (casadi.mtimes(J.T, J) + (GN_DAMPING + mu) * casadi.SX.eye(n))
+    parameters = casadi.vertcat(p_target, casadi.vec(R_target), sqrt_weights, mu, q_ref)
     return NLPProgram(
         robot_name=robot.name,
         mode=mode,
-        plugin=plugin,
+        axis=axis,
         q=q,
         p_target=p_target,
         R_target=R_target,
-        w_rot=w_rot,
+        sqrt_weights=sqrt_weights,
         mu=mu,
         q_ref=q_ref,
         parameters=parameters,
         T=T,
         position_error=position_error,
+        residual=residual,
         orientation_measure=orientation,
         objective=objective,
+        hessian=hessian,
         fk=casadi.Function("fk", [q], [T], ["q"], ["T"]),
-        solver=solver,
         lbx=robot.lower.copy(),
         ubx=robot.upper.copy(),
-        options=options,
-        compile_report=report,
     )
 
 
-def build_nlp(
-    robot: Robot,
-    mode: Mode = "pose",
-    *,
-    plugin: str = "ipopt",
-    max_iter: int = 100,
-    options: dict[str, Any] | None = None,
-    codegen: bool = True,
-) -> NLPProgram:
-    """The nonlinear IK program of ``robot`` (cached: built once per robot and settings).
+_lock = threading.Lock()
+_CACHE: weakref.WeakKeyDictionary[Robot, dict[tuple[str, int], NLPProgram]] = (
+    weakref.WeakKeyDictionary()
+)
+
+
+def build_nlp(robot: Robot, task: str | Task = "pose") -> NLPProgram:
+    """The nonlinear IK program of ``robot`` for a task shape (cached per robot and shape).
 
     Args:
         robot: the robot.
-        mode: ``"pose"`` or ``"position"``.
-        plugin: ``casadi.nlpsol`` plugin, ``"ipopt"`` or ``"sqpmethod"`` (options from
-            :data:`NLP_OPTIONS`); any other plugin gets only ``options``.
-        max_iter: iteration limit of the solver.
-        options: extra ``nlpsol`` options, merged over the defaults (part of the cache key).
-        codegen: run the solver on its functions compiled to C
-            (:func:`optik.programs.nlp_codegen.compiled_nlpsol`, cached on disk; the SX
-            functions when no C compiler is found). ``program.compile_report`` says which
-            and what it cost.
+        task: a mode (``"pose"``, ``"position"``, ``"orientation"``, ``"axis"`` with the
+            tool's z axis) or a :class:`~optik.task.Task`; only its shape (mode and tool
+            axis, :func:`task_shape`) matters, its weights are parameters.
 
     Raises:
-        OptikError: an unknown mode, a ``max_iter`` below 1, or a plugin CasADi cannot load.
+        OptikError: not a robot, or an unknown mode.
     """
     if not isinstance(robot, Robot):
         raise OptikError(f"robot must be an optik.Robot, got {type(robot).__name__}")
-    if mode not in ("pose", "position"):
-        raise OptikError(f"mode must be 'pose' or 'position', got {mode!r}")
-    if int(max_iter) != max_iter or max_iter < 1:
-        raise OptikError(f"max_iter must be an integer >= 1, got {max_iter!r}")
-    if options is None and type(max_iter) is int:
-        # The common call (the casadi:<plugin> solvers): no options to merge and key.
-        fast = _FAST.get(robot)
-        program = None if fast is None else fast.get((mode, plugin, max_iter, bool(codegen)))
-        if program is not None:
-            return program
-    merged = {**NLP_OPTIONS.get(plugin, {}), **(options or {})}
-    merged[_MAX_ITER_OPTION.get(plugin, "max_iter")] = int(max_iter)
-    key = (mode, plugin, repr(sorted(merged.items())), bool(codegen))
+    shape = task_shape(task)
+    per_robot = _CACHE.get(robot)
+    program = None if per_robot is None else per_robot.get(shape)
+    if program is not None:
+        return program
     with _lock:
         per_robot = _CACHE.setdefault(robot, {})
-        program = per_robot.get(key)
+        program = per_robot.get(shape)
         if program is None:
-            try:
-                program = _new_program(robot, mode, plugin, merged, bool(codegen))
-            except RuntimeError as exc:
-                raise OptikError(f"cannot build the CasADi {plugin!r} solver: {exc}") from exc
-            per_robot[key] = program
-        if options is None and type(max_iter) is int:
-            _FAST.setdefault(robot, {})[(mode, plugin, max_iter, bool(codegen))] = program
+            program = _new_program(robot, *shape)
+            per_robot[shape] = program
     return program

@@ -1,112 +1,412 @@
 """The ``casadi:<nlpsol>`` family (``casadi:ipopt``, ``casadi:sqpmethod``): IK as one NLP.
 
-The program is :func:`optik.programs.nlp.build_nlp`, built once per robot and mode and
-reused for every target. Each solve is warm-started from the current ``q``; when a solve
-stops short of ``query.tol`` (a claimed success at a point optik measures as not yet
-converged, or a proximal sub-problem, below) the solver restarts from where it stopped,
-as long as the error keeps decreasing, up to ``max_iter`` iterations in total.
+The program is :func:`optik.programs.nlp.build_nlp` (data: the task's weighted
+least-squares residual, its Gauss–Newton Hessian, the target and weights as parameters),
+built once per robot and task shape; :func:`nlp_backend` builds the ``casadi.nlpsol``
+solver on it once per plugin and iteration limit, on its functions compiled to C
+(:func:`optik.programs.nlp_codegen.compiled_nlpsol`, cached on disk), and every query
+only passes numbers: the target, the weights and the query's bounds (the joint limits
+narrowed by ``limit_margin``, closed on frozen joints).
 
-Ipopt on a redundant task (more joints than task rows, e.g. a 7-joint arm and a pose, or
-any 6-joint arm and a position) converges slowly: its barrier term moves the iterate
-along the self-motion manifold, where the objective has no curvature. There it solves
-proximal sub-problems instead, ``mu ||q - q_k||^2`` with ``q_k`` the previous answer and
-``mu`` = :attr:`CasadiNLPSolver.proximal_weight`: each fixes the null-space motion and
-the sequence converges to a zero-residual point (the proximal-point method; measured in
-``docs/programs.md``). ``sqpmethod`` does not need it.
+Each attempt is warm-started from a start of the one start policy
+(:mod:`optik.solvers._starts`: the closed-form branches or ``q0``, then the seed-table
+entries nearest the target) and runs solves of at most :data:`SOLVE_ITER` iterations:
+when one stops short of the task's tolerances the next starts where it stopped, as long
+as the squared residual fell to :data:`PROGRESS_RATIO` of what it was (or is already
+small); otherwise the attempt ends and the next start is tried. Success is judged from FK
+(:mod:`optik.verify`), not by the solver's claim, so the solvers stop as soon as the
+answer is well inside the tolerances (Ipopt: at the first iterate whose objective changes
+by less than :data:`OBJECTIVE_CHANGE_TOL`).
 """
 
 from __future__ import annotations
 
-import math
-from collections.abc import Callable
+import threading
+import weakref
+from dataclasses import dataclass, field
+from typing import Any, Final
 
 import casadi
 import numpy as np
 
 from optik import _kernels
-from optik._checks import FloatArray
+from optik._checks import FloatArray, finite_array
+from optik.errors import OptikError
 from optik.model import Robot
-from optik.programs.nlp import NLPProgram, build_nlp
+from optik.programs.nlp import NLPProgram, NLPSolution, build_nlp, task_shape
+from optik.programs.nlp_codegen import CompileReport, compiled_nlpsol
 from optik.solvers._base import IKQuery, IKSolver, SolverOutput, budget_now, register_solver
+from optik.task import Task, task_errors_of
 
-__all__ = ["CasadiNLPSolver"]
+__all__ = [
+    "NLP_OPTIONS",
+    "OBJECTIVE_CHANGE_TOL",
+    "PROGRESS_RATIO",
+    "SOLVE_ITER",
+    "CasadiNLPSolver",
+    "NLPBackend",
+    "nlp_backend",
+]
+
+#: Ipopt stops at the first iterate whose objective (the squared residual) changed by
+#: less than this: ``(1e-7)^2``, a tenth of the default tolerance squared.
+OBJECTIVE_CHANGE_TOL: Final[float] = 1e-14
+
+#: Options of each nonlinear solver: quiet, tight. Ipopt keeps a warm start where it is:
+#: initial barrier parameter 1e-12 and, since ``warm_start_init_point`` is on, the
+#: ``warm_start_*`` pushes (Ipopt's defaults of 1e-3 put the bound multipliers at 1e-3,
+#: a million times the barrier parameter, which held answers near a limit at errors of
+#: 1e-6 for many iterations). It stops when converged (``tol``) or at the first iterate
+#: whose objective changes by less than :data:`OBJECTIVE_CHANGE_TOL` (the ``acceptable``
+#: test with every other part switched off): converged to well inside the verification's
+#: tolerances, or stalled, which the next start handles. sqpmethod uses CasADi's own
+#: active-set QP solver ``qrqp``. Both take the program's Gauss–Newton Hessian.
+NLP_OPTIONS: Final[dict[str, dict[str, Any]]] = {
+    "ipopt": {
+        "print_time": False,
+        "ipopt.print_level": 0,
+        "ipopt.sb": "yes",
+        "ipopt.tol": 1e-12,
+        "ipopt.mu_init": 1e-12,
+        "ipopt.warm_start_init_point": "yes",
+        "ipopt.warm_start_bound_push": 1e-9,
+        "ipopt.warm_start_bound_frac": 1e-9,
+        "ipopt.warm_start_mult_bound_push": 1e-9,
+        "ipopt.acceptable_iter": 1,
+        "ipopt.acceptable_tol": 1e30,
+        "ipopt.acceptable_dual_inf_tol": 1e30,
+        "ipopt.acceptable_constr_viol_tol": 1e30,
+        "ipopt.acceptable_compl_inf_tol": 1e30,
+        "ipopt.acceptable_obj_change_tol": OBJECTIVE_CHANGE_TOL,
+    },
+    "sqpmethod": {
+        "print_time": False,
+        "print_header": False,
+        "print_iteration": False,
+        "print_status": False,
+        "qpsol": "qrqp",
+        "qpsol_options": {
+            "print_iter": False,
+            "print_header": False,
+            "print_info": False,
+            "error_on_fail": False,
+        },
+        "tol_pr": 1e-10,
+        "tol_du": 1e-10,
+        "min_step_size": 1e-16,
+    },
+}
+
+_MAX_ITER_OPTION: Final[dict[str, str]] = {"ipopt": "ipopt.max_iter", "sqpmethod": "max_iter"}
+
+GAUSS_NEWTON_TRIU: Final[dict[str, bool]] = {"ipopt": True, "sqpmethod": False}
+"""The plugins given the program's Gauss–Newton Hessian (the ``hess_lag`` option), and
+whether they take its upper triangle (Ipopt) or the full matrix; other plugins get
+CasADi's exact Hessian of the Lagrangian."""
+
+SOLVE_ITER: Final[int] = 8
+"""Iterations of one solve; an attempt that needs more continues in another solve while
+it makes progress (:data:`PROGRESS_RATIO`)."""
+
+PROGRESS_RATIO: Final[float] = 0.25
+"""A solve that stops short of the tolerances is continued when the squared residual fell
+to this fraction of its value at the solve's start, or below :data:`PROGRESS_FLOOR`."""
+
+PROGRESS_FLOOR: Final[float] = 1e-8
+"""Squared residual (about 1e-4 m or rad) below which a solve is always continued while
+it decreases (next to a singularity the last digits converge slowly, but converge)."""
+
+
+@dataclass(frozen=True, eq=False)
+class NLPBackend:
+    """A ``casadi.nlpsol`` solver built on one :class:`~optik.programs.nlp.NLPProgram`.
+
+    Built by :func:`nlp_backend` (cached) and reused for every target.
+
+    Attributes:
+        program: the program it solves.
+        plugin: the ``casadi.nlpsol`` plugin.
+        max_iter: the iteration limit of one solve.
+        options: the options the solver was built with (``hess_lag`` excepted).
+        solver: the ``casadi.nlpsol`` function.
+        gauss_newton: whether it uses the program's Gauss–Newton Hessian.
+        compile_report: whether ``solver`` runs compiled C and what building it cost
+            (:class:`~optik.programs.nlp_codegen.CompileReport`).
+    """
+
+    program: NLPProgram
+    plugin: str
+    max_iter: int
+    options: dict[str, Any]
+    solver: casadi.Function
+    gauss_newton: bool
+    compile_report: CompileReport
+    _bounds: tuple[Any, Any] = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        # The plain limits as CasADi matrices once (a conversion per solve costs µs).
+        bounds = (casadi.DM(self.program.lbx), casadi.DM(self.program.ubx))
+        object.__setattr__(self, "_bounds", bounds)
+
+    def solve(
+        self,
+        target: Any,
+        q0: Any,
+        *,
+        weights: Any = None,
+        mu: float = 0.0,
+        q_ref: Any = None,
+        bounds: tuple[Any, Any] | None = None,
+    ) -> NLPSolution:
+        """Solve for one target from the warm start ``q0`` (dof,) (clipped into the bounds).
+
+        Args:
+            target: see :meth:`NLPProgram.parameter_vector`; so are ``weights``, ``mu``
+                and ``q_ref``.
+            q0: warm start (dof,).
+            weights: see :meth:`NLPProgram.parameter_vector`.
+            mu: see :meth:`NLPProgram.parameter_vector`.
+            q_ref: see :meth:`NLPProgram.parameter_vector`.
+            bounds: ``(lower, upper)`` (dof,) each inside the joint limits, default the
+                limits.
+
+        A solver exception comes back as ``success=False`` with its text in ``status``.
+
+        Raises:
+            OptikError: bad arguments (see :meth:`NLPProgram.parameter_vector`), bounds
+                outside the limits or crossed.
+        """
+        program = self.program
+        params = program.parameter_vector(target, weights=weights, mu=mu, q_ref=q_ref)
+        if bounds is None:
+            lower, upper = program.lbx, program.ubx
+        else:
+            lower = np.asarray(bounds[0], dtype=np.float64)
+            upper = np.asarray(bounds[1], dtype=np.float64)
+            if lower.shape != (program.dof,) or upper.shape != (program.dof,):
+                raise OptikError(f"bounds must be two arrays of shape ({program.dof},)")
+            if np.any(np.isnan(lower) | np.isnan(upper)) or np.any(lower > upper):
+                raise OptikError("bounds: NaN or lower > upper")
+            if np.any(lower < program.lbx) or np.any(upper > program.ubx):
+                raise OptikError("bounds must lie inside the joint limits")
+        x0 = np.clip(finite_array("q0", q0, (program.dof,)), lower, upper)
+        return self.solve_parameters(params, x0, lower, upper)
+
+    def solve_parameters(
+        self, params: FloatArray, x0: FloatArray, lower: Any = None, upper: Any = None
+    ) -> NLPSolution:
+        """Solve for a parameter vector of :meth:`NLPProgram.parameter_vector`, unchecked.
+
+        The inner call of :meth:`solve` for callers that validated their inputs once
+        (``x0`` finite and inside the bounds, ``params`` from ``parameter_vector``);
+        ``lower`` / ``upper`` default to the joint limits.
+        """
+        lbx = self._bounds[0] if lower is None else lower
+        ubx = self._bounds[1] if upper is None else upper
+        try:
+            result = self.solver(x0=x0, p=params, lbx=lbx, ubx=ubx)
+            stats = self.solver.stats()
+        except Exception as exc:  # keep the backend's message
+            text = f"{type(exc).__name__}: {exc}"
+            return NLPSolution(x0, False, text, 0, float("nan"), failed=True)
+        return NLPSolution(
+            q=result["x"].full().ravel(),
+            success=bool(stats.get("success", False)),
+            status=str(stats.get("return_status", "")),
+            iterations=int(stats.get("iter_count", -1)),
+            objective=float(result["f"]),
+        )
+
+
+def _hessian_function(program: NLPProgram, upper_triangle: bool) -> casadi.Function:
+    """``hess_lag(x, p, lam_f, lam_g)``: ``lam_f`` times the Gauss–Newton Hessian."""
+    lam_f = casadi.SX.sym("lam_f")
+    lam_g = casadi.SX.sym("lam_g", 0)
+    H = lam_f * program.hessian
+    name = "triu_hess_gamma_x_x" if upper_triangle else "hess_gamma_x_x"
+    return casadi.Function(
+        "nlp_hess_l",
+        [program.q, program.parameters, lam_f, lam_g],
+        [casadi.triu(H) if upper_triangle else H],
+        ["x", "p", "lam_f", "lam_g"],
+        [name],
+    )
+
+
+def _new_backend(
+    program: NLPProgram, plugin: str, max_iter: int, options: dict[str, Any], codegen: bool
+) -> NLPBackend:
+    name = f"ik_{plugin}_{program.mode}" + (f"_{'xyz'[program.axis]}" if program.axis >= 0 else "")
+    nlp = {"x": program.q, "p": program.parameters, "f": program.objective}
+    gauss_newton = plugin in GAUSS_NEWTON_TRIU
+    build_options = dict(options)
+    if gauss_newton:
+        build_options["hess_lag"] = _hessian_function(program, GAUSS_NEWTON_TRIU[plugin])
+    solver = casadi.nlpsol(name, plugin, nlp, build_options)
+    report = CompileReport(False, 0.0, False, "code generation not asked for")
+    if codegen:
+        # The library holds the Gauss–Newton nlp_hess_l; built from it without the
+        # hess_lag option, the solver loads that compiled function by name (on failure
+        # compiled_nlpsol returns the SX solver above, built with it).
+        solver, report = compiled_nlpsol(name, plugin, solver, options)
+    return NLPBackend(program, plugin, max_iter, options, solver, gauss_newton, report)
+
+
+_lock = threading.Lock()
+_BACKENDS: weakref.WeakKeyDictionary[Robot, dict[tuple[Any, ...], NLPBackend]] = (
+    weakref.WeakKeyDictionary()
+)
+# The same backends keyed without their options (built with the defaults only).
+_FAST: weakref.WeakKeyDictionary[Robot, dict[tuple[Any, ...], NLPBackend]] = (
+    weakref.WeakKeyDictionary()
+)
+
+
+def nlp_backend(
+    robot: Robot,
+    task: str | Task = "pose",
+    *,
+    plugin: str = "ipopt",
+    max_iter: int = 100,
+    options: dict[str, Any] | None = None,
+    codegen: bool = True,
+) -> NLPBackend:
+    """The solver of ``build_nlp(robot, task)`` (cached per robot, task shape and settings).
+
+    Args:
+        robot: the robot.
+        task: a mode or a :class:`~optik.task.Task` (its shape chooses the program).
+        plugin: ``casadi.nlpsol`` plugin, ``"ipopt"`` or ``"sqpmethod"`` (options from
+            :data:`NLP_OPTIONS`, the program's Gauss–Newton Hessian); any other plugin
+            gets only ``options`` and CasADi's exact Hessian.
+        max_iter: iteration limit of one solve.
+        options: extra ``nlpsol`` options, merged over the defaults (part of the cache key).
+        codegen: run the solver on its functions compiled to C
+            (:func:`optik.programs.nlp_codegen.compiled_nlpsol`, cached on disk; the SX
+            functions when no C compiler is found). ``backend.compile_report`` says which
+            and what it cost.
+
+    Raises:
+        OptikError: not a robot, an unknown mode, a ``max_iter`` below 1, or a plugin
+            CasADi cannot load.
+    """
+    if not isinstance(robot, Robot):
+        raise OptikError(f"robot must be an optik.Robot, got {type(robot).__name__}")
+    shape = task_shape(task)
+    if options is None and type(max_iter) is int and max_iter >= 1:
+        # The common call (the casadi:<plugin> solvers): no options to merge and key.
+        fast = _FAST.get(robot)
+        backend = None if fast is None else fast.get((shape, plugin, max_iter, bool(codegen)))
+        if backend is not None:
+            return backend
+    if isinstance(max_iter, bool) or int(max_iter) != max_iter or max_iter < 1:
+        raise OptikError(f"max_iter must be an integer >= 1, got {max_iter!r}")
+    merged = {**NLP_OPTIONS.get(plugin, {}), **(options or {})}
+    merged[_MAX_ITER_OPTION.get(plugin, "max_iter")] = int(max_iter)
+    key = (shape, plugin, repr(sorted(merged.items())), bool(codegen))
+    program = build_nlp(robot, task)
+    with _lock:
+        per_robot = _BACKENDS.setdefault(robot, {})
+        backend = per_robot.get(key)
+        if backend is None:
+            try:
+                backend = _new_backend(program, plugin, int(max_iter), merged, bool(codegen))
+            except RuntimeError as exc:
+                raise OptikError(f"cannot build the CasADi {plugin!r} solver: {exc}") from exc
+            per_robot[key] = backend
+        if options is None and type(max_iter) is int:
+            _FAST.setdefault(robot, {})[(shape, plugin, max_iter, bool(codegen))] = backend
+    return backend
 
 
 class CasadiNLPSolver(IKSolver):
     """IK as one nonlinear program solved by a ``casadi.nlpsol`` plugin.
 
-    The program (see :mod:`optik.programs.nlp`), with ``p*, R*`` the target::
+    The program (see :mod:`optik.programs.nlp`), with ``r`` the task's weighted residual
+    in the target frame (position rows over the constrained axes; a full orientation, a
+    tool axis, or none)::
 
-        min  ||p(q) - p*||^2 + (3 - trace(R*^T R(q))) + mu ||q - q_ref||^2
-        s.t. lower <= q <= upper
+        min  ||r(q)||^2
+        s.t. lower <= q <= upper    (the query's bounds: limits, limit_margin, frozen)
 
-    (no orientation term in position mode; ``mu = 0`` except for ipopt's proximal
-    sub-problems on redundant tasks, where ``q_ref`` is the previous answer). Stops when
-    the position error is at most ``tol`` (m) and the orientation error at most ``tol``
-    (rad), when a restart makes no progress, at ``max_iter`` solver iterations in total,
-    or at the deadline (checked between solves: a running solve is not interrupted, it is
-    bounded by ``max_iter``). ``converged`` is the last solve's own claim
-    (``stats()["success"]``).
+    Stops when both judged errors are within the task's tolerances, when a solve makes
+    too little progress (:data:`PROGRESS_RATIO`), at ``max_iter`` solver iterations in
+    total, or at the deadline (checked between solves: a running solve is not
+    interrupted, it is bounded by :data:`SOLVE_ITER`). ``converged`` is the last solve's
+    own claim (``stats()["success"]``).
     """
 
-    plain_tasks_only = True
-
+    plain_tasks_only = False  # every task, frozen joints and limit margins
     kind = "nlp"
-    default_max_iter = 200
-    #: Weight ``mu`` of the proximal term (m^2 per rad^2) on redundant tasks (ipopt only).
-    proximal_weight: float = 1e-6
+    default_max_iter = 60
 
     def __init__(self, plugin: str) -> None:
         self.plugin = plugin
         self.name = f"casadi:{plugin}"
 
-    def _program(self, query: IKQuery, max_iter: int) -> NLPProgram:
-        return build_nlp(query.robot, query.mode, plugin=self.plugin, max_iter=max_iter)  # type: ignore[arg-type]
+    def backend(self, query: IKQuery, max_iter: int) -> NLPBackend:
+        """The solver of the query's task shape (one solve of at most ``max_iter``)."""
+        return nlp_backend(
+            query.robot, query.spec, plugin=self.plugin, max_iter=min(max_iter, SOLVE_ITER)
+        )
 
     def solve(self, query: IKQuery, q0: FloatArray, max_iter: int, deadline: float) -> SolverOutput:
         """Refine ``q0`` towards ``query.target`` (see the class docstring)."""
         robot = query.robot
-        q = np.clip(np.asarray(q0, dtype=np.float64), robot.lower, robot.upper)
+        lower, upper = query.lower, query.upper
+        q = np.clip(np.asarray(q0, dtype=np.float64), lower, upper)
+        budget = max(1, int(max_iter))
+        task = query.spec
         try:
-            program = self._program(query, max(1, int(max_iter)))
+            backend = self.backend(query, budget)
         except Exception as exc:  # report, never raise from a backend run
             return SolverOutput(q, 0, False, f"{type(exc).__name__}: {exc}", True)
-        task_rows = 3 if query.mode == "position" else 6
-        mu = self.proximal_weight if self.plugin == "ipopt" and robot.dof > task_rows else 0.0
         fk = _pose_of(robot)
-        e = query.error_vector(fk(q))
-        # The parameters [p*, vec(R*), w_rot, mu, q_ref] (NLPProgram.parameter_vector) of
-        # the query's target, validated by the query already; each solve only moves q_ref.
-        target = query.target
-        rotation = np.eye(3) if query.mode == "position" else target[:3, :3]
-        params = np.concatenate([target[:3, 3], rotation.ravel(order="F"), [1.0, mu], q])
-        q_ref = params[-robot.dof :]
+        target, packed = query.target, task.packed
+        e2 = _squared_residual(query, fk(q))
+        # The parameters [p*, vec(R*), sqrt(w), mu, q_ref] (NLPProgram.parameter_vector)
+        # of the query's target and task, validated by the query already.
+        rotation = np.eye(3) if task.mode == "position" else target[:3, :3]
+        params = np.concatenate(
+            [target[:3, 3], rotation.ravel(order="F"), np.sqrt(task.weights), [0.0], q]
+        )
+        plain = query.bounds is None
+        lbx = None if plain else casadi.DM(lower)
+        ubx = None if plain else casadi.DM(upper)
         iterations = 0
         claim, status = False, "not started"
         while True:
-            if _converged(e, query.tol):
+            T = fk(q)
+            if _converged(T, target, packed):
                 return SolverOutput(q, iterations, claim if iterations else True, status)
-            if iterations >= max_iter:
+            if iterations >= budget:
                 return SolverOutput(q, iterations, claim, f"max_iter ({status})")
             if budget_now() > deadline:
                 return SolverOutput(q, iterations, claim, f"timeout ({status})")
-            q_ref[:] = q
-            try:
-                result = program.solve_parameters(params, q)
-            except Exception as exc:  # report, never raise from a backend run
-                return SolverOutput(q, iterations, False, f"{type(exc).__name__}: {exc}", True)
+            result = backend.solve_parameters(params, q, lbx, ubx)
+            if result.failed:
+                return SolverOutput(q, iterations, False, result.status, True)
             iterations += max(result.iterations, 1)
             claim, status = result.success, result.status
             if not np.all(np.isfinite(result.q)):
                 return SolverOutput(q, iterations, False, f"non-finite answer ({status})", True)
-            q_new = np.clip(result.q, robot.lower, robot.upper)
-            e_new = query.error_vector(fk(q_new))
-            if float(e_new @ e_new) >= float(e @ e):
+            q_new = np.clip(result.q, lower, upper)
+            e2_new = _squared_residual(query, fk(q_new))
+            if e2_new >= e2:
                 return SolverOutput(q, iterations, claim, f"no progress ({status})")
-            q, e = q_new, e_new
+            progressed = e2_new <= PROGRESS_RATIO * e2 or e2_new <= PROGRESS_FLOOR
+            q, e2 = q_new, e2_new
+            if not progressed and not _converged(fk(q), target, packed):
+                return SolverOutput(q, iterations, claim, f"slow progress ({status})")
 
 
-def _pose_of(robot: Robot) -> Callable[[FloatArray], FloatArray]:
+def _squared_residual(query: IKQuery, T: FloatArray) -> float:
+    """``e^T e`` of the task residual at pose ``T`` (:meth:`IKQuery.error_vector`)."""
+    e = query.error_vector(T)
+    return float(e @ e)
+
+
+def _pose_of(robot: Robot) -> Any:
     """``q -> T`` for a ``q`` already inside the limits: the compiled FK, unvalidated."""
     chain = robot.chain
     K, prismatic, C = chain.K, chain.prismatic, chain.C
@@ -120,12 +420,10 @@ def _pose_of(robot: Robot) -> Callable[[FloatArray], FloatArray]:
     return pose
 
 
-def _converged(e: FloatArray, tol: float) -> bool:
-    """Position (m) and orientation (rad) errors both within ``tol``."""
-    values = e.tolist()
-    if math.sqrt(sum(x * x for x in values[:3])) > tol:
-        return False
-    return len(values) == 3 or math.sqrt(sum(x * x for x in values[3:])) <= tol
+def _converged(T: FloatArray, target: FloatArray, packed: FloatArray) -> bool:
+    """Both judged errors (:mod:`optik.task`) within the task's tolerances."""
+    position, orientation = task_errors_of(T, target, packed)
+    return bool(position <= packed[8] and orientation <= packed[9])
 
 
 def _has_nlpsol(plugin: str) -> bool:
