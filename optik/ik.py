@@ -7,7 +7,12 @@ Warm-start policy: when the robot has a closed-form family that solves the mode,
 branches inside the limits (nearest ``q0`` first) are the starting points; with
 ``solver="auto"`` the nearest branch *is* the answer (it is exact, verified by FK). An
 empty set of branches is a proof: the result says ``"unreachable"``, or
-``"outside_limits"`` when branches exist only outside the limits. Without a family,
+``"outside_limits"`` when branches exist only outside the limits. In ``mode="axis"`` a
+family that solves full poses solves the free roll (:mod:`optik.analytic.roll`): the
+answers are the local minima of the distance to ``q0`` along each branch's continuation
+over a grid of rolls, refined, nearest first; there an empty grid proves nothing, and
+the numeric search runs instead (from the grid's branches clipped into the limits).
+Without a family,
 the solver starts from ``q0`` when given, then from the entries of a seeded table of
 configurations whose poses are nearest the target (:mod:`optik.solvers._seeds`), then from
 deterministic seeded draws uniform inside the limits, until ``restarts`` or
@@ -42,6 +47,7 @@ from optik._ik_options import (
     check_q0,
 )
 from optik.analytic import AnalyticFamily, analytic_ik, family_of
+from optik.analytic.roll import axis_branches, solves_axis_task
 from optik.chain import read_only
 from optik.errors import JointLimitError, OptikError
 
@@ -190,6 +196,11 @@ def _family_solves(robot: Robot, family: AnalyticFamily, mode: str) -> bool:
     if mode not in family.modes:
         return False
     return mode != "position" or not np.any(np.abs(robot.T_flange_tool[:3, 3]) > 0.0)
+
+
+ROLL_STARTS = 8
+"""Grid branches outside the limits (clipped into them) that start the numeric search
+when the roll's closed form finds no answer inside them."""
 
 
 def _closed_form_proof(
@@ -426,7 +437,8 @@ def solve_ik_all(
     if plan.early is not None:
         return [plan.early] if plan.early.success else []
     if plan.branches and plan.numeric is None:
-        found = _distinct([(q, 0, 0) for q in plan.branches], separation)
+        answers = [*plan.branches, *plan.samples]
+        found = _distinct([(q, 0, 0) for q in answers], separation, most=count)
         solver_name = "analytic"
     else:
         numeric = plan.numeric or get_solver(AUTO_NUMERIC_SOLVER)
@@ -452,6 +464,8 @@ class _Plan:
     deadline: float
     start_time: float
     early: IKResult | None
+    samples: list[FloatArray]
+    """More closed-form answers after ``branches`` (the roll's grid in ``axis`` mode)."""
 
     @property
     def starts(self) -> StartSequence:
@@ -558,16 +572,29 @@ def _plan(
         starts_given: list[FloatArray],
         branches: list[FloatArray],
         early: IKResult | None = None,
+        samples: list[FloatArray] | None = None,
     ) -> _Plan:
         solver_for_run = numeric or get_solver(AUTO_NUMERIC_SOLVER)
         per_attempt = iterations or solver_for_run.default_max_iter
         return _Plan(
             query, q_start, numeric, branches, starts_given, int(seed), per_attempt, last,
-            deadline, start_time, early,
+            deadline, start_time, early, samples or [],
         )  # fmt: skip
 
     family = family_of(robot) if warm_start == "analytic" else None
-    if family is not None and task.is_pose_or_position and _family_solves(robot, family, task.mode):
+    starts_given = [q_start] if q0 is not None else []
+    if family is not None and solves_axis_task(family, task):
+        box = bounds if bounds is not None else (robot.lower, robot.upper)
+        roll = axis_branches(robot, T_target, task.axis, q_start[None], *box)[0]
+        if roll.nearest:
+            return plan(roll.nearest, roll.nearest, samples=list(roll.samples))
+        # A sampled roll proves nothing (an answer can lie between two grid rolls, or
+        # inside a narrowed box): search numerically, from the grid's branches too.
+        clipped = [np.clip(q, box[0], box[1]) for q in roll.outside[:ROLL_STARTS]]
+        starts_given = [*starts_given, *clipped]
+    elif (
+        family is not None and task.is_pose_or_position and _family_solves(robot, family, task.mode)
+    ):
         branches = analytic_ik(robot, T_target, task.mode, q_ref=q_start)
         if bounds is not None:
             branches = [b for b in branches if np.all(b >= bounds[0]) and np.all(b <= bounds[1])]
@@ -599,15 +626,20 @@ def _plan(
             claim=None,
         )
         return plan([], [], early)
-    return plan([q_start] if q0 is not None else [], [])
+    return plan(starts_given, [])
 
 
 def _distinct(
-    found: list[tuple[FloatArray, int, int]], separation: float
+    found: list[tuple[FloatArray, int, int]], separation: float, most: int | None = None
 ) -> list[tuple[FloatArray, int, int]]:
-    """The answers at least ``separation`` from every earlier one, in order."""
+    """The answers at least ``separation`` from every earlier one, in order.
+
+    With ``most``, only the first ``most`` such answers.
+    """
     kept: list[tuple[FloatArray, int, int]] = []
     for item in found:
+        if most is not None and len(kept) >= most:
+            break
         distances = [float(np.linalg.norm(item[0] - other[0])) for other in kept]
         if all(d >= separation and d > 0.0 for d in distances):
             kept.append(item)

@@ -35,6 +35,7 @@ from optik._checks import (
 )
 from optik._files import write_atomic_with
 from optik.analytic import analytic_ik, family_of, wrap_into_limits
+from optik.analytic.roll import axis_branches, solves_axis_task
 from optik.errors import OptikError, ShapeError
 from optik.ik import _bounds, solve_ik, solve_ik_batch
 from optik.model import Robot
@@ -57,6 +58,8 @@ PLAN_STATUSES = (
 sphere, a closed form); ``not_found`` is a failure without proof: no answer was found,
 even with the limits lifted, but none is proved impossible (raise ``restarts``)."""
 _SWITCH_PENALTY = 1e6
+SEED_CANDIDATES = 2
+"""Closed-form answers of an axis task kept per previous candidate (the nearest ones)."""
 _DUPLICATE = 1e-7
 
 
@@ -300,6 +303,12 @@ class _CandidateFinder:
         self.restarts, self.seed, self.limit = restarts, seed, limit
         family = family_of(robot)
         self.analytic = family is not None and path_task.analytic_ok and self.mode in family.modes
+        # The free roll of an axis task, solved by the full-pose closed form.
+        self.roll = (
+            family is not None
+            and not path_task.frozen.any()
+            and solves_axis_task(family, path_task.task)
+        )
 
     def _solve(self, robot: Robot, T: FloatArray, posture: bool, **options: Any) -> Any:
         return solve_ik(
@@ -329,6 +338,11 @@ class _CandidateFinder:
                 parts.append(V[near])
             parts.append(B)
             return _dedupe(np.concatenate(parts), self.limit)
+        if self.roll:
+            found = self._on_roll(T, seeds)
+            if found:
+                return found
+            # The grid of rolls proves nothing: the numeric search follows.
         rows = []
         for q0 in seeds:
             result = self._solve(self.work, T, True, q0=q0, restarts=0)
@@ -344,6 +358,23 @@ class _CandidateFinder:
             )
             if result.success:
                 rows.append(result.q)
+        return _dedupe(np.array(rows), self.limit) if rows else []
+
+    def _on_roll(self, T: FloatArray, seeds: list[FloatArray]) -> list[FloatArray]:
+        """Closed-form candidates of an axis task (:mod:`optik.analytic.roll`).
+
+        For every previous candidate, the answer nearest it (the continuation of the
+        path) and the next nearest; then, for where the path must jump, every refined
+        local minimum of the distance to the first (or to mid-limits at the start).
+        """
+        refs = np.array(seeds) if seeds else self.work.mid_limits[None]
+        task = self.path_task.task
+        per_seed = axis_branches(self.work, T, task.axis, refs, per_ref=SEED_CANDIDATES)
+        rows = [q for found in per_seed for q in found.nearest[:SEED_CANDIDATES]]
+        if len(refs) > 1:
+            rows += axis_branches(self.work, T, task.axis, refs[:1])[0].nearest
+        else:
+            rows += per_seed[0].nearest
         return _dedupe(np.array(rows), self.limit) if rows else []
 
     def why_unsolved(self, T: FloatArray) -> str:
