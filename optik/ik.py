@@ -275,7 +275,8 @@ def solve_ik(
             more than half a joint's range). Frozen joints are exempt.
         select: ``"first"`` (the first verified answer) or ``"nearest"`` (the verified
             answer nearest ``q0`` among all found within ``restarts`` / ``timeout_s``;
-            with a closed form, the branch nearest ``q0``).
+            with a closed form, the branch nearest ``q0``; in ``mode="axis"`` the nearest
+            over the roll's grid, refined, see :mod:`optik.analytic.roll`).
         posture: ``q_ref`` (dof,): an answer nearest it in the ``joint_weights`` norm:
             the answer from a start at ``q_ref``, then up to one more of the ordinary
             starts (more only while none is found), each refined by
@@ -356,7 +357,11 @@ def solve_ik_all(
     """Up to ``k`` distinct verified IK answers for one target, nearest ``q0`` first.
 
     With a closed form (``solver="auto"`` and a family that solves the task) these are the
-    in-limit branches; otherwise the numeric solver's restarts are collected until ``k``
+    in-limit branches; in ``mode="axis"`` the answers over the free roll
+    (:mod:`optik.analytic.roll`): the refined nearest answer of every branch's
+    continuation first, then the grid's branches, each kept when at least
+    ``min_separation`` from those kept before. Otherwise the numeric solver's restarts
+    are collected until ``k``
     answers pairwise at least ``min_separation`` apart (Euclidean, rad / m) are found or
     ``restarts`` / ``timeout_s`` runs out. Each is verified like :func:`solve_ik`'s.
 
