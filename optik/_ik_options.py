@@ -6,7 +6,8 @@ of the keywords both entry points take.
 
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Mapping
+from typing import Any, TypedDict
 
 from optik._checks import FloatArray, check_choice, check_int, check_real
 from optik.diffik import clip_into_limits
@@ -27,6 +28,36 @@ MAX_SEED = 2**63 - 1
 """Largest ``seed`` (the streams are 64-bit)."""
 
 
+class TaskKeywords(TypedDict, total=False):
+    """The task keywords every IK entry point takes, as :func:`optik.task.make_task` does.
+
+    ``make_task`` holds their defaults (``mode="pose"``, ``axis="z"``, ``weights=None``,
+    ``tol=1e-6``) and checks them.
+    """
+
+    mode: str
+    axis: str
+    weights: Any
+    tol: float | tuple[float, float]
+
+
+class QueryKeywords(TaskKeywords, total=False):
+    """The keywords of one IK query: :func:`optik.solve_ik`'s and :func:`optik.solve_ik_all`'s.
+
+    ``solve_ik`` documents them with their defaults.
+    """
+
+    solver: str
+    q0: Any
+    warm_start: str
+    max_iter: int | None
+    timeout_s: float | None
+    restarts: int | None
+    seed: int
+    frozen: Mapping[str, float] | None
+    limit_margin: float
+
+
 def check_q0(robot: Robot, q0: Any) -> FloatArray:
     """``q0`` as a (dof,) array inside the limits; see :func:`optik.diffik.clip_into_limits`."""
     if q0 is None:
@@ -35,15 +66,16 @@ def check_q0(robot: Robot, q0: Any) -> FloatArray:
 
 
 def check_options(
-    mode: Any,
-    tol: Any,
     warm_start: Any,
     timeout_s: Any,
     restarts: Any,
     max_iter: Any = None,
     seed: Any = 0,
 ) -> None:
-    """Validate the keywords shared by :func:`solve_ik` and :func:`solve_ik_batch`."""
+    """Validate the budget keywords shared by :func:`solve_ik` and :func:`solve_ik_batch`.
+
+    (The task keywords are :func:`optik.task.make_task`'s to check.)
+    """
     check_choice("warm_start", warm_start, ("analytic", "q0"))
     if timeout_s is not None:
         check_real("timeout_s", timeout_s, positive=True, allow_inf=True)

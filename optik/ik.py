@@ -7,7 +7,12 @@ Warm-start policy: when the robot has a closed-form family that solves the mode,
 branches inside the limits (nearest ``q0`` first) are the starting points; with
 ``solver="auto"`` the nearest branch *is* the answer (it is exact, verified by FK). An
 empty set of branches is a proof: the result says ``"unreachable"``, or
-``"outside_limits"`` when branches exist only outside the limits. Without a family,
+``"outside_limits"`` when branches exist only outside the limits. In ``mode="axis"`` a
+family that solves full poses solves the free roll (:mod:`optik.analytic.roll`): the
+answers are the local minima of the distance to ``q0`` along each branch's continuation
+over a grid of rolls, refined, nearest first; there an empty grid proves nothing, and
+the numeric search runs instead (from the grid's branches clipped into the limits).
+Without a family,
 the solver starts from ``q0`` when given, then from the entries of a seeded table of
 configurations whose poses are nearest the target (:mod:`optik.solvers._seeds`), then from
 deterministic seeded draws uniform inside the limits, until ``restarts`` or
@@ -22,7 +27,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -38,10 +43,13 @@ from optik._ik_options import (
     MAX_ITERATIONS,
     MAX_SEED,
     UNLIMITED_RESTARTS,
+    QueryKeywords,
+    TaskKeywords,
     check_options,
     check_q0,
 )
 from optik.analytic import AnalyticFamily, analytic_ik, family_of
+from optik.analytic.roll import axis_branches, solves_axis_task
 from optik.chain import read_only
 from optik.errors import JointLimitError, OptikError
 
@@ -57,13 +65,16 @@ from optik.ik_batch import (
 from optik.limits import LIMIT_TOLERANCE
 from optik.model import Robot
 from optik.poses import as_target_pose
-from optik.posture import check_joint_weights, refine_posture
+from optik.posture import check_joint_weights, posture_answers, refine_posture
 from optik.solvers import get_solver
 from optik.solvers._base import IKQuery, IKSolver, RunOutput, budget_now, now
 from optik.solvers._seeds import start_sequence
 from optik.solvers._starts import StartSequence
 from optik.task import make_task
 from optik.verify import verify_one
+
+if TYPE_CHECKING:
+    from typing_extensions import Unpack  # Python 3.10 has no typing.Unpack
 
 AUTO_NUMERIC_SOLVER = "dls"
 """What ``solver="auto"`` uses without a closed form: the fastest solver that meets the
@@ -112,67 +123,51 @@ class IKResult:
 
 
 def _result(
-    robot: Robot,
-    q: FloatArray,
-    query: IKQuery,
-    start_time: float,
-    *,
-    status_if_failed: str,
-    iterations: int,
-    restarts: int,
-    solver: str,
-    message: str,
-    claim: bool | None,
+    query: IKQuery, start_time: float, solver: str, outcome: RunOutput, claim: bool | None
 ) -> IKResult:
-    position, orientation, violation, success = verify_one(robot, q, query.target, query.spec)
+    """The result for ``outcome.q``, verified here from FK and the limits.
+
+    ``outcome`` gives what a failed verification reports (its ``status_if_failed`` and
+    ``message``) and the counts; ``claim`` is the backend's own claim (``None`` for a
+    closed form or a proof).
+    """
+    q = outcome.q
+    position, orientation, violation, success = verify_one(query.robot, q, query.target, query.spec)
     return IKResult(
         q=q,
         success=success,
-        status="converged" if success else status_if_failed,
+        status="converged" if success else outcome.status_if_failed,
         position_error=position,
         orientation_error=orientation,
         limit_violation=violation,
-        iterations=iterations,
-        restarts=restarts,
+        iterations=outcome.iterations,
+        restarts=outcome.restarts,
         time_s=now() - start_time,
         solver=solver,
-        message=message if not success else "",
+        message=outcome.message if not success else "",
         backend_converged=claim,
     )
 
 
+def _without_run(
+    q: FloatArray, status: str, message: str = "", iterations: int = 0, restarts: int = 0
+) -> RunOutput:
+    """The outcome of a closed form or a proof, in a run's terms (no backend claim)."""
+    return RunOutput(q, iterations, restarts, False, message, status)
+
+
 def _from_run(query: IKQuery, start_time: float, solver: str, run: RunOutput) -> IKResult:
     """The result of a numeric run: its answer, or its best attempt and why it failed."""
-    return _result(
-        query.robot,
-        run.q,
-        query,
-        start_time,
-        status_if_failed=run.status_if_failed,
-        iterations=run.iterations,
-        restarts=run.restarts,
-        solver=solver,
-        message=run.message,
-        claim=run.converged,
-    )
+    return _result(query, start_time, solver, run, run.converged)
 
 
 def _answer(
     plan: _Plan, q: FloatArray, solver: str, iterations: int = 0, restarts: int = 0
 ) -> IKResult:
     """A found answer (a closed-form branch, or a run's verified ``q``), verified again."""
-    return _result(
-        plan.query.robot,
-        q,
-        plan.query,
-        plan.start_time,
-        status_if_failed="max_iter",
-        iterations=iterations,
-        restarts=restarts,
-        solver=solver,
-        message="",
-        claim=None if solver == "analytic" else True,
-    )
+    outcome = _without_run(q, "max_iter", "", iterations, restarts)
+    claim = None if solver == "analytic" else True
+    return _result(plan.query, plan.start_time, solver, outcome, claim)
 
 
 CROSS_CHECK_RESTARTS = 20
@@ -190,6 +185,11 @@ def _family_solves(robot: Robot, family: AnalyticFamily, mode: str) -> bool:
     if mode not in family.modes:
         return False
     return mode != "position" or not np.any(np.abs(robot.T_flange_tool[:3, 3]) > 0.0)
+
+
+ROLL_STARTS = 8
+"""Grid branches outside the limits (clipped into them) that start the numeric search
+when the roll's closed form finds no answer inside them."""
 
 
 def _closed_form_proof(
@@ -215,42 +215,25 @@ def _closed_form_proof(
         if outside
         else "closed form: no branch reaches the target"
     )
-    return _result(
-        robot,
-        outside[0] if outside else q_start,
-        query,
-        start_time,
-        status_if_failed=status,
-        iterations=run.iterations,
-        restarts=run.restarts,
-        solver="analytic",
-        message=reason + f" (a {numeric.name} cross-check found no answer either)",
-        claim=None,
-    )
+    reason += f" (a {numeric.name} cross-check found no answer either)"
+    q = outside[0] if outside else q_start
+    outcome = _without_run(q, status, reason, run.iterations, run.restarts)
+    return _result(query, start_time, "analytic", outcome, None)
 
 
 def solve_ik(
     robot: Robot,
     target: Any,
     *,
-    mode: str = "pose",
-    axis: str = "z",
-    weights: Any = None,
-    solver: str = "auto",
-    q0: Any = None,
-    warm_start: str = "analytic",
-    tol: float | tuple[float, float] = 1e-6,
-    max_iter: int | None = None,
-    timeout_s: float | None = None,
-    restarts: int | None = None,
-    seed: int = 0,
-    frozen: Mapping[str, float] | None = None,
-    limit_margin: float = 0.0,
     select: str = "first",
     posture: Any = None,
     joint_weights: Any = None,
+    **query: Unpack[QueryKeywords],
 ) -> IKResult:
     """Solve IK for one target, with hard joint limits.
+
+    The keywords from ``mode`` to ``limit_margin`` describe the query; they are
+    :class:`optik._ik_options.QueryKeywords`, shared with :func:`solve_ik_all`.
 
     Args:
         robot: the robot.
@@ -292,7 +275,8 @@ def solve_ik(
             more than half a joint's range). Frozen joints are exempt.
         select: ``"first"`` (the first verified answer) or ``"nearest"`` (the verified
             answer nearest ``q0`` among all found within ``restarts`` / ``timeout_s``;
-            with a closed form, the branch nearest ``q0``).
+            with a closed form, the branch nearest ``q0``; in ``mode="axis"`` the nearest
+            over the roll's grid, refined, see :mod:`optik.analytic.roll`).
         posture: ``q_ref`` (dof,): an answer nearest it in the ``joint_weights`` norm:
             the answer from a start at ``q_ref``, then up to one more of the ordinary
             starts (more only while none is found), each refined by
@@ -308,10 +292,7 @@ def solve_ik(
     Raises:
         OptikError: malformed target, ``q0``, options, or an unknown solver name.
     """
-    plan = _plan(
-        robot, target, mode, axis, weights, solver, q0, warm_start, tol, max_iter,
-        timeout_s, restarts, seed, frozen, limit_margin,
-    )  # fmt: skip
+    plan = _plan(robot, target, **query)
     check_choice("select", select, ("first", "nearest"))
     if plan.early is not None:
         return plan.early
@@ -340,8 +321,6 @@ def _posture_answer(plan: _Plan, posture: Any, joint_weights: Any) -> IKResult:
         solver_name = "analytic"
         last_run = None
     else:
-        from optik.posture import posture_answers
-
         numeric = plan.numeric or get_solver(AUTO_NUMERIC_SOLVER)
         found, last_run = posture_answers(
             plan.query, numeric, plan.given, q_ref, weights, plan.seed, plan.max_iter,
@@ -373,24 +352,16 @@ def solve_ik_all(
     *,
     k: int = 8,
     min_separation: float = 0.1,
-    mode: str = "pose",
-    axis: str = "z",
-    weights: Any = None,
-    solver: str = "auto",
-    q0: Any = None,
-    warm_start: str = "analytic",
-    tol: float | tuple[float, float] = 1e-6,
-    max_iter: int | None = None,
-    timeout_s: float | None = None,
-    restarts: int | None = None,
-    seed: int = 0,
-    frozen: Mapping[str, float] | None = None,
-    limit_margin: float = 0.0,
+    **query: Unpack[QueryKeywords],
 ) -> list[IKResult]:
     """Up to ``k`` distinct verified IK answers for one target, nearest ``q0`` first.
 
     With a closed form (``solver="auto"`` and a family that solves the task) these are the
-    in-limit branches; otherwise the numeric solver's restarts are collected until ``k``
+    in-limit branches; in ``mode="axis"`` the answers over the free roll
+    (:mod:`optik.analytic.roll`): the refined nearest answer of every branch's
+    continuation first, then the grid's branches, each kept when at least
+    ``min_separation`` from those kept before. Otherwise the numeric solver's restarts
+    are collected until ``k``
     answers pairwise at least ``min_separation`` apart (Euclidean, rad / m) are found or
     ``restarts`` / ``timeout_s`` runs out. Each is verified like :func:`solve_ik`'s.
 
@@ -419,14 +390,12 @@ def solve_ik_all(
     """
     count = check_int("k", k, minimum=1, maximum=10**6)
     separation = check_real("min_separation", min_separation, nonnegative=True)
-    plan = _plan(
-        robot, target, mode, axis, weights, solver, q0, warm_start, tol, max_iter,
-        timeout_s, restarts, seed, frozen, limit_margin,
-    )  # fmt: skip
+    plan = _plan(robot, target, **query)
     if plan.early is not None:
         return [plan.early] if plan.early.success else []
     if plan.branches and plan.numeric is None:
-        found = _distinct([(q, 0, 0) for q in plan.branches], separation)
+        answers = [*plan.branches, *plan.samples]
+        found = _distinct([(q, 0, 0) for q in answers], separation, most=count)
         solver_name = "analytic"
     else:
         numeric = plan.numeric or get_solver(AUTO_NUMERIC_SOLVER)
@@ -452,6 +421,8 @@ class _Plan:
     deadline: float
     start_time: float
     early: IKResult | None
+    samples: list[FloatArray]
+    """More closed-form answers after ``branches`` (the roll's grid in ``axis`` mode)."""
 
     @property
     def starts(self) -> StartSequence:
@@ -503,26 +474,28 @@ def _bounds(robot: Robot, frozen: Any, limit_margin: Any) -> tuple[FloatArray, F
 def _plan(
     robot: Any,
     target: Any,
-    mode: Any,
-    axis: Any,
-    weights: Any,
-    solver: Any,
-    q0: Any,
-    warm_start: Any,
-    tol: Any,
-    max_iter: Any,
-    timeout_s: Any,
-    restarts: Any,
-    seed: Any,
-    frozen: Any,
-    limit_margin: Any,
+    *,
+    solver: Any = "auto",
+    q0: Any = None,
+    warm_start: Any = "analytic",
+    max_iter: Any = None,
+    timeout_s: Any = None,
+    restarts: Any = None,
+    seed: Any = 0,
+    frozen: Any = None,
+    limit_margin: Any = 0.0,
+    **task_keywords: Unpack[TaskKeywords],
 ) -> _Plan:
-    """Validate a query, run the closed form and the proofs; the rest is for a solver."""
+    """Validate a query, run the closed form and the proofs; the rest is for a solver.
+
+    The keywords' defaults are those :func:`solve_ik` documents (the task's are
+    :func:`optik.task.make_task`'s).
+    """
     start_time = now()
     if not isinstance(robot, Robot):
         raise OptikError(f"robot must be an optik.Robot, got {type(robot).__name__}")
-    check_options(mode, tol, warm_start, timeout_s, restarts, max_iter, seed)
-    task = make_task(mode, axis=axis, weights=weights, tol=tol)
+    check_options(warm_start, timeout_s, restarts, max_iter, seed)
+    task = make_task(**task_keywords)
     if not isinstance(solver, str):
         raise OptikError(f"solver must be a solver name (str), got {solver!r}")
     T_target = as_target_pose(target, "position" if task.mode == "position" else "pose")
@@ -558,16 +531,29 @@ def _plan(
         starts_given: list[FloatArray],
         branches: list[FloatArray],
         early: IKResult | None = None,
+        samples: list[FloatArray] | None = None,
     ) -> _Plan:
         solver_for_run = numeric or get_solver(AUTO_NUMERIC_SOLVER)
         per_attempt = iterations or solver_for_run.default_max_iter
         return _Plan(
             query, q_start, numeric, branches, starts_given, int(seed), per_attempt, last,
-            deadline, start_time, early,
+            deadline, start_time, early, samples or [],
         )  # fmt: skip
 
     family = family_of(robot) if warm_start == "analytic" else None
-    if family is not None and task.is_pose_or_position and _family_solves(robot, family, task.mode):
+    starts_given = [q_start] if q0 is not None else []
+    if family is not None and solves_axis_task(family, task):
+        box = bounds if bounds is not None else (robot.lower, robot.upper)
+        roll = axis_branches(robot, T_target, task.axis, q_start[None], *box)[0]
+        if roll.nearest:
+            return plan(roll.nearest, roll.nearest, samples=list(roll.samples))
+        # A sampled roll proves nothing (an answer can lie between two grid rolls, or
+        # inside a narrowed box): search numerically, from the grid's branches too.
+        clipped = [np.clip(q, box[0], box[1]) for q in roll.outside[:ROLL_STARTS]]
+        starts_given = [*starts_given, *clipped]
+    elif (
+        family is not None and task.is_pose_or_position and _family_solves(robot, family, task.mode)
+    ):
         branches = analytic_ik(robot, T_target, task.mode, q_ref=q_start)
         if bounds is not None:
             branches = [b for b in branches if np.all(b >= bounds[0]) and np.all(b <= bounds[1])]
@@ -583,31 +569,28 @@ def _plan(
     # math.dist is exact in the range (no overflow: a target 1e155 m away is beyond).
     distance = math.dist(T_target[:3, 3].tolist(), centre.tolist())
     if task.constrains_position and distance > radius + task.position_tol:
+        reason = (
+            f"the target lies {distance:.6g} m from "
+            f"the reach sphere's centre, beyond its radius {radius:.6g} m"
+        )
         early = _result(
-            robot,
-            q_start,
-            query,
-            start_time,
-            status_if_failed="unreachable",
-            iterations=0,
-            restarts=0,
-            solver="reach",
-            message=(
-                f"the target lies {distance:.6g} m from "
-                f"the reach sphere's centre, beyond its radius {radius:.6g} m"
-            ),
-            claim=None,
+            query, start_time, "reach", _without_run(q_start, "unreachable", reason), None
         )
         return plan([], [], early)
-    return plan([q_start] if q0 is not None else [], [])
+    return plan(starts_given, [])
 
 
 def _distinct(
-    found: list[tuple[FloatArray, int, int]], separation: float
+    found: list[tuple[FloatArray, int, int]], separation: float, most: int | None = None
 ) -> list[tuple[FloatArray, int, int]]:
-    """The answers at least ``separation`` from every earlier one, in order."""
+    """The answers at least ``separation`` from every earlier one, in order.
+
+    With ``most``, only the first ``most`` such answers.
+    """
     kept: list[tuple[FloatArray, int, int]] = []
     for item in found:
+        if most is not None and len(kept) >= most:
+            break
         distances = [float(np.linalg.norm(item[0] - other[0])) for other in kept]
         if all(d >= separation and d > 0.0 for d in distances):
             kept.append(item)

@@ -10,13 +10,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numba
 import numpy as np
 
 from optik._checks import FloatArray, as_float_array, check_int, finite_array
-from optik._ik_options import DEFAULT_RESTARTS, MAX_SEED, check_options, check_q0
+from optik._ik_options import DEFAULT_RESTARTS, MAX_SEED, TaskKeywords, check_options, check_q0
 from optik.errors import ArgumentError, OptikError, ShapeError
 from optik.model import Robot
 from optik.solvers._base import now
@@ -26,6 +26,9 @@ from optik.solvers.iterative import DLSSolver
 from optik.spatial import as_pose
 from optik.task import make_task
 from optik.verify import verify
+
+if TYPE_CHECKING:
+    from typing_extensions import Unpack  # Python 3.10 has no typing.Unpack
 
 PARALLEL_BATCH = 64
 """Batches at least this large run in parallel threads; smaller ones on one thread."""
@@ -111,15 +114,12 @@ def solve_ik_batch(
     robot: Robot,
     targets: Any,
     *,
-    mode: str = "pose",
-    axis: str = "z",
-    weights: Any = None,
     q0: Any = None,
-    tol: float | tuple[float, float] = 1e-6,
     max_iter: int = 100,
     restarts: int = DEFAULT_RESTARTS,
     seed: int = 0,
     threads: int | None = None,
+    **task_keywords: Unpack[TaskKeywords],
 ) -> IKBatchResult:
     """Solve many targets with the compiled damped least squares, in parallel threads.
 
@@ -132,25 +132,25 @@ def solve_ik_batch(
         robot: the robot.
         targets: (N, 4, 4) world poses (in position mode only translations count; an
             (N, 3) array of positions is accepted too); N may be 0.
-        mode: ``"pose"``, ``"position"``, ``"orientation"`` or ``"axis"``
-            (:func:`solve_ik`).
-        axis: the tool axis of ``mode="axis"``.
-        weights: (6,) task weights in the target frame (:func:`solve_ik`).
         q0: shared initial guess (dof,).
-        tol: one tolerance, or ``(position_tol_m, orientation_tol_rad)``.
         max_iter: iterations per attempt.
         restarts: attempts after the first, 0 to :data:`MAX_BATCH_RESTARTS`.
         seed: base seed of the restarts.
         threads: worker threads (default: numba's current thread count,
             ``numba.get_num_threads()``); 1 solves on the calling thread. Batches smaller
             than :data:`PARALLEL_BATCH` always do.
+        **task_keywords: the task (:class:`optik._ik_options.TaskKeywords`): ``mode``
+            (``"pose"``, ``"position"``, ``"orientation"`` or ``"axis"``), ``axis`` (the
+            tool axis of ``mode="axis"``), ``weights`` ((6,) in the target frame) and
+            ``tol`` (one tolerance, or ``(position_tol_m, orientation_tol_rad)``), as in
+            :func:`solve_ik`.
     """
     start_time = now()
     if not isinstance(robot, Robot):
         raise OptikError(f"robot must be an optik.Robot, got {type(robot).__name__}")
-    check_options(mode, tol, "q0", None, restarts, max_iter, seed)
+    check_options("q0", None, restarts, max_iter, seed)
     check_int("restarts", restarts, minimum=0, maximum=MAX_BATCH_RESTARTS)
-    task = make_task(mode, axis=axis, weights=weights, tol=tol)
+    task = make_task(**task_keywords)
     mode = "position" if task.mode == "position" else "pose"  # the targets' form
     if seed > MAX_SEED - 2**40:  # target k uses seed + k
         raise OptikError(f"seed must be at most 2**63 - 2**40 in a batch, got {seed!r}")

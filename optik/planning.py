@@ -1,12 +1,23 @@
 """Limit-aware preprocessing of Cartesian paths: a continuous joint path, or exact flags.
 
 :func:`plan_path` collects, at every waypoint, every candidate configuration inside the
-limits (all closed-form branches when the robot has a family; otherwise numeric solutions
-seeded from the previous waypoint's candidates and from seeded restarts), then chooses one
-candidate per waypoint by dynamic programming over the whole sequence: it minimises the
-number of steps whose largest single-joint motion exceeds ``max_joint_step`` (branch
-switches), then the total joint motion. A branch switch therefore happens only where no
-continuous path exists, and it is flagged. Every input waypoint appears in the output.
+limits (all closed-form branches when the robot has a family; in ``mode="axis"`` the
+roll's closed form, :mod:`optik.analytic.roll`, nearest each previous candidate;
+otherwise numeric solutions seeded from the previous waypoint's candidates and from
+seeded restarts), then chooses one candidate per waypoint by dynamic programming over the
+whole sequence: it minimises the number of steps whose largest single-joint motion
+exceeds ``max_joint_step`` (branch switches), then the path's cost
+
+    sum_k ||q_k - q_k-1||  +  MARGIN_WEIGHT * sum_k d(q_k)
+
+(rad, m), where ``d(q)`` is the Euclidean distance of ``q`` to the *comfort box*, the
+limits shrunk by :data:`MARGIN_BAND` (10 %) of each finite range. A branch switch
+therefore happens only where no continuous path exists, and it is flagged. The
+candidates prefer margin too: a numeric candidate continuing ``q`` (without a path
+``posture``) is the answer nearest ``q`` moved towards the comfort box by at most half
+of ``max_joint_step`` per joint (:func:`optik.posture.refine_posture`), and a fresh
+restart's the answer nearest mid-limits; an axis task's closed-form candidates are the
+answers nearest those same references. Every input waypoint appears in the output.
 
 :func:`reachability` answers, for many points at once, whether the robot reaches them
 inside its limits.
@@ -35,6 +46,7 @@ from optik._checks import (
 )
 from optik._files import write_atomic_with
 from optik.analytic import analytic_ik, family_of, wrap_into_limits
+from optik.analytic.roll import axis_branches, solves_axis_task
 from optik.errors import OptikError, ShapeError
 from optik.ik import _bounds, solve_ik, solve_ik_batch
 from optik.model import Robot
@@ -57,6 +69,42 @@ PLAN_STATUSES = (
 sphere, a closed form); ``not_found`` is a failure without proof: no answer was found,
 even with the limits lifted, but none is proved impossible (raise ``restarts``)."""
 _SWITCH_PENALTY = 1e6
+SEED_CANDIDATES = 2
+"""Closed-form answers of an axis task kept per previous candidate (the nearest ones)."""
+
+MARGIN_BAND = 0.1
+"""Width of the soft band inside each finite joint limit, as a fraction of the joint's
+range, that the path's cost steers away from (the hard ``limit_margin`` is separate)."""
+
+MARGIN_WEIGHT = 1.0
+"""Weight of a waypoint's distance to the comfort box in the path's cost (rad / rad)."""
+
+
+@dataclass(frozen=True)
+class _Comfort:
+    """The comfort box: the joint limits shrunk by :data:`MARGIN_BAND` of each range.
+
+    Joints with an infinite limit or held by ``frozen`` (a zero range) are not shrunk.
+    """
+
+    lower: FloatArray
+    upper: FloatArray
+
+    @classmethod
+    def of(cls, robot: Robot) -> _Comfort:
+        span = robot.upper - robot.lower
+        band = np.where(np.isfinite(span), MARGIN_BAND * span, 0.0)
+        return cls(robot.lower + band, robot.upper - band)
+
+    def distance(self, Q: FloatArray) -> FloatArray:
+        """Euclidean distance (rad, m) of each configuration (..., dof) to the box."""
+        return np.linalg.norm(Q - np.clip(Q, self.lower, self.upper), axis=-1)
+
+    def towards(self, q: FloatArray, most: float) -> FloatArray:
+        """``q`` moved towards the box, each joint by at most ``most`` (rad, m)."""
+        return q + np.clip(np.clip(q, self.lower, self.upper) - q, -most, most)
+
+
 _DUPLICATE = 1e-7
 
 
@@ -298,16 +346,31 @@ class _CandidateFinder:
         self.mode = path_task.task.mode
         self.max_step = max_step
         self.restarts, self.seed, self.limit = restarts, seed, limit
+        self.comfort = _Comfort.of(robot)
         family = family_of(robot)
         self.analytic = family is not None and path_task.analytic_ok and self.mode in family.modes
+        # The free roll of an axis task, solved by the full-pose closed form.
+        self.roll = (
+            family is not None
+            and not path_task.frozen.any()
+            and solves_axis_task(family, path_task.task)
+        )
 
-    def _solve(self, robot: Robot, T: FloatArray, posture: bool, **options: Any) -> Any:
+    def _reference(self, seed: FloatArray) -> FloatArray:
+        """Where a candidate continuing ``seed`` should be.
+
+        ``seed`` moved out of the limit band, by at most half a continuous step per
+        waypoint (so the path stays continuous while it leaves the band).
+        """
+        return self.comfort.towards(seed, 0.5 * self.max_step)
+
+    def _solve(self, robot: Robot, T: FloatArray, with_posture: bool, **options: Any) -> Any:
         return solve_ik(
             robot,
             self.path_task.target(T),
             solver="dls",
             warm_start="q0",
-            **self.path_task.keywords(posture),
+            **self.path_task.keywords(with_posture),
             **options,
         )
 
@@ -329,21 +392,54 @@ class _CandidateFinder:
                 parts.append(V[near])
             parts.append(B)
             return _dedupe(np.concatenate(parts), self.limit)
+        if self.roll:
+            found = self._on_roll(T, seeds)
+            if found:
+                return found
+            # The grid of rolls proves nothing: the numeric search follows.
         rows = []
+        own = self.path_task.posture is not None
         for q0 in seeds:
-            result = self._solve(self.work, T, True, q0=q0, restarts=0)
+            # Without a posture of the path's own, the candidate continuing q0 is the
+            # answer nearest q0 moved out of the limit band (optik.posture's refinement).
+            steer = {} if own else {"posture": self._reference(q0)}
+            result = self._solve(self.work, T, True, q0=q0, restarts=0, **steer)
             if result.success:
                 rows.append(result.q)
         if not rows or self.restarts > 0:
+            # A fresh start: the answer nearest mid-limits, the middle of the comfort box.
+            steer = {} if own else {"posture": self.work.mid_limits}
             result = self._solve(
                 self.work,
                 T,
                 True,
                 restarts=self.restarts if rows else max(self.restarts, 20),
                 seed=self.seed + k,
+                **steer,
             )
             if result.success:
                 rows.append(result.q)
+        return _dedupe(np.array(rows), self.limit) if rows else []
+
+    def _on_roll(self, T: FloatArray, seeds: list[FloatArray]) -> list[FloatArray]:
+        """Closed-form candidates of an axis task (:mod:`optik.analytic.roll`).
+
+        For every previous candidate, the answer nearest it moved out of the limit band
+        (the continuation of the path) and the next nearest; then, for where the path
+        must jump, every refined local minimum of the distance to the first (or to
+        mid-limits at the start).
+        """
+        if seeds:
+            refs = np.array([self._reference(q) for q in seeds])
+        else:
+            refs = self.work.mid_limits[None]
+        task = self.path_task.task
+        per_seed = axis_branches(self.work, T, task.axis, refs, per_ref=SEED_CANDIDATES)
+        rows = [q for found in per_seed for q in found.nearest[:SEED_CANDIDATES]]
+        if len(refs) > 1:
+            rows += axis_branches(self.work, T, task.axis, refs[:1])[0].nearest
+        else:
+            rows += per_seed[0].nearest
         return _dedupe(np.array(rows), self.limit) if rows else []
 
     def why_unsolved(self, T: FloatArray) -> str:
@@ -377,9 +473,19 @@ class _CandidateFinder:
 
 
 def _choose(
-    layers: list[list[FloatArray]], max_step: float, greedy: bool, start: FloatArray | None
+    layers: list[list[FloatArray]],
+    max_step: float,
+    greedy: bool,
+    start: FloatArray | None,
+    comfort: _Comfort,
 ) -> list[int]:
-    """Index of the chosen candidate per layer (-1 for empty layers)."""
+    """Index of the chosen candidate per layer (-1 for empty layers).
+
+    The cost of a stretch of solved waypoints: :data:`_SWITCH_PENALTY` per step larger
+    than ``max_step``, plus the joint motion ``sum ||q_k - q_k-1||``, plus
+    :data:`MARGIN_WEIGHT` times ``sum d(q_k)``, the distance of each waypoint's
+    configuration to the comfort box (:class:`_Comfort`). ``greedy`` ignores the margin.
+    """
     choice = [-1] * len(layers)
     if greedy:
         anchor = start
@@ -404,9 +510,9 @@ def _choose(
         while end < n and layers[end]:
             end += 1
         stretch = [np.array(layers[i]) for i in range(k, end)]
-        cost = np.zeros(len(stretch[0]))
+        cost = MARGIN_WEIGHT * comfort.distance(stretch[0])
         if start is not None and k == 0:
-            cost = np.linalg.norm(stretch[0] - start, axis=1)
+            cost = cost + np.linalg.norm(stretch[0] - start, axis=1)
         back: list[np.ndarray] = []
         for i in range(1, len(stretch)):
             diff = stretch[i][None, :, :] - stretch[i - 1][:, None, :]
@@ -414,7 +520,9 @@ def _choose(
             step_cost = np.linalg.norm(diff, axis=2) + np.where(
                 linf > max_step, _SWITCH_PENALTY, 0.0
             )
-            total = cost[:, None] + step_cost
+            total = (
+                cost[:, None] + step_cost + MARGIN_WEIGHT * comfort.distance(stretch[i])[None, :]
+            )
             back.append(np.argmin(total, axis=0))
             cost = total[back[-1], np.arange(total.shape[1])]
         j = int(np.argmin(cost))
@@ -508,7 +616,8 @@ def plan_path(
         max_joint_step: largest single-joint motion (rad or m) between consecutive
             waypoints that counts as continuous; a larger step is a flagged discontinuity.
         limit_margin: keep every joint this far (rad or m) inside its finite limits
-            (frozen joints exempt).
+            (frozen joints exempt). Hard; beyond it the path's cost prefers margin
+            softly (the comfort box of the module docstring).
         mode: the task of every waypoint, as in :func:`optik.solve_ik`: ``"pose"``,
             ``"position"``, ``"orientation"`` or ``"axis"`` (default: ``"position"`` for
             (N, 3) positions, else ``"pose"``; ``"orientation"`` and ``"axis"`` need
@@ -585,7 +694,7 @@ def plan_path(
         seeds = layer if layer else ([start] if start is not None else [])
         if progress is not None:
             progress(k + 1, n)
-    choice = _choose(layers, max_joint_step, greedy, start)
+    choice = _choose(layers, max_joint_step, greedy, start, finder.comfort)
 
     dof = robot.dof
     Q = np.full((n, dof), np.nan)
