@@ -9,8 +9,13 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any, TypedDict
 
+import numpy as np
+
 from optik._checks import FloatArray, check_choice, check_int, check_real
+from optik.chain import read_only
 from optik.diffik import clip_into_limits
+from optik.errors import JointLimitError, OptikError
+from optik.limits import LIMIT_TOLERANCE
 from optik.model import Robot
 
 DEFAULT_RESTARTS = 100
@@ -41,23 +46,6 @@ class TaskKeywords(TypedDict, total=False):
     tol: float | tuple[float, float]
 
 
-class QueryKeywords(TaskKeywords, total=False):
-    """The keywords of one IK query: :func:`optik.solve_ik`'s and :func:`optik.solve_ik_all`'s.
-
-    ``solve_ik`` documents them with their defaults.
-    """
-
-    solver: str
-    q0: Any
-    warm_start: str
-    max_iter: int | None
-    timeout_s: float | None
-    restarts: int | None
-    seed: int
-    frozen: Mapping[str, float] | None
-    limit_margin: float
-
-
 def check_q0(robot: Robot, q0: Any) -> FloatArray:
     """``q0`` as a (dof,) array inside the limits; see :func:`optik.diffik.clip_into_limits`."""
     if q0 is None:
@@ -84,3 +72,54 @@ def check_options(
     if max_iter is not None:
         check_int("max_iter", max_iter, minimum=1, maximum=MAX_ITERATIONS)
     check_int("seed", seed, minimum=0, maximum=MAX_SEED)
+
+
+def query_bounds(
+    robot: Robot, frozen: Any, limit_margin: Any
+) -> tuple[FloatArray, FloatArray] | None:
+    """The box of ``frozen`` joints and ``limit_margin`` (``None``: the plain limits).
+
+    Args:
+        robot: the robot.
+        frozen: ``{joint name: value}`` (rad or m) or ``None``; each value inside its
+            joint's limits (within :data:`~optik.limits.LIMIT_TOLERANCE`).
+        limit_margin: distance (rad or m) kept free inside every finite limit, at most
+            half of each such joint's range; frozen joints are exempt.
+
+    Returns:
+        ``(lower, upper)`` read-only (dof,) arrays, ``lower == upper`` on frozen joints,
+        or ``None`` when neither narrows the limits.
+    """
+    margin = check_real("limit_margin", limit_margin, nonnegative=True)
+    if frozen is None:
+        frozen = {}
+    if not isinstance(frozen, Mapping):
+        raise OptikError(f"frozen must map joint names to values, got {frozen!r}")
+    if margin == 0.0 and not frozen:
+        return None
+    lower = robot.lower.copy()
+    upper = robot.upper.copy()
+    if margin > 0.0:
+        span = upper - lower
+        finite = np.isfinite(span)
+        too_narrow = np.flatnonzero(finite & (2.0 * margin > span))
+        if too_narrow.size:
+            joint = robot.joints[int(too_narrow[0])]
+            raise OptikError(
+                f"limit_margin {margin:g} is wider than half the range of joint "
+                f"{joint.name!r} ({joint.upper - joint.lower:g})"
+            )
+        lower[finite] += margin
+        upper[finite] -= margin
+    if frozen:
+        names = robot.joint_names
+        for name, value in frozen.items():
+            if name not in names:
+                raise OptikError(f"frozen: {name!r} is not a joint of {robot.name!r} ({names})")
+            i = names.index(name)
+            v = check_real(f"frozen[{name!r}]", value)
+            joint = robot.joints[i]
+            if not joint.lower - LIMIT_TOLERANCE <= v <= joint.upper + LIMIT_TOLERANCE:
+                raise JointLimitError(name, v, joint.lower, joint.upper)
+            lower[i] = upper[i] = min(max(v, joint.lower), joint.upper)
+    return read_only(lower), read_only(upper)

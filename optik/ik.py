@@ -43,15 +43,14 @@ from optik._ik_options import (
     MAX_ITERATIONS,
     MAX_SEED,
     UNLIMITED_RESTARTS,
-    QueryKeywords,
     TaskKeywords,
     check_options,
     check_q0,
+    query_bounds,
 )
 from optik.analytic import AnalyticFamily, analytic_ik, family_of
 from optik.analytic.roll import axis_branches, solves_axis_task
-from optik.chain import read_only
-from optik.errors import JointLimitError, OptikError
+from optik.errors import OptikError
 
 # The batch path lives in its own module; its names stay importable from here.
 from optik.ik_batch import (
@@ -62,7 +61,6 @@ from optik.ik_batch import (
     IKBatchResult,
     solve_ik_batch,
 )
-from optik.limits import LIMIT_TOLERANCE
 from optik.model import Robot
 from optik.poses import as_target_pose
 from optik.posture import check_joint_weights, posture_answers, refine_posture
@@ -225,15 +223,24 @@ def solve_ik(
     robot: Robot,
     target: Any,
     *,
+    mode: str = "pose",
+    axis: str = "z",
+    weights: Any = None,
+    solver: str = "auto",
+    q0: Any = None,
+    warm_start: str = "analytic",
+    tol: float | tuple[float, float] = 1e-6,
+    max_iter: int | None = None,
+    timeout_s: float | None = None,
+    restarts: int | None = None,
+    seed: int = 0,
+    frozen: Mapping[str, float] | None = None,
+    limit_margin: float = 0.0,
     select: str = "first",
     posture: Any = None,
     joint_weights: Any = None,
-    **query: Unpack[QueryKeywords],
 ) -> IKResult:
     """Solve IK for one target, with hard joint limits.
-
-    The keywords from ``mode`` to ``limit_margin`` describe the query; they are
-    :class:`optik._ik_options.QueryKeywords`, shared with :func:`solve_ik_all`.
 
     Args:
         robot: the robot.
@@ -292,7 +299,11 @@ def solve_ik(
     Raises:
         OptikError: malformed target, ``q0``, options, or an unknown solver name.
     """
-    plan = _plan(robot, target, **query)
+    plan = _plan(
+        robot, target, solver=solver, q0=q0, warm_start=warm_start, max_iter=max_iter,
+        timeout_s=timeout_s, restarts=restarts, seed=seed, frozen=frozen,
+        limit_margin=limit_margin, mode=mode, axis=axis, weights=weights, tol=tol,
+    )  # fmt: skip
     check_choice("select", select, ("first", "nearest"))
     if plan.early is not None:
         return plan.early
@@ -352,7 +363,19 @@ def solve_ik_all(
     *,
     k: int = 8,
     min_separation: float = 0.1,
-    **query: Unpack[QueryKeywords],
+    mode: str = "pose",
+    axis: str = "z",
+    weights: Any = None,
+    solver: str = "auto",
+    q0: Any = None,
+    warm_start: str = "analytic",
+    tol: float | tuple[float, float] = 1e-6,
+    max_iter: int | None = None,
+    timeout_s: float | None = None,
+    restarts: int | None = None,
+    seed: int = 0,
+    frozen: Mapping[str, float] | None = None,
+    limit_margin: float = 0.0,
 ) -> list[IKResult]:
     """Up to ``k`` distinct verified IK answers for one target, nearest ``q0`` first.
 
@@ -390,7 +413,11 @@ def solve_ik_all(
     """
     count = check_int("k", k, minimum=1, maximum=10**6)
     separation = check_real("min_separation", min_separation, nonnegative=True)
-    plan = _plan(robot, target, **query)
+    plan = _plan(
+        robot, target, solver=solver, q0=q0, warm_start=warm_start, max_iter=max_iter,
+        timeout_s=timeout_s, restarts=restarts, seed=seed, frozen=frozen,
+        limit_margin=limit_margin, mode=mode, axis=axis, weights=weights, tol=tol,
+    )  # fmt: skip
     if plan.early is not None:
         return [plan.early] if plan.early.success else []
     if plan.branches and plan.numeric is None:
@@ -437,40 +464,6 @@ class _Plan:
         return sequence
 
 
-def _bounds(robot: Robot, frozen: Any, limit_margin: Any) -> tuple[FloatArray, FloatArray] | None:
-    """The box of ``frozen`` joints and ``limit_margin`` (``None``: the plain limits)."""
-    margin = check_real("limit_margin", limit_margin, nonnegative=True)
-    if frozen is None:
-        frozen = {}
-    if not isinstance(frozen, Mapping):
-        raise OptikError(f"frozen must map joint names to values, got {frozen!r}")
-    if margin == 0.0 and not frozen:
-        return None
-    lower = robot.lower.copy()
-    upper = robot.upper.copy()
-    for i, joint in enumerate(robot.joints):
-        if not (math.isfinite(joint.lower) and math.isfinite(joint.upper)):
-            continue
-        if 2.0 * margin > joint.upper - joint.lower:
-            raise OptikError(
-                f"limit_margin {margin:g} is wider than half the range of joint "
-                f"{joint.name!r} ({joint.upper - joint.lower:g})"
-            )
-        lower[i] += margin
-        upper[i] -= margin
-    names = robot.joint_names
-    for name, value in frozen.items():
-        if name not in names:
-            raise OptikError(f"frozen: {name!r} is not a joint of {robot.name!r} ({names})")
-        i = names.index(name)
-        v = check_real(f"frozen[{name!r}]", value)
-        joint = robot.joints[i]
-        if not joint.lower - LIMIT_TOLERANCE <= v <= joint.upper + LIMIT_TOLERANCE:
-            raise JointLimitError(name, v, joint.lower, joint.upper)
-        lower[i] = upper[i] = min(max(v, joint.lower), joint.upper)
-    return read_only(lower), read_only(upper)
-
-
 def _plan(
     robot: Any,
     target: Any,
@@ -505,7 +498,7 @@ def _plan(
         # or read-only pose would compile them anew (seconds), a C-ordered copy does not.
         T_target = np.array(T_target, dtype=np.float64, order="C")
     q_start = check_q0(robot, q0)
-    bounds = _bounds(robot, frozen, limit_margin)
+    bounds = query_bounds(robot, frozen, limit_margin)
     numeric: IKSolver | None = None if solver == "auto" else get_solver(solver)
     plain = task.is_pose_or_position and bounds is None
     if numeric is not None and numeric.plain_tasks_only and not plain:

@@ -9,14 +9,21 @@ batch is verified in one compiled call (:func:`optik.verify.verify`). Importable
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numba
 import numpy as np
 
 from optik._checks import FloatArray, as_float_array, check_int, finite_array
-from optik._ik_options import DEFAULT_RESTARTS, MAX_SEED, TaskKeywords, check_options, check_q0
+from optik._ik_options import (
+    DEFAULT_RESTARTS,
+    MAX_SEED,
+    check_options,
+    check_q0,
+    query_bounds,
+)
 from optik.errors import ArgumentError, OptikError, ShapeError
 from optik.model import Robot
 from optik.solvers._base import now
@@ -26,9 +33,6 @@ from optik.solvers.iterative import DLSSolver
 from optik.spatial import as_pose
 from optik.task import make_task
 from optik.verify import verify
-
-if TYPE_CHECKING:
-    from typing_extensions import Unpack  # Python 3.10 has no typing.Unpack
 
 PARALLEL_BATCH = 64
 """Batches at least this large run in parallel threads; smaller ones on one thread."""
@@ -52,6 +56,28 @@ def _check_threads(threads: Any) -> int:
         raise ArgumentError("threads", threads, f"an integer from 1 to {available}")
     # NUMBA_NUM_THREADS is numba's ceiling: set_num_threads refuses more.
     return check_int("threads", threads, minimum=1, maximum=available)
+
+
+def _given_starts(
+    robot: Robot, q0: Any, n: int, bounds: tuple[FloatArray, FloatArray] | None
+) -> FloatArray:
+    """The batch's given starts (P, G, dof), each checked like :func:`solve_ik`'s ``q0``.
+
+    ``(1, 0, dof)`` without ``q0``, ``(1, 1, dof)`` for a shared (dof,) ``q0``, ``(n, 1,
+    dof)`` for one per target; clipped into ``bounds``.
+    """
+    if q0 is None:
+        return np.empty((1, 0, robot.dof))
+    array = as_float_array("q0", q0)
+    if array.ndim == 2 and array.shape[1] == robot.dof and len(array) == n:
+        rows = np.array([check_q0(robot, row) for row in array]).reshape(n, 1, robot.dof)
+    elif array.ndim == 1:
+        rows = check_q0(robot, array).reshape(1, 1, robot.dof)
+    else:
+        raise ShapeError("q0", f"({robot.dof},) or ({n}, {robot.dof})", array.shape)
+    if bounds is not None:
+        rows = np.clip(rows, bounds[0], bounds[1])
+    return np.ascontiguousarray(rows)
 
 
 BATCH_STATUSES = ("converged", "unreachable", "max_iter")
@@ -114,12 +140,17 @@ def solve_ik_batch(
     robot: Robot,
     targets: Any,
     *,
+    mode: str = "pose",
+    axis: str = "z",
+    weights: Any = None,
     q0: Any = None,
+    tol: float | tuple[float, float] = 1e-6,
     max_iter: int = 100,
     restarts: int = DEFAULT_RESTARTS,
     seed: int = 0,
     threads: int | None = None,
-    **task_keywords: Unpack[TaskKeywords],
+    frozen: Mapping[str, float] | None = None,
+    limit_margin: float = 0.0,
 ) -> IKBatchResult:
     """Solve many targets with the compiled damped least squares, in parallel threads.
 
@@ -132,31 +163,37 @@ def solve_ik_batch(
         robot: the robot.
         targets: (N, 4, 4) world poses (in position mode only translations count; an
             (N, 3) array of positions is accepted too); N may be 0.
-        q0: shared initial guess (dof,).
+        mode: ``"pose"``, ``"position"``, ``"orientation"`` or ``"axis"``, as in
+            :func:`solve_ik`.
+        axis: the tool axis of ``mode="axis"``.
+        weights: (6,) task weights in the target frame (:func:`solve_ik`).
+        q0: initial guess: (dof,) shared by every target, or (N, dof), one per target;
+            each inside the limits (within :data:`~optik.limits.Q_CLIP_TOLERANCE`,
+            clipped onto them).
+        tol: one tolerance, or ``(position_tol_m, orientation_tol_rad)``.
         max_iter: iterations per attempt.
         restarts: attempts after the first, 0 to :data:`MAX_BATCH_RESTARTS`.
         seed: base seed of the restarts.
         threads: worker threads (default: numba's current thread count,
             ``numba.get_num_threads()``); 1 solves on the calling thread. Batches smaller
             than :data:`PARALLEL_BATCH` always do.
-        **task_keywords: the task (:class:`optik._ik_options.TaskKeywords`): ``mode``
-            (``"pose"``, ``"position"``, ``"orientation"`` or ``"axis"``), ``axis`` (the
-            tool axis of ``mode="axis"``), ``weights`` ((6,) in the target frame) and
-            ``tol`` (one tolerance, or ``(position_tol_m, orientation_tol_rad)``), as in
-            :func:`solve_ik`.
+        frozen: ``{joint name: value}`` (rad or m): joints held at these values in every
+            target, as in :func:`solve_ik`.
+        limit_margin: distance (rad or m) kept free inside every finite limit (hard), as
+            in :func:`solve_ik`.
     """
     start_time = now()
     if not isinstance(robot, Robot):
         raise OptikError(f"robot must be an optik.Robot, got {type(robot).__name__}")
     check_options("q0", None, restarts, max_iter, seed)
     check_int("restarts", restarts, minimum=0, maximum=MAX_BATCH_RESTARTS)
-    task = make_task(**task_keywords)
+    task = make_task(mode, axis=axis, weights=weights, tol=tol)
     mode = "position" if task.mode == "position" else "pose"  # the targets' form
     if seed > MAX_SEED - 2**40:  # target k uses seed + k
         raise OptikError(f"seed must be at most 2**63 - 2**40 in a batch, got {seed!r}")
     threads = _check_threads(threads)
     poses = _batch_poses(targets, mode)
-    q_start = check_q0(robot, q0)
+    bounds = query_bounds(robot, frozen, limit_margin)
     N = poses.shape[0]
     Q = np.full((N, robot.dof), math.nan)
     iterations = np.zeros(N, dtype=np.int64)
@@ -169,8 +206,8 @@ def solve_ik_batch(
         reachable = np.isfinite(distance) | np.ones(N, dtype=bool)
     rows = np.flatnonzero(reachable)
     table = seed_table(robot)
-    given = q_start.reshape(1, -1) if q0 is not None else np.empty((0, robot.dof))
-    chain = robot.chain.kernel_args()
+    given = _given_starts(robot, q0, N, bounds)
+    chain = robot.chain.kernel_args(bounds)
     settings = (int(max_iter), DLSSolver.w_bias, int(restarts))
     for lo in range(0, len(rows), BATCH_SLICE):
         part = rows[lo : lo + BATCH_SLICE]
@@ -178,7 +215,8 @@ def solve_ik_batch(
         # Target k keeps the stream seed + k whatever slice or thread it falls in.
         targets_part = np.ascontiguousarray(poses[part])
         seeds = part.astype(np.int64) + int(seed)
-        job = (targets_part, task.packed, given, table.kernel_args(), settings, seeds)
+        own = given[part] if given.shape[0] == N else given  # per-target or shared
+        job = (targets_part, task.packed, own, table.kernel_args(), settings, seeds)
         Qp, it, u, _ = solve_batch(chain, job, workers)
         Q[part], iterations[part], used[part] = Qp, it, u
     verdict = verify(robot, Q, poses, task)

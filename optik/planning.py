@@ -45,10 +45,11 @@ from optik._checks import (
     finite_array,
 )
 from optik._files import write_atomic_with
+from optik._ik_options import query_bounds
 from optik.analytic import analytic_ik, family_of, wrap_into_limits
 from optik.analytic.roll import axis_branches, solves_axis_task
 from optik.errors import OptikError, ShapeError
-from optik.ik import _bounds, solve_ik, solve_ik_batch
+from optik.ik import solve_ik, solve_ik_batch
 from optik.model import Robot
 from optik.posture import check_joint_weights
 from optik.spatial import as_pose, check_rotation
@@ -561,7 +562,7 @@ def _path_task(
 ) -> _PathTask:
     """The validated task of :func:`plan_path` (the validators of :func:`optik.solve_ik`).
 
-    ``frozen`` must have been validated (:func:`optik.ik._bounds`).
+    ``frozen`` must have been validated (:func:`optik._ik_options.query_bounds`).
     """
     task = make_task(mode, axis=axis, weights=weights, tol=tol)
     names = frozen or {}
@@ -673,7 +674,7 @@ def plan_path(
     greedy = check_bool("greedy", greedy)
     poses, mode = _as_path(path, mode)
     check_length_array("path translation", poses[:, :3, 3])
-    held = _bounds(robot, frozen, 0.0)  # frozen joints: lower = upper = their value
+    held = query_bounds(robot, frozen, 0.0)  # frozen joints: lower = upper = their value
     path_task = _path_task(robot, mode, axis, weights, tol, frozen, posture, joint_weights)
     base = robot if held is None else robot.with_limits(*held)
     finite = np.isfinite(base.lower) & ~path_task.frozen

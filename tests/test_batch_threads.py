@@ -24,7 +24,7 @@ def test_threads_change_no_answer(n: int, threads: int) -> None:
     job = (
         targets,
         make_task().packed,
-        np.empty((0, robot.dof)),
+        np.empty((1, 0, robot.dof)),
         seed_table(robot).kernel_args(),
         (100, DLSSolver.w_bias, 2),
         np.arange(n, dtype=np.int64) + 7,

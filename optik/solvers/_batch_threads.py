@@ -36,7 +36,8 @@ def solve_batch(chain: KernelChain, batch: BatchJob, threads: int) -> BatchOutpu
 
     def piece(i: int) -> BatchOutput:
         a, b = int(edges[i]), int(edges[i + 1])
-        job = (targets[a:b], task, given, table, settings, seeds[a:b])
+        own = given[a:b] if given.shape[0] == n else given  # per-target or shared starts
+        job = (targets[a:b], task, own, table, settings, seeds[a:b])
         return lm_solve_batch_serial(chain, job)
 
     with ThreadPoolExecutor(max_workers=threads, thread_name_prefix="optik-batch") as pool:

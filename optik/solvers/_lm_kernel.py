@@ -32,8 +32,9 @@ BatchJob = tuple[
     np.ndarray, np.ndarray, np.ndarray, KernelTable, tuple[int, float, int], np.ndarray
 ]
 """A batch's targets and settings: ``(targets (N, 4, 4), task (packed, :mod:`optik.task`),
-given starts (G, dof), seed table, (max_iter, w_bias, restarts), seeds (N,))``; target
-``k`` uses the random stream ``seeds[k]``."""
+given starts (P, G, dof), seed table, (max_iter, w_bias, restarts), seeds (N,))``; target
+``k`` starts from ``given[k]`` when ``P == N`` (its own starts), else from ``given[0]``
+(shared), and uses the random stream ``seeds[k]``."""
 
 BatchOutput = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
 """A batch's answers: ``(q (N, dof), iterations (N,), restarts (N,), ok (N,))``."""
@@ -377,7 +378,8 @@ def _solve_chunk(c: int, chain: KernelChain, batch: BatchJob, out: BatchOutput) 
     scratch = workspace(chain[1].shape[0], chain[4].shape[0])
     mask = task_features(task)
     for k in range(c * BATCH_CHUNK, min((c + 1) * BATCH_CHUNK, targets.shape[0])):
-        starts = (given, table, 0, restarts, seeds[k])
+        own = given[k] if given.shape[0] == targets.shape[0] else given[0]
+        starts = (own, table, 0, restarts, seeds[k])
         q, it, u, good, _, _ = _restarts(
             chain, targets[k], task, mask, starts, max_iter, w_bias, scratch
         )
