@@ -335,14 +335,14 @@ def diff_ik(
         gain_p = (
             posture_gain
             if type(posture_gain) is float and 0.0 < posture_gain <= 1.0
-            else _check_posture_gain(posture_gain)
+            else _check_gain("posture_gain", posture_gain)
         )
         return _general_step(
             robot, backend, q_arr, twist_arr, step, objective, limits, vmax, lam, gain,
             tasks, gain_p,
         )  # fmt: skip
     if not (type(posture_gain) is float and 0.0 < posture_gain <= 1.0):
-        _check_posture_gain(posture_gain)
+        _check_gain("posture_gain", posture_gain)
     arrays = step_arrays(robot, picked, objective)
     code = arrays.fill(
         q_arr,
@@ -438,13 +438,6 @@ def _task_options(
     return _Tasks(rows, Wt, W, q_ref)
 
 
-def _check_posture_gain(posture_gain: Any) -> float:
-    gain = _check_positive("posture_gain", posture_gain)
-    if gain > 1.0:
-        raise OptikError(f"posture_gain must lie in (0, 1], got {gain}")
-    return gain
-
-
 def _general_step(
     robot: Robot,
     backend: StepBackend,
@@ -537,7 +530,11 @@ def _options(
         lam = DEFAULT_DAMPING
     else:
         lam = _check_positive("damping", damping, True, maximum=MAX_DAMPING)
-    gain = 1.0 if type(limit_gain) is float and limit_gain == 1.0 else _check_gain(limit_gain)
+    gain = (
+        1.0
+        if type(limit_gain) is float and limit_gain == 1.0
+        else _check_gain("limit_gain", limit_gain)
+    )
     if rows is None:
         return ALL_ROWS, lam, gain
     picked = _ROWS.get(rows) if type(rows) is tuple else None
@@ -551,10 +548,11 @@ def _options(
 _ROWS: dict[tuple[Any, ...], tuple[int, ...]] = {}
 
 
-def _check_gain(limit_gain: Any) -> float:
-    gain = _check_positive("limit_gain", limit_gain)
+def _check_gain(name: str, value: Any) -> float:
+    """A gain (``limit_gain``, ``posture_gain``): a finite real number in (0, 1]."""
+    gain = _check_positive(name, value)
     if gain > 1.0:
-        raise OptikError(f"limit_gain must lie in (0, 1], got {gain}")
+        raise OptikError(f"{name} must lie in (0, 1], got {gain}")
     return gain
 
 

@@ -104,12 +104,10 @@ def refine(
         weights: (dof,) > 0, the joint weights ``W``.
         max_iter: most SQP steps.
     """
-    robot = query.robot
-    K, prismatic, C, identity, _, _ = robot.chain.kernel_args()
     out = np.array(q, dtype=np.float64)
     iterations, converged, measure = posture_refine(
-        K, prismatic, C, identity, query.lower, query.upper, query.target,
-        query.spec.packed, out, np.ascontiguousarray(q_ref, dtype=np.float64),
+        query.robot.chain.kernel_args(query.bounds), query.target, query.spec.packed, out,
+        np.ascontiguousarray(q_ref, dtype=np.float64),
         np.ascontiguousarray(weights, dtype=np.float64), int(max_iter),
     )  # fmt: skip
     return Refinement(out, bool(converged), float(measure), int(iterations))
@@ -120,11 +118,7 @@ def refine_posture(
 ) -> FloatArray:
     """A verified answer ``q`` moved towards ``q_ref`` along the task's solutions.
 
-    Args:
-        query: the IK query (its task, tolerances and box ``query.lower/upper``).
-        q: a configuration (dof,) that solves the query.
-        q_ref: the reference posture (dof,), rad / m.
-        weights: (dof,) > 0, the joint weights ``W``.
+    The arguments are those of :func:`refine`, without its step budget.
 
     Returns:
         A configuration that still solves the query (to :data:`TIGHTEN` of its
@@ -218,12 +212,11 @@ def posture_answers(
         refined = [(refine_posture(query, q, q_ref, weights), it, r) for q, it, r in found]
         return sorted(refined, key=lambda f: cost(f[0])), run
     robot = query.robot
-    K, prismatic, C, identity, _, _ = robot.chain.kernel_args()
     start = np.clip(q_ref, query.lower, query.upper)
     starts = start_sequence(robot, query.target, query.spec, [start, *given], seed, query.bounds)
     stop = min(last, POSTURE_ATTEMPTS)
     _, refined_q, kept, _, _, count, iterations, attempts = posture_search(
-        K, prismatic, C, identity, query.lower, query.upper, query.target, query.spec.packed,
+        robot.chain.kernel_args(query.bounds), query.target, query.spec.packed,
         starts.given, *starts.table, int(max_iter), numeric.w_bias, stop, starts.seed,
         np.ascontiguousarray(q_ref, dtype=np.float64),
         np.ascontiguousarray(weights, dtype=np.float64), POSTURE_ANSWERS, POSTURE_STEPS,

@@ -41,12 +41,14 @@ import numpy as np
 
 from optik._math import cholesky_factor, cholesky_solve, cholesky_substitute
 from optik._nrt import borrowed
+from optik.chain import KernelChain
 from optik.solvers._lm_kernel import (
     QUICK_ATTEMPTS,
     QUICK_RATIO,
     QUICK_WINDOW,
     STALL_RATIO,
     STALL_WINDOW,
+    _borrow_chain,
     _evaluate,
     lm_attempt,
     workspace,
@@ -55,6 +57,11 @@ from optik.solvers._starts import nearest_table, start_into
 from optik.task import task_converged, task_features
 
 _jit = nb.njit(cache=True, nogil=True, error_model="numpy")
+# The helpers of the inner loops are inlined into their callers (numba IR): as calls, the
+# reference counting of the scratch arrays they take made posture_refine 5-7 % slower
+# (measured on the Panda, 100 pose and 100 axis targets, against the code they replaced,
+# which repeated them in place; inlined, within 1 %).
+_inline = nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
 
 TIGHTEN = 1e-3
 """The answer is kept on the task to this fraction of its tolerances: a descent inside the
@@ -85,35 +92,39 @@ move the iteration's fixed point off the optimum by about ``mu / sigma_min(J)^2`
 (measured: an optimality floor near 1e-9 with this ridge always on)."""
 
 
-@_jit
-def _least_norm(
+@_inline
+def _row_space_step(
     J: np.ndarray,
     rows: np.ndarray,
-    v: np.ndarray,
-    w_inv: np.ndarray,
+    X: np.ndarray,
     free: np.ndarray,
+    v: np.ndarray,
     A: np.ndarray,
     L: np.ndarray,
     lam: np.ndarray,
     out: np.ndarray,
 ) -> bool:
-    """``out = W^-1 J^T (J W^-1 J^T + mu I)^-1 v`` over the free columns and the ``rows``.
+    """``out += X lam`` with ``(J X + mu I) lam = v``, over the free columns and the ``rows``.
 
-    ``v`` (m,) is indexed like ``rows`` (m,); ``w_inv`` (dof,) holds ``1 / w``; ``A`` (m,
-    m), ``L`` (m, m + 1) and ``lam`` (m,) are scratch. Held joints get 0. False if the
-    system is not positive definite (then ``out`` is not written).
+    ``X`` (dof, m) is ``M^-1 J^T`` for a positive definite metric ``M`` of the free joints
+    (column ``a`` for the row ``rows[a]``; held joints' entries are not read), so the step
+    added is the one of least ``M``-norm that changes ``J out`` by ``v`` (m,): the
+    least-norm step of :func:`_least_norm` (``M = W``) and the quadratic program's step of
+    :func:`_sqp_step` (``M = B``). ``mu`` is 0 unless ``J X`` is not numerically positive
+    definite (:data:`RIDGE`). ``lam`` (m,) receives the multipliers; ``A`` (m, m) and ``L``
+    (m, m + 1) are scratch. Held joints get 0. False if the system is not positive
+    definite even with the ridge (then ``out`` is not written).
     """
     m = rows.shape[0]
-    dof = J.shape[1]
+    dof = X.shape[0]
     trace = 0.0
     for a in range(m):
         ra = rows[a]
         for b in range(a + 1):
-            rb = rows[b]
             s = 0.0
             for i in range(dof):
                 if free[i]:
-                    s += J[ra, i] * w_inv[i] * J[rb, i]
+                    s += J[ra, i] * X[i, b]
             A[a, b] = s
             A[b, a] = s
         trace += A[a, a]
@@ -124,13 +135,60 @@ def _least_norm(
         if not cholesky_solve(A, v, lam, L):
             return False
     for i in range(dof):
-        s = 0.0
         if free[i]:
+            s = out[i]
             for a in range(m):
-                s += J[rows[a], i] * lam[a]
-            s *= w_inv[i]
-        out[i] = s
+                s += X[i, a] * lam[a]
+            out[i] = s
+        else:
+            out[i] = 0.0
     return True
+
+
+@_inline
+def _least_norm(
+    J: np.ndarray,
+    rows: np.ndarray,
+    v: np.ndarray,
+    w_inv: np.ndarray,
+    free: np.ndarray,
+    X: np.ndarray,
+    A: np.ndarray,
+    L: np.ndarray,
+    lam: np.ndarray,
+    out: np.ndarray,
+) -> bool:
+    """``out = W^-1 J^T (J W^-1 J^T + mu I)^-1 v`` over the free columns and the ``rows``.
+
+    ``v`` (m,) is indexed like ``rows`` (m,); ``w_inv`` (dof,) holds ``1 / w``; ``X`` (dof,
+    m), ``A`` (m, m), ``L`` (m, m + 1) and ``lam`` (m,) are scratch. Held joints get 0.
+    False if the system is not positive definite (:func:`_row_space_step`).
+    """
+    for i in range(J.shape[1]):
+        for a in range(rows.shape[0]):
+            X[i, a] = w_inv[i] * J[rows[a], i]
+        out[i] = 0.0
+    return _row_space_step(J, rows, X, free, v, A, L, lam, out)
+
+
+@_inline
+def _hold_outward(
+    x: np.ndarray, step: np.ndarray, lower: np.ndarray, upper: np.ndarray, free: np.ndarray
+) -> bool:
+    """Hold the free joints of ``x`` that lie on a bound ``step`` points out through.
+
+    A joint within :data:`ACTIVE` of a bound is on it; a held joint gets ``free[i] =
+    False``. True if any joint was held (the step is then to be taken again).
+    """
+    blocked = False
+    for i in range(x.shape[0]):
+        if free[i] and (
+            (x[i] <= lower[i] + ACTIVE and step[i] < 0.0)
+            or (x[i] >= upper[i] - ACTIVE and step[i] > 0.0)
+        ):
+            free[i] = False
+            blocked = True
+    return blocked
 
 
 @_jit
@@ -140,6 +198,7 @@ def _optimality(
     g: np.ndarray,
     free: np.ndarray,
     ones: np.ndarray,
+    X: np.ndarray,
     A: np.ndarray,
     L: np.ndarray,
     lam: np.ndarray,
@@ -150,7 +209,7 @@ def _optimality(
 
     The part of the gradient ``g`` (dof,) outside the row space of the free columns of
     ``J``: 0 at a first-order optimum (0 also when ``g`` is 0). ``ones`` (dof,) is the unit
-    metric; ``v`` (m,) and ``r`` (dof,) are scratch.
+    metric; ``v`` (m,) and ``r`` (dof,) are scratch, the others as in :func:`_least_norm`.
     """
     m = rows.shape[0]
     dof = g.shape[0]
@@ -166,7 +225,7 @@ def _optimality(
             if free[i]:
                 s += J[rows[a], i] * g[i]
         v[a] = s
-    if not _least_norm(J, rows, v, ones, free, A, L, lam, r):
+    if not _least_norm(J, rows, v, ones, free, X, A, L, lam, r):
         return math.inf
     res = 0.0
     for i in range(dof):
@@ -219,7 +278,7 @@ def _sqp_step(
     for i in range(dof):
         dq[i] = -g[i] if free[i] else 0.0
     cholesky_substitute(LB, dq, dq)
-    trace = 0.0
+    # Then the least-B-norm correction that brings J dq to e.
     for a in range(m):
         ra = rows[a]
         s = e[ra]
@@ -227,29 +286,7 @@ def _sqp_step(
             if free[i]:
                 s -= J[ra, i] * dq[i]
         v[a] = s
-        for b in range(a + 1):
-            s = 0.0
-            for i in range(dof):
-                if free[i]:
-                    s += J[ra, i] * X[i, b]
-            A[a, b] = s
-            A[b, a] = s
-        trace += A[a, a]
-    if not cholesky_solve(A, v, lam, L):
-        mu = RIDGE * max(1.0, trace)
-        for a in range(m):
-            A[a, a] += mu
-        if not cholesky_solve(A, v, lam, L):
-            return False
-    for i in range(dof):
-        if free[i]:
-            s = dq[i]
-            for a in range(m):
-                s += X[i, a] * lam[a]
-            dq[i] = s
-        else:
-            dq[i] = 0.0
-    return True
+    return _row_space_step(J, rows, X, free, v, A, L, lam, dq)
 
 
 @_jit
@@ -285,12 +322,7 @@ def _bfgs_update(B: np.ndarray, s: np.ndarray, y: np.ndarray, Bs: np.ndarray) ->
 
 @_jit
 def _restore(
-    K: np.ndarray,
-    prismatic: np.ndarray,
-    C: np.ndarray,
-    identity: bool,
-    lower: np.ndarray,
-    upper: np.ndarray,
+    chain: KernelChain,
     target: np.ndarray,
     task: np.ndarray,
     tight_task: np.ndarray,
@@ -298,12 +330,8 @@ def _restore(
     w_inv: np.ndarray,
     allowed: np.ndarray,
     x: np.ndarray,
-    T: np.ndarray,
-    Jc: np.ndarray,
-    J: np.ndarray,
-    e: np.ndarray,
-    work: np.ndarray,
-    M: np.ndarray,
+    evaluation: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+    X: np.ndarray,
     A: np.ndarray,
     L: np.ndarray,
     lam: np.ndarray,
@@ -314,51 +342,55 @@ def _restore(
     """Gauss–Newton least-norm steps on ``x`` until the tight task holds; True if it does.
 
     Only the ``allowed`` joints move, and of those not one on a bound that a step pushes
-    outward (``hold`` is scratch). On return ``T``, ``J`` and ``e`` are ``x``'s.
+    outward (``hold`` is scratch). ``evaluation`` is ``(T, Jc, J, e, work, M)``, the
+    arrays :func:`optik.solvers._lm_kernel._evaluate` fills: on return ``T``, ``J`` and
+    ``e`` are ``x``'s.
     """
+    T, Jc, J, e, work, M = evaluation
+    lower, upper = chain[4], chain[5]
     m = rows.shape[0]
     dof = x.shape[0]
-    pos, rot = _evaluate(
-        (K, prismatic, C, identity, lower, upper), x, target, task, T, Jc, J, e, work, M
-    )
-    tight = task_converged(pos, rot, tight_task)
     k = 0
-    while not tight and k < RESTORE_STEPS:
+    while True:
+        pos, rot = _evaluate(chain, x, target, task, T, Jc, J, e, work, M)
+        if task_converged(pos, rot, tight_task):
+            return True
+        if k == RESTORE_STEPS:
+            return False
+        k += 1
         for a in range(m):
             v[a] = e[rows[a]]
         for i in range(dof):
             hold[i] = allowed[i]
         for _ in range(dof + 1):
-            if not _least_norm(J, rows, v, w_inv, hold, A, L, lam, step):
+            if not _least_norm(J, rows, v, w_inv, hold, X, A, L, lam, step):
                 return False
-            blocked = False
-            for i in range(dof):
-                if hold[i] and (
-                    (x[i] <= lower[i] + ACTIVE and step[i] < 0.0)
-                    or (x[i] >= upper[i] - ACTIVE and step[i] > 0.0)
-                ):
-                    hold[i] = False
-                    blocked = True
-            if not blocked:
+            if not _hold_outward(x, step, lower, upper, hold):
                 break
         for i in range(dof):
             x[i] = min(max(x[i] + step[i], lower[i]), upper[i])
-        pos, rot = _evaluate(
-            (K, prismatic, C, identity, lower, upper), x, target, task, T, Jc, J, e, work, M
-        )
-        tight = task_converged(pos, rot, tight_task)
-        k += 1
-    return tight
+
+
+@_jit
+def _task_rows_kept(task: np.ndarray) -> np.ndarray:
+    """The residual's rows the program keeps (indices into the six, in order).
+
+    Three for a plain point, else the six minus those whose task weight is zero
+    (:mod:`optik.task`'s packed layout).
+    """
+    m_all = 3 if task[10] == 2.0 else 6
+    rows = np.empty(m_all, dtype=np.int64)
+    count = 0
+    for r in range(m_all):
+        if task[10] != 0.0 or task[r] > 0.0:
+            rows[count] = r
+            count += 1
+    return rows[:count]
 
 
 @_jit
 def posture_refine(
-    K: np.ndarray,
-    prismatic: np.ndarray,
-    C: np.ndarray,
-    identity: bool,
-    lower: np.ndarray,
-    upper: np.ndarray,
+    chain: KernelChain,
     target: np.ndarray,
     task: np.ndarray,
     q_inout: np.ndarray,
@@ -369,12 +401,8 @@ def posture_refine(
     """Refine ``q_inout`` (dof,), which solves the task, towards ``q_ref`` (see the module).
 
     Args:
-        K: the chain's joint transforms (:meth:`optik.chain.Chain.kernel_args`).
-        prismatic: (n,) prismatic flags of the chain's joints.
-        C: (n, dof) coupling of the chain's joints to ``q``.
-        identity: ``C`` is the identity.
-        lower: (dof,) lower bounds (rad / m), margins and frozen joints included.
-        upper: (dof,) upper bounds.
+        chain: the chain (:meth:`optik.chain.Chain.kernel_args`), its limits the box:
+            (dof,) lower and upper bounds (rad / m), margins and frozen joints included.
         target: (4, 4) target pose.
         task: the packed task (:attr:`optik.task.Task.packed`).
         q_inout: (dof,) the start, overwritten with the answer (left as it was, clipped
@@ -390,11 +418,8 @@ def posture_refine(
         :data:`TIGHTEN` of the tolerances; ``measure`` is ``inf`` when the start could not
         be tightened.
     """
-    K = borrowed(K)
-    prismatic = borrowed(prismatic)
-    C = borrowed(C)
-    lower = borrowed(lower)
-    upper = borrowed(upper)
+    view = _borrow_chain(chain)
+    prismatic, lower, upper = view[1], view[4], view[5]
     target = borrowed(target)
     task = borrowed(task)
     q_ref = borrowed(q_ref)
@@ -405,25 +430,12 @@ def posture_refine(
     tight_task = task.copy()
     tight_task[8] *= TIGHTEN  # optik.task's layout: position then orientation tolerance
     tight_task[9] *= TIGHTEN
-    # The residual's rows: three for a plain point, else the six minus zero weights.
-    m_all = 3 if task[10] == 2.0 else 6
-    count = 0
-    for r in range(m_all):
-        if task[10] != 0.0 or task[r] > 0.0:
-            count += 1
-    rows = np.empty(count, dtype=np.int64)
-    count = 0
-    for r in range(m_all):
-        if task[10] != 0.0 or task[r] > 0.0:
-            rows[count] = r
-            count += 1
-    m = count
-    T = np.empty((4, 4))
+    rows = _task_rows_kept(task)
+    m = rows.shape[0]
     J = np.empty((6, dof))
     e = np.empty(6)
-    Jc = np.empty((6, n))
-    work = np.empty((n, 3))
-    M = np.empty((3, 4))
+    # T, Jc, J, e and the scratch of _evaluate (see _restore).
+    evaluation = (np.empty((4, 4)), np.empty((6, n)), J, e, np.empty((n, 3)), np.empty((3, 4)))
     A = np.empty((m, m))
     L = np.empty((m, m + 1))
     lam = np.empty(m)
@@ -432,7 +444,6 @@ def posture_refine(
     e_q = np.empty(m)
     q = np.empty(dof)
     trial = np.empty(dof)
-    d = np.empty(dof)
     dq = np.empty(dof)
     step = np.empty(dof)
     g = np.empty(dof)
@@ -457,8 +468,8 @@ def posture_refine(
         q[i] = min(max(q_out[i], lower[i]), upper[i])
     # First onto the task, tightly: every movable joint may help.
     tight = _restore(
-        K, prismatic, C, identity, lower, upper, target, task, tight_task, rows, w_inv,
-        movable, q, T, Jc, J, e, work, M, A, L, lam, v, step, hold,
+        view, target, task, tight_task, rows, w_inv, movable, q, evaluation, X, A, L, lam, v,
+        step, hold,
     )  # fmt: skip
     if not tight:
         for i in range(dof):
@@ -469,26 +480,14 @@ def posture_refine(
     while True:
         # The step, with the joints it pushes out through a bound held there.
         for i in range(dof):
-            d[i] = q_ref[i] - q[i]
+            g[i] = weights[i] * (q[i] - q_ref[i])
             free[i] = movable[i]
-        for i in range(dof):
-            g[i] = -weights[i] * d[i]
         ok = False
         for _ in range(dof + 1):
             ok = _sqp_step(B, J, rows, e, g, free, Bf, LB, X, A, L, step_mult, v, dq)
-            if not ok:
+            if not ok or not _hold_outward(q, dq, lower, upper, free):
                 break
-            blocked = False
-            for i in range(dof):
-                if free[i] and (
-                    (q[i] <= lower[i] + ACTIVE and dq[i] < 0.0)
-                    or (q[i] >= upper[i] - ACTIVE and dq[i] > 0.0)
-                ):
-                    free[i] = False
-                    blocked = True
-            if not blocked:
-                break
-        measure = _optimality(J, rows, g, free, ones, A, L, lam, v, r_scratch)
+        measure = _optimality(J, rows, g, free, ones, X, A, L, lam, v, r_scratch)
         for a in range(m):
             mult[a] = lam[a]  # the multipliers of that fit, g = J^T mult
             e_q[a] = e[rows[a]]
@@ -509,8 +508,8 @@ def posture_refine(
             for i in range(dof):
                 trial[i] = min(max(q[i] + s_len * dq[i], lower[i]), upper[i])
             tight = _restore(
-                K, prismatic, C, identity, lower, upper, target, task, tight_task, rows,
-                w_inv, free, trial, T, Jc, J, e, work, M, A, L, lam, v, step, hold,
+                view, target, task, tight_task, rows, w_inv, free, trial, evaluation, X, A, L,
+                lam, v, step, hold,
             )  # fmt: skip
             if tight:
                 # The change of the Lagrangian cost + mult^T e: within the tolerance band the
@@ -529,7 +528,7 @@ def posture_refine(
                 if measure < NOISE_REGIME:
                     for i in range(dof):
                         g[i] = weights[i] * (trial[i] - q_ref[i])
-                    trial_measure = _optimality(J, rows, g, free, ones, A, L, lam, v, r_scratch)
+                    trial_measure = _optimality(J, rows, g, free, ones, X, A, L, lam, v, r_scratch)
                     if trial_measure < measure:
                         accepted = True
                         break
@@ -560,12 +559,7 @@ def _distance(q: np.ndarray, q_ref: np.ndarray, weights: np.ndarray) -> float:
 
 @_jit
 def posture_search(
-    K: np.ndarray,
-    prismatic: np.ndarray,
-    C: np.ndarray,
-    identity: bool,
-    lower: np.ndarray,
-    upper: np.ndarray,
+    chain: KernelChain,
     target: np.ndarray,
     task: np.ndarray,
     given: np.ndarray,
@@ -600,8 +594,9 @@ def posture_search(
         them); ``iterations`` counts the LM iterations over all attempts, ``attempts``
         how many ran.
     """
+    lower, upper = chain[4], chain[5]
     dof = lower.shape[0]
-    scratch = workspace(prismatic.shape[0], dof)
+    scratch = workspace(chain[1].shape[0], dof)
     nearest = nearest_table(
         table_features, table_centroids, table_offsets, target, task_features(task)
     )
@@ -617,9 +612,8 @@ def posture_search(
         start_into(attempt, given, nearest, table_q, lower, upper, seed, q)
         quick = attempt < QUICK_ATTEMPTS
         it, ok, _, _ = lm_attempt(
-            (K, prismatic, C, identity, lower, upper), target, task, q, max_iter, w_bias,
-            QUICK_WINDOW if quick else STALL_WINDOW, QUICK_RATIO if quick else STALL_RATIO,
-            scratch,
+            chain, target, task, q, max_iter, w_bias, QUICK_WINDOW if quick else STALL_WINDOW,
+            QUICK_RATIO if quick else STALL_RATIO, scratch,
         )  # fmt: skip
         total += it
         attempt += 1
@@ -635,9 +629,8 @@ def posture_search(
             continue
         refined[k] = answers[k]
         _, good, value = posture_refine(
-            K, prismatic, C, identity, lower, upper, target, task, refined[k], q_ref, weights,
-            refine_iter,
-        )  # fmt: skip
+            chain, target, task, refined[k], q_ref, weights, refine_iter
+        )
         converged[k] = good
         measure[k] = value
         kept[k] = True
