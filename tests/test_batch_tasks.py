@@ -1,0 +1,102 @@
+"""solve_ik_batch takes solve_ik's task keywords: frozen joints, a limit margin, q0 per target."""
+
+from __future__ import annotations
+
+import inspect
+
+import numpy as np
+import pytest
+
+import optik
+from optik.errors import JointLimitError, OptikError
+
+PANDA = optik.load_problem("panda").robot
+UR5 = optik.load_problem("ur5").robot
+
+
+def _poses(
+    robot: optik.Robot, n: int, seed: int, inset: float = 0.0
+) -> tuple[np.ndarray, np.ndarray]:
+    rng = np.random.default_rng(seed)
+    Q = rng.uniform(robot.lower + inset, robot.upper - inset, size=(n, robot.dof))
+    return Q, np.array([robot.fk(q) for q in Q])
+
+
+def _pose_errors(robot: optik.Robot, q: np.ndarray, T: np.ndarray) -> tuple[float, float]:
+    F = robot.fk(q)
+    cos = (np.trace(T[:3, :3].T @ F[:3, :3]) - 1.0) / 2.0
+    return float(np.linalg.norm(F[:3, 3] - T[:3, 3])), float(np.arccos(np.clip(cos, -1, 1)))
+
+
+def test_entry_points_list_their_keywords() -> None:
+    shared = ["mode", "axis", "weights", "q0", "tol", "max_iter", "restarts", "seed", "frozen",
+              "limit_margin"]  # fmt: skip
+    for fn in (optik.solve_ik, optik.solve_ik_all, optik.solve_ik_batch):
+        parameters = inspect.signature(fn).parameters
+        assert all(name in parameters for name in shared), fn.__name__
+        assert not any(p.kind is p.VAR_KEYWORD for p in parameters.values()), fn.__name__
+    with pytest.raises(TypeError, match="solve_ik"):
+        optik.solve_ik(PANDA, PANDA.fk(PANDA.mid_limits), max_iters=3)  # type: ignore[call-arg]
+
+
+def test_batch_holds_frozen_joints_and_answers_like_solve_ik() -> None:
+    Q, T = _poses(PANDA, 120, 1)
+    name = PANDA.joint_names[2]
+    value = 0.3
+    Q[:, 2] = value
+    T = np.array([PANDA.fk(q) for q in Q])
+    batch = optik.solve_ik_batch(PANDA, T, frozen={name: value}, threads=2)
+    assert batch.success.mean() >= 0.99
+    for k in np.flatnonzero(batch.success):
+        assert batch.q[k, 2] == value
+        position, orientation = _pose_errors(PANDA, batch.q[k], T[k])
+        assert position <= 1e-6 and orientation <= 1e-6
+        assert np.all(batch.q[k] >= PANDA.lower) and np.all(batch.q[k] <= PANDA.upper)
+    single = optik.solve_ik(PANDA, T[0], solver="dls", frozen={name: value})
+    assert single.success and single.q[2] == value
+
+
+def test_batch_keeps_the_limit_margin() -> None:
+    margin = 0.15
+    _, T = _poses(UR5, 80, 2, inset=margin)
+    batch = optik.solve_ik_batch(UR5, T, limit_margin=margin)
+    assert batch.success.mean() >= 0.99
+    finite = np.isfinite(UR5.upper - UR5.lower)
+    for k in np.flatnonzero(batch.success):
+        q = batch.q[k]
+        assert np.all(q[finite] >= UR5.lower[finite] + margin - 1e-12)
+        assert np.all(q[finite] <= UR5.upper[finite] - margin + 1e-12)
+        position, orientation = _pose_errors(UR5, q, T[k])
+        assert position <= 1e-6 and orientation <= 1e-6
+
+
+def test_batch_takes_one_q0_per_target() -> None:
+    Q, T = _poses(PANDA, 70, 3)
+    near = Q + 1e-3  # each target's own start, next to its source configuration
+    near = np.clip(near, PANDA.lower, PANDA.upper)
+    batch = optik.solve_ik_batch(PANDA, T, q0=near, restarts=0, threads=2)
+    assert batch.success.all()
+    # From a start 1e-3 rad away the answer is the source configuration's neighbour.
+    assert np.max(np.abs(batch.q - Q)) < 1e-2
+    assert batch.restarts.max() == 0
+    # The same per-target starts, one call per target, give the same answers.
+    for k in (0, 33, 69):
+        alone = optik.solve_ik_batch(PANDA, T[k : k + 1], q0=near[k], restarts=0, seed=k)
+        np.testing.assert_array_equal(alone.q[0], batch.q[k])
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "error", "field"),
+    [
+        ({"q0": np.zeros((3, 7))}, OptikError, "q0"),  # neither (dof,) nor (N, dof)
+        ({"q0": np.full((5, 7), 10.0)}, JointLimitError, "panda_joint1"),
+        ({"frozen": {"nope": 0.0}}, OptikError, "frozen"),
+        ({"frozen": {"panda_joint1": 9.0}}, JointLimitError, "panda_joint1"),
+        ({"limit_margin": 3.0}, OptikError, "limit_margin"),
+        ({"limit_margin": -0.1}, OptikError, "limit_margin"),
+    ],
+)
+def test_batch_bad_keywords(kwargs: dict[str, object], error: type, field: str) -> None:
+    _, T = _poses(PANDA, 5, 4)
+    with pytest.raises(error, match=field):
+        optik.solve_ik_batch(PANDA, T, **kwargs)  # type: ignore[arg-type]
