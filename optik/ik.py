@@ -49,7 +49,7 @@ from optik._ik_options import (
     query_bounds,
 )
 from optik.analytic import AnalyticFamily, analytic_ik, family_of
-from optik.analytic.roll import axis_branches, solves_axis_task
+from optik.analytic.roll import axis_branches, grid_branches, solves_axis_task
 from optik.errors import OptikError
 
 # The batch path lives in its own module; its names stay importable from here.
@@ -537,7 +537,10 @@ def _plan(
     starts_given = [q_start] if q0 is not None else []
     if family is not None and solves_axis_task(family, task):
         box = bounds if bounds is not None else (robot.lower, robot.upper)
-        roll = axis_branches(robot, T_target, task.axis, q_start[None], *box)[0]
+        if numeric is None:  # the answers themselves: the roll refined nearest q0
+            roll = axis_branches(robot, T_target, task.axis, q_start[None], *box)[0]
+        else:  # starts for the named solver, which refines them itself
+            roll = grid_branches(robot, T_target, task.axis, q_start, *box)
         if roll.nearest:
             return plan(roll.nearest, roll.nearest, samples=list(roll.samples))
         # A sampled roll proves nothing (an answer can lie between two grid rolls, or

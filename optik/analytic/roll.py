@@ -300,3 +300,38 @@ def axis_branches(
             RollBranches(nearest, V[s][keep][order], V[s][finite & ~keep].reshape(-1, dof))
         )
     return results
+
+
+def grid_branches(
+    robot: Robot,
+    T_target: FloatArray,
+    axis: int,
+    q_ref: FloatArray,
+    lower: FloatArray | None = None,
+    upper: FloatArray | None = None,
+    *,
+    grid: int = ROLL_GRID,
+    keep: int = 8,
+) -> RollBranches:
+    """The grid's closed-form answers nearest ``q_ref``, without refining the roll.
+
+    What :func:`axis_branches` starts from, for a caller that wants an exact answer fast
+    rather than the nearest one (``solve_ik(..., select="first")``): one batched
+    closed-form call over the grid; ``nearest`` holds the ``keep`` distinct in-bound
+    branches nearest ``q_ref`` (each exact in the axis task, verified by FK), ``samples``
+    all of them, ``outside`` the rest. The arguments are :func:`axis_branches`'s.
+    """
+    dof = robot.dof
+    rolls = -math.pi + (2.0 * math.pi / grid) * np.arange(grid, dtype=np.float64)
+    poses = rolled_poses(T_target, axis, rolls)
+    ref = np.broadcast_to(np.asarray(q_ref, dtype=float).reshape(dof), (grid, dof))
+    # The compiled pipeline wraps every branch into the limits nearest the reference.
+    Q = analytic_ik_batch(robot, poses, "pose", q_ref=ref, within_limits=False).q
+    Q = Q.reshape(-1, dof)
+    Q = Q[np.all(np.isfinite(Q), axis=1)]
+    lo = robot.lower if lower is None else lower
+    hi = robot.upper if upper is None else upper
+    inside = np.all((lo <= Q) & (hi >= Q), axis=1)
+    V = Q[inside]
+    samples = V[np.argsort(np.sum((V - ref[0]) ** 2, axis=1), kind="stable")]
+    return RollBranches(_distinct_rows(samples[:keep]), samples, Q[~inside])
