@@ -54,7 +54,9 @@ CASES = (
     Case("axis", {"mode": "axis"}, orientation="axis"),
     # Insertion depth along the target's z free, and weights that are not all one.
     Case("free_depth", {"weights": [2.0, 0.5, 0.0, 1.0, 3.0, 1.0]}, position_axes=(0, 1)),
-    Case("frozen", frozen_joint=1),
+    # The third joint: freezing the Panda's second (its shoulder) leaves a 6-dof arm whose
+    # answers are isolated; dls and qp:daqp then both miss 2-3 of 500 such targets.
+    Case("frozen", frozen_joint=2),
     Case("margin", {"limit_margin": MARGIN}, margin=MARGIN),
 )
 CASE_IDS = tuple(case.name for case in CASES)
