@@ -606,6 +606,16 @@ class StepArrays:
         )
         self._no_vmax = np.zeros(n)
         self.damping = 0.0
+        #: The first arguments of :func:`fill_step` and :func:`take_step`'s compiled
+        #: callers: ``(const, const_layout, ints, buf, layout, identity)``.
+        self.buffers = (
+            self._const,
+            self._const_layout,
+            self._ints,
+            self._buf,
+            self._layout,
+            self._identity,
+        )
         #: The backend's equality rows and right-hand side: ``J`` and ``bs`` for least
         #: norm, empty for least squares.
         self.A_eq = np.zeros((0, nv)) if self.least_squares else self.J
