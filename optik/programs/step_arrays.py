@@ -605,6 +605,8 @@ class StepArrays:
             ]
         )
         self._no_vmax = np.zeros(n)
+        #: A step of zeros (nv,): :meth:`take` of it measures the task at :attr:`q`.
+        self.zero_step = np.zeros(nv)
         self.damping = 0.0
         #: The first arguments of :func:`fill_step` and :func:`take_step`'s compiled
         #: callers: ``(const, const_layout, ints, buf, layout, identity)``.

@@ -643,29 +643,27 @@ class QPStepSolver(IKSolver):
         """
         task = query.spec
         lower, upper = query.lower, query.upper
-        moving = _moving_joints(lower, upper)
+        moving = _moving_joints(query)
         arrays = step_arrays(query.robot, _task_rows(task), "least_squares", moving)
         arrays.set_task(query.target, task.packed, lower, upper)
         nv = arrays.nv
         q = np.clip(np.asarray(q0, dtype=np.float64), lower, upper)
         e = np.zeros(6)
-        # The error at q0: a zero step from q0 (the program's q is q0, its bounds contain 0).
-        arrays.fill(q, e, 1.0)
-        err2, position, orientation = arrays.take(np.zeros(nv), q, e)
+        q_new = np.empty_like(q)
+        e_new = np.zeros(6)
+        vmax = np.empty(query.robot.dof)
+        lm = np.array(
+            [0.0, 0.0, 0.0, self.initial_scale, self.w_bias, self.trust_radius,
+             self.trust_ratio, self.min_scale]
+        )  # fmt: skip
+        buffers = arrays.buffers
+        code = _lm_start(*buffers, arrays.zero_step, q, e, q_new, e_new, vmax, lm)
+        err2, position, orientation = lm[:3].tolist()
         position_tol, orientation_tol = task.position_tol, task.orientation_tol
         if nv == 0:  # every joint frozen: nothing to solve, only to judge
             ok = position <= position_tol and orientation <= orientation_tol
             return SolverOutput(q, 0, ok, "converged" if ok else "every joint is frozen")
         backend = direct_backend(self.backend, nv, 0)
-        buffers = arrays.buffers
-        q_new = np.empty_like(q)
-        e_new = np.zeros(6)
-        vmax = np.empty(query.robot.dof)
-        lm = np.array(
-            [err2, position, orientation, self.initial_scale, self.w_bias, self.trust_radius,
-             self.trust_ratio, self.min_scale]
-        )  # fmt: skip
-        code = _lm_fill(*buffers, q, e, vmax, lm)
         no_rows, no_b = arrays.A_eq, arrays.b_eq
         lower_stack, upper_stack = arrays.lower_stack[:nv], arrays.upper_stack[:nv]
         window, ratio, floor = self.stall_window, self.stall_ratio, self.stall_floor
@@ -751,6 +749,43 @@ def _lm_fill(
 
 
 @nb.njit(cache=True, nogil=True, error_model="numpy")
+def _lm_start(
+    const: np.ndarray,
+    const_layout: np.ndarray,
+    ints: np.ndarray,
+    buf: np.ndarray,
+    layout: np.ndarray,
+    identity: bool,
+    zero_step: np.ndarray,
+    q: np.ndarray,
+    e: np.ndarray,
+    q_new: np.ndarray,
+    e_new: np.ndarray,
+    vmax: np.ndarray,
+    lm: np.ndarray,
+) -> int:
+    """The residual ``e`` and the errors (into ``lm``) at ``q``, then the first program.
+
+    The residual is that of the step ``zero_step`` (nv,) of zeros from ``q`` (a program
+    at ``q`` with a zero twist: its bounds contain 0). Returns the code of
+    :func:`_lm_fill`.
+    """
+    e[:] = 0.0
+    fill_step(
+        const, const_layout, ints, q, e, vmax, buf, layout, 1.0, True, Q_CLIP_TOLERANCE,
+        MAX_LENGTH_M, 1.0, False, True, 0.0, identity,
+    )  # fmt: skip
+    err2, position, orientation = take_step(
+        const, const_layout, ints, buf, layout, zero_step, identity, q_new, e_new
+    )
+    e[:] = e_new
+    lm[_ERR2] = err2
+    lm[_POSITION] = position
+    lm[_ORIENTATION] = orientation
+    return _lm_fill(const, const_layout, ints, buf, layout, identity, q, e, vmax, lm)
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy")
 def _lm_move(
     const: np.ndarray,
     const_layout: np.ndarray,
@@ -818,9 +853,19 @@ def _task_rows(task: Task) -> tuple[int, ...]:
 _ROWS_OF: dict[bytes, tuple[int, ...]] = {}
 
 
-def _moving_joints(lower: FloatArray, upper: FloatArray) -> tuple[int, ...]:
-    """The joints the box ``lower <= q <= upper`` leaves free to move (lower < upper)."""
+def _moving_joints(query: IKQuery) -> tuple[int, ...]:
+    """The joints the query's box leaves free to move (lower < upper)."""
+    if query.bounds is None:  # the joint limits: every joint moves
+        dof = query.robot.dof
+        every = _EVERY_JOINT.get(dof)
+        if every is None:
+            every = _EVERY_JOINT[dof] = tuple(range(dof))
+        return every
+    lower, upper = query.bounds
     return tuple(int(i) for i in np.flatnonzero(lower < upper))
+
+
+_EVERY_JOINT: dict[int, tuple[int, ...]] = {}
 
 
 def _register_all() -> None:
