@@ -457,8 +457,8 @@ def take_step(
     ints: np.ndarray,
     buf: np.ndarray,
     layout: np.ndarray,
-    x: np.ndarray,
     identity: bool,
+    x: np.ndarray,
     q_new: np.ndarray,
     e_new: np.ndarray,
 ) -> tuple[float, float, float]:
@@ -608,8 +608,8 @@ class StepArrays:
         #: A step of zeros (nv,): :meth:`take` of it measures the task at :attr:`q`.
         self.zero_step = np.zeros(nv)
         self.damping = 0.0
-        #: The first arguments of :func:`fill_step` and :func:`take_step`'s compiled
-        #: callers: ``(const, const_layout, ints, buf, layout, identity)``.
+        #: The first arguments of :func:`take_step` (and of the compiled IK loop's calls):
+        #: ``(const, const_layout, ints, buf, layout, identity)``.
         self.buffers = (
             self._const,
             self._const_layout,
@@ -702,17 +702,7 @@ class StepArrays:
         self, x: FloatArray, q_new: FloatArray, e_new: FloatArray
     ) -> tuple[float, float, float]:
         """:func:`take_step`: the point ``x`` applied at :attr:`q`, the task measured."""
-        return take_step(
-            self._const,
-            self._const_layout,
-            self._ints,
-            self._buf,
-            self._layout,
-            x,
-            self._identity,
-            q_new,
-            e_new,
-        )
+        return take_step(*self.buffers, x, q_new, e_new)
 
     def program(self) -> DiffIKProgram:
         """The filled program as a :class:`DiffIKProgram` (copies of the arrays).

@@ -653,11 +653,11 @@ class QPStepSolver(IKSolver):
         e_new = np.zeros(6)
         vmax = np.empty(query.robot.dof)
         lm = np.array(
-            [0.0, 0.0, 0.0, self.initial_scale, self.w_bias, self.trust_radius,
+            [np.inf, 0.0, 0.0, self.initial_scale, self.w_bias, self.trust_radius,
              self.trust_ratio, self.min_scale]
         )  # fmt: skip
         buffers = arrays.buffers
-        code = _lm_start(*buffers, arrays.zero_step, q, e, q_new, e_new, vmax, lm)
+        code = _lm_move(*buffers, arrays.zero_step, q, e, q_new, e_new, vmax, lm)
         err2, position, orientation = lm[:3].tolist()
         position_tol, orientation_tol = task.position_tol, task.orientation_tol
         if nv == 0:  # every joint frozen: nothing to solve, only to judge
@@ -719,12 +719,7 @@ _NOT_FINITE: Final[int] = -1
 
 @nb.njit(cache=True, nogil=True, error_model="numpy")
 def _lm_fill(
-    const: np.ndarray,
-    const_layout: np.ndarray,
-    ints: np.ndarray,
-    buf: np.ndarray,
-    layout: np.ndarray,
-    identity: bool,
+    buffers: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, bool],
     q: np.ndarray,
     e: np.ndarray,
     vmax: np.ndarray,
@@ -732,57 +727,21 @@ def _lm_fill(
 ) -> int:
     """Fill the step program at ``q`` for the residual ``e`` with the loop's damping.
 
-    The trust radius ``min(trust_radius, trust_ratio ||e||)`` goes into ``vmax`` (dof,),
-    the damping is ``sqrt(s (||e||^2 / 2 + w_bias))`` (see :class:`QPStepSolver`); ``lm``
-    is the loop's state. Returns the code of
-    :func:`~optik.programs.step_arrays.fill_step`.
+    ``buffers`` is :attr:`~optik.programs.step_arrays.StepArrays.buffers`. The trust
+    radius ``min(trust_radius, trust_ratio ||e||)`` goes into ``vmax`` (dof,), the damping
+    is ``sqrt(s (||e||^2 / 2 + w_bias))`` (see :class:`QPStepSolver`); ``lm`` is the
+    loop's state. Returns the code of :func:`~optik.programs.step_arrays.fill_step`.
     """
     err2 = lm[_ERR2]
     radius = min(lm[_RADIUS], lm[_RATIO] * math.sqrt(err2))
     for i in range(vmax.shape[0]):
         vmax[i] = radius
     damping = math.sqrt(lm[_SCALE] * (0.5 * err2 + lm[_W_BIAS]))
+    const, const_layout, ints, buf, layout, identity = buffers
     return fill_step(
         const, const_layout, ints, q, e, vmax, buf, layout, 1.0, True, Q_CLIP_TOLERANCE,
         MAX_LENGTH_M, 1.0, True, True, damping, identity,
     )  # fmt: skip
-
-
-@nb.njit(cache=True, nogil=True, error_model="numpy")
-def _lm_start(
-    const: np.ndarray,
-    const_layout: np.ndarray,
-    ints: np.ndarray,
-    buf: np.ndarray,
-    layout: np.ndarray,
-    identity: bool,
-    zero_step: np.ndarray,
-    q: np.ndarray,
-    e: np.ndarray,
-    q_new: np.ndarray,
-    e_new: np.ndarray,
-    vmax: np.ndarray,
-    lm: np.ndarray,
-) -> int:
-    """The residual ``e`` and the errors (into ``lm``) at ``q``, then the first program.
-
-    The residual is that of the step ``zero_step`` (nv,) of zeros from ``q`` (a program
-    at ``q`` with a zero twist: its bounds contain 0). Returns the code of
-    :func:`_lm_fill`.
-    """
-    e[:] = 0.0
-    fill_step(
-        const, const_layout, ints, q, e, vmax, buf, layout, 1.0, True, Q_CLIP_TOLERANCE,
-        MAX_LENGTH_M, 1.0, False, True, 0.0, identity,
-    )  # fmt: skip
-    err2, position, orientation = take_step(
-        const, const_layout, ints, buf, layout, zero_step, identity, q_new, e_new
-    )
-    e[:] = e_new
-    lm[_ERR2] = err2
-    lm[_POSITION] = position
-    lm[_ORIENTATION] = orientation
-    return _lm_fill(const, const_layout, ints, buf, layout, identity, q, e, vmax, lm)
 
 
 @nb.njit(cache=True, nogil=True, error_model="numpy")
@@ -806,9 +765,20 @@ def _lm_move(
     The step is taken (``q``, ``e`` and the errors in ``lm`` replaced, the scale halved
     down to ``min_scale``) if it lowers ``||e||^2``, else refused (the scale quadrupled);
     then :func:`_lm_fill` at the resulting ``q``. Returns its code, or :data:`_NOT_FINITE`.
+
+    An attempt starts with ``lm``'s squared error at ``inf`` and ``x`` zeros (nv,): the
+    program is first filled at ``q`` with a zero residual (its bounds contain 0), the
+    zero step measures the residual ``e`` and the errors at ``q``, the scale stays.
     """
+    start = not lm[_ERR2] < np.inf
+    if start:
+        e[:] = 0.0
+        fill_step(
+            const, const_layout, ints, q, e, vmax, buf, layout, 1.0, True, Q_CLIP_TOLERANCE,
+            MAX_LENGTH_M, 1.0, False, True, 0.0, identity,
+        )  # fmt: skip
     err2, position, orientation = take_step(
-        const, const_layout, ints, buf, layout, x, identity, q_new, e_new
+        const, const_layout, ints, buf, layout, identity, x, q_new, e_new
     )
     if not math.isfinite(err2):
         return _NOT_FINITE
@@ -818,10 +788,11 @@ def _lm_move(
         lm[_ERR2] = err2
         lm[_POSITION] = position
         lm[_ORIENTATION] = orientation
-        lm[_SCALE] = max(0.5 * lm[_SCALE], lm[_MIN_SCALE])
+        if not start:
+            lm[_SCALE] = max(0.5 * lm[_SCALE], lm[_MIN_SCALE])
     else:
         lm[_SCALE] *= 4.0
-    return _lm_fill(const, const_layout, ints, buf, layout, identity, q, e, vmax, lm)
+    return _lm_fill((const, const_layout, ints, buf, layout, identity), q, e, vmax, lm)
 
 
 class QPStepBackend(StepBackend):
