@@ -180,14 +180,13 @@ def test_frozen_joints_are_not_variables_of_the_qp(monkeypatch: pytest.MonkeyPat
     import optik.solvers.qp as qp
 
     seen: list[tuple[int, float]] = []
-    solve = qp.DirectBackend.solve
+    solve = qp.DirectBackend.solve_scaled
 
-    def spy(self: qp.DirectBackend, P: np.ndarray, c: np.ndarray, *args: Any) -> Any:
-        lb, ub = args[2], args[3]
-        seen.append((P.shape[0], float(np.min(ub - lb))))
-        return solve(self, P, c, *args)
+    def spy(self: qp.DirectBackend, program: qp.ScaledProgram, warm: bool = False) -> Any:
+        seen.append((program.P.shape[0], float(np.min(program.ub - program.lb))))
+        return solve(self, program, warm)
 
-    monkeypatch.setattr(qp.DirectBackend, "solve", spy)
+    monkeypatch.setattr(qp.DirectBackend, "solve_scaled", spy)
     panda = _robot("panda")
     q = panda.mid_limits + 0.1
     frozen = {panda.joint_names[3]: float(q[3]), panda.joint_names[5]: float(q[5])}

@@ -39,7 +39,7 @@ from __future__ import annotations
 
 import math
 import threading
-from typing import Any, Final
+from typing import Any, Final, NamedTuple
 
 import numba as nb
 import numpy as np
@@ -60,6 +60,7 @@ __all__ = [
     "FILL_OK",
     "FILL_Q_OUTSIDE",
     "FILL_STEP_TOO_LONG",
+    "ScaledProgram",
     "StepArrays",
     "check_step",
     "fill_step",
@@ -102,6 +103,26 @@ _K, _CC = range(2)
 _TASK_FAST = 10
 
 _jit = nb.njit(cache=True, nogil=True, error_model="numpy")
+
+
+class ScaledProgram(NamedTuple):
+    """An equilibrated step program as a backend takes it (:attr:`StepArrays.scaled`).
+
+    ``min 1/2 x^T P x + c^T x  s.t.  A x = b,  lb <= x <= ub`` (``A``/``b`` with ``m`` rows,
+    ``m = 0`` for least squares; ``-inf``/``inf`` where unbounded). ``lower_stack`` and
+    ``upper_stack`` are ``[lb; b]`` and ``[ub; b]`` when the caller keeps them so, else
+    ``None``.
+    """
+
+    P: FloatArray
+    c: FloatArray
+    A: FloatArray
+    b: FloatArray
+    lb: FloatArray
+    ub: FloatArray
+    lower_stack: FloatArray | None
+    upper_stack: FloatArray | None
+
 
 #: The packed task of a full pose with unit weights: rows and residual in the world frame.
 _PLAIN_POSE = make_task("pose").packed
@@ -224,7 +245,9 @@ def fill_step(
     _chain_angles(C, q, theta, identity)
     _kernels.fk_jacobian_work(K, prismatic, theta, T, J6, work)
     # The task's rows (weighted, in the target frame); a plain pose keeps the world rows.
-    task_rows(J6, _mat(buf, layout, _TARGET, 4), _vec(buf, layout, _TASK))
+    task = _vec(buf, layout, _TASK)
+    if task[_TASK_FAST] != 1.0:
+        task_rows(J6, _mat(buf, layout, _TARGET, 4), task)
     vabs = 0.0
     for r in range(m):
         row = rows[r]
@@ -622,6 +645,20 @@ class StepArrays:
         #: norm, empty for least squares.
         self.A_eq = np.zeros((0, nv)) if self.least_squares else self.J
         self.b_eq = np.zeros(0) if self.least_squares else self.bs
+        #: The equilibrated program for a backend (views of the arrays above, filled by
+        #: each :meth:`fill`): ``Ps``, ``cs``, the equality rows, ``lbs``, ``ubs`` and the
+        #: stacks of the bounds and the rows.
+        rows_eq = 0 if self.least_squares else m
+        self.scaled = ScaledProgram(
+            self.Ps,
+            self.cs,
+            self.A_eq,
+            self.b_eq,
+            self.lbs,
+            self.ubs,
+            self.lower_stack[: nv + rows_eq],
+            self.upper_stack[: nv + rows_eq],
+        )
 
     def set_task(
         self, target: FloatArray, task: FloatArray, lower: FloatArray, upper: FloatArray

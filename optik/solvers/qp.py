@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 import threading
 import warnings
-from typing import Any, Final, NamedTuple
+from typing import Any, Final
 
 import numba as nb
 import numpy as np
@@ -23,7 +23,13 @@ import scipy.sparse as spa
 from optik._checks import MAX_LENGTH_M, FloatArray
 from optik.limits import Q_CLIP_TOLERANCE
 from optik.programs.diff_qp import DiffIKProgram, QPSolution
-from optik.programs.step_arrays import FILL_OK, fill_step, step_arrays, take_step
+from optik.programs.step_arrays import (
+    FILL_OK,
+    ScaledProgram,
+    fill_step,
+    step_arrays,
+    take_step,
+)
 from optik.solvers._base import (
     IKQuery,
     IKSolver,
@@ -122,25 +128,6 @@ def _backend_problem(program: DiffIKProgram, backend: str) -> tuple[qpsolvers.Pr
 DirectAnswer = tuple[FloatArray | None, bool, str, int]
 
 
-class ScaledProgram(NamedTuple):
-    """An equilibrated step program as :meth:`DirectBackend.solve` hands it to a backend.
-
-    ``min 1/2 x^T P x + c^T x  s.t.  A x = b,  lb <= x <= ub`` (``A``/``b`` with ``m`` rows,
-    ``m = 0`` for least squares; ``-inf``/``inf`` where unbounded). ``lower_stack`` and
-    ``upper_stack`` are ``[lb; b]`` and ``[ub; b]`` when the caller keeps them so
-    (:class:`~optik.programs.step_arrays.StepArrays`), else ``None``.
-    """
-
-    P: FloatArray
-    c: FloatArray
-    A: FloatArray
-    b: FloatArray
-    lb: FloatArray
-    ub: FloatArray
-    lower_stack: FloatArray | None
-    upper_stack: FloatArray | None
-
-
 class DirectBackend:
     """A backend's own API for step programs of one shape, its state reused across steps.
 
@@ -175,8 +162,12 @@ class DirectBackend:
         (:class:`~optik.programs.step_arrays.StepArrays` keeps them so): backends that
         take bounds and rows stacked use them without a copy.
         """
+        return self.solve_scaled(ScaledProgram(P, c, A, b, lb, ub, lower_stack, upper_stack), warm)
+
+    def solve_scaled(self, qp: ScaledProgram, warm: bool = False) -> DirectAnswer:
+        """:meth:`solve` of a program held as one tuple (e.g. ``StepArrays.scaled``)."""
         try:
-            return self._solve(ScaledProgram(P, c, A, b, lb, ub, lower_stack, upper_stack), warm)
+            return self._solve(qp, warm)
         except Exception as exc:  # a backend may raise anything; keep its text
             return None, False, f"{type(exc).__name__}: {exc}", -1
 
@@ -664,8 +655,7 @@ class QPStepSolver(IKSolver):
             ok = position <= position_tol and orientation <= orientation_tol
             return SolverOutput(q, 0, ok, "converged" if ok else "every joint is frozen")
         backend = direct_backend(self.backend, nv, 0)
-        no_rows, no_b = arrays.A_eq, arrays.b_eq
-        lower_stack, upper_stack = arrays.lower_stack[:nv], arrays.upper_stack[:nv]
+        scaled = arrays.scaled
         window, ratio, floor = self.stall_window, self.stall_ratio, self.stall_floor
         timed = deadline < math.inf
         history = [err2]  # ||e||^2 before each QP solve
@@ -688,17 +678,7 @@ class QPStepSolver(IKSolver):
                 return SolverOutput(
                     q, iterations, False, f"step program rejected (code {code})", True
                 )
-            x, _, status, _ = backend.solve(
-                arrays.Ps,
-                arrays.cs,
-                no_rows,
-                no_b,
-                arrays.lbs,
-                arrays.ubs,
-                iterations > 0,
-                lower_stack,
-                upper_stack,
-            )
+            x, _, status, _ = backend.solve_scaled(scaled, iterations > 0)
             iterations += 1
             if x is None:
                 return SolverOutput(q, iterations, False, f"{self.name} failed: {status}", True)
