@@ -362,17 +362,7 @@ def diff_ik(
     if direct is not None:
         # The backend's own API on the arrays, and the cheap check (see step_arrays).
         m = 0 if arrays.least_squares else arrays.task_dim
-        x, found, status, iterations = direct(arrays.dof, m).solve(
-            arrays.Ps,
-            arrays.cs,
-            arrays.A_eq,
-            arrays.b_eq,
-            arrays.lbs,
-            arrays.ubs,
-            False,
-            arrays.lower_stack[: arrays.dof + m],
-            arrays.upper_stack[: arrays.dof + m],
-        )
+        x, found, status, iterations = direct(arrays.dof, m).solve_scaled(arrays.scaled)
         if x is not None:
             check, _ = arrays.check(x, FEASIBILITY_RTOL, FEASIBILITY_ATOL, KKT_RTOL)
             if check == CHECK_OK and not kkt_proof:

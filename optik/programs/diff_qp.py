@@ -51,7 +51,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any, Final, Literal
+from typing import TYPE_CHECKING, Any, Final, Literal, TypedDict
 
 import numpy as np
 import qpsolvers
@@ -67,6 +67,9 @@ from optik._checks import (
 )
 from optik.errors import NonFiniteError, OptikError, ShapeError
 from optik.model import Robot
+
+if TYPE_CHECKING:  # typing.Unpack is in the standard library from Python 3.11
+    from typing_extensions import Unpack
 
 __all__ = [
     "ALL_ROWS",
@@ -648,41 +651,29 @@ def build_program(
     )
 
 
+class StepProgramOptions(TypedDict, total=False):
+    """The keywords of :func:`build_program` after ``robot, q, v`` (see it for each)."""
+
+    objective: Objective
+    dt: float | None
+    W: Any
+    Wt: Any
+    damping: float | None
+    limits: bool
+    limit_gain: float
+    velocity_limits: Any
+    rows: Sequence[int] | None
+    offset: Any
+
+
 def build_qp(
-    robot: Robot,
-    q: Any,
-    v: Any,
-    *,
-    objective: Objective = "least_norm",
-    dt: float | None = None,
-    W: Any = None,
-    Wt: Any = None,
-    damping: float | None = None,
-    limits: bool = True,
-    limit_gain: float = 1.0,
-    velocity_limits: Any = None,
-    rows: Sequence[int] | None = None,
-    offset: Any = None,
+    robot: Robot, q: Any, v: Any, **options: Unpack[StepProgramOptions]
 ) -> qpsolvers.Problem:
     """The ``qpsolvers.Problem`` of one differential-IK step.
 
     Least norm: ``min 1/2 ||dq - d||^2_W  s.t.  J dq = v,  lb <= dq <= ub``; least squares:
-    ``min 1/2 ||J dq - v||^2_Wt + 1/2 lambda^2 ||dq - d||^2_W  s.t.  lb <= dq <= ub``. Arguments,
-    raises and bounds as in :func:`build_program` (which also keeps ``J``, ``v`` and the
-    bounds next to the problem).
+    ``min 1/2 ||J dq - v||^2_Wt + 1/2 lambda^2 ||dq - d||^2_W  s.t.  lb <= dq <= ub``. Arguments
+    (the keywords of :class:`StepProgramOptions`), raises and bounds as in
+    :func:`build_program` (which also keeps ``J``, ``v`` and the bounds next to the problem).
     """
-    return build_program(
-        robot,
-        q,
-        v,
-        objective=objective,
-        dt=dt,
-        W=W,
-        Wt=Wt,
-        damping=damping,
-        limits=limits,
-        limit_gain=limit_gain,
-        velocity_limits=velocity_limits,
-        rows=rows,
-        offset=offset,
-    ).qp
+    return build_program(robot, q, v, **options).qp

@@ -2,35 +2,44 @@
 
 The same programs as :mod:`optik.programs.diff_qp` (unit weights ``W = I``, ``Wt = I``),
 without building a ``qpsolvers.Problem`` per step: :class:`StepArrays` holds every array
-of one robot and task shape (task rows, objective), and :func:`fill_step` fills them in
-one compiled call from ``q`` and the twist. It validates ``q`` and the twist on the way
-(finite, within the limits up to a tolerance, lengths bounded) and returns a code;
-callers that get a nonzero code run the Python validators, which raise the error that
-names the argument. :func:`check_step` is the cheap verification of a backend's point:
-finite, inside the bounds, ``J dq = v`` (least norm) and KKT stationarity with
-multipliers fitted here on the free joints (least squares on ``J_F^T y = -g_F``, then the
-bound multipliers from the residual, with their signs enforced). A point it accepts
-satisfies the KKT conditions of the convex program, so it is the minimizer; a point it
-rejects goes to the full proof (:meth:`DiffIKProgram.kkt`, sign-constrained multipliers
-fitted by BVLS over every unknown).
+of one robot and task shape (task rows, objective, the joints that move), and
+:func:`fill_step` fills them in one compiled call from ``q`` and the twist. It validates
+``q`` and the twist on the way (finite, within the limits up to a tolerance, lengths
+bounded) and returns a code; callers that get a nonzero code run the Python validators,
+which raise the error that names the argument. :func:`check_step` is the cheap
+verification of a backend's point: finite, inside the bounds, ``J dq = v`` (least norm)
+and KKT stationarity with multipliers fitted here on the joints off their bounds (least
+squares on ``J_F^T y = -g_F``, then the bound multipliers from the residual, with their
+signs enforced). A point it accepts satisfies the KKT conditions of the convex program,
+so it is the minimizer; a point it rejects goes to the full proof
+(:meth:`DiffIKProgram.kkt`, sign-constrained multipliers fitted by BVLS over every
+unknown).
 
-Arrays (``n`` joints, ``m`` task rows), written by :func:`fill_step`:
+Arrays (``n`` joints, ``nv`` of them the program's variables, ``m`` task rows), written
+by :func:`fill_step`:
 
-* ``q`` (n,): the configuration, clipped onto the limits; ``T`` (4, 4), ``J`` (m, n),
+* ``q`` (n,): the configuration, clipped onto the bounds; ``T`` (4, 4), ``J`` (m, nv),
   ``v`` (m,) = ``twist[rows] * dt``;
-* ``lb``, ``ub`` (n,): the step bounds (``-inf``/``inf`` where unbounded);
-* ``P`` (n, n), ``c`` (n,): the cost (least norm: ``I`` and 0; least squares:
+* ``lb``, ``ub`` (nv,): the step bounds (``-inf``/``inf`` where unbounded);
+* ``P`` (nv, nv), ``c`` (nv,): the cost (least norm: ``I`` and 0; least squares:
   ``J^T J + lambda^2 I`` and ``-J^T v``);
 * the equilibrated copies for the backend (:meth:`DiffIKProgram.equilibrated`): ``Ps =
   P / p``, ``cs = c s / p``, ``bs = v s``, ``lbs = lb s``, ``ubs = ub s`` with ``p = max
   |P|`` and ``s = 1 / ||v||_inf`` (``scale = [p, s]``); the step is ``x / s``.
+
+By default (what :func:`optik.diff_ik` uses) every joint is a variable, the bounds are the
+joint limits and the rows are the world-frame Jacobian's. An IK task
+(:meth:`StepArrays.set_task`) replaces the bounds by the query's box and the rows by the
+task's (:func:`optik.task.task_rows`: weighted, in the target frame); the twist is then
+the task residual of :func:`optik.task.task_error`. Joints that the box freezes (lower ==
+upper) are left out of the variables (``moving``), so a backend never sees a zero-width box.
 """
 
 from __future__ import annotations
 
 import math
 import threading
-from typing import Any, Final
+from typing import Any, Final, NamedTuple
 
 import numba as nb
 import numpy as np
@@ -38,10 +47,11 @@ import qpsolvers
 
 from optik import _kernels
 from optik._checks import MAX_LENGTH_M, FloatArray
+from optik.errors import OptikError
 from optik.limits import Q_CLIP_TOLERANCE
 from optik.model import Robot
 from optik.programs.diff_qp import DiffIKProgram, Objective
-from optik.task import task_error
+from optik.task import make_task, task_error, task_rows
 
 __all__ = [
     "FILL_BAD_Q",
@@ -50,6 +60,7 @@ __all__ = [
     "FILL_OK",
     "FILL_Q_OUTSIDE",
     "FILL_STEP_TOO_LONG",
+    "ScaledProgram",
     "StepArrays",
     "check_step",
     "fill_step",
@@ -79,16 +90,42 @@ CHECK_KKT: Final[int] = 4
 # The scaled bounds and task right-hand side are stacked, lower bounds then ``bs`` and
 # upper bounds then ``bs`` again, so that a backend taking ``[bounds; rows]`` (DAQP) gets
 # them as two views without a copy.
+# The last slots hold what an IK task sets (StepArrays.set_task): the box q stays in, the
+# target pose, the packed task and the task error's scratch.
 _Q, _THETA, _T, _J6, _WORK, _J, _V, _LB, _UB, _P, _C = range(11)
 _PS, _CS, _LBS, _BS, _UBS, _BS2, _SCALE, _DQ, _G, _R, _MA, _MB, _Y = range(11, 24)
-_SLOTS = 24
-# Constants, in a second float buffer: the chain transforms K, the coupling C, the limits;
-# and in an int buffer: the joint kinds (1 = prismatic) then the task rows.
-_K, _CC, _LO, _HI = range(4)
+_LO, _HI, _TARGET, _TASK, _SCRATCH = range(24, 29)
+_SLOTS = 29
+# Constants, in a second float buffer: the chain transforms K and the coupling C; and in
+# an int buffer: the joint kinds (1 = prismatic), the task rows, the moving joints.
+_K, _CC = range(2)
 # Entry of Task.packed saying 2.0 for a position task with unit weights (optik.task).
 _TASK_FAST = 10
 
 _jit = nb.njit(cache=True, nogil=True, error_model="numpy")
+
+
+class ScaledProgram(NamedTuple):
+    """An equilibrated step program as a backend takes it (:attr:`StepArrays.scaled`).
+
+    ``min 1/2 x^T P x + c^T x  s.t.  A x = b,  lb <= x <= ub`` (``A``/``b`` with ``m`` rows,
+    ``m = 0`` for least squares; ``-inf``/``inf`` where unbounded). ``lower_stack`` and
+    ``upper_stack`` are ``[lb; b]`` and ``[ub; b]`` when the caller keeps them so, else
+    ``None``.
+    """
+
+    P: FloatArray
+    c: FloatArray
+    A: FloatArray
+    b: FloatArray
+    lb: FloatArray
+    ub: FloatArray
+    lower_stack: FloatArray | None
+    upper_stack: FloatArray | None
+
+
+#: The packed task of a full pose with unit weights: rows and residual in the world frame.
+_PLAIN_POSE = make_task("pose").packed
 
 
 @nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
@@ -100,6 +137,36 @@ def _vec(buf: np.ndarray, layout: np.ndarray, slot: int) -> np.ndarray:
 def _mat(buf: np.ndarray, layout: np.ndarray, slot: int, rows: int) -> np.ndarray:
     flat = buf[layout[slot] : layout[slot + 1]]
     return flat.reshape((rows, flat.shape[0] // rows))
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _chain(
+    const: np.ndarray, const_layout: np.ndarray, ints: np.ndarray, n: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The chain of ``n`` joints: transforms ``K``, coupling ``C``, prismatic flags."""
+    nc = (const_layout[_CC + 1] - const_layout[_CC]) // n
+    K = _vec(const, const_layout, _K).reshape((nc + 1, 4, 4))
+    return K, _mat(const, const_layout, _CC, nc), ints[:nc]
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _rows_and_moving(ints: np.ndarray, nc: int, m: int) -> tuple[np.ndarray, np.ndarray]:
+    """The task rows (m,) and the moving joints (the program's variables) of ``ints``."""
+    return ints[nc : nc + m], ints[nc + m :]
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _chain_angles(C: np.ndarray, q: np.ndarray, theta: np.ndarray, identity: bool) -> None:
+    """``theta = C q``: the chain's joint values (``q`` itself when ``C`` is the identity)."""
+    if identity:
+        for j in range(theta.shape[0]):
+            theta[j] = q[j]
+    else:
+        for j in range(theta.shape[0]):
+            acc = 0.0
+            for i in range(q.shape[0]):
+                acc += C[j, i] * q[i]
+            theta[j] = acc
 
 
 @_jit
@@ -129,29 +196,29 @@ def fill_step(
     by more than ``clip_tol``); :data:`FILL_BAD_TWIST` (not finite);
     :data:`FILL_STEP_TOO_LONG` (an entry of ``twist * dt`` beyond ``max_length``);
     :data:`FILL_INCONSISTENT` (a lower step bound above the upper one; every array is
-    filled).
+    filled). ``limits`` and ``clip_tol`` are on the box of the ``_LO``/``_HI`` slots (the
+    joint limits unless :meth:`StepArrays.set_task` set another), ``vmax`` (n,) per joint.
     """
     n = q_in.shape[0]
-    lower = _vec(const, const_layout, _LO)
-    upper = _vec(const, const_layout, _HI)
-    nc = (const_layout[_CC + 1] - const_layout[_CC]) // n
-    K = _vec(const, const_layout, _K).reshape((nc + 1, 4, 4))
-    C = _mat(const, const_layout, _CC, nc)
-    prismatic = ints[:nc]
-    rows = ints[nc:]
-    m = rows.shape[0]
+    K, C, prismatic = _chain(const, const_layout, ints, n)
+    nc = prismatic.shape[0]
+    lower = _vec(buf, layout, _LO)
+    upper = _vec(buf, layout, _HI)
     q = _vec(buf, layout, _Q)
     theta = _vec(buf, layout, _THETA)
     T = _mat(buf, layout, _T, 4)
     J6 = _mat(buf, layout, _J6, 6)
     work = _mat(buf, layout, _WORK, nc)
-    J = _mat(buf, layout, _J, m) if m > 0 else _mat(buf, layout, _J, 1)
     v = _vec(buf, layout, _V)
+    m = v.shape[0]
+    rows, moving = _rows_and_moving(ints, nc, m)
+    nv = moving.shape[0]
+    J = _mat(buf, layout, _J, m) if m > 0 else _mat(buf, layout, _J, 1)
     lb = _vec(buf, layout, _LB)
     ub = _vec(buf, layout, _UB)
-    P = _mat(buf, layout, _P, n)
+    P = _mat(buf, layout, _P, nv)
     c = _vec(buf, layout, _C)
-    Ps = _mat(buf, layout, _PS, n)
+    Ps = _mat(buf, layout, _PS, nv)
     cs = _vec(buf, layout, _CS)
     bs = _vec(buf, layout, _BS)
     bs2 = _vec(buf, layout, _BS2)
@@ -175,32 +242,29 @@ def fill_step(
             return FILL_BAD_TWIST
         if not abs(twist[k] * dt) <= max_length:
             return FILL_STEP_TOO_LONG
-    if identity:
-        for j in range(nc):
-            theta[j] = q[j]
-    else:
-        for j in range(nc):
-            acc = 0.0
-            for i in range(n):
-                acc += C[j, i] * q[i]
-            theta[j] = acc
+    _chain_angles(C, q, theta, identity)
     _kernels.fk_jacobian_work(K, prismatic, theta, T, J6, work)
+    # The task's rows (weighted, in the target frame); a plain pose keeps the world rows.
+    task = _vec(buf, layout, _TASK)
+    if task[_TASK_FAST] != 1.0:
+        task_rows(J6, _mat(buf, layout, _TARGET, 4), task)
     vabs = 0.0
     for r in range(m):
         row = rows[r]
         v[r] = twist[row] * dt
         vabs = max(vabs, abs(v[r]))
         if identity:
-            for i in range(n):
-                J[r, i] = J6[row, i]
+            for k in range(nv):
+                J[r, k] = J6[row, moving[k]]
         else:
-            for i in range(n):
+            for k in range(nv):
                 acc = 0.0
                 for j in range(nc):
-                    acc += J6[row, j] * C[j, i]
-                J[r, i] = acc
+                    acc += J6[row, j] * C[j, moving[k]]
+                J[r, k] = acc
     consistent = True
-    for i in range(n):
+    for k in range(nv):
+        i = moving[k]
         lo = -np.inf
         hi = np.inf
         if limits:
@@ -212,18 +276,18 @@ def fill_step(
             reach = vmax[i] * dt
             lo = max(lo, -reach)
             hi = min(hi, reach)
-        lb[i] = lo
-        ub[i] = hi
+        lb[k] = lo
+        ub[k] = hi
         if not lo <= hi:
             consistent = False
     pmax = 0.0
-    for i in range(n):
+    for i in range(nv):
         if least_squares:
             acc = 0.0
             for r in range(m):
                 acc -= J[r, i] * v[r]
             c[i] = acc
-            for j in range(i, n):
+            for j in range(i, nv):
                 acc = 0.0
                 for r in range(m):
                     acc += J[r, i] * J[r, j]
@@ -234,15 +298,15 @@ def fill_step(
                 pmax = max(pmax, abs(acc))
         else:
             c[i] = 0.0
-            for j in range(n):
+            for j in range(nv):
                 P[i, j] = 1.0 if i == j else 0.0
             pmax = 1.0
     p = pmax if pmax > 0.0 else 1.0
     s = 1.0 / vabs if vabs > 0.0 else 1.0
     scale[0] = p
     scale[1] = s
-    for i in range(n):
-        for j in range(n):
+    for i in range(nv):
+        for j in range(nv):
             Ps[i, j] = P[i, j] / p
         cs[i] = c[i] * (s / p)
         lbs[i] = lb[i] * s
@@ -416,54 +480,48 @@ def take_step(
     ints: np.ndarray,
     buf: np.ndarray,
     layout: np.ndarray,
-    x: np.ndarray,
     identity: bool,
-    target: np.ndarray,
-    task: np.ndarray,
+    x: np.ndarray,
     q_new: np.ndarray,
     e_new: np.ndarray,
-    scratch: np.ndarray,
 ) -> tuple[float, float, float]:
     """Apply a backend's point to the filled program and measure the task there.
 
-    ``dq = clip(x / s, lb, ub)``, ``q_new = clip(q + dq, lower, upper)``; ``e_new`` (6,)
-    the task residual at ``q_new`` (:func:`optik.task.task_error`, ``task`` packed;
-    ``scratch`` (3, 4)). Returns ``(||e_new||^2, position error, orientation error)``;
-    ``||e_new||^2`` is NaN when ``x`` is not finite. The norm is over ``e_new[:3]`` for a
-    position task, else over all six entries.
+    ``dq = clip(x / s, lb, ub)`` (nv,) on the moving joints, ``q_new = clip(q + dq, lower,
+    upper)`` (n,) (the other joints keep their value); ``e_new`` (6,) the task residual at
+    ``q_new`` (:func:`optik.task.task_error` with the target and task of
+    :meth:`StepArrays.set_task`). Returns ``(||e_new||^2, position error, orientation
+    error)``; ``||e_new||^2`` is NaN when ``x`` is not finite. The norm is over
+    ``e_new[:3]`` for a position task with unit weights, else over all six entries.
     """
     q = _vec(buf, layout, _Q)
     n = q.shape[0]
+    K, C, prismatic = _chain(const, const_layout, ints, n)
+    m = layout[_V + 1] - layout[_V]
+    _, moving = _rows_and_moving(ints, prismatic.shape[0], m)
     lb = _vec(buf, layout, _LB)
     ub = _vec(buf, layout, _UB)
     s = _vec(buf, layout, _SCALE)[1]
-    lower = _vec(const, const_layout, _LO)
-    upper = _vec(const, const_layout, _HI)
-    nc = (const_layout[_CC + 1] - const_layout[_CC]) // n
-    K = _vec(const, const_layout, _K).reshape((nc + 1, 4, 4))
-    C = _mat(const, const_layout, _CC, nc)
-    prismatic = ints[:nc]
+    lower = _vec(buf, layout, _LO)
+    upper = _vec(buf, layout, _HI)
+    target = _mat(buf, layout, _TARGET, 4)
+    task = _vec(buf, layout, _TASK)
     theta = _vec(buf, layout, _THETA)
     T = _mat(buf, layout, _T, 4)
-    if x.shape[0] != n:
+    if x.shape[0] != moving.shape[0]:
         return np.nan, np.nan, np.nan
     for i in range(n):
-        dq = x[i] / s
+        q_new[i] = q[i]
+    for k in range(moving.shape[0]):
+        dq = x[k] / s
         if not math.isfinite(dq):
             return np.nan, np.nan, np.nan
-        dq = min(max(dq, lb[i]), ub[i])
+        i = moving[k]
+        dq = min(max(dq, lb[k]), ub[k])
         q_new[i] = min(max(q[i] + dq, lower[i]), upper[i])
-    if identity:
-        for j in range(nc):
-            theta[j] = q_new[j]
-    else:
-        for j in range(nc):
-            acc = 0.0
-            for i in range(n):
-                acc += C[j, i] * q_new[i]
-            theta[j] = acc
+    _chain_angles(C, q_new, theta, identity)
     _kernels.fk_into(K, prismatic, theta, T)
-    position, orientation = task_error(T, target, task, e_new, scratch)
+    position, orientation = task_error(T, target, task, e_new, _mat(buf, layout, _SCRATCH, 3))
     size = 3 if task[_TASK_FAST] == 2.0 else 6
     err2 = 0.0
     for k in range(size):
@@ -485,30 +543,50 @@ def _active(lo: float, hi: float, x: float, tol: float) -> int:
 class StepArrays:
     """The preallocated arrays of the step programs of one robot and task shape.
 
-    Built once per robot, task rows and objective (and reused, one per thread, by
-    :func:`optik.diff_ik` and the ``qp:<backend>`` IK loop); :meth:`fill` writes a new
-    program into them. The attributes are views of one buffer (see the module docstring
-    for their meaning); they are overwritten by the next :meth:`fill`.
+    Built once per robot, task rows, objective and moving joints (and reused, one per
+    thread, by :func:`optik.diff_ik` and the ``qp:<backend>`` IK loop); :meth:`fill`
+    writes a new program into them. The attributes are views of one buffer (see the
+    module docstring for their meaning); they are overwritten by the next :meth:`fill`.
+
+    Args:
+        robot: the robot.
+        rows: the task rows (indices into the six rows of the task) the program keeps.
+        objective: ``"least_norm"`` or ``"least_squares"``.
+        moving: the joints that are the program's variables, ascending (default: all);
+            the others keep their value in :func:`take_step`.
     """
 
-    def __init__(self, robot: Robot, rows: tuple[int, ...], objective: Objective) -> None:
+    def __init__(
+        self,
+        robot: Robot,
+        rows: tuple[int, ...],
+        objective: Objective,
+        moving: tuple[int, ...] | None = None,
+    ) -> None:
         chain = robot.chain
         n = robot.dof
         nc = chain.n
         m = len(rows)
+        moving = tuple(range(n)) if moving is None else moving
+        nv = len(moving)
         self.robot = robot
         self.objective: Objective = objective
         self.least_squares = objective == "least_squares"
         self.rows = rows
+        self.moving = moving
         self.dof = n
+        #: The number of the program's variables (the moving joints).
+        self.nv = nv
         self.task_dim = m
         self._identity = bool(chain.identity)
         sizes = [0] * _SLOTS
         shapes: dict[int, tuple[int, ...]] = {
-            _Q: (n,), _THETA: (nc,), _T: (4, 4), _J6: (6, nc), _WORK: (nc, 3), _J: (m, n),
-            _V: (m,), _LB: (n,), _UB: (n,), _P: (n, n), _C: (n,), _PS: (n, n), _CS: (n,),
-            _LBS: (n,), _BS: (m,), _UBS: (n,), _BS2: (m,), _SCALE: (2,), _DQ: (n,),
-            _G: (n,), _R: (n,), _MA: (n * m,), _MB: (n,), _Y: (m,),
+            _Q: (n,), _THETA: (nc,), _T: (4, 4), _J6: (6, nc), _WORK: (nc, 3), _J: (m, nv),
+            _V: (m,), _LB: (nv,), _UB: (nv,), _P: (nv, nv), _C: (nv,), _PS: (nv, nv),
+            _CS: (nv,), _LBS: (nv,), _BS: (m,), _UBS: (nv,), _BS2: (m,), _SCALE: (2,),
+            _DQ: (nv,), _G: (nv,), _R: (nv,), _MA: (nv * m,), _MB: (nv,), _Y: (m,),
+            _LO: (n,), _HI: (n,), _TARGET: (4, 4), _TASK: (_PLAIN_POSE.size,),
+            _SCRATCH: (3, 4),
         }  # fmt: skip
         for slot, shape in shapes.items():
             sizes[slot] = int(np.prod(shape))
@@ -527,29 +605,79 @@ class StepArrays:
             views[_SCALE],
             views[_DQ],
         )
+        self._task_views = views[_LO], views[_HI], views[_TARGET], views[_TASK]
         self.scale[:] = 1.0
-        #: ``[lbs; bs]`` and ``[ubs; bs]`` (n + m,): the bounds then the task rows.
+        #: ``[lbs; bs]`` and ``[ubs; bs]`` (nv + m,): the bounds then the task rows.
         self.lower_stack = self._buf[self._layout[_LBS] : self._layout[_BS + 1]]
         self.upper_stack = self._buf[self._layout[_UBS] : self._layout[_BS2 + 1]]
+        # The plain program: the joint limits, the world-frame rows.
+        self.set_task(np.eye(4), _PLAIN_POSE, chain.lower, chain.upper)
         const = [
             np.ascontiguousarray(chain.K, dtype=np.float64).ravel(),
             np.ascontiguousarray(chain.C, dtype=np.float64).ravel(),
-            np.asarray(chain.lower, dtype=np.float64),
-            np.asarray(chain.upper, dtype=np.float64),
         ]
         self._const = np.concatenate(const)
         self._const_layout = np.concatenate([[0], np.cumsum([a.size for a in const])]).astype(
             np.int64
         )
         self._ints = np.concatenate(
-            [np.asarray(chain.prismatic, dtype=np.int64), np.array(rows, dtype=np.int64)]
+            [
+                np.asarray(chain.prismatic, dtype=np.int64),
+                np.array(rows, dtype=np.int64),
+                np.array(moving, dtype=np.int64),
+            ]
         )
         self._no_vmax = np.zeros(n)
+        #: A step of zeros (nv,): :meth:`take` of it measures the task at :attr:`q`.
+        self.zero_step = np.zeros(nv)
         self.damping = 0.0
+        #: The first arguments of :func:`take_step` (and of the compiled IK loop's calls):
+        #: ``(const, const_layout, ints, buf, layout, identity)``.
+        self.buffers = (
+            self._const,
+            self._const_layout,
+            self._ints,
+            self._buf,
+            self._layout,
+            self._identity,
+        )
         #: The backend's equality rows and right-hand side: ``J`` and ``bs`` for least
         #: norm, empty for least squares.
-        self.A_eq = np.zeros((0, n)) if self.least_squares else self.J
+        self.A_eq = np.zeros((0, nv)) if self.least_squares else self.J
         self.b_eq = np.zeros(0) if self.least_squares else self.bs
+        #: The equilibrated program for a backend (views of the arrays above, filled by
+        #: each :meth:`fill`): ``Ps``, ``cs``, the equality rows, ``lbs``, ``ubs`` and the
+        #: stacks of the bounds and the rows.
+        rows_eq = 0 if self.least_squares else m
+        self.scaled = ScaledProgram(
+            self.Ps,
+            self.cs,
+            self.A_eq,
+            self.b_eq,
+            self.lbs,
+            self.ubs,
+            self.lower_stack[: nv + rows_eq],
+            self.upper_stack[: nv + rows_eq],
+        )
+
+    def set_task(
+        self, target: FloatArray, task: FloatArray, lower: FloatArray, upper: FloatArray
+    ) -> None:
+        """Make the next programs those of an IK task (read by :meth:`fill` and :meth:`take`).
+
+        Args:
+            target: 4x4 target pose (world frame).
+            task: the packed task (:attr:`optik.task.Task.packed`); its residual
+                (:func:`optik.task.task_error`) is the twist :meth:`fill` then takes
+                (with ``dt = 1``), its rows (:func:`optik.task.task_rows`) the program's.
+            lower: (dof,) lower bound of ``q`` (the query's box), rad or m.
+            upper: (dof,) upper bound of ``q``.
+        """
+        lo, hi, target_view, task_view = self._task_views
+        lo[:] = lower
+        hi[:] = upper
+        target_view[:] = target
+        task_view[:] = task
 
     def fill(
         self,
@@ -608,33 +736,20 @@ class StepArrays:
         )
 
     def take(
-        self,
-        x: FloatArray,
-        target: FloatArray,
-        task: FloatArray,
-        q_new: FloatArray,
-        e_new: FloatArray,
-        scratch: FloatArray,
+        self, x: FloatArray, q_new: FloatArray, e_new: FloatArray
     ) -> tuple[float, float, float]:
         """:func:`take_step`: the point ``x`` applied at :attr:`q`, the task measured."""
-        return take_step(
-            self._const,
-            self._const_layout,
-            self._ints,
-            self._buf,
-            self._layout,
-            x,
-            self._identity,
-            target,
-            task,
-            q_new,
-            e_new,
-            scratch,
-        )
+        return take_step(*self.buffers, x, q_new, e_new)
 
     def program(self) -> DiffIKProgram:
-        """The filled program as a :class:`DiffIKProgram` (copies of the arrays)."""
+        """The filled program as a :class:`DiffIKProgram` (copies of the arrays).
+
+        Raises:
+            OptikError: some joints are not moving (the program is not of every joint).
+        """
         n = self.dof
+        if self.nv != n:
+            raise OptikError(f"program() needs every joint moving, not only joints {self.moving}")
         bounded = bool(np.any(np.isfinite(self.lb)) or np.any(np.isfinite(self.ub)))
         lb = self.lb.copy() if bounded else None
         ub = self.ub.copy() if bounded else None
@@ -663,11 +778,21 @@ def _per_robot(robot: Robot) -> dict[tuple[Any, ...], StepArrays]:
     return {}
 
 
-def step_arrays(robot: Robot, rows: tuple[int, ...], objective: Objective) -> StepArrays:
-    """The calling thread's :class:`StepArrays` of this robot and task shape (cached)."""
+def step_arrays(
+    robot: Robot,
+    rows: tuple[int, ...],
+    objective: Objective,
+    moving: tuple[int, ...] | None = None,
+) -> StepArrays:
+    """The calling thread's :class:`StepArrays` of this robot and task shape (cached).
+
+    ``moving=None`` gives the plain programs of :func:`optik.diff_ik` (every joint, the joint
+    limits, the world frame: never :meth:`StepArrays.set_task`); a tuple of joints gives
+    arrays of their own, for the IK loop that sets its task on them.
+    """
     per_robot = robot.cached(_per_robot)
-    key = (threading.get_ident(), rows, objective)
+    key = (threading.get_ident(), rows, objective, moving)
     arrays = per_robot.get(key)
     if arrays is None:
-        arrays = per_robot[key] = StepArrays(robot, rows, objective)
+        arrays = per_robot[key] = StepArrays(robot, rows, objective, moving)
     return arrays
