@@ -21,6 +21,12 @@ from optik.model import Robot
 DEFAULT_RESTARTS = 100
 """Restarts after the first attempt when neither ``restarts`` nor ``timeout_s`` is given."""
 
+FROZEN_RESTARTS = 300
+"""Default ``restarts`` of a query with frozen joints: the narrowed arm's answers are
+rarer and the seed table's entries, clipped onto the frozen values, start farther from
+them (measured: of 500 random reachable Panda targets with joint 3 frozen, one needed 114
+restarts)."""
+
 UNLIMITED_RESTARTS = 2**62
 """The restart budget within a finite ``timeout_s`` when ``restarts`` is not given."""
 

@@ -40,6 +40,7 @@ from optik._checks import (
 )
 from optik._ik_options import (
     DEFAULT_RESTARTS,
+    FROZEN_RESTARTS,
     MAX_ITERATIONS,
     MAX_SEED,
     UNLIMITED_RESTARTS,
@@ -271,7 +272,8 @@ def solve_ik(
             (the restart budget then stays :data:`DEFAULT_RESTARTS`). Time spent compiling
             numba kernels (a first call in a fresh environment) is not counted;
             ``IKResult.time_s`` is the wall time, compilation included.
-        restarts: attempts after the first (default: :data:`DEFAULT_RESTARTS` without a
+        restarts: attempts after the first (default: :data:`DEFAULT_RESTARTS`, or
+            :data:`~optik._ik_options.FROZEN_RESTARTS` with frozen joints, without a
             finite timeout, unlimited within one).
         seed: seed of the restart sequence, 0 to 2**63 - 1 (results are deterministic
             for a seed, and the same with and without ``timeout_s`` until it cuts the run
@@ -518,7 +520,9 @@ def _plan(
     if restarts is not None:
         last = int(restarts)
     else:
-        last = UNLIMITED_RESTARTS if math.isfinite(deadline) else DEFAULT_RESTARTS
+        frozen_any = bounds is not None and bool(np.any(bounds[0] == bounds[1]))
+        default = FROZEN_RESTARTS if frozen_any else DEFAULT_RESTARTS
+        last = UNLIMITED_RESTARTS if math.isfinite(deadline) else default
 
     def plan(
         starts_given: list[FloatArray],

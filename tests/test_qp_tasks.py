@@ -45,6 +45,7 @@ class Case:
     orientation: str = "full"
     frozen_joint: int | None = None  # this joint is frozen at the sampled value
     margin: float = 0.0
+    posture: bool = False  # a random in-limit posture q_ref
 
 
 CASES = (
@@ -60,6 +61,8 @@ CASES = (
     Case("margin", {"limit_margin": MARGIN}, margin=MARGIN),
 )
 CASE_IDS = tuple(case.name for case in CASES)
+DEFAULT_CASES = (*CASES, Case("posture", posture=True))
+"""What solve_ik's default solver (``auto``) is checked on: every case, and a posture."""
 
 
 def _robot(name: str) -> optik.Robot:
@@ -82,6 +85,8 @@ def _query(
         T[:3, :3] = T[:3, :3] @ _rot_z(rng.uniform(-math.pi, math.pi))
     if case.frozen_joint is not None:
         kwargs["frozen"] = {robot.joint_names[case.frozen_joint]: float(q[case.frozen_joint])}
+    if case.posture:
+        kwargs["posture"] = rng.uniform(robot.lower, robot.upper)
     return T, kwargs
 
 
@@ -221,4 +226,13 @@ def test_qp_bad_task_input_is_named(kwargs: dict[str, Any], field_name: str) -> 
 @pytest.mark.parametrize("case", CASES, ids=CASE_IDS)
 def test_qp_daqp_success_rate(robot_name: str, case: Case) -> None:
     rate, failures = _success_rate("qp:daqp", robot_name, case, 500, SEED + 7)
+    assert rate >= 0.999, failures
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("robot_name", ROBOTS)
+@pytest.mark.parametrize("case", DEFAULT_CASES, ids=[case.name for case in DEFAULT_CASES])
+def test_default_solver_success_rate(robot_name: str, case: Case) -> None:
+    """The issue's criterion for ``solve_ik`` itself: >= 99.9 % of 500 reachable targets."""
+    rate, failures = _success_rate("auto", robot_name, case, 500, SEED + 11)
     assert rate >= 0.999, failures
