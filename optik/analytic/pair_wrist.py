@@ -101,6 +101,7 @@ def pair_wrist_candidates(
     ref: np.ndarray,
     tols: np.ndarray,
     cand: np.ndarray,
+    lsq: np.ndarray,
 ) -> int:
     """Raw branches of the pair-elbow-wrist closed form into ``cand`` (>= 8, 6).
 
@@ -112,6 +113,7 @@ def pair_wrist_candidates(
         ref: (6,) reference angles for free joints (rad).
         tols: the tolerance block of :mod:`optik.analytic._compiled`.
         cand: output rows (joint angles, rad, not wrapped).
+        lsq: (3, 6, 6) scratch of :func:`refine` (the caller allocates it once).
 
     Returns:
         The number of rows written (0 to 8), in the order of the module docstring.
@@ -167,7 +169,7 @@ def pair_wrist_candidates(
                     cand[n, 3] = t4
                     cand[n, 4] = t5
                     cand[n, 5] = t6
-                    refine(z, p, M, T, cand, n)
+                    refine(z, p, M, T, cand, n, lsq)
                     n += 1
     return n
 
@@ -235,7 +237,13 @@ def _pose_error(
 
 @_jit
 def refine(
-    z: np.ndarray, p: np.ndarray, M: np.ndarray, T: np.ndarray, cand: np.ndarray, r: int
+    z: np.ndarray,
+    p: np.ndarray,
+    M: np.ndarray,
+    T: np.ndarray,
+    cand: np.ndarray,
+    r: int,
+    lsq: np.ndarray,
 ) -> None:
     """One Newton step of ``cand[r]`` towards ``T`` on the product of exponentials.
 
@@ -243,10 +251,13 @@ def refine(
     digits) make the closed form exact to about 1e-12; near a singularity that error is
     magnified in the joints that the singularity couples. One damped least-squares step
     (:data:`REFINE_DAMPING`) restores the branch to rounding. It is kept only when it is
-    small (:data:`REFINE_MAX_STEP`) and lowers the error.
+    small (:data:`REFINE_MAX_STEP`) and lowers the error. ``lsq`` (3, 6, 6) is scratch:
+    the Jacobian, the normal matrix, and the configuration and step in its last block.
     """
-    J = np.empty((6, 6))
-    q = np.empty(6)
+    J = lsq[0]
+    A = lsq[1]
+    q = lsq[2, 0]
+    b = lsq[2, 1]
     for i in range(6):
         q[i] = cand[r, i]
     e = _pose_error(z, p, M, T, q, J)
@@ -255,8 +266,6 @@ def refine(
         return
     # Damped normal equations (J^T J + lambda^2 I) dq = J^T e, solved by Gaussian
     # elimination (the matrix is symmetric positive definite: no pivoting needed).
-    A = np.empty((6, 6))
-    b = np.empty(6)
     for i in range(6):
         acc = 0.0
         for m in range(6):
