@@ -39,11 +39,15 @@ import numpy as np
 
 from optik._math import _SINCOS_RANGE, _sincos_core, mod_two_pi, pose_defect, sincos
 from optik.analytic._compiled import (
+    AT_AXES,
     AT_BASE_INV,
     AT_CHAIN,
     AT_DH,
     AT_FAMILY,
+    AT_FLIPPED,
     AT_LOWER,
+    AT_REFINE,
+    AT_SENSES,
     AT_TOLS,
     AT_TOOL_INV,
     AT_UPPER,
@@ -62,6 +66,7 @@ from optik.analytic._compiled import (
     UR,
     mul3tn,
 )
+from optik.analytic.pair_wrist import refine
 from optik.analytic.spherical_wrist import spherical_wrist_candidates
 from optik.analytic.ur import ur_candidates
 
@@ -95,6 +100,66 @@ def candidates(
     if family == UR:
         return ur_candidates(dh, T, ref, kr, tols, cand)
     return 0
+
+
+@_jit
+def robot_candidates(
+    params: np.ndarray,
+    dh: np.ndarray,
+    T: np.ndarray,
+    k: int,
+    T0: np.ndarray,
+    ref: np.ndarray,
+    kr: int,
+    rows: np.ndarray,
+) -> int:
+    """Raw branches of the robot's family, in the robot's joint variables, into ``rows``.
+
+    :func:`candidates` on the table (``dh``, the (6, 8) block of ``params``; flange
+    target ``T0`` in its frame 0); a table
+    variable that is ``-q`` (``params[AT_FLIPPED]``) has its reference and branches
+    turned, and a table that is not exact has each branch refined towards the world
+    target ``T[k]`` (:func:`refine_rows`).
+    """
+    family = int(params[AT_FAMILY])
+    tols = params[AT_TOLS:]
+    if params[AT_FLIPPED] != 0.0:
+        turned = np.empty((1, DOF))
+        for j in range(DOF):
+            turned[0, j] = params[AT_SENSES + j] * ref[kr, j]
+        n = candidates(family, dh, T0, turned, 0, tols, rows)
+        for r in range(n):
+            for j in range(DOF):
+                rows[r, j] *= params[AT_SENSES + j]
+    else:
+        n = candidates(family, dh, T0, ref, kr, tols, rows)
+    if params[AT_REFINE] != 0.0:
+        refine_rows(params, T, k, rows, n)
+    return n
+
+
+@_jit
+def refine_rows(params: np.ndarray, T: np.ndarray, k: int, rows: np.ndarray, n: int) -> None:
+    """One Newton step of each raw branch ``rows[:n]`` towards ``T[k]`` on the robot's axes.
+
+    For a table that is not exact (``params[AT_REFINE]``, see
+    :data:`optik.analytic.geometry.NEAR_FK_TOL`): the closed form solved the ideal arm,
+    and :func:`optik.analytic.pair_wrist.refine` on the robot's own joint axes (the
+    product of exponentials, world frame) restores each branch to rounding.
+    """
+    z = np.empty((DOF, 3))
+    p = np.empty((DOF, 3))
+    M = np.empty((4, 4))
+    for i in range(DOF):
+        for a in range(3):
+            z[i, a] = params[AT_AXES + 3 * i + a]
+            p[i, a] = params[AT_AXES + 3 * DOF + 3 * i + a]
+    for a in range(4):
+        for b in range(4):
+            M[a, b] = params[AT_AXES + 6 * DOF + 4 * a + b]
+    lsq = np.empty((3, DOF, DOF))
+    for r in range(n):
+        refine(z, p, M, T[k], rows, r, lsq)
 
 
 @_inline
@@ -460,7 +525,7 @@ def solve(params: np.ndarray, T: np.ndarray, ref: np.ndarray, flags: int, out: n
     rows = flat.reshape((3 * MAX_BRANCHES, DOF))
     _transform_target(params, T1, 0, T0)
     dh = params[AT_DH:AT_LOWER].reshape((DOF, NCOL))
-    n = candidates(int(params[AT_FAMILY]), dh, T0, ref1, 0, params[AT_TOLS:], rows)
+    n = robot_candidates(params, dh, T1, 0, T0, ref1, 0, rows)
     sort = (flags & SORT) != 0
     within = (flags & WITHIN_LIMITS) != 0
     return _postprocess(params, T1, 0, ref1, 0, sort, within, rows, flat, n, pre, out[None])
@@ -487,9 +552,7 @@ def solve_batch(
     shared = ref.shape[0] == 1
     sort = (flags & SORT) != 0
     within = (flags & WITHIN_LIMITS) != 0
-    family = int(params[AT_FAMILY])
     dh = params[AT_DH:AT_LOWER].reshape((DOF, NCOL))
-    tols = params[AT_TOLS:]
     T0 = np.empty((4, 4))
     pre = np.empty((DOF + 2, 12))
     flat = np.empty(3 * MAX_BRANCHES * DOF)
@@ -499,7 +562,7 @@ def solve_batch(
     for k in range(N):
         kr = 0 if shared else k
         _transform_target(params, T, k, T0)
-        n = candidates(family, dh, T0, ref, kr, tols, rows)
+        n = robot_candidates(params, dh, T, k, T0, ref, kr, rows)
         m = _postprocess(params, T, k, ref, kr, sort, within, rows, flat, n, pre, Q)
         counts[k] = m
         for r in range(m, MAX_BRANCHES):

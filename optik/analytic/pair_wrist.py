@@ -181,6 +181,9 @@ moved, so a free angle keeps its reference."""
 REFINE_MAX_STEP = 1e-4
 """Largest correction (rad) :func:`refine` applies: a larger one means an ill-posed
 system, and the closed form's values are kept."""
+REFINE_TRUSTED_STEP = 1e-8
+"""A correction up to this (rad) is kept without recomputing the error: the damped step
+never raises the linearised error, and the rest is second order (about 1e-16)."""
 
 
 @_jit
@@ -251,7 +254,8 @@ def refine(
     digits) make the closed form exact to about 1e-12; near a singularity that error is
     magnified in the joints that the singularity couples. One damped least-squares step
     (:data:`REFINE_DAMPING`) restores the branch to rounding. It is kept only when it is
-    small (:data:`REFINE_MAX_STEP`) and lowers the error. ``lsq`` (3, 6, 6) is scratch:
+    small (:data:`REFINE_MAX_STEP`) and lowers the error (checked unless it is tiny,
+    :data:`REFINE_TRUSTED_STEP`). ``lsq`` (3, 6, 6) is scratch:
     the Jacobian, the normal matrix, and the configuration and step in its last block.
     """
     J = lsq[0]
@@ -288,15 +292,19 @@ def refine(
         for j in range(col + 1, 6):
             acc -= A[col, j] * b[j]
         b[col] = acc / A[col, col]
+    step = 0.0
     for i in range(6):
         if not abs(b[i]) <= REFINE_MAX_STEP:
             return
+        step = max(step, abs(b[i]))
         q[i] += b[i]
-    e = _pose_error(z, p, M, T, q, J)
-    after = max(abs(e[0]), abs(e[1]), abs(e[2]), abs(e[3]), abs(e[4]), abs(e[5]))
-    if after < before:
-        for i in range(6):
-            cand[r, i] = q[i]
+    if step > REFINE_TRUSTED_STEP:
+        e = _pose_error(z, p, M, T, q, J)
+        after = max(abs(e[0]), abs(e[1]), abs(e[2]), abs(e[3]), abs(e[4]), abs(e[5]))
+        if not after < before:
+            return
+    for i in range(6):
+        cand[r, i] = q[i]
 
 
 # ---------------------------------------------------------------------- the structure
