@@ -47,6 +47,7 @@ from optik.analytic._base import (
     VERIFY_TOLERANCE,
     WRIST_SINGULAR,
     AnalyticFamily,
+    fit_model,
     is_right_angle,
     table_target,
 )
@@ -246,18 +247,29 @@ class CompiledFamily(AnalyticFamily):
     The table is the robot's own standard DH rows when they have the family's structure,
     else the equivalent table built from its joint axes (:func:`fit_model`). A subclass
     names its pipeline id (``kernel``), its closed form (``closed_form``, a
-    :data:`CandidateKernel`), how it fits a robot (:meth:`fit`) and what :meth:`model`
-    says of one that does not (``mismatch``, formatted with the robot's ``name``).
+    :data:`CandidateKernel`), the test of a DH table it solves (``rows_test``: ``None`` or
+    why the table does not fit), the twist signs its table wants (``twist_signs``, see
+    :func:`optik.analytic.geometry.equivalent_dh`) and what :meth:`model` says of a robot
+    that does not fit (``mismatch``, formatted with the robot's ``name``).
     """
 
     modes = ("pose",)
     closed_form: ClassVar[CandidateKernel]
+    twist_signs: ClassVar[tuple[int, ...]] = ()
     mismatch: ClassVar[str] = "robot {name!r} does not fit the family"
 
     @staticmethod
     @abstractmethod
-    def fit(robot: Robot) -> DHModel | str:
-        """The family's table of ``robot``, or why there is none (the robot caches it)."""
+    def rows_test(rows: tuple[DHJoint, ...]) -> str | None:
+        """``None`` when a DH table has the family's structure, else why not."""
+
+    def fit(self, robot: Robot) -> DHModel | str:
+        """The family's table of ``robot``, or why there is none (the robot caches it).
+
+        :func:`optik.analytic._base.fit_model` with the family's ``rows_test`` and
+        ``twist_signs``.
+        """
+        return fit_model(robot, self.rows_test, self.twist_signs)
 
     def fits(self, robot: Robot) -> bool:
         """Whether the structure holds, in the robot's DH rows or in its joint axes."""

@@ -463,26 +463,24 @@ def postprocess_rows(
     return m
 
 
-@_jit
-def _postprocess(
-    params: np.ndarray,
-    T: np.ndarray,
-    k: int,
-    ref: np.ndarray,
-    kr: int,
-    sort: bool,
-    within: bool,
-    rows: np.ndarray,
-    flat: np.ndarray,
-    n: int,
-    pre: np.ndarray,
-    Q: np.ndarray,
-) -> int:
-    """:func:`postprocess_rows` for the six-joint families (:data:`SIX_JOINT_LAYOUT`)."""
-    return postprocess_rows(
-        params, SIX_JOINT_LAYOUT, DOF, -1, 0.0, T, k, ref, kr, sort, within, rows, flat, n,
-        pre, Q,
-    )  # fmt: skip
+@_inline
+def work_rows(dof: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Scratch of :func:`postprocess_rows` for ``dof`` joints: ``(pre, flat, rows)``.
+
+    ``pre`` (dof + 2, 12) for the FK, ``rows`` (24, dof) for the raw branches and their
+    sines and cosines, ``flat`` the same memory seen flat. Made once per call or batch.
+    """
+    pre = np.empty((dof + 2, 12))
+    flat = np.empty(3 * MAX_BRANCHES * dof)
+    return pre, flat, flat.reshape((3 * MAX_BRANCHES, dof))
+
+
+@_inline
+def pad_rows(Q: np.ndarray, k: int, m: int) -> None:
+    """Fill the rows of ``Q[k]`` past its ``m`` branches with NaN."""
+    for r in range(m, Q.shape[1]):
+        for j in range(Q.shape[2]):
+            Q[k, r, j] = np.nan
 
 
 SORT = 1
@@ -520,15 +518,16 @@ def solve(params: np.ndarray, T: np.ndarray, ref: np.ndarray, flags: int, out: n
     # Scratch (a reshape is a C call: the per-pose path indexes instead), then the steps.
     ref1 = ref[None]
     T0 = np.empty((4, 4))
-    pre = np.empty((DOF + 2, 12))
-    flat = np.empty(3 * MAX_BRANCHES * DOF)
-    rows = flat.reshape((3 * MAX_BRANCHES, DOF))
+    pre, flat, rows = work_rows(DOF)
     _transform_target(params, T1, 0, T0)
     dh = params[AT_DH:AT_LOWER].reshape((DOF, NCOL))
     n = robot_candidates(params, dh, T1, 0, T0, ref1, 0, rows)
     sort = (flags & SORT) != 0
     within = (flags & WITHIN_LIMITS) != 0
-    return _postprocess(params, T1, 0, ref1, 0, sort, within, rows, flat, n, pre, out[None])
+    return postprocess_rows(
+        params, SIX_JOINT_LAYOUT, DOF, -1, 0.0, T1, 0, ref1, 0, sort, within, rows, flat, n,
+        pre, out[None],
+    )  # fmt: skip
 
 
 @_jit
@@ -554,18 +553,16 @@ def solve_batch(
     within = (flags & WITHIN_LIMITS) != 0
     dh = params[AT_DH:AT_LOWER].reshape((DOF, NCOL))
     T0 = np.empty((4, 4))
-    pre = np.empty((DOF + 2, 12))
-    flat = np.empty(3 * MAX_BRANCHES * DOF)
-    rows = flat.reshape((3 * MAX_BRANCHES, DOF))
+    pre, flat, rows = work_rows(DOF)
     Q = np.empty((N, MAX_BRANCHES, DOF))
     counts = np.zeros(N, dtype=np.int64)
     for k in range(N):
         kr = 0 if shared else k
         _transform_target(params, T, k, T0)
         n = robot_candidates(params, dh, T, k, T0, ref, kr, rows)
-        m = _postprocess(params, T, k, ref, kr, sort, within, rows, flat, n, pre, Q)
-        counts[k] = m
-        for r in range(m, MAX_BRANCHES):
-            for j in range(DOF):
-                Q[k, r, j] = np.nan
+        counts[k] = postprocess_rows(
+            params, SIX_JOINT_LAYOUT, DOF, -1, 0.0, T, k, ref, kr, sort, within, rows, flat,
+            n, pre, Q,
+        )  # fmt: skip
+        pad_rows(Q, k, counts[k])
     return Q, counts

@@ -37,7 +37,14 @@ from optik.analytic._compiled import (
     TOL_ROTATION,
     tolerance_block,
 )
-from optik.analytic._pipeline import SORT, WITHIN_LIMITS, Layout, postprocess_rows
+from optik.analytic._pipeline import (
+    SORT,
+    WITHIN_LIMITS,
+    Layout,
+    pad_rows,
+    postprocess_rows,
+    work_rows,
+)
 from optik.analytic._subproblems import Vec3, apply, rotation, sub
 from optik.analytic.geometry import Axes, joint_axes, revolute_chain_reason
 from optik.analytic.pair_wrist import pair_wrist_candidates, structure_reason
@@ -344,9 +351,7 @@ def solve(
     for j in range(FREE_DOF):
         ref1[0, j] = ref[j]
     ref1[0, k] = value
-    pre = np.empty((FREE_DOF + 2, 12))
-    flat = np.empty(3 * MAX_BRANCHES * FREE_DOF)
-    rows = flat.reshape((3 * MAX_BRANCHES, FREE_DOF))
+    pre, flat, rows = work_rows(FREE_DOF)
     n = _candidates_into(params, value, T, ref1[0], rows, _scratch())
     return postprocess_rows(
         params, FREE_LAYOUT, FREE_DOF, k, value, T1, 0, ref1, 0, (flags & SORT) != 0,
@@ -376,9 +381,7 @@ def solve_batch(
     within = (flags & WITHIN_LIMITS) != 0
     work = _scratch()
     refs = np.empty((1, FREE_DOF))
-    pre = np.empty((FREE_DOF + 2, 12))
-    flat = np.empty(3 * MAX_BRANCHES * FREE_DOF)
-    rows = flat.reshape((3 * MAX_BRANCHES, FREE_DOF))
+    pre, flat, rows = work_rows(FREE_DOF)
     Q = np.empty((N, MAX_BRANCHES, FREE_DOF))
     counts = np.zeros(N, dtype=np.int64)
     for i in range(N):
@@ -388,14 +391,11 @@ def solve_batch(
             refs[0, j] = ref[kr, j]
         refs[0, k] = value
         n = _candidates_into(params, value, T[i], refs[0], rows, work)
-        m = postprocess_rows(
+        counts[i] = postprocess_rows(
             params, FREE_LAYOUT, FREE_DOF, k, value, T, i, refs, 0, sort, within, rows, flat,
             n, pre, Q,
         )  # fmt: skip
-        counts[i] = m
-        for r in range(m, MAX_BRANCHES):
-            for j in range(FREE_DOF):
-                Q[i, r, j] = np.nan
+        pad_rows(Q, i, counts[i])
     return Q, counts
 
 
