@@ -469,7 +469,9 @@ def _free_joint_ik(
     """
     plan, within = _free_query(robot, mode, within_limits, free_joint_name, free_value)
     value = check_real("free_value", free_value)
-    _check_held_values(robot, plan.held, np.array([value]))
+    lower, upper = robot.lower[plan.held], robot.upper[plan.held]
+    if not lower - LIMIT_TOLERANCE <= value <= upper + LIMIT_TOLERANCE:  # plain floats: fast
+        _check_held_values(robot, plan.held, np.array([value]))  # raises, naming the joint
     if (
         type(target) is not np.ndarray
         or target.shape != _SHAPE_4x4
