@@ -171,7 +171,7 @@ def test_fk_shared_prefix_is_fk_into_bit_for_bit(rng: np.random.Generator) -> No
             block[r] = q
             block[_compiled.MAX_BRANCHES + r] = [math.sin(v) for v in q]
             block[2 * _compiled.MAX_BRANCHES + r] = [math.cos(v) for v in q]
-            depth = _pipeline._fk_shared(params, block, r, pre, depth)
+            depth = _pipeline.fk_shared(params, _pipeline.SIX_JOINT_LAYOUT, block, r, pre, depth)
             _kernels.fk_into(K, prismatic, q, out)
             np.testing.assert_array_equal(pre[n], out[:3].reshape(-1))
 
@@ -198,7 +198,7 @@ def test_inline_sincos_is_within_one_ulp_of_libm(rng: np.random.Generator) -> No
         chunk = x[start : start + 6 * m]
         rows = -(-len(chunk) // 6)
         block[:rows] = np.resize(chunk, (rows, 6))  # pads the last row by repetition
-        _pipeline._sincos_block(block.reshape(-1), rows * 6)
+        _pipeline.sincos_block(block.reshape(-1), rows * 6, 6)
         S[start : start + len(chunk)] = block[m : m + rows].reshape(-1)[: len(chunk)]
         C[start : start + len(chunk)] = block[2 * m : 2 * m + rows].reshape(-1)[: len(chunk)]
     finite = np.isfinite(x)

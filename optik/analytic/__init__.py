@@ -66,7 +66,6 @@ _SHAPE_OUT = (_compiled.MAX_BRANCHES, _compiled.DOF)
 _SORT = _pipeline.SORT
 _WITHIN_LIMITS = _pipeline.WITHIN_LIMITS
 _solve = _pipeline.solve
-_TOLERANCES = _compiled.tolerance_block()
 
 __all__ = [
     "FAMILIES",
@@ -402,8 +401,8 @@ def _free_plan(robot: Robot, k: int) -> free_joint.FreeJointPlan:
     return plans[k]
 
 
-def _held_joint(robot: Robot, free_joint: Any, free_value: Any) -> tuple[int, float]:
-    """The held joint's index and value, checked (the errors of :func:`analytic_ik`)."""
+def _held_index(robot: Robot, free_joint: Any, free_value: Any) -> int:
+    """The held joint's index, checked with ``free_value``'s presence (:func:`analytic_ik`)."""
     names = robot.joint_names
     if not isinstance(free_joint, str) or free_joint not in names:
         raise OptikError(
@@ -412,15 +411,46 @@ def _held_joint(robot: Robot, free_joint: Any, free_value: Any) -> tuple[int, fl
         )
     if free_value is None:
         raise OptikError(f"free_value is required with free_joint={free_joint!r}")
-    value = check_real("free_value", free_value)
-    k = names.index(free_joint)
+    return names.index(free_joint)
+
+
+def _check_held_values(robot: Robot, k: int, values: FloatArray) -> None:
+    """Every held value inside joint ``k``'s limits (finite already), else the first named."""
     lower, upper = float(robot.lower[k]), float(robot.upper[k])
-    if not lower - LIMIT_TOLERANCE <= value <= upper + LIMIT_TOLERANCE:
+    outside = np.flatnonzero(
+        ~((values >= lower - LIMIT_TOLERANCE) & (values <= upper + LIMIT_TOLERANCE))
+    )
+    if len(outside):
+        i = int(outside[0])
+        where = "" if values.ndim == 0 or len(values) == 1 else f"[{i}]"
         raise OptikError(
-            f"free_value = {value!r} is outside the limits of joint {free_joint!r} "
-            f"[{lower!r}, {upper!r}]"
+            f"free_value{where} = {float(values.reshape(-1)[i])!r} is outside the limits of "
+            f"joint {robot.joint_names[k]!r} [{lower!r}, {upper!r}]"
         )
-    return k, value
+
+
+def _free_query(
+    robot: Any, mode: Any, within_limits: Any, free_joint_name: Any, free_value: Any
+) -> tuple[free_joint.FreeJointPlan, bool]:
+    """The held joint's plan and ``within_limits``, checked.
+
+    The errors of :func:`analytic_ik` with ``free_joint``, except the held value's own
+    (its caller checks one value or a batch of them).
+    """
+    _check_robot(robot)
+    within = _check_within(within_limits)
+    if free_joint_name is None:
+        raise OptikError("free_value is given without free_joint (the joint to hold)")
+    k = _held_index(robot, free_joint_name, free_value)
+    if not isinstance(mode, str) or mode != "pose":
+        raise AnalyticIKError(f"with free_joint, mode must be 'pose', got {mode!r}")
+    plan = _free_plan(robot, k)
+    if plan.reason:
+        raise AnalyticIKError(
+            f"robot {robot.name!r} with joint {free_joint_name!r} held has no closed form: "
+            f"{plan.reason}"
+        )
+    return plan, within
 
 
 def _free_joint_ik(
@@ -432,31 +462,62 @@ def _free_joint_ik(
     free_joint_name: Any,
     free_value: Any,
 ) -> list[FloatArray]:
-    """:func:`analytic_ik` with one joint held (:mod:`optik.analytic.free_joint`)."""
-    _check_robot(robot)
-    within = _check_within(within_limits)
-    if free_joint_name is None:
-        raise OptikError("free_value is given without free_joint (the joint to hold)")
-    k, value = _held_joint(robot, free_joint_name, free_value)
-    if not isinstance(mode, str) or mode != "pose":
-        raise AnalyticIKError(f"with free_joint, mode must be 'pose', got {mode!r}")
-    plan = _free_plan(robot, k)
-    if plan.reason:
-        raise AnalyticIKError(
-            f"robot {robot.name!r} with joint {free_joint_name!r} held has no closed form: "
-            f"{plan.reason}"
-        )
-    T_target = _plain(as_target_pose(target, "pose"))
-    sort = q_ref is not None
-    ref = np.array(robot.mid_limits if q_ref is None else _check_ref(robot, q_ref), dtype=float)
-    ref[k] = value
+    """:func:`analytic_ik` with one joint held (:mod:`optik.analytic.free_joint`).
+
+    One compiled call (:func:`optik.analytic.free_joint.solve`) in the usual case; a
+    target without a branch goes through :func:`_free_joint_fallback`.
+    """
+    plan, within = _free_query(robot, mode, within_limits, free_joint_name, free_value)
+    value = check_real("free_value", free_value)
+    lower, upper = robot.lower[plan.held], robot.upper[plan.held]
+    if not lower - LIMIT_TOLERANCE <= value <= upper + LIMIT_TOLERANCE:  # plain floats: fast
+        _check_held_values(robot, plan.held, np.array([value]))  # raises, naming the joint
+    if (
+        type(target) is not np.ndarray
+        or target.shape != _SHAPE_4x4
+        or target.dtype != _F64
+        or not target.flags.carray
+    ):
+        target = _plain(as_target_pose(target, "pose"))
+    if q_ref is None:
+        ref = robot.mid_limits
+        flags = 0
+    else:
+        ref = _plain(_check_ref(robot, q_ref))
+        flags = _SORT
+    if within:
+        flags |= _WITHIN_LIMITS
+    out = np.empty((_compiled.MAX_BRANCHES, free_joint.FREE_DOF))
+    n = free_joint.solve(plan.params, target, ref, value, flags, out)
+    if n > 0:
+        return [out[i] for i in range(n)]
+    if n < 0:
+        _raise_input_error(robot, target, q_ref, n)
+    return _free_joint_fallback(robot, plan, value, target, ref, q_ref is not None, within)
+
+
+def _free_joint_fallback(
+    robot: Robot,
+    plan: free_joint.FreeJointPlan,
+    value: float,
+    T_target: FloatArray,
+    ref: FloatArray,
+    sort: bool,
+    within: bool,
+) -> list[FloatArray]:
+    """A held-joint target on which the compiled call found no branch (numpy steps).
+
+    Beyond the reach: none (a proof). Else the raw candidates and the reference are
+    polished (rounding at a degenerate pose), and when branches exist only outside the
+    limits, other references are tried for the angles a singularity leaves free.
+    """
     if _beyond_reach(robot, T_target):
         return []
+    k = plan.held
+    ref = np.array(ref, dtype=float)
+    ref[k] = value
     held = (k, value)
     raw = _free_joint_raw(plan, value, T_target, ref)
-    branches = _finish(robot, raw, T_target, "pose", ref, sort, within, held)
-    if branches:
-        return branches
     polished = polish(robot, T_target, "pose", [*raw, ref], 0.1 * VERIFY_TOLERANCE, held=k)
     branches = _finish(robot, polished, T_target, "pose", ref, sort, within, held)
     if branches or not within or not _finish(robot, raw, T_target, "pose", ref, False, False, held):
@@ -485,18 +546,7 @@ def _free_joint_raw(
 ) -> list[FloatArray]:
     """The raw branches of the held-joint closed form (free angles at ``ref``)."""
     cand = np.empty((_compiled.MAX_BRANCHES, len(ref)))
-    n = free_joint.free_joint_candidates(
-        plan.directions,
-        plan.points,
-        plan.tool,
-        plan.held,
-        value,
-        plan.reverse,
-        T_target,
-        ref,
-        _TOLERANCES,
-        cand,
-    )
+    n = free_joint.free_joint_candidates(plan.params, value, T_target, _plain(ref), cand)
     return list(cand[:n])
 
 
@@ -581,6 +631,8 @@ def analytic_ik_batch(
     mode: str = "pose",
     q_ref: Any = None,
     within_limits: bool = True,
+    free_joint: str | None = None,
+    free_value: Any = None,
 ) -> AnalyticBatch:
     """:func:`analytic_ik` over a batch of targets, in one compiled loop where possible.
 
@@ -599,29 +651,34 @@ def analytic_ik_batch(
             (dof,) for every target, or one per target (N, dof); with a reference the
             branches are sorted by their distance to it.
         within_limits: drop branches outside the joint limits (default).
+        free_joint: for a seven-joint arm, the joint held (as in :func:`analytic_ik`);
+            the batch is then one call of :func:`optik.analytic.free_joint.solve_batch`.
+        free_value: the held joint's value (rad): one for every target, or (N,) one per
+            target; each inside the joint's limits.
 
     Returns:
         An :class:`AnalyticBatch` ``(q, counts)``: ``q`` (N, B, dof) NaN-padded branches,
         ``counts`` (N,).
 
     Raises:
-        AnalyticIKError: the robot has no family, or the family does not solve ``mode``.
-        ShapeError: ``targets`` or ``q_ref`` has the wrong shape.
-        NonFiniteError: a NaN or infinite entry in ``targets`` or ``q_ref``.
+        AnalyticIKError: the robot has no family, or the family does not solve ``mode``;
+            with ``free_joint``, as :func:`analytic_ik`.
+        ShapeError: ``targets``, ``q_ref`` or ``free_value`` has the wrong shape.
+        NonFiniteError: a NaN or infinite entry in ``targets``, ``q_ref`` or
+            ``free_value``.
         InvalidRotationError: a target whose rotation is not proper (first one named).
+        OptikError: an unknown ``free_joint``; a ``free_value`` missing or outside the
+            joint's limits (the first such target named).
     """
+    if free_joint is not None or free_value is not None:
+        plan, within = _free_query(robot, mode, within_limits, free_joint, free_value)
+        return _free_joint_batch(robot, plan, targets, q_ref, within, free_value)
     family = _check_mode(robot, mode)
     within_limits = _check_within(within_limits)
     T = _batch_targets(targets, mode)
     N = T.shape[0]
     dof = robot.dof
-    if q_ref is None:
-        refs: FloatArray | None = None
-    else:
-        refs = finite_array("q_ref", q_ref, (dof,), batch=True)
-        refs = refs.reshape(1, dof) if refs.ndim == 1 else refs
-        if refs.shape[0] not in (1, N):
-            raise ShapeError("q_ref", f"({dof},) or ({N}, {dof})", refs.shape)
+    refs = _batch_refs(robot, q_ref, N)
     if family.kernel and mode == "pose":
         params = _compiled.params_of(robot, family.kernel)
         ref = _compiled.mid_limits(params).reshape(1, dof) if refs is None else _plain(refs)
@@ -654,6 +711,52 @@ def analytic_ik_batch(
         counts[k] = len(branches)
         if branches:
             Q[k, : len(branches)] = branches
+    return AnalyticBatch(Q, counts)
+
+
+def _batch_refs(robot: Robot, q_ref: Any, N: int) -> FloatArray | None:
+    """``q_ref`` of a batch of ``N`` targets as (1, dof) or (N, dof), or ``None``."""
+    if q_ref is None:
+        return None
+    dof = robot.dof
+    refs = finite_array("q_ref", q_ref, (dof,), batch=True)
+    refs = refs.reshape(1, dof) if refs.ndim == 1 else refs
+    if refs.shape[0] not in (1, N):
+        raise ShapeError("q_ref", f"({dof},) or ({N}, {dof})", refs.shape)
+    return refs
+
+
+def _free_joint_batch(
+    robot: Robot,
+    plan: free_joint.FreeJointPlan,
+    targets: Any,
+    q_ref: Any,
+    within: bool,
+    free_value: Any,
+) -> AnalyticBatch:
+    """:func:`analytic_ik_batch` with one joint held: one compiled loop.
+
+    The targets without a branch then go through :func:`_free_joint_fallback`, as in
+    single calls, so that each target gets what :func:`analytic_ik` gives it.
+    """
+    T = _batch_targets(targets, "pose")
+    N = T.shape[0]
+    refs = _batch_refs(robot, q_ref, N)
+    if np.ndim(free_value) == 0:
+        values = np.array([check_real("free_value", free_value)])
+    else:
+        values = finite_array("free_value", free_value, (N,))
+    _check_held_values(robot, plan.held, values)
+    ref = robot.mid_limits.reshape(1, -1) if refs is None else _plain(refs)
+    flags = (0 if refs is None else _SORT) | (_WITHIN_LIMITS if within else 0)
+    Q, counts = free_joint.solve_batch(plan.params, T, _plain(ref), _plain(values), flags)
+    for row in np.flatnonzero(counts == 0).tolist():
+        value = float(values[0 if len(values) == 1 else row])
+        ref_k = ref[0 if len(ref) == 1 else row]
+        found = _free_joint_fallback(robot, plan, value, T[row], ref_k, refs is not None, within)
+        for b, q in enumerate(found[: Q.shape[1]]):
+            Q[row, b] = q
+        counts[row] = min(len(found), Q.shape[1])
     return AnalyticBatch(Q, counts)
 
 

@@ -47,10 +47,11 @@ from optik.analytic._base import (
     VERIFY_TOLERANCE,
     WRIST_SINGULAR,
     AnalyticFamily,
+    fit_model,
     is_right_angle,
     table_target,
 )
-from optik.analytic.geometry import DHModel
+from optik.analytic.geometry import DHModel, joint_axes
 from optik.errors import AnalyticIKError
 from optik.limits import LIMIT_TOLERANCE
 from optik.spatial import ROTATION_TOLERANCE, invert_transform
@@ -94,7 +95,11 @@ AT_BASE_INV = AT_UPPER + DOF  # (4, 4) inverse of T_world_base, row-major
 AT_TOOL_INV = AT_BASE_INV + 16  # (4, 4) inverse of T_flange_tool, row-major
 AT_MID = AT_TOOL_INV + 16  # (6,) mid-limits (the default reference)
 AT_CHAIN = AT_MID + DOF  # (7, 3, 4) top rows of the robot's chain transforms _K (FK check)
-AT_TOLS = AT_CHAIN + 12 * (DOF + 1)  # tolerances, in the order of _TOL_NAMES
+AT_REFINE = AT_CHAIN + 12 * (DOF + 1)  # (1,) 1.0 when the table is not exact (refine)
+AT_FLIPPED = AT_REFINE + 1  # (1,) 1.0 when a table variable is -q (a sense of -1)
+AT_SENSES = AT_FLIPPED + 1  # (6,) table variable = sense * q (DHModel.senses)
+AT_AXES = AT_SENSES + DOF  # (6, 3) joint directions, (6, 3) points, (4, 4) tool at q = 0
+AT_TOLS = AT_AXES + 2 * 3 * DOF + 16  # tolerances, in the order of _TOL_NAMES
 _TOL_NAMES = (
     "TRIG_TOL",  # optik.trig: trig equation tangent / degenerate tests
     "SINGULAR_EPS",  # optik.analytic._base: a = b = 0 in angles()
@@ -119,6 +124,10 @@ PARAMS_LAYOUT: dict[str, tuple[int, tuple[int, ...]]] = {
     "T_tool_flange": (AT_TOOL_INV, (4, 4)),
     "mid_limits": (AT_MID, (DOF,)),
     "chain": (AT_CHAIN, (DOF + 1, 3, 4)),
+    "refine": (AT_REFINE, (1,)),
+    "flipped": (AT_FLIPPED, (1,)),
+    "senses": (AT_SENSES, (DOF,)),
+    "axes": (AT_AXES, (2 * 3 * DOF + 16,)),
     "tolerances": (AT_TOLS, (len(_TOL_NAMES),)),
 }
 """Name -> (offset, shape) of each block of ``params``."""
@@ -159,7 +168,9 @@ def pack_params(robot: Robot, family: int) -> FloatArray:
     Everything a kernel needs about the robot, in one argument (see
     :data:`PARAMS_LAYOUT`): the family id, packed DH rows, limits, base and tool
     inverses, mid-limits, the robot's own chain transforms ``_K`` (the FK check uses the
-    kinematics of ``Robot.fk``, not the DH rows) and the tolerances. The caller caches it
+    kinematics of ``Robot.fk``, not the DH rows), the senses of the table's variables
+    (``DHModel.senses``), for a table that is not exact (``DHModel.exact``) the joint
+    axes that refine each branch, and the tolerances. The caller caches it
     per robot (a :class:`~optik.Robot` does not change after construction;
     ``Robot.with_limits`` starts a fresh cache).
 
@@ -181,7 +192,17 @@ def pack_params(robot: Robot, family: int) -> FloatArray:
     params[AT_BASE_INV:AT_TOOL_INV] = invert_transform(model.T_world_0).reshape(-1)
     params[AT_TOOL_INV:AT_MID] = invert_transform(model.T_n_tool).reshape(-1)
     params[AT_MID:AT_CHAIN] = robot.mid_limits
-    params[AT_CHAIN:AT_TOLS] = robot.chain.K[:, :3, :].reshape(-1)
+    params[AT_CHAIN:AT_REFINE] = robot.chain.K[:, :3, :].reshape(-1)
+    params[AT_REFINE] = 0.0 if model.exact else 1.0
+    senses = np.array(model.senses or (1.0,) * DOF)
+    params[AT_FLIPPED] = 1.0 if np.any(senses < 0.0) else 0.0
+    params[AT_SENSES:AT_AXES] = senses
+    params[AT_AXES:AT_TOLS] = 0.0
+    if not model.exact:
+        axes = joint_axes(robot)
+        params[AT_AXES:AT_TOLS] = np.concatenate(
+            [axes.directions.reshape(-1), axes.points.reshape(-1), axes.tool.reshape(-1)]
+        )
     params[AT_TOLS:] = tolerance_block()
     return params
 
@@ -226,18 +247,29 @@ class CompiledFamily(AnalyticFamily):
     The table is the robot's own standard DH rows when they have the family's structure,
     else the equivalent table built from its joint axes (:func:`fit_model`). A subclass
     names its pipeline id (``kernel``), its closed form (``closed_form``, a
-    :data:`CandidateKernel`), how it fits a robot (:meth:`fit`) and what :meth:`model`
-    says of one that does not (``mismatch``, formatted with the robot's ``name``).
+    :data:`CandidateKernel`), the test of a DH table it solves (``rows_test``: ``None`` or
+    why the table does not fit), the twist signs its table wants (``twist_signs``, see
+    :func:`optik.analytic.geometry.equivalent_dh`) and what :meth:`model` says of a robot
+    that does not fit (``mismatch``, formatted with the robot's ``name``).
     """
 
     modes = ("pose",)
     closed_form: ClassVar[CandidateKernel]
+    twist_signs: ClassVar[tuple[int, ...]] = ()
     mismatch: ClassVar[str] = "robot {name!r} does not fit the family"
 
     @staticmethod
     @abstractmethod
-    def fit(robot: Robot) -> DHModel | str:
-        """The family's table of ``robot``, or why there is none (the robot caches it)."""
+    def rows_test(rows: tuple[DHJoint, ...]) -> str | None:
+        """``None`` when a DH table has the family's structure, else why not."""
+
+    def fit(self, robot: Robot) -> DHModel | str:
+        """The family's table of ``robot``, or why there is none (the robot caches it).
+
+        :func:`optik.analytic._base.fit_model` with the family's ``rows_test`` and
+        ``twist_signs``.
+        """
+        return fit_model(robot, self.rows_test, self.twist_signs)
 
     def fits(self, robot: Robot) -> bool:
         """Whether the structure holds, in the robot's DH rows or in its joint axes."""
@@ -260,25 +292,32 @@ class CompiledFamily(AnalyticFamily):
     ) -> list[FloatArray]:
         """The raw branches of the closed form (before wrapping and verification).
 
+        In the robot's variables (a table's ``-q``, ``DHModel.senses``, turned back). For a
+        table that is not exact (``DHModel.exact``), the branches of the ideal arm, before
+        the Newton step the pipeline gives each
+        (:func:`optik.analytic._pipeline.refine_rows`).
+
         Args:
             robot: the robot.
             T_0_target: 4x4 flange target in frame 0.
             mode: ``"pose"``.
             q_ref: (dof,) reference for joints left free at singularities.
         """
-        T = table_target(robot, self.model(robot), T_0_target)
+        model = self.model(robot)
+        T = table_target(robot, model, T_0_target)
         params = params_of(robot, self.kernel)
+        senses = params[AT_SENSES:AT_AXES]
         out = np.empty((MAX_BRANCHES, DOF))
         # The class's attribute: a compiled function read from an instance binds to it.
         n = type(self).closed_form(
             dh_block(params),
             np.ascontiguousarray(T, dtype=np.float64),
-            np.ascontiguousarray(q_ref, dtype=np.float64).reshape(1, -1),
+            np.ascontiguousarray(senses * q_ref, dtype=np.float64).reshape(1, -1),
             0,
             tolerances(params),
             out,
         )
-        return list(out[:n])
+        return list(out[:n] * senses)
 
 
 def tolerances(params: FloatArray) -> FloatArray:

@@ -39,11 +39,15 @@ import numpy as np
 
 from optik._math import _SINCOS_RANGE, _sincos_core, mod_two_pi, pose_defect, sincos
 from optik.analytic._compiled import (
+    AT_AXES,
     AT_BASE_INV,
     AT_CHAIN,
     AT_DH,
     AT_FAMILY,
+    AT_FLIPPED,
     AT_LOWER,
+    AT_REFINE,
+    AT_SENSES,
     AT_TOLS,
     AT_TOOL_INV,
     AT_UPPER,
@@ -62,11 +66,22 @@ from optik.analytic._compiled import (
     UR,
     mul3tn,
 )
+from optik.analytic.pair_wrist import refine
 from optik.analytic.spherical_wrist import spherical_wrist_candidates
 from optik.analytic.ur import ur_candidates
 
 _jit = nb.njit(cache=True, nogil=True, error_model="numpy")
+_inline = nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
 _TWO_PI = 2.0 * math.pi
+
+Layout = tuple[int, int, int, int, int, int]
+"""Where the post-processing finds a robot's data in its parameter vector: offsets of
+joint ``j``'s prismatic flag (``kind + kind_stride * j``), the lower and upper limits,
+the chain's top rows (``dof + 1`` blocks of 12) and the tolerance block, in that order:
+``(kind, kind_stride, lower, upper, chain, tolerances)``. The six-joint families use
+:data:`SIX_JOINT_LAYOUT`; :mod:`optik.analytic.free_joint` has its own."""
+SIX_JOINT_LAYOUT: Layout = (AT_DH + COL_PRISMATIC, NCOL, AT_LOWER, AT_UPPER, AT_CHAIN, AT_TOLS)
+"""The :data:`Layout` of :func:`optik.analytic._compiled.pack_params`."""
 
 
 @_jit
@@ -88,16 +103,77 @@ def candidates(
 
 
 @_jit
-def _sincos_block(flat: np.ndarray, n: int) -> None:
+def robot_candidates(
+    params: np.ndarray,
+    dh: np.ndarray,
+    T: np.ndarray,
+    k: int,
+    T0: np.ndarray,
+    ref: np.ndarray,
+    kr: int,
+    rows: np.ndarray,
+) -> int:
+    """Raw branches of the robot's family, in the robot's joint variables, into ``rows``.
+
+    :func:`candidates` on the table (``dh``, the (6, 8) block of ``params``; flange
+    target ``T0`` in its frame 0); a table
+    variable that is ``-q`` (``params[AT_FLIPPED]``) has its reference and branches
+    turned, and a table that is not exact has each branch refined towards the world
+    target ``T[k]`` (:func:`refine_rows`).
+    """
+    family = int(params[AT_FAMILY])
+    tols = params[AT_TOLS:]
+    if params[AT_FLIPPED] != 0.0:
+        turned = np.empty((1, DOF))
+        for j in range(DOF):
+            turned[0, j] = params[AT_SENSES + j] * ref[kr, j]
+        n = candidates(family, dh, T0, turned, 0, tols, rows)
+        for r in range(n):
+            for j in range(DOF):
+                rows[r, j] *= params[AT_SENSES + j]
+    else:
+        n = candidates(family, dh, T0, ref, kr, tols, rows)
+    if params[AT_REFINE] != 0.0:
+        refine_rows(params, T, k, rows, n)
+    return n
+
+
+@_jit
+def refine_rows(params: np.ndarray, T: np.ndarray, k: int, rows: np.ndarray, n: int) -> None:
+    """One Newton step of each raw branch ``rows[:n]`` towards ``T[k]`` on the robot's axes.
+
+    For a table that is not exact (``params[AT_REFINE]``, see
+    :data:`optik.analytic.geometry.NEAR_FK_TOL`): the closed form solved the ideal arm,
+    and :func:`optik.analytic.pair_wrist.refine` on the robot's own joint axes (the
+    product of exponentials, world frame) restores each branch to rounding.
+    """
+    z = np.empty((DOF, 3))
+    p = np.empty((DOF, 3))
+    M = np.empty((4, 4))
+    for i in range(DOF):
+        for a in range(3):
+            z[i, a] = params[AT_AXES + 3 * i + a]
+            p[i, a] = params[AT_AXES + 3 * DOF + 3 * i + a]
+    for a in range(4):
+        for b in range(4):
+            M[a, b] = params[AT_AXES + 6 * DOF + 4 * a + b]
+    lsq = np.empty((3, DOF, DOF))
+    for r in range(n):
+        refine(z, p, M, T[k], rows, r, lsq)
+
+
+@_inline
+def sincos_block(flat: np.ndarray, n: int, dof: int) -> None:
     """Sines and cosines of the first ``n`` values of the pipeline's scratch block.
 
-    ``flat`` is the (24, 6) block (rows, their sines, their cosines) seen flat: value
-    ``i`` gets its sine at ``48 + i`` and its cosine at ``96 + i``. One branch-free loop
-    over contiguous memory when every value is in range; the offsets are compile-time
-    constants, so LLVM sees that the writes never overlap the reads and vectorises it.
+    ``flat`` is the (24, dof) block (rows, their sines, their cosines) seen flat: value
+    ``i`` gets its sine at ``8 dof + i`` and its cosine at ``16 dof + i``. One
+    branch-free loop over contiguous memory when every value is in range; inlined into a
+    caller that passes ``dof`` as a constant, the offsets are compile-time constants, so
+    LLVM sees that the writes never overlap the reads and vectorises it.
     """
-    s0 = SIN_ROWS * DOF
-    c0 = COS_ROWS * DOF
+    s0 = SIN_ROWS * dof
+    c0 = COS_ROWS * dof
     inside = True
     for i in range(n):
         if not abs(flat[i]) < _SINCOS_RANGE:
@@ -134,11 +210,14 @@ def _transform_target(params: np.ndarray, T: np.ndarray, k: int, out: np.ndarray
 
 
 @_jit
-def _fk_shared(params: np.ndarray, block: np.ndarray, r: int, pre: np.ndarray, depth: int) -> int:
+def fk_shared(
+    params: np.ndarray, layout: Layout, block: np.ndarray, r: int, pre: np.ndarray, depth: int
+) -> int:
     """Forward kinematics of ``block[r]`` into ``pre[n]``, reusing the previous call's prefix.
 
     The chain product of :func:`optik._kernels.fk_into`, ``K[0] M(q1) K[1] ... M(qn) K[n]``
-    (``K`` the robot's ``_K``, stored in ``params``), with its arithmetic expression for
+    (``K`` the robot's ``_K``, stored in ``params`` where ``layout`` says), with its
+    arithmetic expression for
     expression (``_apply_motion`` then ``_right_multiply``), kept in scalars. The sines
     and cosines come precomputed in ``block[8 + r]`` and ``block[16 + r]``: given libm's
     values the pose is ``fk_into``'s bit for bit (a test checks it).
@@ -161,7 +240,7 @@ def _fk_shared(params: np.ndarray, block: np.ndarray, r: int, pre: np.ndarray, d
         t = block[r, i]
         pre[last, i] = t
         # _apply_motion(T, prismatic[i], t)
-        if params[AT_DH + NCOL * i + COL_PRISMATIC] != 0.0:
+        if params[layout[0] + layout[1] * i] != 0.0:
             a03 += t * a02
             a13 += t * a12
             a23 += t * a22
@@ -172,7 +251,7 @@ def _fk_shared(params: np.ndarray, block: np.ndarray, r: int, pre: np.ndarray, d
             a10, a11 = c * a10 + s * a11, -s * a10 + c * a11
             a20, a21 = c * a20 + s * a21, -s * a20 + c * a21
         # _right_multiply(T, K[i + 1], out)
-        o = AT_CHAIN + 12 * (i + 1)
+        o = layout[4] + 12 * (i + 1)
         k00, k01, k02, k03 = params[o], params[o + 1], params[o + 2], params[o + 3]
         k10, k11, k12, k13 = params[o + 4], params[o + 5], params[o + 6], params[o + 7]
         k20, k21, k22, k23 = params[o + 8], params[o + 9], params[o + 10], params[o + 11]
@@ -202,17 +281,19 @@ def _fk_shared(params: np.ndarray, block: np.ndarray, r: int, pre: np.ndarray, d
 
 
 @_jit
-def _wrap_row(params: np.ndarray, rows: np.ndarray, r: int, ref: np.ndarray, kr: int) -> None:
+def _wrap_row(
+    params: np.ndarray, layout: Layout, rows: np.ndarray, r: int, ref: np.ndarray, kr: int
+) -> None:
     """Revolute angles of ``rows[r]`` into the limits, the representative nearest ``ref[kr]``.
 
     The steps of :func:`optik.analytic.wrap_into_limits`, bit for bit: numpy's floor-mod,
     ``ceil`` / ``floor`` with 1e-12 slack, round half to even, clamps.
     """
     for j in range(rows.shape[1]):
-        if params[AT_DH + NCOL * j + COL_PRISMATIC] != 0.0:
+        if params[layout[0] + layout[1] * j] != 0.0:
             continue
-        lower = params[AT_LOWER + j]
-        upper = params[AT_UPPER + j]
+        lower = params[layout[2] + j]
+        upper = params[layout[3] + j]
         base = ref[kr, j] + mod_two_pi(rows[r, j] - ref[kr, j] + math.pi) - math.pi
         if abs(ref[kr, j] - base) <= math.pi and lower <= base <= upper:
             # The usual case, without divisions: |ref - base| <= pi makes k_near below
@@ -232,9 +313,73 @@ def _wrap_row(params: np.ndarray, rows: np.ndarray, r: int, ref: np.ndarray, kr:
         rows[r, j] = base + _TWO_PI * k
 
 
-@_jit
-def _postprocess(
+@_inline
+def _pose_verified(pre: np.ndarray, i: int, T: np.ndarray, k: int, verify_tol: float) -> bool:
+    """Whether the pose in ``pre[i]`` (top rows, row-major) reaches ``T[k]``.
+
+    Position error (m) and the robust rotation angle of ``R_fk^T R_target`` (rad, the
+    ``atan2`` of :func:`optik.spatial.rotation_angle`) both within ``verify_tol``.
+    """
+    dx = pre[i, 3] - T[k, 0, 3]
+    dy = pre[i, 7] - T[k, 1, 3]
+    dz = pre[i, 11] - T[k, 2, 3]
+    if not math.sqrt(dx * dx + dy * dy + dz * dz) <= verify_tol:
+        return False
+    # R_rel = R_fk^T R_target; angle = atan2(|vee(R_rel - R_rel^T)| / 2, (tr - 1) / 2).
+    rr = mul3tn(
+        (pre[i, 0], pre[i, 1], pre[i, 2], pre[i, 4], pre[i, 5], pre[i, 6],
+         pre[i, 8], pre[i, 9], pre[i, 10]),
+        (T[k, 0, 0], T[k, 0, 1], T[k, 0, 2], T[k, 1, 0], T[k, 1, 1], T[k, 1, 2],
+         T[k, 2, 0], T[k, 2, 1], T[k, 2, 2]),
+    )  # fmt: skip
+    sx = rr[7] - rr[5]
+    sy = rr[2] - rr[6]
+    sz = rr[3] - rr[1]
+    s = 0.5 * math.sqrt(sx * sx + sy * sy + sz * sz)
+    c = 0.5 * (rr[0] + rr[4] + rr[8] - 1.0)
+    # atan2(s, c) <= s / c for s >= 0 < c: a tiny ratio accepts without the libm call.
+    return s <= 0.5 * verify_tol * c or math.atan2(s, c) <= verify_tol
+
+
+@_inline
+def _sort_by_distance(
+    Q: np.ndarray, k: int, m: int, ref: np.ndarray, kr: int, scratch: np.ndarray, at: int
+) -> None:
+    """Stable insertion sort of ``Q[k, :m]`` by ``||q - ref[kr]||``.
+
+    The keys go in ``scratch[at:at + m]``. Python's ``list.sort`` is stable too, so ties
+    keep the family's order.
+    """
+    dof = Q.shape[2]
+    for r in range(m):
+        acc = 0.0
+        for j in range(dof):
+            acc += (Q[k, r, j] - ref[kr, j]) ** 2
+        scratch[at + r] = math.sqrt(acc)
+    for r in range(1, m):
+        key = scratch[at + r]
+        p = r - 1
+        while p >= 0 and scratch[at + p] > key:
+            p -= 1
+        if p + 1 < r:
+            # Rotate rows p+1..r right by one (row r moves to p + 1).
+            for j in range(dof):
+                moved = Q[k, r, j]
+                for i in range(r, p + 1, -1):
+                    Q[k, i, j] = Q[k, i - 1, j]
+                Q[k, p + 1, j] = moved
+            for i in range(r, p + 1, -1):
+                scratch[at + i] = scratch[at + i - 1]
+            scratch[at + p + 1] = key
+
+
+@_inline
+def postprocess_rows(
     params: np.ndarray,
+    layout: Layout,
+    dof: int,
+    held: int,
+    held_value: float,
     T: np.ndarray,
     k: int,
     ref: np.ndarray,
@@ -249,15 +394,21 @@ def _postprocess(
 ) -> int:
     """Wrap, filter by the limits, verify by FK, dedupe and sort ``rows[:n]`` into ``Q[k]``.
 
-    ``T[k]`` is the validated world target of the tool and ``ref[kr]`` the reference;
-    ``rows`` (24, 6) holds the raw branches in its first 8 rows (wrapped and compacted
-    in place), then their sines and cosines, and ``flat`` is the same memory seen flat;
-    ``pre`` (8, 12) is FK scratch. Returns the number of rows written to ``Q[k]``.
+    The steps of the module docstring for a chain of ``dof`` joints whose data sit in
+    ``params`` where ``layout`` says (:data:`Layout`). Joint ``held`` (``-1``: none)
+    keeps exactly ``held_value`` (no 2 pi shift). ``T[k]`` is the validated world target
+    of the tool and ``ref[kr]`` the reference; ``rows`` (24, dof) holds the raw branches
+    in its first 8 rows (wrapped and compacted in place), then their sines and cosines,
+    and ``flat`` is the same memory seen flat; ``pre`` (dof + 2, 12) is FK scratch.
+    Inlined: callers pass ``layout``, ``dof`` and ``held`` as constants where they can.
+    Returns the number of rows written to ``Q[k]``.
     """
-    limit_tol = params[AT_TOLS + TOL_LIMIT]
-    verify_tol = params[AT_TOLS + TOL_VERIFY]
-    dup_tol = params[AT_TOLS + TOL_DUPLICATE]
-    dof = rows.shape[1]
+    tols = layout[5]
+    limit_tol = params[tols + TOL_LIMIT]
+    verify_tol = params[tols + TOL_VERIFY]
+    dup_tol = params[tols + TOL_DUPLICATE]
+    lower = layout[2]
+    upper = layout[3]
     # 1. Finite rows, wrapped, inside the limits (when asked): compacted to rows[:kept].
     kept = 0
     for r in range(n):
@@ -267,14 +418,14 @@ def _postprocess(
                 finite = False
         if not finite:
             continue
-        _wrap_row(params, rows, r, ref, kr)
+        _wrap_row(params, layout, rows, r, ref, kr)
+        if held >= 0:
+            rows[r, held] = held_value
         if within:
             inside = True
             for j in range(dof):
                 v = rows[r, j]
-                if not (
-                    v >= params[AT_LOWER + j] - limit_tol and v <= params[AT_UPPER + j] + limit_tol
-                ):
+                if not (v >= params[lower + j] - limit_tol and v <= params[upper + j] + limit_tol):
                     inside = False
             if not inside:
                 continue
@@ -283,51 +434,15 @@ def _postprocess(
                 rows[kept, j] = rows[r, j]
         kept += 1
     # 2. Sines and cosines of every kept joint value at once (a vectorised loop).
-    _sincos_block(flat, kept * dof)
+    sincos_block(flat, kept * dof, dof)
     # 3. Verify each by the robot's own chain (fk_into's arithmetic), dedupe in order.
     for i in range(12):
-        pre[0, i] = params[AT_CHAIN + i]
+        pre[0, i] = params[layout[4] + i]
     depth = 0
     m = 0
     for r in range(kept):
-        depth = _fk_shared(params, rows, r, pre, depth)
-        dx = pre[dof, 3] - T[k, 0, 3]
-        dy = pre[dof, 7] - T[k, 1, 3]
-        dz = pre[dof, 11] - T[k, 2, 3]
-        if not math.sqrt(dx * dx + dy * dy + dz * dz) <= verify_tol:
-            continue
-        # R_rel = R_fk^T R_target; angle = atan2(|vee(R_rel - R_rel^T)| / 2, (tr - 1) / 2).
-        rr = mul3tn(
-            (
-                pre[dof, 0],
-                pre[dof, 1],
-                pre[dof, 2],
-                pre[dof, 4],
-                pre[dof, 5],
-                pre[dof, 6],
-                pre[dof, 8],
-                pre[dof, 9],
-                pre[dof, 10],
-            ),
-            (
-                T[k, 0, 0],
-                T[k, 0, 1],
-                T[k, 0, 2],
-                T[k, 1, 0],
-                T[k, 1, 1],
-                T[k, 1, 2],
-                T[k, 2, 0],
-                T[k, 2, 1],
-                T[k, 2, 2],
-            ),
-        )
-        sx = rr[7] - rr[5]
-        sy = rr[2] - rr[6]
-        sz = rr[3] - rr[1]
-        s = 0.5 * math.sqrt(sx * sx + sy * sy + sz * sz)
-        c = 0.5 * (rr[0] + rr[4] + rr[8] - 1.0)
-        # atan2(s, c) <= s / c for s >= 0 < c: a tiny ratio accepts without the libm call.
-        if not (s <= 0.5 * verify_tol * c or math.atan2(s, c) <= verify_tol):
+        depth = fk_shared(params, layout, rows, r, pre, depth)
+        if not _pose_verified(pre, dof, T, k, verify_tol):
             continue
         duplicate = False
         for other in range(m):
@@ -343,29 +458,29 @@ def _postprocess(
             Q[k, m, j] = rows[r, j]
         m += 1
     if sort and m > 1:
-        # 4. Stable insertion sort by ||q - ref|| (Python's list.sort is stable too); the
-        # distances go in the (now free) sine rows.
-        for r in range(m):
-            acc = 0.0
-            for j in range(dof):
-                acc += (Q[k, r, j] - ref[kr, j]) ** 2
-            rows[SIN_ROWS, r] = math.sqrt(acc)
-        for r in range(1, m):
-            key = rows[SIN_ROWS, r]
-            p = r - 1
-            while p >= 0 and rows[SIN_ROWS, p] > key:
-                p -= 1
-            if p + 1 < r:
-                # Rotate rows p+1..r right by one (row r moves to p + 1).
-                for j in range(dof):
-                    moved = Q[k, r, j]
-                    for i in range(r, p + 1, -1):
-                        Q[k, i, j] = Q[k, i - 1, j]
-                    Q[k, p + 1, j] = moved
-                for i in range(r, p + 1, -1):
-                    rows[SIN_ROWS, i] = rows[SIN_ROWS, i - 1]
-                rows[SIN_ROWS, p + 1] = key
+        # 4. By distance to the reference; the keys go in the (now free) sine rows.
+        _sort_by_distance(Q, k, m, ref, kr, flat, SIN_ROWS * dof)
     return m
+
+
+@_inline
+def work_rows(dof: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Scratch of :func:`postprocess_rows` for ``dof`` joints: ``(pre, flat, rows)``.
+
+    ``pre`` (dof + 2, 12) for the FK, ``rows`` (24, dof) for the raw branches and their
+    sines and cosines, ``flat`` the same memory seen flat. Made once per call or batch.
+    """
+    pre = np.empty((dof + 2, 12))
+    flat = np.empty(3 * MAX_BRANCHES * dof)
+    return pre, flat, flat.reshape((3 * MAX_BRANCHES, dof))
+
+
+@_inline
+def pad_rows(Q: np.ndarray, k: int, m: int) -> None:
+    """Fill the rows of ``Q[k]`` past its ``m`` branches with NaN."""
+    for r in range(m, Q.shape[1]):
+        for j in range(Q.shape[2]):
+            Q[k, r, j] = np.nan
 
 
 SORT = 1
@@ -403,15 +518,16 @@ def solve(params: np.ndarray, T: np.ndarray, ref: np.ndarray, flags: int, out: n
     # Scratch (a reshape is a C call: the per-pose path indexes instead), then the steps.
     ref1 = ref[None]
     T0 = np.empty((4, 4))
-    pre = np.empty((DOF + 2, 12))
-    flat = np.empty(3 * MAX_BRANCHES * DOF)
-    rows = flat.reshape((3 * MAX_BRANCHES, DOF))
+    pre, flat, rows = work_rows(DOF)
     _transform_target(params, T1, 0, T0)
     dh = params[AT_DH:AT_LOWER].reshape((DOF, NCOL))
-    n = candidates(int(params[AT_FAMILY]), dh, T0, ref1, 0, params[AT_TOLS:], rows)
+    n = robot_candidates(params, dh, T1, 0, T0, ref1, 0, rows)
     sort = (flags & SORT) != 0
     within = (flags & WITHIN_LIMITS) != 0
-    return _postprocess(params, T1, 0, ref1, 0, sort, within, rows, flat, n, pre, out[None])
+    return postprocess_rows(
+        params, SIX_JOINT_LAYOUT, DOF, -1, 0.0, T1, 0, ref1, 0, sort, within, rows, flat, n,
+        pre, out[None],
+    )  # fmt: skip
 
 
 @_jit
@@ -435,22 +551,18 @@ def solve_batch(
     shared = ref.shape[0] == 1
     sort = (flags & SORT) != 0
     within = (flags & WITHIN_LIMITS) != 0
-    family = int(params[AT_FAMILY])
     dh = params[AT_DH:AT_LOWER].reshape((DOF, NCOL))
-    tols = params[AT_TOLS:]
     T0 = np.empty((4, 4))
-    pre = np.empty((DOF + 2, 12))
-    flat = np.empty(3 * MAX_BRANCHES * DOF)
-    rows = flat.reshape((3 * MAX_BRANCHES, DOF))
+    pre, flat, rows = work_rows(DOF)
     Q = np.empty((N, MAX_BRANCHES, DOF))
     counts = np.zeros(N, dtype=np.int64)
     for k in range(N):
         kr = 0 if shared else k
         _transform_target(params, T, k, T0)
-        n = candidates(family, dh, T0, ref, kr, tols, rows)
-        m = _postprocess(params, T, k, ref, kr, sort, within, rows, flat, n, pre, Q)
-        counts[k] = m
-        for r in range(m, MAX_BRANCHES):
-            for j in range(DOF):
-                Q[k, r, j] = np.nan
+        n = robot_candidates(params, dh, T, k, T0, ref, kr, rows)
+        counts[k] = postprocess_rows(
+            params, SIX_JOINT_LAYOUT, DOF, -1, 0.0, T, k, ref, kr, sort, within, rows, flat,
+            n, pre, Q,
+        )  # fmt: skip
+        pad_rows(Q, k, counts[k])
     return Q, counts

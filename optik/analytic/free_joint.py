@@ -23,13 +23,29 @@ reciprocal product of their Plücker coordinates).
 
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import numba as nb
 import numpy as np
 
 from optik._checks import FloatArray
-from optik.analytic._subproblems import rotation
+from optik._math import pose_defect
+from optik.analytic._compiled import (
+    MAX_BRANCHES,
+    TOL_BOTTOM_ROW,
+    TOL_ROTATION,
+    tolerance_block,
+)
+from optik.analytic._pipeline import (
+    SORT,
+    WITHIN_LIMITS,
+    Layout,
+    pad_rows,
+    postprocess_rows,
+    work_rows,
+)
+from optik.analytic._subproblems import Vec3, apply, rotation, sub
 from optik.analytic.geometry import Axes, joint_axes, revolute_chain_reason
 from optik.analytic.pair_wrist import pair_wrist_candidates, structure_reason
 from optik.model import Robot
@@ -42,6 +58,21 @@ CHECK_VALUES = (0.0, 2.0, -2.5)
 FREE_DOF = 7
 """Joint count of the arms solved around a held joint."""
 
+# Layout of the compiled kernels' parameter vector (:func:`pack_free_params`, flat
+# float64): offsets of each block.
+AT_HELD = 0  # (1,) the held joint's index
+AT_REVERSE = 1  # (1,) 1.0 when the closed form solves the chain read backwards
+AT_KIND = AT_REVERSE + 1  # (7,) 1.0 for a prismatic joint (none here: the layout's rule)
+AT_LOWER = AT_KIND + FREE_DOF  # (7,) lower limits (rad), -inf allowed
+AT_UPPER = AT_LOWER + FREE_DOF  # (7,) upper limits (rad), +inf allowed
+AT_CHAIN = AT_UPPER + FREE_DOF  # (8, 3, 4) top rows of the robot's chain _K (FK check)
+AT_DIRECTIONS = AT_CHAIN + 12 * (FREE_DOF + 1)  # (7, 3) joint directions at q = 0
+AT_POINTS = AT_DIRECTIONS + 3 * FREE_DOF  # (7, 3) a point on each axis (m)
+AT_TOOL = AT_POINTS + 3 * FREE_DOF  # (4, 4) world pose of the tool at q = 0, row-major
+AT_TOLS = AT_TOOL + 16  # the tolerance block of optik.analytic._compiled
+FREE_LAYOUT: Layout = (AT_KIND, 1, AT_LOWER, AT_UPPER, AT_CHAIN, AT_TOLS)
+"""Where :func:`optik.analytic._pipeline.postprocess_rows` finds the robot's data."""
+
 
 class FreeJointPlan(NamedTuple):
     """How a seven-joint robot is solved with one joint held (:func:`free_joint_plan`).
@@ -53,6 +84,8 @@ class FreeJointPlan(NamedTuple):
         points: (7, 3) a point on each axis (m).
         tool: (4, 4) world pose of the tool at ``q = 0``.
         reason: ``""`` when the six fit, else why not (then the arrays are unused).
+        params: the compiled kernels' vector (:func:`pack_free_params`) when the six
+            fit, else empty.
     """
 
     held: int
@@ -61,6 +94,7 @@ class FreeJointPlan(NamedTuple):
     points: FloatArray
     tool: FloatArray
     reason: str
+    params: FloatArray
 
 
 def _turned(axes: Axes, k: int, v: float) -> Axes:
@@ -91,7 +125,7 @@ def free_joint_plan(robot: Robot, k: int) -> FreeJointPlan:
     """Whether (and how) ``robot`` with joint ``k`` held has the pair-wrist closed form."""
     axes = joint_axes(robot)
     empty = np.empty((0, 3))
-    base = FreeJointPlan(k, False, axes.directions, axes.points, axes.tool, "")
+    base = FreeJointPlan(k, False, axes.directions, axes.points, axes.tool, "", np.empty(0))
     reason = revolute_chain_reason(robot, FREE_DOF)
     if reason is not None:
         return base._replace(directions=empty, points=empty, reason=reason)
@@ -109,74 +143,121 @@ def free_joint_plan(robot: Robot, k: int) -> FreeJointPlan:
                 why = f"{why} (joint {robot.chain_names[k]!r} at {v:g} rad)"
                 break
         if why is None:
-            return base._replace(reverse=reverse)
+            plan = base._replace(reverse=reverse)
+            return plan._replace(params=pack_free_params(robot, plan))
         reasons.append(why)
     return base._replace(
         reason=f"the other six joints in order: {reasons[0]}; read backwards: {reasons[1]}"
     )
 
 
+def pack_free_params(robot: Robot, plan: FreeJointPlan) -> FloatArray:
+    """The flat parameter vector of the compiled kernels for ``robot`` and ``plan``.
+
+    Everything :func:`solve` needs, in one argument (the layout above): the held joint
+    and the form's direction, the limits, the robot's own chain transforms ``_K`` (the FK
+    check uses the kinematics of ``Robot.fk``), the joint axes and the tool at ``q = 0``,
+    and the tolerances (read from their home modules: numba freezes globals).
+    """
+    params = np.zeros(AT_TOLS + len(tolerance_block()))
+    params[AT_HELD] = plan.held
+    params[AT_REVERSE] = 1.0 if plan.reverse else 0.0
+    params[AT_KIND:AT_LOWER] = robot.chain.prismatic
+    params[AT_LOWER:AT_UPPER] = robot.lower
+    params[AT_UPPER:AT_CHAIN] = robot.upper
+    params[AT_CHAIN:AT_DIRECTIONS] = robot.chain.K[:, :3, :].reshape(-1)
+    params[AT_DIRECTIONS:AT_POINTS] = plan.directions.reshape(-1)
+    params[AT_POINTS:AT_TOOL] = plan.points.reshape(-1)
+    params[AT_TOOL:AT_TOLS] = plan.tool.reshape(-1)
+    params[AT_TOLS:] = tolerance_block()
+    return params
+
+
+# ---------------------------------------------------------------------- the compiled kernels
 @_jit
-def free_joint_candidates(
-    z7: np.ndarray,
-    p7: np.ndarray,
-    tool: np.ndarray,
-    k: int,
+def _scratch() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Scratch of :func:`_candidates_into`, allocated once per call or batch.
+
+    ``(axes, frames, refs, lsq, six)``: ``axes`` (4, 6, 3) the six axes' directions and
+    points, then the same read backwards; ``frames`` (3, 4, 4) the tool at ``q = 0``, its
+    inverse and the inverse target; ``refs`` (2, 6) the six references, then reversed;
+    ``lsq`` (3, 6, 6) :func:`optik.analytic.pair_wrist.refine`'s; ``six`` (8, 6) the
+    six-joint branches.
+    """
+    return (
+        np.empty((4, 6, 3)),
+        np.empty((3, 4, 4)),
+        np.empty((2, 6)),
+        np.empty((3, 6, 6)),
+        np.empty((MAX_BRANCHES, 6)),
+    )
+
+
+@_jit
+def _candidates_into(
+    params: np.ndarray,
     value: float,
-    reverse: bool,
     T: np.ndarray,
     ref: np.ndarray,
-    tols: np.ndarray,
     cand: np.ndarray,
+    work: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray],
 ) -> int:
-    """Raw seven-joint branches (joint ``k`` at ``value``) of world target ``T`` into ``cand``.
+    """Raw seven-joint branches (the held joint at ``value``) of world target ``T`` (4, 4).
 
     The held joint's axis turns the axes after it (module docstring); the six are solved
     by :func:`optik.analytic.pair_wrist.pair_wrist_candidates`, directly or read
-    backwards. ``ref`` (7,) gives the free angles' references; ``cand`` (>= 8, 7).
-    Returns the number of rows written.
+    backwards. ``params`` is :func:`pack_free_params`'s vector, ``ref`` (7,) gives the
+    free angles' references, ``cand`` (>= 8, 7) receives the rows and ``work`` is
+    :func:`_scratch`. Returns the number of rows written.
     """
-    R = rotation((z7[k, 0], z7[k, 1], z7[k, 2]), value)
-    c = (p7[k, 0], p7[k, 1], p7[k, 2])
-    z = np.empty((6, 3))
-    p = np.empty((6, 3))
-    r6 = np.empty(6)
-    M = np.empty((4, 4))
+    axes, frames, refs, lsq, six = work
+    k = int(params[AT_HELD])
+    z = axes[0]
+    p = axes[1]
+    M = frames[0]
+    r6 = refs[0]
+    R = rotation(_row3(params, AT_DIRECTIONS, k), value)
+    c = _row3(params, AT_POINTS, k)
     j = 0
-    for i in range(7):
+    for i in range(FREE_DOF):
         if i == k:
             continue
         r6[j] = ref[i]
-        if i < k:
-            for a in range(3):
-                z[j, a] = z7[i, a]
-                p[j, a] = p7[i, a]
-        else:
-            for a in range(3):
-                z[j, a] = R[3 * a] * z7[i, 0] + R[3 * a + 1] * z7[i, 1] + R[3 * a + 2] * z7[i, 2]
-                p[j, a] = (
-                    R[3 * a] * (p7[i, 0] - c[0])
-                    + R[3 * a + 1] * (p7[i, 1] - c[1])
-                    + R[3 * a + 2] * (p7[i, 2] - c[2])
-                    + c[a]
-                )
+        zi = _row3(params, AT_DIRECTIONS, i)
+        pi = _row3(params, AT_POINTS, i)
+        if i > k:
+            zi = apply(R, zi)
+            pi = apply(R, sub(pi, c))
+            pi = (pi[0] + c[0], pi[1] + c[1], pi[2] + c[2])
+        for a in range(3):
+            z[j, a] = zi[a]
+            p[j, a] = pi[a]
         j += 1
+    # M = E tool with E the held joint's motion: rotation R about the line through c.
+    Rc = apply(R, c)
     for a in range(3):
         for b in range(4):
-            M[a, b] = R[3 * a] * tool[0, b] + R[3 * a + 1] * tool[1, b] + R[3 * a + 2] * tool[2, b]
-        M[a, 3] += c[a] - (R[3 * a] * c[0] + R[3 * a + 1] * c[1] + R[3 * a + 2] * c[2])
+            M[a, b] = (
+                R[3 * a] * params[AT_TOOL + b]
+                + R[3 * a + 1] * params[AT_TOOL + 4 + b]
+                + R[3 * a + 2] * params[AT_TOOL + 8 + b]
+            )
+        M[a, 3] += c[a] - Rc[a]
     M[3, 0] = M[3, 1] = M[3, 2] = 0.0
     M[3, 3] = 1.0
-    out = np.empty((cand.shape[0], 6))
-    if not reverse:
-        n = pair_wrist_candidates(z, p, M, T, r6, tols, out)
+    tols = params[AT_TOLS:]
+    if params[AT_REVERSE] == 0.0:
+        n = pair_wrist_candidates(z, p, M, T, r6, tols, six, lsq)
     else:
         # Read backwards: axes seen from the tool at q = 0, reversed, in reverse order;
         # target T^-1, home M^-1.
-        Mi = _inverse(M)
-        zr = np.empty((6, 3))
-        pr = np.empty((6, 3))
-        rr = np.empty(6)
+        Mi = frames[1]
+        Ti = frames[2]
+        _inverse_into(M, Mi)
+        _inverse_into(T, Ti)
+        zr = axes[2]
+        pr = axes[3]
+        rr = refs[1]
         for i in range(6):
             src = 5 - i
             rr[i] = r6[src]
@@ -185,31 +266,145 @@ def free_joint_candidates(
                 pr[i, a] = (
                     Mi[a, 0] * p[src, 0] + Mi[a, 1] * p[src, 1] + Mi[a, 2] * p[src, 2] + Mi[a, 3]
                 )
-        n = pair_wrist_candidates(zr, pr, Mi, _inverse(T), rr, tols, out)
+        n = pair_wrist_candidates(zr, pr, Mi, Ti, rr, tols, six, lsq)
         for r in range(n):
             for i in range(3):
-                out[r, i], out[r, 5 - i] = out[r, 5 - i], out[r, i]
+                six[r, i], six[r, 5 - i] = six[r, 5 - i], six[r, i]
     for r in range(n):
         j = 0
-        for i in range(7):
+        for i in range(FREE_DOF):
             if i == k:
                 cand[r, i] = value
             else:
-                cand[r, i] = out[r, j]
+                cand[r, i] = six[r, j]
                 j += 1
     return n
 
 
 @_jit
-def _inverse(T: np.ndarray) -> np.ndarray:
-    """Inverse of a rigid transform (4, 4): ``[R^T, -R^T t]``."""
-    out = np.zeros((4, 4))
+def free_joint_candidates(
+    params: np.ndarray, value: float, T: np.ndarray, ref: np.ndarray, cand: np.ndarray
+) -> int:
+    """:func:`_candidates_into` with its own scratch (the raw branches, for Python callers).
+
+    Args:
+        params: :func:`pack_free_params`'s vector of the robot and held joint.
+        value: the held joint's value (rad).
+        T: (4, 4) world target of the tool.
+        ref: (7,) references of the angles a singularity leaves free (rad).
+        cand: (>= 8, 7) output rows (rad, not wrapped).
+
+    Returns:
+        The number of rows written (0 to 8).
+    """
+    return _candidates_into(params, value, T, ref, cand, _scratch())
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _row3(params: np.ndarray, at: int, i: int) -> Vec3:
+    """Row ``i`` of the (7, 3) block of ``params`` at offset ``at``."""
+    o = at + 3 * i
+    return (params[o], params[o + 1], params[o + 2])
+
+
+@_jit
+def _inverse_into(T: np.ndarray, out: np.ndarray) -> None:
+    """``out`` <- the inverse of a rigid transform ``T`` (4, 4): ``[R^T, -R^T t]``."""
     for a in range(3):
         for b in range(3):
             out[a, b] = T[b, a]
         out[a, 3] = -(T[0, a] * T[0, 3] + T[1, a] * T[1, 3] + T[2, a] * T[2, 3])
+        out[3, a] = 0.0
     out[3, 3] = 1.0
-    return out
 
 
-__all__ = ["FREE_DOF", "FreeJointPlan", "free_joint_candidates", "free_joint_plan"]
+@_jit
+def solve(
+    params: np.ndarray, T: np.ndarray, ref: np.ndarray, value: float, flags: int, out: np.ndarray
+) -> int:
+    """Every branch of one target with the held joint at ``value``: solve, wrap, verify, sort.
+
+    The steps of :func:`optik.analytic._pipeline.postprocess_rows` on the branches of
+    :func:`_candidates_into`; the held joint keeps exactly ``value``.
+
+    Args:
+        params: :func:`pack_free_params`'s vector.
+        T: (4, 4) world target of the tool.
+        ref: (7,) reference configuration (rad); its held entry is not used (``value``
+            stands in for it).
+        value: the held joint's value (rad), finite.
+        flags: :data:`optik.analytic._pipeline.SORT` and / or ``WITHIN_LIMITS``.
+        out: (8, 7) output rows.
+
+    Returns:
+        The number of branches written (0 to 8); -1 when ``T`` is not a valid pose
+        (:func:`optik._math.pose_defect`), -2 when ``ref`` is not finite.
+    """
+    T1 = T[None]
+    if pose_defect(T1, 0, params[AT_TOLS + TOL_ROTATION], params[AT_TOLS + TOL_BOTTOM_ROW]) != 0:
+        return -1
+    for j in range(FREE_DOF):
+        if not math.isfinite(ref[j]):
+            return -2
+    k = int(params[AT_HELD])
+    ref1 = np.empty((1, FREE_DOF))
+    for j in range(FREE_DOF):
+        ref1[0, j] = ref[j]
+    ref1[0, k] = value
+    pre, flat, rows = work_rows(FREE_DOF)
+    n = _candidates_into(params, value, T, ref1[0], rows, _scratch())
+    return postprocess_rows(
+        params, FREE_LAYOUT, FREE_DOF, k, value, T1, 0, ref1, 0, (flags & SORT) != 0,
+        (flags & WITHIN_LIMITS) != 0, rows, flat, n, pre, out[None],
+    )  # fmt: skip
+
+
+@_jit
+def solve_batch(
+    params: np.ndarray, T: np.ndarray, ref: np.ndarray, values: np.ndarray, flags: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`solve` over validated targets ``T`` (N, 4, 4), serially.
+
+    Args:
+        params: :func:`pack_free_params`'s vector.
+        T: (N, 4, 4) world targets of the tool, already validated.
+        ref: (1, 7) one reference for every target, or (N, 7) one per target; finite.
+        values: (1,) one held value for every target, or (N,) one per target; finite.
+        flags: :data:`optik.analytic._pipeline.SORT` and / or ``WITHIN_LIMITS``.
+
+    Returns:
+        ``Q`` (N, 8, 7): branches, rows past each count filled with NaN; ``counts`` (N,).
+    """
+    N = T.shape[0]
+    k = int(params[AT_HELD])
+    sort = (flags & SORT) != 0
+    within = (flags & WITHIN_LIMITS) != 0
+    work = _scratch()
+    refs = np.empty((1, FREE_DOF))
+    pre, flat, rows = work_rows(FREE_DOF)
+    Q = np.empty((N, MAX_BRANCHES, FREE_DOF))
+    counts = np.zeros(N, dtype=np.int64)
+    for i in range(N):
+        kr = 0 if ref.shape[0] == 1 else i
+        value = values[0] if values.shape[0] == 1 else values[i]
+        for j in range(FREE_DOF):
+            refs[0, j] = ref[kr, j]
+        refs[0, k] = value
+        n = _candidates_into(params, value, T[i], refs[0], rows, work)
+        counts[i] = postprocess_rows(
+            params, FREE_LAYOUT, FREE_DOF, k, value, T, i, refs, 0, sort, within, rows, flat,
+            n, pre, Q,
+        )  # fmt: skip
+        pad_rows(Q, i, counts[i])
+    return Q, counts
+
+
+__all__ = [
+    "FREE_DOF",
+    "FreeJointPlan",
+    "free_joint_candidates",
+    "free_joint_plan",
+    "pack_free_params",
+    "solve",
+    "solve_batch",
+]

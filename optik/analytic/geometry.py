@@ -23,18 +23,23 @@ with ``T_world_0 = F_0`` and a constant ``T_n_tool``. The cases:
   the offset along axis ``i`` from ``F_{i-1}``'s origin to the normal;
 - parallel axes: the normal through ``F_{i-1}``'s origin (``d_i = 0``), ``x_i`` towards
   axis ``i + 1`` (along ``x_{i-1}`` when the axes coincide); ``alpha_i`` is 0 for axes of
-  the same direction and 180 deg for opposite ones (which no compiled family takes: it
-  would need ``q -> -q``);
+  the same direction; an axis opposite to the parallel one before it is taken reversed,
+  with the joint variable ``-q`` (:func:`joint_senses`), since no compiled family takes
+  a twist of 180 deg;
 - ``F_0 = P_1`` (the chain's own frame of joint 1); the last row has ``a_n = alpha_n = 0``
   and ``d_n`` puts ``F_n``'s origin at the foot of the tool point on the last axis.
 
 Values within the tolerances of their ideal (``alpha`` of 0, +-90 or 180 deg, a length
 of 0) are set to it exactly, since the families test them exactly. The construction is
 then proved, not trusted: the table's forward kinematics must equal ``Robot.fk`` on
-random configurations to :data:`FK_TOL`. When the snapped table fails that proof (axes
-near an ideal relation but not in it: the closed form would miss by more than the
-proof allows), the table of the unsnapped values is returned instead, and proved the
-same way, so the families see (and name) the relation that is not exact.
+random configurations to :data:`FK_TOL`. When the snapped table misses that proof but
+reproduces ``Robot.fk`` to :data:`NEAR_FK_TOL` (axes in an ideal relation only to
+within the tolerances, e.g. a URDF angle written to 11 digits: 1.57079632679), it is
+kept and marked ``exact=False``: a family solves the ideal arm, and each branch then
+takes one Newton step on the robot's own joint axes
+(:func:`optik.analytic.pair_wrist.refine`), which restores it to rounding before the
+FK check. Beyond that, the table of the unsnapped values is returned instead, and
+proved the same way, so the families see (and name) the relation that is not exact.
 
 Tolerances are relative to the arm's size ``L`` (:func:`arm_size`: the summed distances
 between consecutive joint points at ``q = 0``, at least 1 mm): :data:`ANGLE_TOL` (rad) for
@@ -58,6 +63,9 @@ LENGTH_TOL = 1e-9
 FK_TOL = 1e-12
 """Largest entry difference between the table's FK and ``Robot.fk`` (rotation entries;
 positions in units of ``max(1 m, L)``) on the check configurations."""
+NEAR_FK_TOL = 1e-9
+"""The same difference for a snapped table kept with ``exact=False``: the angle and
+length tolerances' order, the most that their snapping moves the tool (scaled)."""
 _CHECK_CONFIGS = 16  # random configurations of the FK check (plus q = 0)
 _MIN_SIZE = 1e-3  # m: floor of the arm's size
 
@@ -72,12 +80,18 @@ class DHModel(NamedTuple):
         T_world_0: (4, 4) world pose of DH frame 0.
         T_n_tool: (4, 4) pose of the tool in the last DH frame.
         source: ``"dh rows"`` (the robot's own table) or ``"joint axes"`` (built here).
+        exact: ``False`` for a snapped table that reproduces ``Robot.fk`` only to
+            :data:`NEAR_FK_TOL` (its branches need one Newton step on the robot's axes).
+        senses: per joint, +1 or -1: the table's joint variable is ``senses[i] * q[i]``
+            (:func:`joint_senses`); empty: all +1.
     """
 
     rows: tuple[DHJoint, ...]
     T_world_0: FloatArray
     T_n_tool: FloatArray
     source: str
+    exact: bool = True
+    senses: tuple[float, ...] = ()
 
 
 class Axes(NamedTuple):
@@ -166,8 +180,9 @@ def _dh_matrix(a: float, alpha: float, d: float, theta: float) -> FloatArray:
 def dh_fk(model: DHModel, q: FloatArray) -> FloatArray:
     """World pose of the tool of ``model`` at ``q`` (dof,), by the DH product."""
     T = model.T_world_0.copy()
-    for row, qi in zip(model.rows, q.tolist(), strict=True):
-        T = T @ _dh_matrix(row.a, row.alpha, row.d, row.theta + qi)
+    senses = model.senses or (1.0,) * len(model.rows)
+    for row, qi, si in zip(model.rows, q.tolist(), senses, strict=True):
+        T = T @ _dh_matrix(row.a, row.alpha, row.d, row.theta + si * qi)
     return np.asarray(T @ model.T_n_tool, dtype=float)
 
 
@@ -175,9 +190,10 @@ def equivalent_dh(robot: Robot, signs: tuple[int, ...] = ()) -> DHModel:
     """An equivalent standard-DH table of a revolute chain, proved by FK.
 
     The table with near-ideal values set to their ideal when that still reproduces the
-    robot's FK to :data:`FK_TOL`; otherwise (axes that are within the tolerances of an
-    ideal relation but not in it, e.g. a URDF angle written to 5 digits) the table of the
-    values as they are, so that a family's test names the relation that is not exact.
+    robot's FK to :data:`FK_TOL`, or to :data:`NEAR_FK_TOL` (then marked
+    ``exact=False``); otherwise (axes near an ideal relation but not within the
+    tolerances of it, e.g. a URDF angle written to 5 digits) the table of the values as
+    they are, so that a family's test names the relation that is not exact.
 
     Args:
         robot: a robot whose chain joints are all revolute, without coupling.
@@ -193,18 +209,40 @@ def equivalent_dh(robot: Robot, signs: tuple[int, ...] = ()) -> DHModel:
     """
     axes = joint_axes(robot)
     snapped = _build(robot, axes, signs, snap=True)
-    if fk_mismatch(robot, snapped, axes.size) <= FK_TOL:
+    mismatch = fk_mismatch(robot, snapped, axes.size)
+    if mismatch <= FK_TOL:
         return snapped
+    if mismatch <= NEAR_FK_TOL:
+        return snapped._replace(exact=False)
     exact = _build(robot, axes, signs, snap=False)
     _prove(robot, exact, axes.size)
     return exact
+
+
+def joint_senses(directions: FloatArray) -> tuple[float, ...]:
+    """+1 or -1 per joint: the senses that make each run of parallel axes point alike.
+
+    A joint that turns about the reversed direction of the parallel axis before it
+    (a URDF axis written the other way, e.g. the Kinova j2s6s200's third joint) is the
+    same joint with ``q -> -q``: the table takes it with its direction reversed and the
+    variable ``-q`` (``DHModel.senses``), so that its twist is 0, not 180 deg. Joints
+    whose axis is not parallel to the one before keep their sense (a twist absorbs it).
+    """
+    senses = [1.0]
+    for i in range(1, len(directions)):
+        u = senses[-1] * directions[i - 1]
+        w = directions[i]
+        parallel = float(np.linalg.norm(np.cross(u, w))) <= ANGLE_TOL
+        senses.append(-1.0 if parallel and float(u @ w) < 0.0 else 1.0)
+    return tuple(senses)
 
 
 def _build(robot: Robot, axes: Axes, signs: tuple[int, ...], snap: bool) -> DHModel:
     """The DH table of the construction (module docstring), optionally snapped."""
     n = len(axes.directions)
     tol = LENGTH_TOL * axes.size
-    z = axes.directions
+    senses = joint_senses(axes.directions)
+    z = axes.directions * np.array(senses)[:, None]
     p = axes.points
     K0 = robot.chain.K[0]
     origin = p[0].copy()
@@ -260,7 +298,7 @@ def _build(robot: Robot, axes: Axes, signs: tuple[int, ...], snap: bool) -> DHMo
         x_prev = x
         frames.append(_frame(x, w, origin))
     T_world_0 = frames[0]
-    model = DHModel(tuple(rows), T_world_0, np.eye(4), "joint axes")
+    model = DHModel(tuple(rows), T_world_0, np.eye(4), "joint axes", senses=senses)
     T_n = dh_fk(model, np.zeros(n))
     return model._replace(T_n_tool=np.asarray(np.linalg.solve(T_n, axes.tool), dtype=float))
 

@@ -41,7 +41,7 @@ import numpy as np
 
 from optik._checks import FloatArray
 from optik._math import sincos
-from optik.analytic._compiled import MAX_BRANCHES, closed_form_tols
+from optik.analytic._compiled import MAX_BRANCHES, closed_form_tols, mul3, mul3tn
 from optik.analytic._subproblems import (
     Rot9,
     Vec3,
@@ -73,26 +73,6 @@ def _vec(a: np.ndarray, i: int) -> Vec3:
 
 
 @_jit
-def _mul(A: Rot9, B: Rot9) -> Rot9:
-    return (
-        A[0] * B[0] + A[1] * B[3] + A[2] * B[6],
-        A[0] * B[1] + A[1] * B[4] + A[2] * B[7],
-        A[0] * B[2] + A[1] * B[5] + A[2] * B[8],
-        A[3] * B[0] + A[4] * B[3] + A[5] * B[6],
-        A[3] * B[1] + A[4] * B[4] + A[5] * B[7],
-        A[3] * B[2] + A[4] * B[5] + A[5] * B[8],
-        A[6] * B[0] + A[7] * B[3] + A[8] * B[6],
-        A[6] * B[1] + A[7] * B[4] + A[8] * B[7],
-        A[6] * B[2] + A[7] * B[5] + A[8] * B[8],
-    )
-
-
-@_jit
-def _mul_tn(A: Rot9, B: Rot9) -> Rot9:
-    return _mul((A[0], A[3], A[6], A[1], A[4], A[7], A[2], A[5], A[8]), B)
-
-
-@_jit
 def pair_wrist_candidates(
     z: np.ndarray,
     p: np.ndarray,
@@ -101,6 +81,7 @@ def pair_wrist_candidates(
     ref: np.ndarray,
     tols: np.ndarray,
     cand: np.ndarray,
+    lsq: np.ndarray,
 ) -> int:
     """Raw branches of the pair-elbow-wrist closed form into ``cand`` (>= 8, 6).
 
@@ -112,6 +93,7 @@ def pair_wrist_candidates(
         ref: (6,) reference angles for free joints (rad).
         tols: the tolerance block of :mod:`optik.analytic._compiled`.
         cand: output rows (joint angles, rad, not wrapped).
+        lsq: (3, 6, 6) scratch of :func:`refine` (the caller allocates it once).
 
     Returns:
         The number of rows written (0 to 8), in the order of the module docstring.
@@ -123,7 +105,7 @@ def pair_wrist_candidates(
     # G = T M^-1: rotation R_G = R_T R_M^T, translation t_T - R_G t_M.
     RT = (T[0, 0], T[0, 1], T[0, 2], T[1, 0], T[1, 1], T[1, 2], T[2, 0], T[2, 1], T[2, 2])
     RMt = (M[0, 0], M[1, 0], M[2, 0], M[0, 1], M[1, 1], M[2, 1], M[0, 2], M[1, 2], M[2, 2])
-    RG = _mul(RT, RMt)
+    RG = mul3(RT, RMt)
     tM = (M[0, 3], M[1, 3], M[2, 3])
     GtM = apply(RG, tM)
     tG = (T[0, 3] - GtM[0], T[1, 3] - GtM[1], T[2, 3] - GtM[2])
@@ -149,15 +131,15 @@ def pair_wrist_candidates(
         for i12 in range(n12):
             t1 = ta1 if i12 == 0 else ta2
             t2 = tb1 if i12 == 0 else tb2
-            R123 = _mul(_mul(rotation(z1, t1), rotation(z2, t2)), R3)
-            H = _mul_tn(R123, RG)
+            R123 = mul3(mul3(rotation(z1, t1), rotation(z2, t2)), R3)
+            H = mul3tn(R123, RG)
             n45, ta, tb, tc, td = sp2_angles(
                 z4, z5, z6, apply(H, z6), ref[3], ref[4], trig_tol, axis_tol
             )
             for i45 in range(n45):
                 t4 = ta if i45 == 0 else tc
                 t5 = tb if i45 == 0 else td
-                R45 = _mul(rotation(z4, t4), rotation(z5, t5))
+                R45 = mul3(rotation(z4, t4), rotation(z5, t5))
                 target = apply_t(R45, apply(H, across))
                 t6 = sp1_angle(z6, across, target, ref[5], axis_tol)
                 if n < cand.shape[0]:
@@ -167,7 +149,7 @@ def pair_wrist_candidates(
                     cand[n, 3] = t4
                     cand[n, 4] = t5
                     cand[n, 5] = t6
-                    refine(z, p, M, T, cand, n)
+                    refine(z, p, M, T, cand, n, lsq)
                     n += 1
     return n
 
@@ -179,6 +161,9 @@ moved, so a free angle keeps its reference."""
 REFINE_MAX_STEP = 1e-4
 """Largest correction (rad) :func:`refine` applies: a larger one means an ill-posed
 system, and the closed form's values are kept."""
+REFINE_TRUSTED_STEP = 1e-8
+"""A correction up to this (rad) is kept without recomputing the error: the damped step
+never raises the linearised error, and the rest is second order (about 1e-16)."""
 
 
 @_jit
@@ -209,9 +194,9 @@ def _pose_error(
         ti = (pi[0] - Rp[0], pi[1] - Rp[1], pi[2] - Rp[2])
         Rti = apply(R, ti)
         t = (t[0] + Rti[0], t[1] + Rti[1], t[2] + Rti[2])
-        R = _mul(R, Ri)
+        R = mul3(R, Ri)
     RM = (M[0, 0], M[0, 1], M[0, 2], M[1, 0], M[1, 1], M[1, 2], M[2, 0], M[2, 1], M[2, 2])
-    Rq = _mul(R, RM)
+    Rq = mul3(R, RM)
     tq = apply(R, (M[0, 3], M[1, 3], M[2, 3]))
     tq = (tq[0] + t[0], tq[1] + t[1], tq[2] + t[2])
     for i in range(6):
@@ -222,7 +207,7 @@ def _pose_error(
         J[1, i] = v[1]
         J[2, i] = v[2]
     RT = (T[0, 0], T[0, 1], T[0, 2], T[1, 0], T[1, 1], T[1, 2], T[2, 0], T[2, 1], T[2, 2])
-    E = _mul(RT, (Rq[0], Rq[3], Rq[6], Rq[1], Rq[4], Rq[7], Rq[2], Rq[5], Rq[8]))
+    E = mul3(RT, (Rq[0], Rq[3], Rq[6], Rq[1], Rq[4], Rq[7], Rq[2], Rq[5], Rq[8]))
     return (
         T[0, 3] - tq[0],
         T[1, 3] - tq[1],
@@ -235,7 +220,13 @@ def _pose_error(
 
 @_jit
 def refine(
-    z: np.ndarray, p: np.ndarray, M: np.ndarray, T: np.ndarray, cand: np.ndarray, r: int
+    z: np.ndarray,
+    p: np.ndarray,
+    M: np.ndarray,
+    T: np.ndarray,
+    cand: np.ndarray,
+    r: int,
+    lsq: np.ndarray,
 ) -> None:
     """One Newton step of ``cand[r]`` towards ``T`` on the product of exponentials.
 
@@ -243,10 +234,14 @@ def refine(
     digits) make the closed form exact to about 1e-12; near a singularity that error is
     magnified in the joints that the singularity couples. One damped least-squares step
     (:data:`REFINE_DAMPING`) restores the branch to rounding. It is kept only when it is
-    small (:data:`REFINE_MAX_STEP`) and lowers the error.
+    small (:data:`REFINE_MAX_STEP`) and lowers the error (checked unless it is tiny,
+    :data:`REFINE_TRUSTED_STEP`). ``lsq`` (3, 6, 6) is scratch:
+    the Jacobian, the normal matrix, and the configuration and step in its last block.
     """
-    J = np.empty((6, 6))
-    q = np.empty(6)
+    J = lsq[0]
+    A = lsq[1]
+    q = lsq[2, 0]
+    b = lsq[2, 1]
     for i in range(6):
         q[i] = cand[r, i]
     e = _pose_error(z, p, M, T, q, J)
@@ -255,8 +250,6 @@ def refine(
         return
     # Damped normal equations (J^T J + lambda^2 I) dq = J^T e, solved by Gaussian
     # elimination (the matrix is symmetric positive definite: no pivoting needed).
-    A = np.empty((6, 6))
-    b = np.empty(6)
     for i in range(6):
         acc = 0.0
         for m in range(6):
@@ -279,15 +272,19 @@ def refine(
         for j in range(col + 1, 6):
             acc -= A[col, j] * b[j]
         b[col] = acc / A[col, col]
+    step = 0.0
     for i in range(6):
         if not abs(b[i]) <= REFINE_MAX_STEP:
             return
+        step = max(step, abs(b[i]))
         q[i] += b[i]
-    e = _pose_error(z, p, M, T, q, J)
-    after = max(abs(e[0]), abs(e[1]), abs(e[2]), abs(e[3]), abs(e[4]), abs(e[5]))
-    if after < before:
-        for i in range(6):
-            cand[r, i] = q[i]
+    if step > REFINE_TRUSTED_STEP:
+        e = _pose_error(z, p, M, T, q, J)
+        after = max(abs(e[0]), abs(e[1]), abs(e[2]), abs(e[3]), abs(e[4]), abs(e[5]))
+        if not after < before:
+            return
+    for i in range(6):
+        cand[r, i] = q[i]
 
 
 # ---------------------------------------------------------------------- the structure

@@ -34,7 +34,7 @@ import numpy as np
 from optik._kernels import Rows12
 from optik._math import sincos, trig_roots, wrap_angle
 from optik.analytic import _compiled
-from optik.analytic._base import deg, fit_model, opposite, register
+from optik.analytic._base import deg, opposite, register
 from optik.analytic._compiled import (
     CompiledFamily,
     closed_form_tols,
@@ -44,8 +44,7 @@ from optik.analytic._compiled import (
     store_branch,
     times_inverse_dh,
 )
-from optik.analytic.geometry import DHModel
-from optik.model import DHJoint, Robot
+from optik.model import DHJoint
 
 _ALPHAS_DEG = (90.0, 0.0, 0.0, 90.0, -90.0, 0.0)
 _SIGNS = (1, 0, 0, 1, -1)  # twist signs of the equivalent table: +90, -, -, +90, -90
@@ -273,8 +272,5 @@ class URArm(CompiledFamily):
     kernel = _compiled.UR
     closed_form = ur_candidates
     mismatch = "robot {name!r} is not of the UR type"
-
-    @staticmethod
-    def fit(robot: Robot) -> DHModel | str:
-        """The UR table of ``robot`` (see the module docstring), or why there is none."""
-        return fit_model(robot, rows_reason, _SIGNS)
+    rows_test = staticmethod(rows_reason)
+    twist_signs = _SIGNS
