@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import math
+import sys
+import types
 from pathlib import Path
 from typing import Any
 
@@ -287,3 +289,13 @@ def test_base_placement_checks_its_map(two_link_map: Any) -> None:
         base_placement(robot_of("planar_2r"), [[1.0, 0.0, 0.0]], map=two_link_map)
     with pytest.raises(OptikError, match="region"):
         base_placement(_two_link(), [[1.0, 0.0, 0.0]], map=two_link_map, region=[[1, 0], [0, 1]])
+
+
+def test_a_zarr_older_than_3_is_refused_with_the_reason(monkeypatch: pytest.MonkeyPatch) -> None:
+    # zarr 2 has another API and writes another format: optik refuses it up front.
+    old = types.ModuleType("zarr")
+    old.__version__ = "2.18.3"  # type: ignore[attr-defined]
+    monkeypatch.setitem(sys.modules, "zarr", old)
+    robot = optik.load_problem("planar_2r").robot
+    with pytest.raises(OptikError, match=r"zarr >= 3 \(Python >= 3.11\), found zarr 2.18.3"):
+        optik.capability_map(robot, voxel=0.5, orientations=2)

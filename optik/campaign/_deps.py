@@ -27,3 +27,25 @@ def require(module: str, what: str) -> ModuleType:
             f"{what} needs the Python package {module.split('.')[0]!r}, which is not "
             f"installed ({exc}); install the cluster extra: {INSTALL_HINT}"
         ) from exc
+
+
+ZARR_MAJOR = 3
+"""Maps are stored in Zarr format 3 through the zarr >= 3 API (which needs Python >= 3.11)."""
+
+
+def require_zarr(what: str) -> ModuleType:
+    """:func:`require` ``zarr``, at least version :data:`ZARR_MAJOR`.
+
+    Raises:
+        OptikError: zarr is not installed, or is older (zarr 2 writes another format and
+            has another API; optik does not write it).
+    """
+    zarr = require("zarr", what)
+    version = str(getattr(zarr, "__version__", "0"))
+    major = version.split(".")[0]
+    if not major.isdigit() or int(major) < ZARR_MAJOR:
+        raise OptikError(
+            f"{what} needs zarr >= {ZARR_MAJOR} (Python >= 3.11), found zarr {version}; "
+            f"upgrade it: pip install 'zarr>={ZARR_MAJOR}'"
+        )
+    return zarr

@@ -41,7 +41,7 @@ from typing import Any
 import numpy as np
 
 from optik._checks import FloatArray, check_bool, check_choice, check_int, check_real
-from optik.campaign._deps import require
+from optik.campaign._deps import require, require_zarr
 from optik.campaign.engine import Engine, ProgressOption, open_engine, run_chunks_with_progress
 from optik.campaign.provenance import check_same_run, robot_fingerprint, versions
 from optik.campaign.sampling import AXES, lattice
@@ -321,17 +321,11 @@ def _create_array(
     dims: tuple[str, ...],
     fill_value: Any = None,
 ) -> Any:
-    """A Zarr array with named dimensions (xarray's convention), in Zarr 3 or Zarr 2."""
-    if hasattr(group, "create_array"):  # Zarr 3
-        return group.create_array(
-            name, shape=shape, chunks=chunks, dtype=dtype, fill_value=fill_value,
-            dimension_names=list(dims),
-        )  # fmt: skip
-    array = group.create_dataset(  # Zarr 2
-        name, shape=shape, chunks=chunks, dtype=dtype, fill_value=fill_value
-    )
-    array.attrs["_ARRAY_DIMENSIONS"] = list(dims)
-    return array
+    """A Zarr (format 3) array with named dimensions, as xarray reads them."""
+    return group.create_array(
+        name, shape=shape, chunks=chunks, dtype=dtype, fill_value=fill_value,
+        dimension_names=list(dims),
+    )  # fmt: skip
 
 
 class MapStore:
@@ -350,7 +344,7 @@ class MapStore:
     @classmethod
     def create(cls, store: Any, spec: MapSpec, attrs: dict[str, Any]) -> MapStore:
         """A new, empty map group in ``store`` (a path or a Zarr store)."""
-        zarr = require("zarr", "a capability map")
+        zarr = require_zarr("a capability map")
         group = zarr.open_group(store=store, mode="w-")
         group.attrs.update(attrs)
         for name, (dims, values) in _statics(spec).items():
@@ -374,7 +368,7 @@ class MapStore:
     @classmethod
     def reopen(cls, path: Path, spec: MapSpec, settings: dict[str, Any]) -> MapStore:
         """An existing map to resume; its settings must be the ones asked for."""
-        zarr = require("zarr", "a capability map")
+        zarr = require_zarr("a capability map")
         try:
             group = zarr.open_group(store=str(path), mode="r+")
             stored = dict(group.attrs.get("settings", {}))
@@ -510,7 +504,7 @@ def capability_map(
     if not isinstance(robot, Robot):
         raise OptikError(f"robot: expected an optik.Robot, got {type(robot).__name__}")
     require("xarray", "a capability map")
-    require("zarr", "a capability map")
+    require_zarr("a capability map")
     check_choice("mode", mode, MAP_MODES)
     check_choice("axis", axis, AXES)
     tol = check_real("tol", tol, positive=True)
