@@ -99,7 +99,12 @@ def link_points(frames: FloatArray, joints: FloatArray) -> FloatArray:
 
 
 def arm_geometry(robot: Robot, q: Any) -> ArmGeometry:
-    """The links, joint axes and frames of ``robot`` at ``q`` (dof,) rad or m."""
+    """The links, joint axes and frames of ``robot`` at ``q`` (dof,) rad or m.
+
+    Args:
+        robot: the robot.
+        q: one configuration (dof,), rad or m.
+    """
     F = robot.frames(q)
     motion = joint_frames(robot, F)
     P = link_points(F, motion)
@@ -283,8 +288,17 @@ def show_robot(
 ) -> Path:
     """Write a picture of the arm at ``q`` (default: mid-limits) to ``path`` (PNG, SVG, PDF).
 
-    Written whole or not at all. Arguments as in :func:`robot_figure`; ``dpi`` in dots
-    per inch.
+    Written whole or not at all; drawn by :func:`robot_figure`.
+
+    Args:
+        robot: the robot.
+        path: the image file to write; its suffix (``.png``, ``.svg``, ``.pdf``) picks the
+            format.
+        q: (dof,) joint values, rad or m (default: mid-limits).
+        title: the figure's title (default: the robot's name and ``q``).
+        meshes: world-frame triangle meshes to draw with it (:func:`visual_meshes`).
+        view: elevation and azimuth of the camera, deg.
+        dpi: resolution, dots per inch.
     """
     fig, _ = robot_figure(robot, q, title=title, meshes=meshes, view=view)
     return save_figure(fig, Path(path), dpi)
@@ -347,6 +361,12 @@ def visual_meshes(
     resolve against the folders above the file. Every link below ``base_link`` is drawn,
     its joints off the chain at 0; a mesh of more than :data:`MESH_FACES` triangles as its
     convex hull. The link poses yourdfpy computes are checked against optik's FK.
+
+    Args:
+        urdf: the URDF file the robot was read from.
+        robot: the robot.
+        q: one configuration (dof,), rad or m, of the robot's joints.
+        base_link: the URDF link that is the robot's world frame.
 
     Returns:
         ``(vertices (V, 3), faces (F, 3))`` per mesh.

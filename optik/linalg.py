@@ -505,9 +505,14 @@ def least_squares(
     ``damping = lambda > 0`` it returns ``(A^T A + lambda^2 I)^-1 A^T b`` for any shape,
     the minimizer of ``||A x - b||^2 + lambda^2 ||x||^2`` (damped least squares).
 
-    The arguments, the result and the errors are those of :func:`min_norm`, with
-    ``A`` of shape ``(..., m, n)``, ``m >= n`` unless damped (a ``ShapeError`` for
+    The result and the errors are those of :func:`min_norm` (a ``ShapeError`` for
     ``m < n`` undamped).
+
+    Args:
+        A: matrix or stack of matrices, shape ``(..., m, n)``, ``m >= n`` unless damped.
+        b: right-hand side, shape ``(..., m)`` or ``(..., m, k)``; the same batch axes.
+        damping: ``lambda >= 0``, in the units of ``b / x`` (0: no damping).
+        max_condition: undamped, ``cond_2(A)`` above this raises (default 1e12); no unit.
     """
     return _solve(A, b, damping, max_condition, "least_squares")
 

@@ -531,6 +531,9 @@ class Robot:
         Derived data (the chain, the seed table, the closed-form family and its packed
         parameters) is keyed by the function that builds it, so no module writes string
         keys into the robot. :meth:`with_limits` starts a fresh cache.
+
+        Args:
+            build: function of the robot that computes the value; also its cache key.
         """
         try:
             return self._cache[build]
@@ -539,7 +542,11 @@ class Robot:
             return value
 
     def cached_value(self, build: Callable[[Robot], T_cached]) -> T_cached | None:
-        """What :meth:`cached` holds for ``build``, or ``None`` if it was not built yet."""
+        """What :meth:`cached` holds for ``build``, or ``None`` if it was not built yet.
+
+        Args:
+            build: the function the value was (or would be) built with, as given to :meth:`cached`.
+        """
         return self._cache.get(build)
 
     @property
@@ -563,6 +570,10 @@ class Robot:
         Entries must be finite and of magnitude at most
         :data:`~optik._checks.MAX_LENGTH_M` (rad or m): beyond it a prismatic joint's
         translation would overflow the solvers' squared distances.
+
+        Args:
+            q: configuration (dof,) or batch (N, dof), rad or m.
+            name: the argument's name in error messages.
         """
         return finite_length_array(name, q, (self.dof,), batch=True)
 
@@ -572,7 +583,11 @@ class Robot:
         return np.ascontiguousarray(q @ self._coupling.T)
 
     def fk(self, q: Any) -> FloatArray:
-        """Pose of the tool in the world frame: (4, 4), or (N, 4, 4) for q of shape (N, dof)."""
+        """Pose of the tool in the world frame: (4, 4), or (N, 4, 4) for q of shape (N, dof).
+
+        Args:
+            q: configuration (dof,) or batch (N, dof), rad or m.
+        """
         q = self.check_q(q)
         theta = self._theta(q)
         if q.ndim == 1:
@@ -586,11 +601,19 @@ class Robot:
 
         Rows 0-2 map joint rates to the tool's linear velocity (m/s), rows 3-5 to its
         angular velocity (rad/s).
+
+        Args:
+            q: configuration (dof,) or batch (N, dof), rad or m; a batch gives (N, 6, dof).
         """
         return self.fk_jacobian(q)[1]
 
     def fk_jacobian(self, q: Any) -> tuple[FloatArray, FloatArray]:
-        """Tool pose and Jacobian in one pass: ((4, 4), (6, dof)) or batched."""
+        """Tool pose and Jacobian in one pass: ((4, 4), (6, dof)) or batched.
+
+        Args:
+            q: configuration (dof,) or batch (N, dof), rad or m;
+                a batch gives ((N, 4, 4), (N, 6, dof)).
+        """
         q = self.check_q(q)
         theta = self._theta(q)
         if q.ndim == 1:
@@ -606,6 +629,9 @@ class Robot:
     def frames(self, q: Any) -> FloatArray:
         """Every frame, world-relative: frame 0, link frames 1..n, then the tool.
 
+        Args:
+            q: one configuration (dof,), rad or m (a batch raises ``ShapeError``).
+
         Returns:
             ``(n + 2, 4, 4)`` for one configuration, where ``n`` counts chain joints
             (``dof`` plus any mimic joints).
@@ -619,6 +645,10 @@ class Robot:
 
     def with_limits(self, lower: Any, upper: Any) -> Robot:
         """A copy of this robot with other joint limits (dof,) each; kinematics shared.
+
+        Args:
+            lower: lower joint limits (dof,), rad or m (``-inf`` allowed for a revolute joint).
+            upper: upper joint limits (dof,), rad or m (``inf`` allowed for a revolute joint).
 
         Raises:
             InvalidLimitsError: NaN, ``lower > upper`` for some joint, or a prismatic
@@ -675,11 +705,22 @@ class Robot:
         return center, radius
 
     def limit_violation(self, q: Any) -> float | FloatArray:
-        """Largest excursion (rad or m) of ``q`` beyond its limits; 0 inside."""
+        """Largest excursion (rad or m) of ``q`` beyond its limits; 0 inside.
+
+        Args:
+            q: configuration (dof,) or batch (N, dof), rad or m;
+                a batch gives one value per row (N,).
+        """
         return limit_violation(self.check_q(q), self.lower, self.upper)
 
     def within_limits(self, q: Any, tol: float = 1e-12) -> bool | FloatArray:
-        """Whether ``q`` (or each row) respects the limits up to ``tol``."""
+        """Whether ``q`` (or each row) respects the limits up to ``tol``.
+
+        Args:
+            q: configuration (dof,) or batch (N, dof), rad or m;
+                a batch gives one answer per row (N,).
+            tol: accepted excursion beyond each limit, rad or m.
+        """
         return within_limits(self.check_q(q), self.lower, self.upper, tol)
 
 

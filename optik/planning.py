@@ -165,7 +165,11 @@ class PathPlan:
         }
 
     def save(self, path: str | Path) -> Path:
-        """Write the plan as ``.csv``, ``.npz`` or ``.json`` (whole or not at all)."""
+        """Write the plan as ``.csv``, ``.npz`` or ``.json`` (whole or not at all).
+
+        Args:
+            path: the file to write; its suffix (``.csv``, ``.npz``, ``.json``) picks the format.
+        """
         target = Path(path)
         suffix = target.suffix.lower()
         if suffix == ".npz":
@@ -222,7 +226,13 @@ class PathPlan:
         )
 
     def plot(self, path: str | Path, robot: Robot | None = None) -> Path:
-        """Joint trajectories with limit bands and flagged waypoints, saved as an image."""
+        """Joint trajectories with limit bands and flagged waypoints, saved as an image.
+
+        Args:
+            path: the image file to write (PNG, SVG or PDF, by suffix).
+            robot: the robot the plan was made for: adds its limit bands and the arm along the
+                path (default: joint panels only).
+        """
         from optik.plots import plot_plan
 
         return plot_plan(self, Path(path), robot)
@@ -240,8 +250,20 @@ class PathPlan:
         """The time-optimal trajectory (TOPP-RA) along this joint path, in segments.
 
         Unsolved waypoints and discontinuities split it; see
-        :func:`optik.trajectory.plan_trajectory` for the arguments (limits in rad/s, m/s,
-        rad/s², m/s²; default from ``robot``), the path and the guarantees.
+        :func:`optik.trajectory.plan_trajectory` for the path, the default limits and the
+        guarantees.
+
+        Args:
+            velocity_limits: joint speed limits, one value or one per joint (rad/s or m/s);
+                default: the robot's.
+            acceleration_limits: joint acceleration limits, one value or one per joint (rad/s² or
+                m/s²); default: the robot's.
+            robot: the robot the plan was made for: the source of default limits, and of the
+                measured departure from the Cartesian path.
+            dt: sampling step (s) of the returned arrays.
+            grid: least number of TOPP-RA grid intervals per segment; no unit.
+            path_tolerance: largest accepted departure (m for position, rad for orientation)
+                of the tool from the Cartesian path between waypoints; needs ``robot``.
         """
         from optik.trajectory import plan_trajectory
 
@@ -776,6 +798,15 @@ def reachability(
     answer verified by FK. A point the numeric search misses within ``restarts`` is
     reported unreachable without proof: raise ``restarts`` to search harder.
 
+    Args:
+        robot: the robot.
+        points: workspace points (N, 3), m, in the world frame.
+        orientation: tool rotation (3, 3) shared by all points, no unit (default: position
+            IK only).
+        tol: IK tolerance, m for position and rad for orientation (one value for both).
+        restarts: attempts after the first per point, in [0, MAX_RESTARTS]; no unit.
+        seed: seed of the restarts, no unit (the same seed gives the same answer).
+
     Raises:
         OptikError: ``points`` not finite (N, 3) within
             :data:`~optik._checks.MAX_LENGTH_M`, ``orientation`` not a rotation, ``tol``
@@ -835,6 +866,15 @@ def reachability_figure(
     through the centre of the reach sphere), clipped to the reach sphere, is solved with
     :func:`reachability` (position IK, or full pose with ``orientation``)
     and drawn green (reached inside the limits) or grey (not reached).
+
+    Args:
+        robot: the robot.
+        axis: the axis normal to the slice: ``"x"``, ``"y"`` or ``"z"``.
+        value: the slice's coordinate along ``axis``, m (default: the reach sphere's centre).
+        resolution: grid points per side of the slice, in [2, 400]; no unit.
+        q: (dof,) joint values of the arm drawn, rad or m (default: mid-limits).
+        orientation: tool rotation (3, 3) for full-pose IK, no unit (default: position IK).
+        seed: seed of the IK restarts, no unit.
 
     Returns:
         ``(figure, axes)``; the axes has the :class:`~optik.planning.Reachability` as

@@ -58,6 +58,12 @@ def plan_figure(plan: PathPlan, robot: Robot | None = None, arms: int = 5) -> Pl
     One panel per joint (planned value, limit bands, flagged waypoints) and, with a robot,
     a 3-D panel: the Cartesian path, its flagged waypoints in colour and the arm at up to
     ``arms`` solved waypoints (fainter to stronger along the path).
+
+    Args:
+        plan: the plan.
+        robot: the robot the plan was made for: adds limit bands and the 3-D panel (default:
+            joint panels only).
+        arms: most solved waypoints at which the arm is drawn; no unit.
     """
     plt = pyplot()
     dof = plan.q.shape[1]

@@ -255,6 +255,9 @@ class Trajectory:
         ``time_from_start {sec, nanosec}`` from the segment's start) plus the plan
         waypoints it covers. Written whole or not at all.
 
+        Args:
+            path: the file to write; its suffix (``.csv`` or ``.json``) picks the format.
+
         Raises:
             OptikError: an unknown suffix.
             OutputFileError: the file cannot be written.

@@ -343,7 +343,11 @@ class Viewer(Closing):
         self._gizmo.wxyz = to_quat_wxyz(T)
 
     def set_robot_visible(self, visible: bool) -> None:
-        """Show or hide the robot (links, joints, frames); the target stays."""
+        """Show or hide the robot (links, joints, frames); the target stays.
+
+        Args:
+            visible: ``True`` to show the robot, ``False`` to hide it.
+        """
         visible = check_bool("visible", visible)
         with self._lock:
             for node in (self._links, *self._joint_nodes, *self._frame_nodes):
@@ -448,6 +452,9 @@ class Viewer(Closing):
     def set_q(self, q: Any) -> None:
         """Show configuration ``q`` (dof,), rad or m (inside the limits).
 
+        Args:
+            q: one configuration (dof,), rad or m, inside the limits.
+
         Raises:
             OptikError: wrong shape, a non-finite entry, or a value outside the limits.
         """
@@ -457,6 +464,9 @@ class Viewer(Closing):
 
     def set_mode(self, mode: str) -> IKResult | None:
         """Change the task mode (one of :data:`VIEW_MODES`) and solve the target again.
+
+        Args:
+            mode: the task mode, one of :data:`VIEW_MODES`.
 
         Raises:
             OptikError: an unknown mode.
@@ -471,6 +481,9 @@ class Viewer(Closing):
 
     def set_solver(self, solver: str) -> IKResult | None:
         """Change the solver of the live solve and solve the target again.
+
+        Args:
+            solver: ``"auto"`` or the name of an available solver.
 
         Raises:
             OptikError: a name that is not ``"auto"`` nor an available solver.
@@ -593,6 +606,9 @@ class Viewer(Closing):
         The branches are solved again when the target or the mode changed since the last
         call. Returns the branch shown, or ``None`` when there is none.
 
+        Args:
+            step: how many branches to move by: ``+1`` next, ``-1`` previous; no unit.
+
         Raises:
             AnalyticIKError: as :meth:`solve_branches`.
         """
@@ -624,6 +640,9 @@ class Viewer(Closing):
         Waypoints are drawn as points coloured by :data:`STATUS_COLORS` (green ``ok``,
         other colours flagged), joined by a line; the slider shows the robot at each
         solved waypoint and the target at its pose.
+
+        Args:
+            plan: the plan, for a robot with this viewer's number of joints.
 
         Raises:
             OptikError: not a :class:`optik.PathPlan`, or one with another number of joints.
@@ -673,6 +692,9 @@ class Viewer(Closing):
 
         An unsolved waypoint leaves the robot where it was; its status is shown.
 
+        Args:
+            index: the waypoint's index in the plan, in ``[0, N)``.
+
         Raises:
             OptikError: no plan loaded, or ``index`` out of range.
         """
@@ -696,6 +718,9 @@ class Viewer(Closing):
 
     def play(self, playing: bool = True) -> None:
         """Start or stop playing the loaded plan (one waypoint per 0.1 s, then again).
+
+        Args:
+            playing: ``True`` to start playing, ``False`` to stop.
 
         Raises:
             OptikError: ``playing`` with no plan loaded.

@@ -94,6 +94,9 @@ def detect_family(robot: Robot) -> AnalyticFamily | None:
 def family_of(robot: Robot) -> AnalyticFamily | None:
     """The robot's declared family (checked to fit), else a detected one, else ``None``.
 
+    Args:
+        robot: the robot.
+
     Raises:
         AnalyticIKError: the declared family is unknown or does not fit the robot.
     """
@@ -572,7 +575,11 @@ class AnalyticBatch(NamedTuple):
     counts: IntArray
 
     def branches(self, i: int) -> list[FloatArray]:
-        """The branches of target ``i``, as :func:`analytic_ik` returns them."""
+        """The branches of target ``i``, as :func:`analytic_ik` returns them.
+
+        Args:
+            i: index of the target in the batch, in ``[0, N)``.
+        """
         return list(self.q[i, : int(self.counts[i])])
 
     @property

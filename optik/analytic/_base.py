@@ -117,7 +117,11 @@ class FamilyMatch(NamedTuple):
 
 
 def match_families(robot: Robot) -> list[FamilyMatch]:
-    """Every registered family, in detection order, with whether and why it fits."""
+    """Every registered family, in detection order, with whether and why it fits.
+
+    Args:
+        robot: the robot.
+    """
     matches = []
     for family in FAMILIES.values():
         reason = family.explain(robot)
@@ -133,6 +137,9 @@ def explain_family(robot: Robot) -> str:
     then one line per registered family: ``fits`` (with the table's source) or the
     relation that fails. Never raises for a well-formed robot: a declared family that
     does not fit is reported, not raised.
+
+    Args:
+        robot: the robot.
     """
     matches = match_families(robot)
     if robot.analytic is not None:

@@ -59,6 +59,9 @@ def read_targets(path: str | Path) -> FloatArray:
     Positions without an orientation get the identity rotation; :func:`solve_batch`
     accepts them only in position mode.
 
+    Args:
+        path: the ``.npy`` or ``.parquet`` file.
+
     Raises:
         OptikError: a missing file, another suffix, an array of another shape, missing
             columns, non-finite values or a quaternion far from unit norm.

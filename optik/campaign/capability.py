@@ -394,6 +394,9 @@ class MapStore:
 def open_map(path: str | Path) -> Any:
     """A stored capability map as a lazily loaded :class:`xarray.Dataset`.
 
+    Args:
+        path: the map's Zarr folder.
+
     Raises:
         OptikError: ``path`` is not a finished map (or the cluster extra is missing).
     """

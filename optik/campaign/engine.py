@@ -86,6 +86,9 @@ class Engine(Closing):
         chunk; otherwise 1: chunks run side by side, and two parallel numba calls must
         never run at once (numba's ``workqueue`` threading layer does not allow it). The
         answers do not depend on it.
+
+        Args:
+            chunks: number of chunks of the run; no unit.
         """
         if self.distributed or chunks > 1:
             return 1
@@ -101,6 +104,10 @@ class Engine(Closing):
 
         An exception raised by a chunk is raised here; the chunks not yet done are then
         cancelled.
+
+        Args:
+            fn: the function applied to each item (in a worker for a Dask run).
+            items: the items, each given to ``fn``.
         """
         if self.client is None:
             yield from self._threaded(fn, items)

@@ -93,7 +93,12 @@ def plot_scatter(ds: Any, path: str | Path, most: int = 20_000) -> Path:
 
 
 def plot_map(ds: Any, folder: str | Path) -> list[Path]:
-    """``reachability.png``, ``manipulability.png`` (slices) and ``map3d.png`` in ``folder``."""
+    """``reachability.png``, ``manipulability.png`` (slices) and ``map3d.png`` in ``folder``.
+
+    Args:
+        ds: a map from :func:`optik.capability_map` (or :func:`open_map`).
+        folder: the folder to write the three PNG files in (created if missing).
+    """
     out = prepare_folder(folder)
     return [
         plot_slices(ds, out / "reachability.png", "reachability"),

@@ -77,7 +77,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of the ``optik`` console script."""
+    """Entry point of the ``optik`` console script.
+
+    Args:
+        argv: the command-line arguments after the program name (default: ``sys.argv[1:]``).
+    """
     args = build_parser().parse_args(argv)  # a usage error exits with 2
     try:
         return int(args.func(args))

@@ -77,7 +77,11 @@ class RunConfig:
                 raise UnknownPeerError(name, list(peer_names()))
 
     def targets_for(self, solver: str) -> int:
-        """Number of targets per robot that ``solver`` runs (``n``, or its cap)."""
+        """Number of targets per robot that ``solver`` runs (``n``, or its cap).
+
+        Args:
+            solver: the solver's name.
+        """
         return min(self.n, self.caps.get(solver, self.n))
 
     def to_dict(self) -> dict[str, Any]:

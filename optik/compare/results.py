@@ -193,6 +193,9 @@ def read_results(path: str | Path) -> list[ResultRow]:
 
     A last line without its newline (a run killed mid-write) is ignored.
 
+    Args:
+        path: the results file.
+
     Raises:
         ResultsFileError: the header is not :data:`COLUMNS` (another schema or another
             file), a row is corrupted (wrong number of cells, a cell that does not parse,

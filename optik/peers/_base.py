@@ -162,6 +162,9 @@ class Peer(ABC):
     def prepare(self, robot: Robot) -> list[str]:
         """Build the peer's model of ``robot`` and check its FK against optik's.
 
+        Args:
+            robot: the robot to model.
+
         Returns:
             Notes on the model (where it came from, the FK difference found).
 
@@ -198,6 +201,11 @@ class Peer(ABC):
     def check_fk(self, fk: Callable[[FloatArray], Any], robot: Robot, what: str) -> str:
         """Compare ``fk`` with optik's; returns the note, raises when they differ.
 
+        Args:
+            fk: the peer's FK: joint values (dof,), rad or m, to the tool pose (4, 4), m.
+            robot: the robot the peer models.
+            what: the model's description, at the head of the note and of the error.
+
         Raises:
             PeerUnavailable: the largest difference exceeds :attr:`fk_tol`
                 (:data:`FK_MATCH_TOL` unless the peer computes in lower precision).
@@ -211,12 +219,20 @@ class Peer(ABC):
         return f"{what}: FK = optik FK (max difference {mismatch:.1e}, bound {self.fk_tol:g})"
 
     def reseed(self, seed: int) -> None:
-        """Restart the random restarts from ``seed`` (a run reseeds before each target)."""
+        """Restart the random restarts from ``seed`` (a run reseeds before each target).
+
+        Args:
+            seed: seed of the random restarts, no unit.
+        """
         self.seed = int(seed)
         self._rng = np.random.default_rng(self.seed)
 
     def out_of_time(self, start_time: float) -> bool:
-        """Whether a query begun at ``start_time`` (``time.perf_counter``) is past ``timeout_s``."""
+        """Whether a query begun at ``start_time`` (``time.perf_counter``) is past ``timeout_s``.
+
+        Args:
+            start_time: the query's start, s, a ``time.perf_counter()`` reading.
+        """
         return self.timeout_s is not None and time.perf_counter() - start_time > self.timeout_s
 
     def settings(self) -> dict[str, Any]:

@@ -277,6 +277,9 @@ class DiffIKProgram:
         Least norm: ``W (dq - d)``; least squares: ``J^T Wt (J dq - v) + lambda^2 W
         (dq - d)``. Computed from the program's data, not from ``qp.P`` and ``qp.q``, so a
         check built on it also checks that the QP states the objective.
+
+        Args:
+            dq: joint step (dof,), rad or m.
         """
         dev = dq if self.offset is None else dq - self.offset
         g: FloatArray = self.W @ dev
@@ -285,22 +288,38 @@ class DiffIKProgram:
         return g
 
     def cost(self, dq: FloatArray) -> float:
-        """Objective value ``1/2 dq^T P dq + c^T dq``."""
+        """Objective value ``1/2 dq^T P dq + c^T dq``.
+
+        Args:
+            dq: joint step (dof,), rad or m.
+        """
         return float(0.5 * dq @ self.P @ dq + self.c @ dq)
 
     def task_residual(self, dq: FloatArray) -> FloatArray:
-        """``J dq - v`` (m,), m and rad."""
+        """``J dq - v`` (m,), m and rad.
+
+        Args:
+            dq: joint step (dof,), rad or m.
+        """
         r: FloatArray = self.J @ dq - self.v
         return r
 
     def bound_violation(self, dq: FloatArray) -> float:
-        """Largest excursion of ``dq`` beyond ``[lower, upper]``, 0 inside."""
+        """Largest excursion of ``dq`` beyond ``[lower, upper]``, 0 inside.
+
+        Args:
+            dq: joint step (dof,), rad or m.
+        """
         with np.errstate(invalid="ignore"):
             excess = np.maximum(self.lower - dq, dq - self.upper)
         return float(max(0.0, np.max(excess)))
 
     def clip(self, dq: FloatArray) -> FloatArray:
-        """``dq`` clipped into ``[lower, upper]`` (bounds are exact afterwards)."""
+        """``dq`` clipped into ``[lower, upper]`` (bounds are exact afterwards).
+
+        Args:
+            dq: joint step (dof,), rad or m.
+        """
         out: FloatArray = np.minimum(np.maximum(dq, self.lower), self.upper)
         return out
 
@@ -352,6 +371,10 @@ class DiffIKProgram:
 
         A bound counts as active when ``dq`` lies within ``active_tol`` of it. See
         :class:`KKTReport` for the conditions and how the multipliers are found.
+
+        Args:
+            dq: joint step (dof,), rad or m.
+            active_tol: distance to a bound, rad or m, within which the bound counts as active.
         """
         n = self.dof
         g = self.gradient(dq)
@@ -672,8 +695,14 @@ def build_qp(
     """The ``qpsolvers.Problem`` of one differential-IK step.
 
     Least norm: ``min 1/2 ||dq - d||^2_W  s.t.  J dq = v,  lb <= dq <= ub``; least squares:
-    ``min 1/2 ||J dq - v||^2_Wt + 1/2 lambda^2 ||dq - d||^2_W  s.t.  lb <= dq <= ub``. Arguments
-    (the keywords of :class:`StepProgramOptions`), raises and bounds as in
+    ``min 1/2 ||J dq - v||^2_Wt + 1/2 lambda^2 ||dq - d||^2_W  s.t.  lb <= dq <= ub``. The
+    keywords (those of :class:`StepProgramOptions`), raises and bounds are as in
     :func:`build_program` (which also keeps ``J``, ``v`` and the bounds next to the problem).
+
+    Args:
+        robot: the robot.
+        q: configuration (dof,), rad or m.
+        v: task displacement ``twist * dt``: (6,) linear (m) then angular (rad), (3,) for
+            the position rows, or one entry per index of ``rows``.
     """
     return build_program(robot, q, v, **options).qp
