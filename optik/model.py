@@ -437,8 +437,17 @@ class Robot:
     ) -> Robot:
         """Build from modified (Craig) DH rows, ``A = Rx(alpha) Tx(a) Rz(theta) Tz(d)``.
 
-        Row ``i`` holds ``alpha_{i-1}, a_{i-1}, theta_i, d_i``. Arguments as in
-        :meth:`from_dh`.
+        Row ``i`` holds ``alpha_{i-1}, a_{i-1}, theta_i, d_i``.
+
+        Args:
+            rows: one :class:`DHJoint` (or mapping with its field names; ``type`` is
+                accepted for ``kind``) per joint, m and rad.
+            limits: optional ``(dof, 2)`` array of ``[lower, upper]``, rad or m, overriding
+                the rows.
+            name: robot name.
+            base: 4x4 pose of frame 0 in the world frame, m (default identity).
+            tool: 4x4 pose of the tool in the last link frame, m (default identity).
+            analytic: name of a closed-form IK family (see :mod:`optik.analytic`).
         """
         return cls._from_rows(rows, True, limits, name, base, tool, analytic)
 
@@ -491,6 +500,14 @@ class Robot:
 
         Fixed joints fold into the neighbouring transforms, ``continuous`` joints are
         unbounded; mimic, floating and planar joints are rejected. See :mod:`optik.urdf`.
+
+        Args:
+            source: the URDF file's path, or the URDF text itself (a string holding ``<``).
+            base_link: the link the chain starts from; its frame is the world frame.
+            tip_link: the link the chain ends at.
+            name: robot name (default: the URDF's robot name).
+            tool: 4x4 pose of the tool in the ``tip_link`` frame, m (default identity).
+            analytic: name of a closed-form IK family (see :mod:`optik.analytic`).
         """
         from optik.urdf import parse_urdf_chain
 

@@ -106,6 +106,9 @@ class ResultRow:
     def from_record(cls, record: Mapping[str, str]) -> ResultRow:
         """Parse a CSV record (column name -> cell), the inverse of :meth:`to_record`.
 
+        Args:
+            record: one cell (text) per column name of :data:`COLUMNS`.
+
         Raises:
             ValueError: a cell that :meth:`to_record` cannot have written (an unknown
                 ``kind``, a boolean other than ``true``/``false``, an empty ``success``,
