@@ -14,7 +14,7 @@ from optik.errors import OptikError
 from optik.ik import IKBatchResult, IKResult, solve_ik, solve_ik_all, solve_ik_batch
 from optik.linalg import generalized_inverse, least_squares, min_norm
 from optik.model import DHJoint, Joint, Mimic, Robot
-from optik.planning import PathPlan, Reachability, plan_path, reachability
+from optik.planning import PathPlan, plan_path
 from optik.poses import (
     as_target_pose,
     pose,
@@ -25,6 +25,7 @@ from optik.poses import (
     to_rpy,
 )
 from optik.problems import Problem, Target, load_problem
+from optik.reachability import Reachability, reachability
 from optik.solvers import available_solvers
 from optik.trajectory import Trajectory, TrajectorySegment
 from optik.trig import solve_trig

@@ -6,7 +6,7 @@ it, a prismatic joint slides along it), the base and tool frames as RGB triads (
 y green, z blue), and, for a URDF robot whose visual meshes load offline, the meshes.
 :func:`draw_robot` draws into a given 3-D axes; :func:`robot_figure` builds a figure;
 :func:`show_robot` writes it as an image (``optik show``);
-:func:`optik.planning.reachability_figure` draws the arm over a reachability slice.
+:func:`optik.reachability.reachability_figure` draws the arm over a reachability slice.
 """
 
 from __future__ import annotations

@@ -17,7 +17,8 @@ from optik.errors import OptikError
 
 if TYPE_CHECKING:
     from optik.model import Robot
-    from optik.planning import PathPlan, Reachability
+    from optik.planning import PathPlan
+    from optik.reachability import Reachability
 
 _FLAG_STYLE = {
     "discontinuity": ("tab:red", "x", "discontinuity"),

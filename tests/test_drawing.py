@@ -28,9 +28,10 @@ from optik.drawing import (
 from optik.errors import OptikError
 from optik.model import Robot
 from optik.paths import line
-from optik.planning import plan_path, reachability_figure
+from optik.planning import plan_path
 from optik.plots import plan_figure
 from optik.problems import load_problem
+from optik.reachability import reachability_figure
 
 ROOT = Path(__file__).resolve().parent.parent
 DPI = 100.0

@@ -10,8 +10,9 @@ import pytest
 
 from optik.errors import OptikError, ShapeError
 from optik.paths import PathFileError, arc, circle, line, read_path
-from optik.planning import PLAN_STATUSES, plan_path, reachability
+from optik.planning import PLAN_STATUSES, plan_path
 from optik.problems import load_problem
+from optik.reachability import reachability
 from optik.spatial import pose_error, transform
 
 # A Puma 560 line (found by search) on which the nearest-branch choice jumps.

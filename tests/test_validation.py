@@ -43,8 +43,9 @@ from optik.errors import (
 )
 from optik.model import DHJoint, Mimic, Robot
 from optik.paths import MAX_PATH_SAMPLES, PathFileError, read_path
-from optik.planning import PLAN_STATUSES, plan_path, reachability
+from optik.planning import PLAN_STATUSES, plan_path
 from optik.problems import load_problem
+from optik.reachability import reachability
 
 NAN, INF = math.nan, math.inf
 EYE = np.eye(4)
