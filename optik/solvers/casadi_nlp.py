@@ -3,10 +3,13 @@
 The program is :func:`optik.programs.nlp.build_nlp` (data: the task's weighted
 least-squares residual, its Gauss–Newton Hessian, the target and weights as parameters),
 built once per robot and task shape; :func:`nlp_backend` builds the ``casadi.nlpsol``
-solver on it once per plugin and iteration limit, on its functions compiled to C
-(:func:`optik.programs.nlp_codegen.compiled_nlpsol`, cached on disk), and every query
+solver on it once per plugin and iteration limit, compiled to C and cached on disk
+(``sqpmethod`` whole, :func:`optik.programs.nlp_codegen.compiled_solver`; Ipopt on its
+compiled functions, :func:`optik.programs.nlp_codegen.compiled_nlpsol`), and every query
 only passes numbers: the target, the weights and the query's bounds (the joint limits
-narrowed by ``limit_margin``, closed on frozen joints).
+narrowed by ``limit_margin``, closed on frozen joints). Those numbers go through
+preallocated arrays that a ``casadi.FunctionBuffer`` reads and writes (one per thread
+at a time), not through ``Function.__call__``'s dictionaries of ``casadi.DM``.
 
 Each attempt is warm-started from a start of the one start policy
 (:mod:`optik.solvers._starts`: the closed-form branches or ``q0``, then the seed-table
@@ -21,8 +24,10 @@ by less than :data:`OBJECTIVE_CHANGE_TOL`).
 
 from __future__ import annotations
 
+import math
 import threading
 import weakref
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, Final
 
@@ -34,9 +39,15 @@ from optik._checks import FloatArray, finite_array
 from optik.errors import OptikError
 from optik.model import Robot
 from optik.programs.nlp import NLPProgram, NLPSolution, build_nlp, task_shape
-from optik.programs.nlp_codegen import CompileReport, compiled_nlpsol
+from optik.programs.nlp_codegen import (
+    MAX_THREADS,
+    CompiledSolver,
+    CompileReport,
+    compiled_nlpsol,
+    compiled_solver,
+)
 from optik.solvers._base import IKQuery, IKSolver, SolverOutput, budget_now, register_solver
-from optik.task import Task, task_errors_of
+from optik.task import Task, task_error
 
 __all__ = [
     "NLP_OPTIONS",
@@ -104,6 +115,12 @@ GAUSS_NEWTON_TRIU: Final[dict[str, bool]] = {"ipopt": True, "sqpmethod": False}
 whether they take its upper triangle (Ipopt) or the full matrix; other plugins get
 CasADi's exact Hessian of the Lagrangian."""
 
+WHOLE_SOLVER: Final[frozenset[str]] = frozenset({"sqpmethod"})
+"""The plugins compiled to C whole (:func:`optik.programs.nlp_codegen.compiled_solver`);
+the others run as ``casadi.nlpsol`` on their compiled functions. Ipopt compiled whole
+(CasADi generates it on Ipopt's C interface) measured no faster: Ipopt's own work per
+solve dominates."""
+
 SOLVE_ITER: Final[int] = 8
 """Iterations of one solve; an attempt that needs more continues in another solve while
 it makes progress (:data:`PROGRESS_RATIO`)."""
@@ -117,6 +134,61 @@ PROGRESS_FLOOR: Final[float] = 1e-8
 it decreases (next to a singularity the last digits converge slowly, but converge)."""
 
 
+class _Slot:
+    """One caller's ``casadi.FunctionBuffer`` of a solver and the arrays it reads and writes.
+
+    The buffer holds pointers into the arrays: they live as long as the slot.
+    """
+
+    def __init__(self, solver: casadi.Function, dof: int, n_parameters: int) -> None:
+        self.x0 = np.zeros(dof)
+        self.p = np.zeros(n_parameters)
+        self.lbx = np.zeros(dof)
+        self.ubx = np.zeros(dof)
+        self.x = np.zeros(dof)
+        self.f = np.zeros(1)
+        # CasADi's stubs declare set_arg(i, pointer, size); from Python it takes a buffer.
+        buffer: Any
+        buffer, self.trigger = solver.buffer()
+        for name in ("x0", "p", "lbx", "ubx"):
+            buffer.set_arg(solver.index_in(name), memoryview(getattr(self, name)))
+        buffer.set_res(solver.index_out("x"), memoryview(self.x))  # type: ignore[arg-type]
+        buffer.set_res(solver.index_out("f"), memoryview(self.f))  # type: ignore[arg-type]
+        self.buffer = buffer
+
+
+class _SlotPool:
+    """The slots of one solver: taken by a solve, given back after it; at most ``limit``.
+
+    A whole compiled solver has :data:`~optik.programs.nlp_codegen.MAX_THREADS` memory
+    slots and a buffer holds one for its lifetime, so a caller beyond the limit waits.
+    """
+
+    def __init__(self, make: Callable[[], _Slot], limit: int) -> None:
+        self._make = make
+        self._free: list[_Slot] = []
+        self._room = threading.BoundedSemaphore(limit)
+
+    def take(self) -> _Slot:
+        self._room.acquire()
+        try:
+            return self._free.pop()  # list.pop and append are atomic
+        except IndexError:
+            try:
+                return self._make()
+            except BaseException:
+                self._room.release()
+                raise
+
+    def give(self, slot: _Slot) -> None:
+        self._free.append(slot)
+        self._room.release()
+
+
+#: Buffers of one ``casadi.nlpsol`` solver alive at a time (CasADi's own memory pool grows).
+_NLPSOL_SLOTS: Final[int] = 1024
+
+
 @dataclass(frozen=True, eq=False)
 class NLPBackend:
     """A ``casadi.nlpsol`` solver built on one :class:`~optik.programs.nlp.NLPProgram`.
@@ -128,10 +200,13 @@ class NLPBackend:
         plugin: the ``casadi.nlpsol`` plugin.
         max_iter: the iteration limit of one solve.
         options: the options the solver was built with (``hess_lag`` excepted).
-        solver: the ``casadi.nlpsol`` function.
+        solver: the solver as a ``casadi.Function`` with ``casadi.nlpsol``'s inputs and
+            outputs: the nlpsol itself, or the whole solver compiled to C
+            (``compiled``).
         gauss_newton: whether it uses the program's Gauss–Newton Hessian.
         compile_report: whether ``solver`` runs compiled C and what building it cost
             (:class:`~optik.programs.nlp_codegen.CompileReport`).
+        compiled: the whole solver compiled (``sqpmethod``), else ``None``.
     """
 
     program: NLPProgram
@@ -141,12 +216,17 @@ class NLPBackend:
     solver: casadi.Function
     gauss_newton: bool
     compile_report: CompileReport
-    _bounds: tuple[Any, Any] = field(init=False, repr=False)
+    compiled: CompiledSolver | None = None
+    _slots: _SlotPool = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
-        # The plain limits as CasADi matrices once (a conversion per solve costs µs).
-        bounds = (casadi.DM(self.program.lbx), casadi.DM(self.program.ubx))
-        object.__setattr__(self, "_bounds", bounds)
+        n_parameters = int(self.program.parameters.shape[0])
+        limit = MAX_THREADS - 1 if self.compiled is not None else _NLPSOL_SLOTS
+
+        def make() -> _Slot:
+            return _Slot(self.solver, self.program.dof, n_parameters)
+
+        object.__setattr__(self, "_slots", _SlotPool(make, limit))
 
     def solve(
         self,
@@ -170,7 +250,7 @@ class NLPBackend:
             bounds: ``(lower, upper)`` (dof,) each inside the joint limits, default the
                 limits.
 
-        A solver exception comes back as ``success=False`` with its text in ``status``.
+        A solver failure comes back as ``success=False`` with its text in ``status``.
 
         Raises:
             OptikError: bad arguments (see :meth:`NLPProgram.parameter_vector`), bounds
@@ -193,29 +273,55 @@ class NLPBackend:
         return self.solve_parameters(params, x0, lower, upper)
 
     def solve_parameters(
-        self, params: FloatArray, x0: FloatArray, lower: Any = None, upper: Any = None
+        self,
+        params: FloatArray,
+        x0: FloatArray,
+        lower: FloatArray | None = None,
+        upper: FloatArray | None = None,
     ) -> NLPSolution:
         """Solve for a parameter vector of :meth:`NLPProgram.parameter_vector`, unchecked.
 
         The inner call of :meth:`solve` for callers that validated their inputs once
         (``x0`` finite and inside the bounds, ``params`` from ``parameter_vector``);
-        ``lower`` / ``upper`` default to the joint limits.
+        ``lower`` / ``upper`` (dof,) default to the joint limits.
         """
-        lbx = self._bounds[0] if lower is None else lower
-        ubx = self._bounds[1] if upper is None else upper
+        slot = self._slots.take()
         try:
-            result = self.solver(x0=x0, p=params, lbx=lbx, ubx=ubx)
-            stats = self.solver.stats()
-        except Exception as exc:  # keep the backend's message
-            text = f"{type(exc).__name__}: {exc}"
-            return NLPSolution(x0, False, text, 0, float("nan"), failed=True)
-        return NLPSolution(
-            q=result["x"].full().ravel(),
-            success=bool(stats.get("success", False)),
-            status=str(stats.get("return_status", "")),
-            iterations=int(stats.get("iter_count", -1)),
-            objective=float(result["f"]),
-        )
+            slot.x0[:] = x0
+            slot.p[:] = params
+            slot.lbx[:] = self.program.lbx if lower is None else lower
+            slot.ubx[:] = self.program.ubx if upper is None else upper
+            slot.trigger()
+            code = slot.buffer.ret()
+            iterations, success, status = self._exit(slot)
+            if code != 0:
+                text = f"solver failed (return code {code}: {status})"
+                return NLPSolution(np.array(x0), False, text, iterations, float("nan"), True)
+            objective = float(slot.f[0])
+            if not math.isfinite(objective):
+                # The compiled code has no NaN checks: a NaN gradient passes its test.
+                success, status = False, f"non-finite objective ({status})"
+            return NLPSolution(slot.x.copy(), success, status, iterations, objective)
+        finally:
+            self._slots.give(slot)
+
+    def _exit(self, slot: _Slot) -> tuple[int, bool, str]:
+        """``(iterations, success, status)`` of the solve that just ran in ``slot``."""
+        if self.compiled is None:
+            stats = slot.buffer.stats()
+            return (
+                int(stats.get("iter_count", -1)),
+                bool(stats.get("success", False)),
+                str(stats.get("return_status", "")),
+            )
+        # The compiled SQP loop ends converged, at its iteration limit, or (below it)
+        # on a step shorter than min_step_size: sqpmethod's own three statuses.
+        iterations, converged = self.compiled.last_solve()
+        if converged:
+            return iterations, True, "Solve_Succeeded"
+        if iterations >= self.max_iter:
+            return iterations, False, "Maximum_Iterations_Exceeded"
+        return iterations, False, "Search_Direction_Becomes_Too_Small"
 
 
 def _hessian_function(program: NLPProgram, upper_triangle: bool) -> casadi.Function:
@@ -244,6 +350,13 @@ def _new_backend(
         build_options["hess_lag"] = _hessian_function(program, GAUSS_NEWTON_TRIU[plugin])
     solver = casadi.nlpsol(name, plugin, nlp, build_options)
     report = CompileReport(False, 0.0, False, "code generation not asked for")
+    if codegen and plugin in WHOLE_SOLVER:
+        # The whole solver as C (the SQP loop too); else its functions, as below.
+        whole, report = compiled_solver(solver)
+        if whole is not None:
+            return NLPBackend(
+                program, plugin, max_iter, options, whole.function, gauss_newton, report, whole
+            )
     if codegen:
         # The library holds the Gauss–Newton nlp_hess_l; built from it without the
         # hess_lag option, the solver loads that compiled function by name (on failure
@@ -333,7 +446,7 @@ class CasadiNLPSolver(IKSolver):
     too little progress (:data:`PROGRESS_RATIO`), at ``max_iter`` solver iterations in
     total, or at the deadline (checked between solves: a running solve is not
     interrupted, it is bounded by :data:`SOLVE_ITER`). ``converged`` is the last solve's
-    own claim (``stats()["success"]``).
+    own claim (its convergence test: ``stats()["success"]``, or the compiled loop's).
     """
 
     plain_tasks_only = False  # every task, frozen joints and limit margins
@@ -343,6 +456,9 @@ class CasadiNLPSolver(IKSolver):
     def __init__(self, plugin: str) -> None:
         self.plugin = plugin
         self.name = f"casadi:{plugin}"
+        # The last query's setup: its attempts (solve calls) share it. Replaced whole,
+        # so a thread reading it sees one query's setup or another's, never a mix.
+        self._last: tuple[IKQuery, int, _Setup] | None = None
 
     def backend(self, query: IKQuery, max_iter: int) -> NLPBackend:
         """The solver of the query's task shape (one solve of at most ``max_iter``)."""
@@ -352,32 +468,19 @@ class CasadiNLPSolver(IKSolver):
 
     def solve(self, query: IKQuery, q0: FloatArray, max_iter: int, deadline: float) -> SolverOutput:
         """Refine ``q0`` towards ``query.target`` (see the class docstring)."""
-        robot = query.robot
         lower, upper = query.lower, query.upper
         q = np.clip(np.asarray(q0, dtype=np.float64), lower, upper)
         budget = max(1, int(max_iter))
-        task = query.spec
         try:
-            backend = self.backend(query, budget)
+            setup = self._setup(query, budget)
         except Exception as exc:  # report, never raise from a backend run
             return SolverOutput(q, 0, False, f"{type(exc).__name__}: {exc}", True)
-        fk = _pose_of(robot)
-        target, packed = query.target, task.packed
-        e2 = _squared_residual(query, fk(q))
-        # The parameters [p*, vec(R*), sqrt(w), mu, q_ref] (NLPProgram.parameter_vector)
-        # of the query's target and task, validated by the query already.
-        rotation = np.eye(3) if task.mode == "position" else target[:3, :3]
-        params = np.concatenate(
-            [target[:3, 3], rotation.ravel(order="F"), np.sqrt(task.weights), [0.0], q]
-        )
-        plain = query.bounds is None
-        lbx = None if plain else casadi.DM(lower)
-        ubx = None if plain else casadi.DM(upper)
+        backend, params, lbx, ubx, measure = setup
+        converged, e2 = measure(q)
         iterations = 0
         claim, status = False, "not started"
         while True:
-            T = fk(q)
-            if _converged(T, target, packed):
+            if converged:
                 return SolverOutput(q, iterations, claim if iterations else True, status)
             if iterations >= budget:
                 return SolverOutput(q, iterations, claim, f"max_iter ({status})")
@@ -391,39 +494,74 @@ class CasadiNLPSolver(IKSolver):
             if not np.all(np.isfinite(result.q)):
                 return SolverOutput(q, iterations, False, f"non-finite answer ({status})", True)
             q_new = np.clip(result.q, lower, upper)
-            e2_new = _squared_residual(query, fk(q_new))
+            converged, e2_new = measure(q_new)
             if e2_new >= e2:
                 return SolverOutput(q, iterations, claim, f"no progress ({status})")
             progressed = e2_new <= PROGRESS_RATIO * e2 or e2_new <= PROGRESS_FLOOR
             q, e2 = q_new, e2_new
-            if not progressed and not _converged(fk(q), target, packed):
+            if not progressed and not converged:
                 return SolverOutput(q, iterations, claim, f"slow progress ({status})")
 
+    def _setup(self, query: IKQuery, budget: int) -> _Setup:
+        """The backend, parameters, bounds and measure of a query (kept for its attempts)."""
+        last = self._last
+        if last is not None and last[0] is query and last[1] == budget:
+            return last[2]
+        task = query.spec
+        backend = self.backend(query, budget)
+        target = query.target
+        # The parameters [p*, vec(R*), sqrt(w), mu, q_ref] (NLPProgram.parameter_vector)
+        # of the query's target and task, validated by the query already; mu = 0, so
+        # q_ref does not enter.
+        rotation = np.eye(3) if task.mode == "position" else target[:3, :3]
+        params = np.concatenate(
+            [
+                target[:3, 3],
+                rotation.ravel(order="F"),
+                np.sqrt(task.weights),
+                np.zeros(1 + query.robot.dof),
+            ]
+        )
+        bounds = query.bounds
+        setup: _Setup = (
+            backend,
+            params,
+            None if bounds is None else bounds[0],
+            None if bounds is None else bounds[1],
+            _measure_of(query),
+        )
+        self._last = (query, budget, setup)
+        return setup
 
-def _squared_residual(query: IKQuery, T: FloatArray) -> float:
-    """``e^T e`` of the task residual at pose ``T`` (:meth:`IKQuery.error_vector`)."""
-    e = query.error_vector(T)
-    return float(e @ e)
+
+_Setup = tuple[NLPBackend, FloatArray, "FloatArray | None", "FloatArray | None", Any]
+"""What a query's attempts share: backend, parameters, bounds (``None``: the limits) and
+the measure ``q -> (converged, squared residual)`` (:func:`_measure_of`)."""
 
 
-def _pose_of(robot: Robot) -> Any:
-    """``q -> T`` for a ``q`` already inside the limits: the compiled FK, unvalidated."""
-    chain = robot.chain
+def _measure_of(query: IKQuery) -> Callable[[FloatArray], tuple[bool, float]]:
+    """``q -> (both judged errors within tolerance, e^T e)`` for a ``q`` inside the limits.
+
+    ``e`` is the task residual of :meth:`IKQuery.error_vector` (:func:`optik.task.task_error`),
+    from the compiled FK, unvalidated: one FK and one residual per call.
+    """
+    chain = query.robot.chain
     K, prismatic, C = chain.K, chain.prismatic, chain.C
     identity = chain.identity
+    target, packed = query.target, query.spec.packed
+    rows = 3 if packed[10] == 2.0 else 6
+    position_tol, orientation_tol = packed[8], packed[9]
+    T = np.empty((4, 4))
+    e = np.empty(6)
+    M = np.empty((3, 4))
 
-    def pose(q: FloatArray) -> FloatArray:
-        T = np.empty((4, 4))
+    def measure(q: FloatArray) -> tuple[bool, float]:
         _kernels.fk_into(K, prismatic, q if identity else np.ascontiguousarray(C @ q), T)
-        return T
+        position, orientation = task_error(T, target, packed, e, M)
+        r = e[:rows]
+        return position <= position_tol and orientation <= orientation_tol, float(r @ r)
 
-    return pose
-
-
-def _converged(T: FloatArray, target: FloatArray, packed: FloatArray) -> bool:
-    """Both judged errors (:mod:`optik.task`) within the task's tolerances."""
-    position, orientation = task_errors_of(T, target, packed)
-    return bool(position <= packed[8] and orientation <= packed[9])
+    return measure
 
 
 def _has_nlpsol(plugin: str) -> bool:
