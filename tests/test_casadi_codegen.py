@@ -18,6 +18,7 @@ import optik
 from optik.programs.nlp_codegen import INFO_SYMBOL, cache_dir, find_compiler, instrument
 from optik.solvers import casadi_nlp
 from optik.solvers.casadi_nlp import nlp_backend
+from optik.spatial import rotation_angle
 
 
 def _fresh_robot() -> optik.Robot:
@@ -128,8 +129,9 @@ def test_compiled_task_programs_give_the_sx_answers(
             axis, goal = robot.fk(a.q)[:3, 2], target[:3, 2]
             angle = np.arctan2(np.linalg.norm(np.cross(axis, goal)), float(axis @ goal))
             assert angle < 1e-6
-    if find_compiler() is not None:
-        assert len(list((tmp_path / "casadi").glob("*.so"))) == 2
+    if find_compiler() is not None:  # a library per plugin, and Ipopt's monitor
+        assert len(list((tmp_path / "casadi").glob("ik_*.so"))) == 2
+        assert len(list((tmp_path / "casadi").glob("optik_monitor_*.so"))) == 1
 
 
 # ------------------------------------------------------------------ the whole SQP solver in C
@@ -220,3 +222,76 @@ def test_slot_pool_makes_at_most_its_limit_and_waits() -> None:
     pool.give(second)
     pool.give(got[0])
     assert pool.take() in (first, second)
+
+
+# ------------------------------------------------------------------ Ipopt's compiled monitor
+def test_monitor_counts_ipopts_iterations_and_stops_at_the_tolerance(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Never stopping, the monitor counts ``stats()["iter_count"]`` and changes nothing;
+    armed with the task's threshold, Ipopt stops within the task's tolerances, sooner."""
+    if find_compiler() is None:
+        pytest.fail("no C compiler: the codegen path cannot be tested here")
+    monkeypatch.setenv("OPTIK_CACHE_DIR", str(tmp_path))
+    robot = _fresh_robot()
+    task = optik.task.make_task("pose", tol=1e-6)
+    monitored = nlp_backend(robot, task, plugin="ipopt", max_iter=30)
+    plain = nlp_backend(robot, task, plugin="ipopt", max_iter=30, codegen=False)
+    assert monitored.monitor is not None and plain.monitor is None
+    stop = casadi_nlp.stop_objective(task)
+    rng = np.random.default_rng(SEED + 5)
+    saved = 0
+    for _ in range(8):
+        target, q0 = _case(robot, rng, 0.2)
+        params = monitored.program.parameter_vector(target, weights=task)
+        counted = monitored.solve_parameters(params, q0)
+        assert monitored.monitor.last_solve() == (counted.iterations, False)
+        reference = plain.solve_parameters(params, q0)
+        assert (counted.iterations, counted.status) == (reference.iterations, reference.status)
+        assert np.array_equal(counted.q, reference.q)
+        stopped = monitored.solve_parameters(params, q0, stop=stop)
+        if not reference.success:
+            continue
+        assert stopped.success and stopped.status == casadi_nlp.STOP_STATUS
+        assert stopped.iterations <= reference.iterations
+        saved += reference.iterations - stopped.iterations
+        T = robot.fk(stopped.q)
+        limit = np.sqrt(casadi_nlp.STOP_FRACTION) * 1e-6
+        assert np.linalg.norm(T[:3, 3] - target[:3, 3]) <= limit
+        assert rotation_angle(target[:3, :3].T @ T[:3, :3]) <= limit
+    assert saved > 0
+
+
+@pytest.mark.parametrize("solver", ["casadi:sqpmethod", "casadi:ipopt"])
+def test_compiled_solvers_take_every_task_shape(solver: str) -> None:
+    """solve_ik on the compiled solvers (the whole SQP, Ipopt with its monitor), verified
+    from FK here, for each program shape and weights; the library cache is the default."""
+    robot = optik.load_problem("panda").robot  # fresh: its backends are built here
+    rng = np.random.default_rng(SEED + 6)
+    tasks = [
+        {"mode": "pose"},
+        {"mode": "position"},
+        {"mode": "orientation"},
+        {"mode": "axis", "axis": "x"},
+        {"weights": [2.0, 1.0, 0.0, 1.0, 3.0, 0.2]},
+    ]
+    for kw in tasks:
+        for _ in range(3):
+            q_true = rng.uniform(robot.lower, robot.upper)
+            target = robot.fk(q_true)
+            result = optik.solve_ik(robot, target, solver=solver, tol=1e-6, **kw)
+            assert result.success, (kw, result.status, result.message)
+            spec = optik.task.make_task(**kw)
+            T = robot.fk(result.q)
+            w = spec.weights
+            d = target[:3, :3].T @ (T[:3, 3] - target[:3, 3])
+            assert np.linalg.norm(d[w[:3] > 0.0]) <= 1e-6
+            if np.all(w[3:] > 0.0):
+                assert rotation_angle(target[:3, :3].T @ T[:3, :3]) <= 1e-6
+            elif np.any(w[3:] > 0.0):
+                k = int(np.flatnonzero(w[3:] == 0.0)[0])
+                a, b = T[:3, k], target[:3, k]
+                assert np.arctan2(np.linalg.norm(np.cross(a, b)), a @ b) <= 1e-6
+            assert robot.within_limits(result.q, tol=0.0)
+    backend = casadi_nlp.nlp_backend(robot, "pose", plugin=solver.split(":")[1], max_iter=8)
+    assert backend.compile_report.compiled == (find_compiler() is not None)
