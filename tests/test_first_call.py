@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 
 import optik
 
@@ -60,9 +61,10 @@ print(json.dumps({
 
 
 def _pose_errors(robot: optik.Robot, q: np.ndarray, T: np.ndarray) -> tuple[float, float]:
+    """Position error (m) and rotation angle (rad, scipy's) of FK(q) against T."""
     F = robot.fk(q)
-    rotation = np.clip((np.trace(F[:3, :3].T @ T[:3, :3]) - 1.0) / 2.0, -1.0, 1.0)
-    return float(np.linalg.norm(F[:3, 3] - T[:3, 3])), float(np.arccos(rotation))
+    angle = Rotation.from_matrix(F[:3, :3].T @ T[:3, :3]).magnitude()
+    return float(np.linalg.norm(F[:3, 3] - T[:3, 3])), float(angle)
 
 
 @pytest.mark.slow
