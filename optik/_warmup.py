@@ -4,9 +4,10 @@ numba compiles a kernel on its first call in an environment and keeps the machin
 its on-disk cache (``__pycache__`` beside the sources), so only the first process pays:
 about a minute of CPU for the kernels behind ``solve_ik``, ``solve_ik_batch`` and
 ``optik report --quick``. :func:`warm` pays it ahead: it runs the calls of :data:`GROUPS`
-in worker processes side by side, and merges the kernels they compiled into the
-package's cache. ``optik warmup`` runs it; the wheel's build hook (``hatch_build.py``)
-runs it with a staging folder and ships the merged cache in the wheel.
+in worker processes (two stages: groups whose kernels overlap little side by side, then
+the rest on what they compiled), and merges the kernels into the package's cache.
+``optik warmup`` runs it; the wheel's build hook (``hatch_build.py``) runs it with a
+staging folder and ships the merged cache in the wheel.
 
 Each worker compiles into a cache folder of its own (``NUMBA_CACHE_DIR``): numba's cache
 is safe for one writer, but two processes that compile different signatures of one
@@ -21,6 +22,7 @@ from __future__ import annotations
 import argparse
 import os
 import pickle
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -34,7 +36,16 @@ from numba.core import caching
 
 PACKAGE = Path(__file__).resolve().parent
 
-__all__ = ["GROUPS", "WarmReport", "merge_caches", "run_groups", "warm"]
+__all__ = [
+    "FIRST",
+    "GROUPS",
+    "LAST",
+    "WarmReport",
+    "merge_caches",
+    "plan_stages",
+    "run_groups",
+    "warm",
+]
 
 
 def _problem_robot(name: str) -> Any:
@@ -138,12 +149,16 @@ GROUPS: dict[str, Callable[[], None]] = {
     "report": _report,
 }
 
-#: How :func:`warm` shares :data:`GROUPS` among its workers, the heaviest first (the report
-#: runs the numeric and qp solvers too).
-PLAN: tuple[tuple[str, ...], ...] = (
-    ("report", "numeric"),
-    ("closed_forms", "kinematics", "batch", "programs"),
+#: Groups compiled side by side first, a worker each (with two workers): the kernels of
+#: one worker's groups share little with the other's (the closed forms and the ``qp:*``
+#: programs; the damped least squares and its batch).
+FIRST: tuple[tuple[str, ...], ...] = (
+    ("closed_forms", "kinematics", "programs"),
+    ("numeric", "batch"),
 )
+#: Groups run last, in one worker that starts from every kernel compiled before: the
+#: report calls nearly every kernel, and compiles only what the first stage left.
+LAST: tuple[str, ...] = ("report",)
 
 
 def run_groups(names: Sequence[str]) -> None:
@@ -256,11 +271,54 @@ def merge_caches(
 
 @dataclass
 class WarmReport:
-    """What :func:`warm` did: kernels merged, seconds, and each worker's groups."""
+    """What :func:`warm` did: kernels merged, seconds, and the groups of each worker by stage."""
 
     kernels: int
     seconds: float
-    plan: list[tuple[str, ...]] = field(default_factory=list)
+    stages: list[list[tuple[str, ...]]] = field(default_factory=list)
+
+
+def plan_stages(processes: int) -> list[list[tuple[str, ...]]]:
+    """The workers' groups, stage by stage, for ``processes`` workers side by side."""
+    first = [name for worker in FIRST for name in worker]
+    if processes <= 1:
+        return [[(*first, *LAST)]]
+    if processes == len(FIRST):
+        workers = list(FIRST)
+    else:
+        count = min(processes, len(first))
+        workers = [tuple(first[i::count]) for i in range(count)]
+    return [workers, [LAST]]
+
+
+def _run_stage(
+    stage: Sequence[tuple[str, ...]],
+    caches: Sequence[Path],
+    env: dict[str, str],
+    log: Callable[[str], None] | None,
+    start: float,
+) -> None:
+    """Run each worker of ``stage`` in a process of its own, side by side, and wait."""
+    workers = []
+    for cache, names in zip(caches, stage, strict=True):
+        command = [sys.executable, "-m", "optik._warmup", "--run", ",".join(names)]
+        workers.append(
+            subprocess.Popen(
+                command,
+                env={**env, "NUMBA_CACHE_DIR": str(cache)},
+                stdout=subprocess.PIPE,
+                stderr=subprocess.STDOUT,
+            )
+        )
+    failures = []
+    for worker, names in zip(workers, stage, strict=True):
+        output, _ = worker.communicate()
+        if worker.returncode != 0:
+            failures.append(f"{','.join(names)}: {output.decode(errors='replace')[-2000:]}")
+        elif log is not None:
+            log(f"compiled {', '.join(names)} ({time.perf_counter() - start:.0f} s)")
+    if failures:
+        raise RuntimeError("kernel warm-up failed:\n" + "\n".join(failures))
 
 
 def warm(
@@ -272,12 +330,16 @@ def warm(
 ) -> WarmReport:
     """Compile the kernels of :data:`GROUPS` in worker processes and merge their caches.
 
+    The groups of :data:`FIRST` run side by side, each worker into a cache folder of its
+    own; their caches are merged; then :data:`LAST` runs on the merged kernels and
+    compiles what is left. With one process, every group runs in one worker.
+
     Args:
         destination: the folder that holds the ``optik`` package whose ``__pycache__``
             folders receive the kernels (default: where the processes of this
             environment look: ``NUMBA_CACHE_DIR`` when it is set, else the package's own
             ``__pycache__`` folders).
-        processes: worker processes, 1 to the number of groups (default 2).
+        processes: worker processes side by side (default 2).
         package: the ``optik`` package folder the workers import.
         log: called with a line per finished worker (default: nothing).
 
@@ -287,12 +349,7 @@ def warm(
     Raises:
         RuntimeError: a worker failed (its output is in the message).
     """
-    groups = [name for plan in PLAN for name in plan]
-    processes = max(1, min(int(processes), len(groups)))
-    if processes == len(PLAN):
-        plan = list(PLAN)
-    else:
-        plan = [tuple(groups[i::processes]) for i in range(processes)]
+    stages = plan_stages(int(processes))
     user_cache = os.environ.get("NUMBA_CACHE_DIR") if destination is None else None
     if destination is None:
         destination = Path(user_cache) if user_cache else package.parent
@@ -300,27 +357,21 @@ def warm(
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(package.parent), env.get("PYTHONPATH")]))
     with tempfile.TemporaryDirectory(prefix="optik-warmup-") as scratch:
-        caches = [Path(scratch) / f"worker{i}" for i in range(len(plan))]
-        workers = []
-        for cache, names in zip(caches, plan, strict=True):
-            worker_env = {**env, "NUMBA_CACHE_DIR": str(cache)}
-            command = [sys.executable, "-m", "optik._warmup", "--run", ",".join(names)]
-            workers.append(
-                subprocess.Popen(
-                    command, env=worker_env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT
-                )
-            )
-        failures = []
-        for worker, names in zip(workers, plan, strict=True):
-            output, _ = worker.communicate()
-            if worker.returncode != 0:
-                failures.append(f"{','.join(names)}: {output.decode(errors='replace')[-2000:]}")
-            elif log is not None:
-                log(f"compiled {', '.join(names)} ({time.perf_counter() - start:.0f} s)")
-        if failures:
-            raise RuntimeError("kernel warm-up failed:\n" + "\n".join(failures))
-        kernels = merge_caches(caches, package, destination, cache_dir=bool(user_cache))
-    return WarmReport(kernels, time.perf_counter() - start, plan)
+        combined = Path(scratch) / "combined"
+        for k, stage in enumerate(stages):
+            if len(stage) == 1:  # a lone worker writes the combined cache itself
+                caches = [combined]
+            else:
+                caches = [Path(scratch) / f"stage{k}-worker{i}" for i in range(len(stage))]
+                for cache in caches:
+                    if combined.exists():
+                        shutil.copytree(combined, cache)
+            _run_stage(stage, caches, env, log, start)
+            separate = [cache for cache in caches if cache != combined]
+            if separate:
+                merge_caches(separate, package, combined, cache_dir=True)
+        kernels = merge_caches([combined], package, destination, cache_dir=bool(user_cache))
+    return WarmReport(kernels, time.perf_counter() - start, stages)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

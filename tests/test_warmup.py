@@ -17,7 +17,7 @@ from pathlib import Path
 
 import pytest
 
-from optik._warmup import GROUPS, PLAN, merge_caches, run_groups
+from optik._warmup import FIRST, GROUPS, LAST, merge_caches, plan_stages, run_groups
 from optik.cli import main
 
 TOY = textwrap.dedent(
@@ -121,10 +121,18 @@ def test_the_merge_names_the_workers_folders_as_numba_does(toy: Path, tmp_path: 
     assert not (toy / "__pycache__").exists()
 
 
-def test_groups_and_plan_agree() -> None:
-    planned = [name for worker in PLAN for name in worker]
+@pytest.mark.parametrize("processes", [1, 2, 3, 5, 8])
+def test_every_group_runs_once_whatever_the_number_of_processes(processes: int) -> None:
+    stages = plan_stages(processes)
+    planned = [name for stage in stages for worker in stage for name in worker]
     assert sorted(planned) == sorted(GROUPS)
     assert len(set(planned)) == len(planned)
+    assert all(len(stage) <= max(processes, 1) for stage in stages)
+    if processes > 1:  # the report runs last, alone, on what the first stage compiled
+        assert stages[-1] == [LAST] and set(LAST).isdisjoint(n for w in FIRST for n in w)
+
+
+def test_unknown_groups_are_refused() -> None:
     with pytest.raises(ValueError, match="unknown warm-up groups"):
         run_groups(["closed_forms", "no-such-group"])
 
