@@ -41,12 +41,12 @@ import math
 import threading
 from typing import Any, Final, NamedTuple
 
-import numba as nb
 import numpy as np
 import qpsolvers
 
 from optik import _kernels
 from optik._checks import MAX_LENGTH_M, FloatArray
+from optik._numba import inline, jit
 from optik.errors import OptikError
 from optik.limits import Q_CLIP_TOLERANCE
 from optik.model import Robot
@@ -102,8 +102,6 @@ _K, _CC = range(2)
 # Entry of Task.packed saying 2.0 for a position task with unit weights (optik.task).
 _TASK_FAST = 10
 
-_jit = nb.njit(cache=True, nogil=True, error_model="numpy")
-
 
 class ScaledProgram(NamedTuple):
     """An equilibrated step program as a backend takes it (:attr:`StepArrays.scaled`).
@@ -128,18 +126,18 @@ class ScaledProgram(NamedTuple):
 _PLAIN_POSE = make_task("pose").packed
 
 
-@nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+@inline
 def _vec(buf: np.ndarray, layout: np.ndarray, slot: int) -> np.ndarray:
     return buf[layout[slot] : layout[slot + 1]]
 
 
-@nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+@inline
 def _mat(buf: np.ndarray, layout: np.ndarray, slot: int, rows: int) -> np.ndarray:
     flat = buf[layout[slot] : layout[slot + 1]]
     return flat.reshape((rows, flat.shape[0] // rows))
 
 
-@nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+@inline
 def _chain(
     const: np.ndarray, const_layout: np.ndarray, ints: np.ndarray, n: int
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -149,13 +147,13 @@ def _chain(
     return K, _mat(const, const_layout, _CC, nc), ints[:nc]
 
 
-@nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+@inline
 def _rows_and_moving(ints: np.ndarray, nc: int, m: int) -> tuple[np.ndarray, np.ndarray]:
     """The task rows (m,) and the moving joints (the program's variables) of ``ints``."""
     return ints[nc : nc + m], ints[nc + m :]
 
 
-@nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+@inline
 def _chain_angles(C: np.ndarray, q: np.ndarray, theta: np.ndarray, identity: bool) -> None:
     """``theta = C q``: the chain's joint values (``q`` itself when ``C`` is the identity)."""
     if identity:
@@ -169,7 +167,7 @@ def _chain_angles(C: np.ndarray, q: np.ndarray, theta: np.ndarray, identity: boo
             theta[j] = acc
 
 
-@_jit
+@jit
 def fill_step(
     const: np.ndarray,
     const_layout: np.ndarray,
@@ -317,7 +315,7 @@ def fill_step(
     return FILL_OK if consistent else FILL_INCONSISTENT
 
 
-@_jit
+@jit
 def _householder_lstsq(A: np.ndarray, b: np.ndarray, y: np.ndarray) -> bool:
     """``y = argmin ||A y - b||`` for ``A`` (f, m), ``f >= m``, by Householder QR.
 
@@ -360,7 +358,7 @@ def _householder_lstsq(A: np.ndarray, b: np.ndarray, y: np.ndarray) -> bool:
     return True
 
 
-@_jit
+@jit
 def check_step(
     x: np.ndarray,
     buf: np.ndarray,
@@ -473,7 +471,7 @@ def check_step(
     return CHECK_OK, stationarity
 
 
-@_jit
+@jit
 def take_step(
     const: np.ndarray,
     const_layout: np.ndarray,
@@ -529,7 +527,7 @@ def take_step(
     return err2, position, orientation
 
 
-@nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+@inline
 def _active(lo: float, hi: float, x: float, tol: float) -> int:
     """0 free, 1 at the lower bound, 2 at the upper one, 3 at both (within ``tol``)."""
     side = 0

@@ -14,13 +14,13 @@ import math
 import warnings
 from typing import Any, Final
 
-import numba as nb
 import numpy as np
 import qpsolvers
 import qpsolvers.solvers
 import scipy.sparse as spa
 
 from optik._checks import MAX_LENGTH_M, FloatArray
+from optik._numba import jit
 from optik.limits import Q_CLIP_TOLERANCE
 from optik.programs.diff_qp import DiffIKProgram, QPSolution
 from optik.programs.step_arrays import (
@@ -286,7 +286,7 @@ _ERR2, _POSITION, _ORIENTATION, _SCALE, _W_BIAS, _RADIUS, _RATIO, _MIN_SCALE = r
 _NOT_FINITE: Final[int] = -1
 
 
-@nb.njit(cache=True, nogil=True, error_model="numpy")
+@jit
 def _lm_fill(
     buffers: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, bool],
     q: np.ndarray,
@@ -313,7 +313,7 @@ def _lm_fill(
     )  # fmt: skip
 
 
-@nb.njit(cache=True, nogil=True, error_model="numpy")
+@jit
 def _lm_move(
     const: np.ndarray,
     const_layout: np.ndarray,
