@@ -62,6 +62,7 @@ __all__ = [
     "FILL_STEP_TOO_LONG",
     "ScaledProgram",
     "StepArrays",
+    "StepBuffers",
     "check_step",
     "fill_step",
     "step_arrays",
@@ -85,8 +86,8 @@ CHECK_KKT: Final[int] = 4
 
 # Every array of a StepArrays lives in one float64 buffer, at the offsets of a layout
 # array indexed by these slots: a compiled call then takes two arrays instead of twenty
-# (numba's dispatcher spends about 0.25 µs per array argument and 0.4 µs per entry of a
-# tuple of arrays, more than the arithmetic of one step).
+# (numba's dispatcher spends time on each array argument, and on each array of a tuple
+# argument alike: 0.05-0.25 µs each, as much as the arithmetic of a step's row).
 # The scaled bounds and task right-hand side are stacked, lower bounds then ``bs`` and
 # upper bounds then ``bs`` again, so that a backend taking ``[bounds; rows]`` (DAQP) gets
 # them as two views without a copy.
@@ -101,6 +102,13 @@ _SLOTS = 29
 _K, _CC = range(2)
 # Entry of Task.packed saying 2.0 for a position task with unit weights (optik.task).
 _TASK_FAST = 10
+
+
+StepBuffers = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, bool]
+"""The arrays of a :class:`StepArrays` as compiled code takes them (:attr:`StepArrays.buffers`):
+``(const, const_layout, ints, buf, layout, identity)``: the constants (float and their
+layout; int: joint kinds, task rows, moving joints), the buffer of every array and its
+layout, and whether the chain's coupling is the identity."""
 
 
 class ScaledProgram(NamedTuple):
@@ -473,18 +481,11 @@ def check_step(
 
 @jit
 def take_step(
-    const: np.ndarray,
-    const_layout: np.ndarray,
-    ints: np.ndarray,
-    buf: np.ndarray,
-    layout: np.ndarray,
-    identity: bool,
-    x: np.ndarray,
-    q_new: np.ndarray,
-    e_new: np.ndarray,
+    buffers: StepBuffers, x: np.ndarray, q_new: np.ndarray, e_new: np.ndarray
 ) -> tuple[float, float, float]:
     """Apply a backend's point to the filled program and measure the task there.
 
+    ``buffers`` is :attr:`StepArrays.buffers`.
     ``dq = clip(x / s, lb, ub)`` (nv,) on the moving joints, ``q_new = clip(q + dq, lower,
     upper)`` (n,) (the other joints keep their value); ``e_new`` (6,) the task residual at
     ``q_new`` (:func:`optik.task.task_error` with the target and task of
@@ -492,6 +493,7 @@ def take_step(
     error)``; ``||e_new||^2`` is NaN when ``x`` is not finite. The norm is over
     ``e_new[:3]`` for a position task with unit weights, else over all six entries.
     """
+    const, const_layout, ints, buf, layout, identity = buffers
     q = _vec(buf, layout, _Q)
     n = q.shape[0]
     K, C, prismatic = _chain(const, const_layout, ints, n)
@@ -629,9 +631,9 @@ class StepArrays:
         #: A step of zeros (nv,): :meth:`take` of it measures the task at :attr:`q`.
         self.zero_step = np.zeros(nv)
         self.damping = 0.0
-        #: The first arguments of :func:`take_step` (and of the compiled IK loop's calls):
-        #: ``(const, const_layout, ints, buf, layout, identity)``.
-        self.buffers = (
+        #: The first argument of :func:`take_step` (and of the compiled IK loop's calls):
+        #: a :data:`StepBuffers`.
+        self.buffers: StepBuffers = (
             self._const,
             self._const_layout,
             self._ints,
@@ -737,7 +739,7 @@ class StepArrays:
         self, x: FloatArray, q_new: FloatArray, e_new: FloatArray
     ) -> tuple[float, float, float]:
         """:func:`take_step`: the point ``x`` applied at :attr:`q`, the task measured."""
-        return take_step(*self.buffers, x, q_new, e_new)
+        return take_step(self.buffers, x, q_new, e_new)
 
     def program(self) -> DiffIKProgram:
         """The filled program as a :class:`DiffIKProgram` (copies of the arrays).
