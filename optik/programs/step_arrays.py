@@ -37,6 +37,7 @@ upper) are left out of the variables (``moving``), so a backend never sees a zer
 
 from __future__ import annotations
 
+import functools
 import math
 import threading
 from typing import Any, Final, NamedTuple
@@ -131,8 +132,14 @@ class ScaledProgram(NamedTuple):
     upper_stack: FloatArray | None
 
 
-#: The packed task of a full pose with unit weights: rows and residual in the world frame.
-_PLAIN_POSE = make_task("pose").packed
+@functools.cache
+def _plain_pose() -> FloatArray:
+    """The packed task of a full pose with unit weights: rows and residual in the world frame.
+
+    Built on first use, not at import: :func:`make_task` calls a kernel, and an import
+    should neither compile nor load one.
+    """
+    return make_task("pose").packed
 
 
 @inline
@@ -586,7 +593,7 @@ class StepArrays:
             _V: (m,), _LB: (nv,), _UB: (nv,), _P: (nv, nv), _C: (nv,), _PS: (nv, nv),
             _CS: (nv,), _LBS: (nv,), _BS: (m,), _UBS: (nv,), _BS2: (m,), _SCALE: (2,),
             _DQ: (nv,), _G: (nv,), _R: (nv,), _MA: (nv * m,), _MB: (nv,), _Y: (m,),
-            _LO: (n,), _HI: (n,), _TARGET: (4, 4), _TASK: (_PLAIN_POSE.size,),
+            _LO: (n,), _HI: (n,), _TARGET: (4, 4), _TASK: (_plain_pose().size,),
             _SCRATCH: (3, 4),
         }  # fmt: skip
         for slot, shape in shapes.items():
@@ -612,7 +619,7 @@ class StepArrays:
         self.lower_stack = self._buf[self._layout[_LBS] : self._layout[_BS + 1]]
         self.upper_stack = self._buf[self._layout[_UBS] : self._layout[_BS2 + 1]]
         # The plain program: the joint limits, the world-frame rows.
-        self.set_task(np.eye(4), _PLAIN_POSE, chain.lower, chain.upper)
+        self.set_task(np.eye(4), _plain_pose(), chain.lower, chain.upper)
         const = [
             np.ascontiguousarray(chain.K, dtype=np.float64).ravel(),
             np.ascontiguousarray(chain.C, dtype=np.float64).ravel(),
