@@ -12,19 +12,17 @@ compares them with a pure-numpy implementation of the same product.
 
 from __future__ import annotations
 
-import numba as nb
 import numpy as np
 
+from optik._numba import inline, jit
 from optik.chain import KernelChain
 from optik.task import task_error
-
-_jit = nb.njit(cache=True, nogil=True, error_model="numpy")
 
 Rows12 = tuple[float, float, float, float, float, float, float, float, float, float, float, float]
 """The top three rows of a 4x4 transform, row-major, held in scalars."""
 
 
-@nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+@inline
 def _top_rows(K: np.ndarray, j: int) -> Rows12:
     """The top three rows of ``K[j]`` (indexed in place, see :func:`_chain_step`)."""
     return (
@@ -34,7 +32,7 @@ def _top_rows(K: np.ndarray, j: int) -> Rows12:
     )  # fmt: skip
 
 
-@nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+@inline
 def _chain_step(a: Rows12, prismatic: bool, t: float, K: np.ndarray, j: int) -> Rows12:
     """One link of the chain on the top 3x4 rows held in scalars: ``T @ M(t) @ K[j]``.
 
@@ -70,7 +68,7 @@ def _chain_step(a: Rows12, prismatic: bool, t: float, K: np.ndarray, j: int) -> 
     )
 
 
-@nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+@inline
 def _store(a: Rows12, out: np.ndarray) -> None:
     """Write the top 3x4 rows held in scalars, and the row ``0 0 0 1``, into ``out`` (4, 4)."""
     for r in range(3):
@@ -82,7 +80,7 @@ def _store(a: Rows12, out: np.ndarray) -> None:
     out[3, 3] = 1.0
 
 
-@_jit
+@jit
 def fk_into(K: np.ndarray, prismatic: np.ndarray, theta: np.ndarray, out: np.ndarray) -> None:
     """Forward kinematics of one chain configuration ``theta`` (n,) into ``out`` (4, 4).
 
@@ -95,7 +93,7 @@ def fk_into(K: np.ndarray, prismatic: np.ndarray, theta: np.ndarray, out: np.nda
     _store(a, out)
 
 
-@_jit
+@jit
 def fk_batch(K: np.ndarray, prismatic: np.ndarray, theta: np.ndarray) -> np.ndarray:
     """Forward kinematics of a batch ``theta`` (N, n) -> (N, 4, 4)."""
     N = theta.shape[0]
@@ -105,7 +103,7 @@ def fk_batch(K: np.ndarray, prismatic: np.ndarray, theta: np.ndarray) -> np.ndar
     return out
 
 
-@_jit
+@jit
 def fk_jacobian_work(
     K: np.ndarray,
     prismatic: np.ndarray,
@@ -154,7 +152,7 @@ def fk_jacobian_work(
             J_out[2, i] = zx * dy - zy * dx
 
 
-@_jit
+@jit
 def fk_jacobian_into(
     K: np.ndarray,
     prismatic: np.ndarray,
@@ -167,7 +165,7 @@ def fk_jacobian_into(
     fk_jacobian_work(K, prismatic, theta, T_out, J_out, work)
 
 
-@_jit
+@jit
 def fk_jacobian_batch(
     K: np.ndarray, prismatic: np.ndarray, theta: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -182,7 +180,7 @@ def fk_jacobian_batch(
     return T_out, J_out
 
 
-@_jit
+@jit
 def joint_frames(
     K: np.ndarray, prismatic: np.ndarray, E: np.ndarray, T_base: np.ndarray, theta: np.ndarray
 ) -> np.ndarray:
@@ -204,7 +202,7 @@ def joint_frames(
     return out
 
 
-@_jit
+@jit
 def pose_errors_into(
     chain: KernelChain, Q: np.ndarray, targets: np.ndarray, task: np.ndarray, out: np.ndarray
 ) -> None:

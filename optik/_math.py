@@ -17,10 +17,10 @@ from __future__ import annotations
 
 import math
 
-import numba as nb
 import numpy as np
 
-_jit = nb.njit(cache=True, nogil=True, error_model="numpy")
+from optik._numba import inline, jit
+
 _TWO_PI = 2.0 * math.pi
 
 
@@ -51,10 +51,8 @@ _TOINT = 1.5 / 2.220446049250313e-16  # adding and subtracting it rounds to an i
 _SINCOS_RANGE = 1.0e5
 """Largest |x| (rad) for the inline sine and cosine (the reduction error stays < 1e-20)."""
 
-_inline = nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
 
-
-@_inline
+@inline
 def _sin_kernel(x: float, y: float) -> float:
     """sin(x + y) for |x + y| <= pi / 4, ``y`` the tail of ``x`` (musl __sin)."""
     z = x * x
@@ -64,7 +62,7 @@ def _sin_kernel(x: float, y: float) -> float:
     return x - ((z * (0.5 * y - v * r) - y) - v * _S1)
 
 
-@_inline
+@inline
 def _cos_kernel(x: float, y: float) -> float:
     """cos(x + y) for |x + y| <= pi / 4, ``y`` the tail of ``x`` (musl __cos)."""
     z = x * x
@@ -75,7 +73,7 @@ def _cos_kernel(x: float, y: float) -> float:
     return w + (((1.0 - w) - hz) + (z * r - x * y))
 
 
-@_inline
+@inline
 def _sincos_core(x: float) -> tuple[float, float]:
     """``(sin x, cos x)`` for |x| < _SINCOS_RANGE, without branches (so loops vectorise).
 
@@ -99,7 +97,7 @@ def _sincos_core(x: float) -> tuple[float, float]:
     return sn, cs
 
 
-@_jit
+@jit
 def sincos(x: float) -> tuple[float, float]:
     """``(sin x, cos x)``: inline kernels on |x| < _SINCOS_RANGE, libm elsewhere (and NaN)."""
     if abs(x) < _SINCOS_RANGE:
@@ -108,7 +106,7 @@ def sincos(x: float) -> tuple[float, float]:
 
 
 # ---------------------------------------------------------------------- scalar helpers
-@_jit
+@jit
 def wrap_angle(t: float) -> float:
     """``t`` in (-pi, pi]: the exact steps of :func:`optik.trig.wrap_angle`."""
     if -math.pi < t <= math.pi:
@@ -121,7 +119,7 @@ def wrap_angle(t: float) -> float:
     return w
 
 
-@_jit
+@jit
 def mod_two_pi(x: float) -> float:
     """``numpy.remainder(x, 2 pi)``, bit for bit, in [0, 2 pi] (2 pi only by rounding).
 
@@ -144,7 +142,7 @@ def mod_two_pi(x: float) -> float:
     return rem
 
 
-@_jit
+@jit
 def trig_branches(
     a: float, b: float, c: float, free: float, tol: float
 ) -> tuple[int, float, float]:
@@ -191,7 +189,7 @@ def trig_branches(
     return 2, wrap_angle(phi + psi), wrap_angle(phi - psi)
 
 
-@_jit
+@jit
 def trig_roots(
     a: float, b: float, c: float, free: float, trig_tol: float, eps: float, free_tol: float
 ) -> tuple[int, float, float]:
@@ -214,7 +212,7 @@ def trig_roots(
     return count, t2, t1
 
 
-@_jit
+@jit
 def trig_branches_batch(
     a: np.ndarray, b: np.ndarray, c: np.ndarray, free: np.ndarray, tol: float, out: np.ndarray
 ) -> None:
@@ -229,14 +227,14 @@ def trig_branches_batch(
         out[2, k] = tm
 
 
-@_jit
+@jit
 def rotation_angles(R: np.ndarray, out: np.ndarray) -> None:
     """:func:`rotation_angle` of every rotation of a stack ``R`` (N, 3, 3) into ``out`` (N,)."""
     for k in range(R.shape[0]):
         out[k] = rotation_angle(R[k])
 
 
-@_jit
+@jit
 def log_rotation(R: np.ndarray, out: np.ndarray) -> None:
     """Rotation vector of the 3x3 rotation ``R`` into ``out`` (3,), stable near 0 and pi."""
     vx = 0.5 * (R[2, 1] - R[1, 2])
@@ -274,7 +272,7 @@ def log_rotation(R: np.ndarray, out: np.ndarray) -> None:
         out[i] *= k
 
 
-@_jit
+@jit
 def rotation_angle(R: np.ndarray) -> float:
     """Rotation angle in [0, pi] of the 3x3 rotation ``R``, accurate for tiny angles.
 
@@ -289,7 +287,7 @@ def rotation_angle(R: np.ndarray) -> float:
     return float(np.arctan2(s, c))
 
 
-@_jit
+@jit
 def pose_error(T: np.ndarray, G: np.ndarray) -> tuple[float, float]:
     """``(||p - p*||, angle(R*^T R))`` of a pose ``T`` against a target ``G`` (4x4 each)."""
     dx = T[0, 3] - G[0, 3]
@@ -313,7 +311,7 @@ def pose_error(T: np.ndarray, G: np.ndarray) -> tuple[float, float]:
     return float(np.sqrt(dx * dx + dy * dy + dz * dz)), float(np.arctan2(s, c))
 
 
-@_jit
+@jit
 def worst_rotation_defects(R: np.ndarray) -> tuple[float, float]:
     """Over a stack ``R`` (N, 3, 3): the largest ``max |R^T R - I|`` and the det farthest from 1."""
     worst_err = 0.0
@@ -326,7 +324,7 @@ def worst_rotation_defects(R: np.ndarray) -> tuple[float, float]:
     return worst_err, worst_det
 
 
-@_jit
+@jit
 def rotation_defects(R: np.ndarray) -> tuple[float, float]:
     """``(max |R^T R - I|, det R)`` of a 3x3 ``R``: how far it is from a proper rotation."""
     a, b, c = R[0, 0], R[0, 1], R[0, 2]
@@ -344,7 +342,7 @@ def rotation_defects(R: np.ndarray) -> tuple[float, float]:
     return err, det
 
 
-@_jit
+@jit
 def pose_defect(T: np.ndarray, k: int, rot_tol: float, row_tol: float) -> int:
     """0 when ``T[k]`` is a valid 4x4 pose, else its first defect (the one pose check).
 
@@ -365,7 +363,7 @@ def pose_defect(T: np.ndarray, k: int, rot_tol: float, row_tol: float) -> int:
     return 0
 
 
-@_jit
+@jit
 def first_bad_pose(T: np.ndarray, rot_tol: float, row_tol: float) -> int:
     """Index of the first invalid pose of a batch ``T`` (N, 4, 4), or -1 if none is.
 
@@ -377,7 +375,7 @@ def first_bad_pose(T: np.ndarray, rot_tol: float, row_tol: float) -> int:
     return -1
 
 
-@_inline
+@inline
 def cholesky_factor(A: np.ndarray, L: np.ndarray) -> bool:
     """Factor SPD ``A`` (n, n) as ``L L^T`` into ``L`` (n, n + 1); False if not SPD.
 
@@ -404,7 +402,7 @@ def cholesky_factor(A: np.ndarray, L: np.ndarray) -> bool:
     return True
 
 
-@_inline
+@inline
 def cholesky_substitute(L: np.ndarray, b: np.ndarray, x: np.ndarray) -> None:
     """Solve ``L L^T x = b`` with a factor from :func:`cholesky_factor` (``x`` may be ``b``)."""
     n = L.shape[0]
@@ -420,7 +418,7 @@ def cholesky_substitute(L: np.ndarray, b: np.ndarray, x: np.ndarray) -> None:
         x[i] = s * L[i, n]
 
 
-@_jit
+@jit
 def cholesky_solve(A: np.ndarray, b: np.ndarray, x: np.ndarray, L: np.ndarray) -> bool:
     """Solve SPD ``A x = b`` by Cholesky (``L`` is n x (n + 1) scratch); False if not SPD."""
     if not cholesky_factor(A, L):

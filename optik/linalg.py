@@ -55,12 +55,12 @@ from __future__ import annotations
 import math
 from typing import Any, Final, Literal
 
-import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
 from optik._checks import FloatArray, as_float_array, check_finite, check_real
 from optik._math import cholesky_factor, cholesky_substitute
+from optik._numba import jit
 from optik.errors import NonFiniteError, OptikError, ShapeError, SingularMatrixError
 
 BoolArray = NDArray[np.bool_]
@@ -154,10 +154,8 @@ def _check_scalars(damping: Any, max_condition: Any) -> float:
 # so a failure stays with its matrix, a stack of one costs ~2 us and a stack of 10,000
 # 6x7 matrices ~5 ms, and single and batched calls run the very same code.
 
-_jit = nb.njit(cache=True, nogil=True, error_model="numpy")
 
-
-@_jit
+@jit
 def _gram_kernel(  # pragma: no cover - compiled; its answers are tested through callers
     A: FloatArray,
     B: FloatArray,

@@ -33,6 +33,7 @@ from optik._checks import (
     check_real,
     finite_length_array,
 )
+from optik._clock import one_time_setup
 from optik.chain import Chain, ChainLink, JointKind, Mimic, read_only
 from optik.errors import ArgumentError, InvalidLimitsError, ModelError, OptikError, ShapeError
 from optik.limits import limit_violation, resolve_limits, within_limits
@@ -547,7 +548,9 @@ class Robot:
 
         Derived data (the chain, the seed table, the closed-form family and its packed
         parameters) is keyed by the function that builds it, so no module writes string
-        keys into the robot. :meth:`with_limits` starts a fresh cache.
+        keys into the robot. :meth:`with_limits` starts a fresh cache. Building is
+        one-time setup: a query's ``timeout_s`` does not count it
+        (:func:`optik._clock.one_time_setup`).
 
         Args:
             build: function of the robot that computes the value; also its cache key.
@@ -555,7 +558,8 @@ class Robot:
         try:
             return self._cache[build]
         except KeyError:
-            value = self._cache[build] = build(self)
+            with one_time_setup():
+                value = self._cache[build] = build(self)
             return value
 
     def cached_value(self, build: Callable[[Robot], T_cached]) -> T_cached | None:

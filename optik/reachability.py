@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
@@ -27,9 +27,6 @@ from optik.ik import solve_ik_batch
 from optik.model import Robot
 from optik.planning import MAX_RESTARTS, MAX_SEED, _check_robot
 from optik.spatial import check_rotation
-
-if TYPE_CHECKING:
-    pass
 
 
 @dataclass

@@ -29,14 +29,12 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-import numba as nb
 import numpy as np
 
 from optik._checks import FloatArray, check_choice, check_real, finite_array
 from optik._math import log_rotation
+from optik._numba import jit
 from optik.errors import OptikError
-
-_jit = nb.njit(cache=True, nogil=True, error_model="numpy")
 
 MODES = ("pose", "position", "orientation", "axis")
 AXES = ("x", "y", "z")
@@ -223,7 +221,7 @@ def as_task(mode: Any = "pose", tol: Any = 1e-6) -> Task:
 
 
 # ---------------------------------------------------------------------- compiled core
-@_jit
+@jit
 def _axis_rotation(T: np.ndarray, G: np.ndarray, k: int, out: np.ndarray) -> float:
     """Rotation vector (world) of the smallest rotation taking tool axis k to the target's.
 
@@ -249,7 +247,7 @@ def _axis_rotation(T: np.ndarray, G: np.ndarray, k: int, out: np.ndarray) -> flo
     return theta
 
 
-@_jit
+@jit
 def task_error(
     T: np.ndarray, target: np.ndarray, task: np.ndarray, e: np.ndarray, M: np.ndarray
 ) -> tuple[float, float]:
@@ -299,7 +297,7 @@ def task_error(
     return math.sqrt(pos2), rot
 
 
-@_jit
+@jit
 def task_rows(J: np.ndarray, target: np.ndarray, task: np.ndarray) -> int:
     """Turn the world-frame Jacobian ``J`` (6, dof) into the task's rows, in place.
 
@@ -324,7 +322,7 @@ def task_rows(J: np.ndarray, target: np.ndarray, task: np.ndarray) -> int:
     return 6
 
 
-@_jit
+@jit
 def task_features(task: np.ndarray) -> np.ndarray:
     """(12,) 0/1 mask of the seed-table pose features that rank starts for ``task``.
 
@@ -345,13 +343,13 @@ def task_features(task: np.ndarray) -> np.ndarray:
     return mask
 
 
-@_jit
+@jit
 def task_converged(position: float, orientation: float, task: np.ndarray) -> bool:
     """Both judged errors within the task's tolerances."""
     return position <= task[_PTOL] and orientation <= task[_RTOL]
 
 
-@_jit
+@jit
 def task_errors_of(T: np.ndarray, target: np.ndarray, task: np.ndarray) -> tuple[float, float]:
     """The judged (position, orientation) errors of pose ``T`` against ``target``."""
     e = np.empty(6)

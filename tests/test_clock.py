@@ -2,7 +2,7 @@ import time
 
 import numba
 
-from optik._clock import budget_clock, compile_seconds
+from optik._clock import budget_clock, excluded_seconds
 
 
 def test_compilation_is_counted_and_excluded_from_the_budget_clock() -> None:
@@ -11,12 +11,12 @@ def test_compilation_is_counted_and_excluded_from_the_budget_clock() -> None:
         return x * 2.0 + 1.0
 
     compiled_before, wall_before, budget_before = (
-        compile_seconds(),
+        excluded_seconds(),
         time.perf_counter(),
         budget_clock(),
     )
     assert fresh(1.5) == 4.0
-    compiled = compile_seconds() - compiled_before
+    compiled = excluded_seconds() - compiled_before
     wall = time.perf_counter() - wall_before
     budget = budget_clock() - budget_before
     assert compiled > 0.0
@@ -24,9 +24,9 @@ def test_compilation_is_counted_and_excluded_from_the_budget_clock() -> None:
     assert abs((wall - budget) - compiled) < 1e-3  # the clock's only difference is the compile
 
     # A second call compiles nothing: the compile counter stays where it was.
-    after = compile_seconds()
+    after = excluded_seconds()
     assert fresh(2.0) == 5.0
-    assert compile_seconds() == after
+    assert excluded_seconds() == after
 
 
 def test_a_timeout_does_not_count_compilation() -> None:
@@ -83,3 +83,76 @@ def test_compiling_is_true_exactly_while_numba_compiles() -> None:
         event.unregister("numba:compile", probe)
     assert seen and all(seen)
     assert not compiling()
+
+
+def test_one_time_setup_is_excluded_and_is_not_compiling() -> None:
+    from optik._clock import compiling, one_time_setup
+
+    wall_before, budget_before, excluded_before = (
+        time.perf_counter(),
+        budget_clock(),
+        excluded_seconds(),
+    )
+    with one_time_setup():
+        assert not compiling()  # setup is not compilation (the test helpers tell them apart)
+        time.sleep(0.2)
+    wall = time.perf_counter() - wall_before
+    assert excluded_seconds() - excluded_before >= 0.2
+    assert budget_clock() - budget_before < wall - 0.19
+
+
+def test_a_robots_derived_data_is_built_as_one_time_setup() -> None:
+    from optik.problems import load_problem
+
+    robot = load_problem("planar_2r").robot
+
+    def slow_build(r: object) -> int:
+        time.sleep(0.2)
+        return 7
+
+    before = excluded_seconds()
+    assert robot.cached(slow_build) == 7
+    assert excluded_seconds() - before >= 0.2
+    again = excluded_seconds()
+    assert robot.cached(slow_build) == 7  # kept: built once
+    assert excluded_seconds() - again < 0.01
+
+
+def test_loading_a_kernel_from_numbas_cache_is_excluded(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    # A kernel compiled (and cached) by another process is loaded here: the load is
+    # outside numba's compile events, and the budget clock does not count it either.
+    import subprocess
+    import sys
+    import textwrap
+
+    (tmp_path / "loaded_kernel.py").write_text(
+        textwrap.dedent(
+            """
+            import numba
+
+            @numba.njit(cache=True)
+            def cube(x):
+                return x * x * x
+            """
+        )
+    )
+    import os
+
+    env = {**os.environ, "PYTHONPATH": str(tmp_path)}
+    env.pop("NUMBA_CACHE_DIR", None)
+    subprocess.run(
+        [sys.executable, "-c", "from loaded_kernel import cube; cube(2.0)"], env=env, check=True
+    )
+    sys.path.insert(0, str(tmp_path))
+    try:
+        from loaded_kernel import cube  # type: ignore[import-not-found]
+
+        wall_before, budget_before = time.perf_counter(), budget_clock()
+        assert cube(3.0) == 27.0
+        wall = time.perf_counter() - wall_before
+        budget = budget_clock() - budget_before
+        assert sum(cube.stats.cache_hits.values()) == 1  # loaded, not compiled
+        assert budget < 0.5 * wall
+    finally:
+        sys.path.remove(str(tmp_path))
+        sys.modules.pop("loaded_kernel", None)

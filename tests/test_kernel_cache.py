@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import importlib
 import os
+import pkgutil
 import shutil
 import subprocess
 import sys
@@ -10,6 +12,7 @@ import textwrap
 from pathlib import Path
 
 import numba
+from numba.core.registry import CPUDispatcher
 
 import optik
 from optik import _kernel_cache
@@ -58,6 +61,31 @@ def test_fingerprint_follows_kernel_sources_only(tmp_path: Path) -> None:
     assert _kernel_cache.fingerprint(tmp_path) == first
     (tmp_path / "a.py").write_text("import numba\nX = 2\n")
     assert _kernel_cache.fingerprint(tmp_path) != first
+
+
+def test_every_module_with_kernels_is_in_the_fingerprint(tmp_path: Path) -> None:
+    # A module whose kernels the fingerprint did not read would, once changed, leave its
+    # callers in other modules on stale compiled code: each module that defines an optik
+    # kernel must change the fingerprint when it changes.
+    copy = tmp_path / "optik"
+    shutil.copytree(Path(optik.__file__).parent, copy, ignore=shutil.ignore_patterns("__pycache__"))
+    first = _kernel_cache.fingerprint(copy)
+    checked = []
+    for info in pkgutil.walk_packages(optik.__path__, "optik."):
+        module = importlib.import_module(info.name)
+        if not any(
+            isinstance(value, CPUDispatcher) and value.py_func.__module__ == info.name
+            for value in vars(module).values()
+        ):
+            continue
+        source = copy / Path(str(module.__file__)).relative_to(Path(optik.__file__).parent)
+        text = source.read_text(encoding="utf-8")
+        source.write_text(text + "\n# changed\n", encoding="utf-8")
+        assert _kernel_cache.fingerprint(copy) != first, f"{info.name} is not fingerprinted"
+        source.write_text(text, encoding="utf-8")
+        checked.append(info.name)
+    assert {"optik._math", "optik._kernels", "optik.solvers._lm_kernel"} <= set(checked)
+    assert len(checked) >= 15
 
 
 def _run(root: Path, package: str, cache_dir: Path) -> int:

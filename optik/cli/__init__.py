@@ -18,6 +18,9 @@ import sys
 import textwrap
 import traceback
 from collections.abc import Sequence
+from typing import TextIO
+
+from numba.core import event
 
 from optik import __version__
 from optik.cli._batch import add_batch_command
@@ -29,6 +32,7 @@ from optik.cli._robot import add_problems_command, add_robot_command
 from optik.cli._show import add_show_command
 from optik.cli._solve import add_solve_command
 from optik.cli._view import add_view_command
+from optik.cli._warmup import add_warmup_command
 from optik.errors import OptikError
 
 __all__ = [
@@ -73,7 +77,38 @@ def build_parser() -> argparse.ArgumentParser:
     add_view_command(sub)
     add_map_command(sub)
     add_batch_command(sub)
+    add_warmup_command(sub)
     return parser
+
+
+class _CompileNotice(event.Listener):
+    """One line on ``stream`` when numba first compiles a kernel in this process."""
+
+    def __init__(self, stream: TextIO) -> None:
+        self.stream = stream
+        self.said = False
+
+    def on_start(self, event: object) -> None:
+        if not self.said:
+            self.said = True
+            print(COMPILE_NOTICE, file=self.stream, flush=True)
+
+    def on_end(self, event: object) -> None:
+        pass
+
+
+COMPILE_NOTICE = (
+    "optik: compiling kernels on their first use in this environment (seconds to a "
+    "minute, once: they are cached; `optik warmup` compiles them ahead)"
+)
+_NOTICES: dict[int, _CompileNotice] = {}
+
+
+def say_when_compiling(stream: TextIO) -> None:
+    """On a terminal, say so the first time numba compiles a kernel (once per stream)."""
+    if stream.isatty() and id(stream) not in _NOTICES:
+        notice = _NOTICES[id(stream)] = _CompileNotice(stream)
+        event.register("numba:compile", notice)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -83,6 +118,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         argv: the command-line arguments after the program name (default: ``sys.argv[1:]``).
     """
     args = build_parser().parse_args(argv)  # a usage error exits with 2
+    say_when_compiling(sys.stderr)
     try:
         return int(args.func(args))
     except OptikError as exc:  # bad input: one line, no traceback

@@ -37,16 +37,17 @@ upper) are left out of the variables (``moving``), so a backend never sees a zer
 
 from __future__ import annotations
 
+import functools
 import math
 import threading
 from typing import Any, Final, NamedTuple
 
-import numba as nb
 import numpy as np
 import qpsolvers
 
 from optik import _kernels
 from optik._checks import MAX_LENGTH_M, FloatArray
+from optik._numba import inline, jit
 from optik.errors import OptikError
 from optik.limits import Q_CLIP_TOLERANCE
 from optik.model import Robot
@@ -62,6 +63,7 @@ __all__ = [
     "FILL_STEP_TOO_LONG",
     "ScaledProgram",
     "StepArrays",
+    "StepBuffers",
     "check_step",
     "fill_step",
     "step_arrays",
@@ -85,8 +87,9 @@ CHECK_KKT: Final[int] = 4
 
 # Every array of a StepArrays lives in one float64 buffer, at the offsets of a layout
 # array indexed by these slots: a compiled call then takes two arrays instead of twenty
-# (numba's dispatcher spends about 0.25 µs per array argument and 0.4 µs per entry of a
-# tuple of arrays, more than the arithmetic of one step).
+# (numba's dispatcher spends time on each array, loose or in a tuple: measured with numba
+# 0.68, a call of one array 0.24 µs, of six 0.47 µs, of a tuple of six 0.59 µs; a
+# prebuilt tuple costs what its entries splatted into the call do).
 # The scaled bounds and task right-hand side are stacked, lower bounds then ``bs`` and
 # upper bounds then ``bs`` again, so that a backend taking ``[bounds; rows]`` (DAQP) gets
 # them as two views without a copy.
@@ -102,7 +105,12 @@ _K, _CC = range(2)
 # Entry of Task.packed saying 2.0 for a position task with unit weights (optik.task).
 _TASK_FAST = 10
 
-_jit = nb.njit(cache=True, nogil=True, error_model="numpy")
+
+StepBuffers = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, bool]
+"""The arrays of a :class:`StepArrays` as compiled code takes them (:attr:`StepArrays.buffers`):
+``(const, const_layout, ints, buf, layout, identity)``: the constants (float and their
+layout; int: joint kinds, task rows, moving joints), the buffer of every array and its
+layout, and whether the chain's coupling is the identity."""
 
 
 class ScaledProgram(NamedTuple):
@@ -124,22 +132,28 @@ class ScaledProgram(NamedTuple):
     upper_stack: FloatArray | None
 
 
-#: The packed task of a full pose with unit weights: rows and residual in the world frame.
-_PLAIN_POSE = make_task("pose").packed
+@functools.cache
+def _plain_pose() -> FloatArray:
+    """The packed task of a full pose with unit weights: rows and residual in the world frame.
+
+    Built on first use, not at import: :func:`make_task` calls a kernel, and an import
+    should neither compile nor load one.
+    """
+    return make_task("pose").packed
 
 
-@nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+@inline
 def _vec(buf: np.ndarray, layout: np.ndarray, slot: int) -> np.ndarray:
     return buf[layout[slot] : layout[slot + 1]]
 
 
-@nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+@inline
 def _mat(buf: np.ndarray, layout: np.ndarray, slot: int, rows: int) -> np.ndarray:
     flat = buf[layout[slot] : layout[slot + 1]]
     return flat.reshape((rows, flat.shape[0] // rows))
 
 
-@nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+@inline
 def _chain(
     const: np.ndarray, const_layout: np.ndarray, ints: np.ndarray, n: int
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -149,13 +163,13 @@ def _chain(
     return K, _mat(const, const_layout, _CC, nc), ints[:nc]
 
 
-@nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+@inline
 def _rows_and_moving(ints: np.ndarray, nc: int, m: int) -> tuple[np.ndarray, np.ndarray]:
     """The task rows (m,) and the moving joints (the program's variables) of ``ints``."""
     return ints[nc : nc + m], ints[nc + m :]
 
 
-@nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+@inline
 def _chain_angles(C: np.ndarray, q: np.ndarray, theta: np.ndarray, identity: bool) -> None:
     """``theta = C q``: the chain's joint values (``q`` itself when ``C`` is the identity)."""
     if identity:
@@ -169,7 +183,7 @@ def _chain_angles(C: np.ndarray, q: np.ndarray, theta: np.ndarray, identity: boo
             theta[j] = acc
 
 
-@_jit
+@jit
 def fill_step(
     const: np.ndarray,
     const_layout: np.ndarray,
@@ -317,7 +331,7 @@ def fill_step(
     return FILL_OK if consistent else FILL_INCONSISTENT
 
 
-@_jit
+@jit
 def _householder_lstsq(A: np.ndarray, b: np.ndarray, y: np.ndarray) -> bool:
     """``y = argmin ||A y - b||`` for ``A`` (f, m), ``f >= m``, by Householder QR.
 
@@ -360,7 +374,7 @@ def _householder_lstsq(A: np.ndarray, b: np.ndarray, y: np.ndarray) -> bool:
     return True
 
 
-@_jit
+@jit
 def check_step(
     x: np.ndarray,
     buf: np.ndarray,
@@ -473,20 +487,13 @@ def check_step(
     return CHECK_OK, stationarity
 
 
-@_jit
+@jit
 def take_step(
-    const: np.ndarray,
-    const_layout: np.ndarray,
-    ints: np.ndarray,
-    buf: np.ndarray,
-    layout: np.ndarray,
-    identity: bool,
-    x: np.ndarray,
-    q_new: np.ndarray,
-    e_new: np.ndarray,
+    buffers: StepBuffers, x: np.ndarray, q_new: np.ndarray, e_new: np.ndarray
 ) -> tuple[float, float, float]:
     """Apply a backend's point to the filled program and measure the task there.
 
+    ``buffers`` is :attr:`StepArrays.buffers`.
     ``dq = clip(x / s, lb, ub)`` (nv,) on the moving joints, ``q_new = clip(q + dq, lower,
     upper)`` (n,) (the other joints keep their value); ``e_new`` (6,) the task residual at
     ``q_new`` (:func:`optik.task.task_error` with the target and task of
@@ -494,6 +501,7 @@ def take_step(
     error)``; ``||e_new||^2`` is NaN when ``x`` is not finite. The norm is over
     ``e_new[:3]`` for a position task with unit weights, else over all six entries.
     """
+    const, const_layout, ints, buf, layout, identity = buffers
     q = _vec(buf, layout, _Q)
     n = q.shape[0]
     K, C, prismatic = _chain(const, const_layout, ints, n)
@@ -529,7 +537,7 @@ def take_step(
     return err2, position, orientation
 
 
-@nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+@inline
 def _active(lo: float, hi: float, x: float, tol: float) -> int:
     """0 free, 1 at the lower bound, 2 at the upper one, 3 at both (within ``tol``)."""
     side = 0
@@ -585,7 +593,7 @@ class StepArrays:
             _V: (m,), _LB: (nv,), _UB: (nv,), _P: (nv, nv), _C: (nv,), _PS: (nv, nv),
             _CS: (nv,), _LBS: (nv,), _BS: (m,), _UBS: (nv,), _BS2: (m,), _SCALE: (2,),
             _DQ: (nv,), _G: (nv,), _R: (nv,), _MA: (nv * m,), _MB: (nv,), _Y: (m,),
-            _LO: (n,), _HI: (n,), _TARGET: (4, 4), _TASK: (_PLAIN_POSE.size,),
+            _LO: (n,), _HI: (n,), _TARGET: (4, 4), _TASK: (_plain_pose().size,),
             _SCRATCH: (3, 4),
         }  # fmt: skip
         for slot, shape in shapes.items():
@@ -611,7 +619,7 @@ class StepArrays:
         self.lower_stack = self._buf[self._layout[_LBS] : self._layout[_BS + 1]]
         self.upper_stack = self._buf[self._layout[_UBS] : self._layout[_BS2 + 1]]
         # The plain program: the joint limits, the world-frame rows.
-        self.set_task(np.eye(4), _PLAIN_POSE, chain.lower, chain.upper)
+        self.set_task(np.eye(4), _plain_pose(), chain.lower, chain.upper)
         const = [
             np.ascontiguousarray(chain.K, dtype=np.float64).ravel(),
             np.ascontiguousarray(chain.C, dtype=np.float64).ravel(),
@@ -631,9 +639,9 @@ class StepArrays:
         #: A step of zeros (nv,): :meth:`take` of it measures the task at :attr:`q`.
         self.zero_step = np.zeros(nv)
         self.damping = 0.0
-        #: The first arguments of :func:`take_step` (and of the compiled IK loop's calls):
-        #: ``(const, const_layout, ints, buf, layout, identity)``.
-        self.buffers = (
+        #: The first argument of :func:`take_step` (and of the compiled IK loop's calls):
+        #: a :data:`StepBuffers`.
+        self.buffers: StepBuffers = (
             self._const,
             self._const_layout,
             self._ints,
@@ -739,7 +747,7 @@ class StepArrays:
         self, x: FloatArray, q_new: FloatArray, e_new: FloatArray
     ) -> tuple[float, float, float]:
         """:func:`take_step`: the point ``x`` applied at :attr:`q`, the task measured."""
-        return take_step(*self.buffers, x, q_new, e_new)
+        return take_step(self.buffers, x, q_new, e_new)
 
     def program(self) -> DiffIKProgram:
         """The filled program as a :class:`DiffIKProgram` (copies of the arrays).

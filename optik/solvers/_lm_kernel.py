@@ -13,17 +13,15 @@ FK and the Jacobian come from :mod:`optik._kernels`, the same code as ``Robot.fk
 
 from __future__ import annotations
 
-import numba as nb
 import numpy as np
 
 from optik._kernels import fk_jacobian_work
 from optik._math import cholesky_solve
 from optik._nrt import borrowed
+from optik._numba import inline, jit
 from optik.chain import KernelChain
 from optik.solvers._starts import nearest_table, start_into
 from optik.task import task_converged, task_error, task_features, task_rows
-
-_jit = nb.njit(cache=True, nogil=True, error_model="numpy")
 
 KernelTable = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
 """A seed table as the solvers take it: :meth:`optik.solvers._seeds.SeedTable.kernel_args`."""
@@ -40,14 +38,14 @@ BatchOutput = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
 """A batch's answers: ``(q (N, dof), iterations (N,), restarts (N,), ok (N,))``."""
 
 
-@nb.njit(cache=True, nogil=True, inline="always")
+@inline
 def _borrow_chain(chain: KernelChain) -> KernelChain:
     """Borrowed views (:mod:`optik._nrt`) of the chain's arrays; the caller owns ``chain``."""
     K, prismatic, C, identity, lower, upper = chain
     return borrowed(K), borrowed(prismatic), borrowed(C), identity, borrowed(lower), borrowed(upper)
 
 
-@_jit
+@jit
 def _evaluate(
     chain: KernelChain,
     q: np.ndarray,
@@ -108,7 +106,7 @@ more restarts (0.57 to 0.71). Later attempts keep the patient rule, so targets t
 a slow start still converge."""
 
 
-@_jit
+@jit
 def workspace(n_chain: int, dof: int) -> tuple[np.ndarray, ...]:
     """Scratch arrays of :func:`lm_attempt` for a chain of ``n_chain`` joints, ``dof`` inputs."""
     return (
@@ -130,7 +128,7 @@ def workspace(n_chain: int, dof: int) -> tuple[np.ndarray, ...]:
     )
 
 
-@_jit
+@jit
 def lm_attempt(
     chain: KernelChain,
     target: np.ndarray,
@@ -257,7 +255,7 @@ def lm_attempt(
     return it, task_converged(pos, rot, task), pos, rot
 
 
-@_jit
+@jit
 def lm_solve(
     chain: KernelChain,
     target: np.ndarray,
@@ -280,7 +278,7 @@ def lm_solve(
     return q, it, ok, pos, rot
 
 
-@_jit
+@jit
 def lm_solve_restarts(
     chain: KernelChain,
     target: np.ndarray,
@@ -314,7 +312,7 @@ def lm_solve_restarts(
     return _restarts(chain, target, task, mask, starts, max_iter, w_bias, scratch)
 
 
-@_jit
+@jit
 def _restarts(
     chain: KernelChain,
     target: np.ndarray,
@@ -365,7 +363,7 @@ BATCH_CHUNK = 32
 """Targets per unit of a batch's work: one scratch workspace (15 arrays) serves them all."""
 
 
-@_jit
+@jit
 def _solve_chunk(c: int, chain: KernelChain, batch: BatchJob, out: BatchOutput) -> None:
     """Chunk ``c`` of a batch (:data:`BATCH_CHUNK` targets) in one scratch workspace.
 
@@ -389,7 +387,7 @@ def _solve_chunk(c: int, chain: KernelChain, batch: BatchJob, out: BatchOutput) 
         ok[k] = good
 
 
-@_jit
+@jit
 def _batch_output(N: int, dof: int) -> BatchOutput:
     """``(q (N, dof), iterations (N,), restarts (N,), ok (N,))``, to be filled."""
     return (
@@ -400,7 +398,7 @@ def _batch_output(N: int, dof: int) -> BatchOutput:
     )
 
 
-@_jit
+@jit
 def lm_solve_batch_serial(chain: KernelChain, batch: BatchJob) -> BatchOutput:
     """:func:`lm_solve_restarts` for every target of ``batch``, on the calling thread.
 

@@ -36,11 +36,11 @@ from __future__ import annotations
 
 import math
 
-import numba as nb
 import numpy as np
 
 from optik._math import cholesky_factor, cholesky_solve, cholesky_substitute
 from optik._nrt import borrowed
+from optik._numba import inline, jit
 from optik.chain import KernelChain
 from optik.solvers._lm_kernel import (
     QUICK_ATTEMPTS,
@@ -56,12 +56,10 @@ from optik.solvers._lm_kernel import (
 from optik.solvers._starts import nearest_table, start_into
 from optik.task import task_converged, task_features
 
-_jit = nb.njit(cache=True, nogil=True, error_model="numpy")
 # The helpers of the inner loops are inlined into their callers (numba IR): as calls, the
 # reference counting of the scratch arrays they take made posture_refine 5-7 % slower
 # (measured on the Panda, 100 pose and 100 axis targets, against the code they replaced,
 # which repeated them in place; inlined, within 1 %).
-_inline = nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
 
 TIGHTEN = 1e-3
 """The answer is kept on the task to this fraction of its tolerances: a descent inside the
@@ -92,7 +90,7 @@ move the iteration's fixed point off the optimum by about ``mu / sigma_min(J)^2`
 (measured: an optimality floor near 1e-9 with this ridge always on)."""
 
 
-@_inline
+@inline
 def _row_space_step(
     J: np.ndarray,
     rows: np.ndarray,
@@ -145,7 +143,7 @@ def _row_space_step(
     return True
 
 
-@_inline
+@inline
 def _least_norm(
     J: np.ndarray,
     rows: np.ndarray,
@@ -171,7 +169,7 @@ def _least_norm(
     return _row_space_step(J, rows, X, free, v, A, L, lam, out)
 
 
-@_inline
+@inline
 def _hold_outward(
     x: np.ndarray, step: np.ndarray, lower: np.ndarray, upper: np.ndarray, free: np.ndarray
 ) -> bool:
@@ -191,7 +189,7 @@ def _hold_outward(
     return blocked
 
 
-@_jit
+@jit
 def _optimality(
     J: np.ndarray,
     rows: np.ndarray,
@@ -234,7 +232,7 @@ def _optimality(
     return math.sqrt(res / norm)
 
 
-@_jit
+@jit
 def _sqp_step(
     B: np.ndarray,
     J: np.ndarray,
@@ -289,7 +287,7 @@ def _sqp_step(
     return _row_space_step(J, rows, X, free, v, A, L, lam, dq)
 
 
-@_jit
+@jit
 def _bfgs_update(B: np.ndarray, s: np.ndarray, y: np.ndarray, Bs: np.ndarray) -> None:
     """Powell's damped BFGS update of ``B`` for the step ``s`` and gradient change ``y``.
 
@@ -320,7 +318,7 @@ def _bfgs_update(B: np.ndarray, s: np.ndarray, y: np.ndarray, Bs: np.ndarray) ->
             B[i, j] += y[i] * y[j] / sy - Bs[i] * Bs[j] / sBs
 
 
-@_jit
+@jit
 def _restore(
     chain: KernelChain,
     target: np.ndarray,
@@ -371,7 +369,7 @@ def _restore(
             x[i] = min(max(x[i] + step[i], lower[i]), upper[i])
 
 
-@_jit
+@jit
 def _task_rows_kept(task: np.ndarray) -> np.ndarray:
     """The residual's rows the program keeps (indices into the six, in order).
 
@@ -388,7 +386,7 @@ def _task_rows_kept(task: np.ndarray) -> np.ndarray:
     return rows[:count]
 
 
-@_jit
+@jit
 def posture_refine(
     chain: KernelChain,
     target: np.ndarray,
@@ -548,7 +546,7 @@ def posture_refine(
     return it, measure <= OPTIMALITY_TOL, measure
 
 
-@_jit
+@jit
 def _distance(q: np.ndarray, q_ref: np.ndarray, weights: np.ndarray) -> float:
     """``||q - q_ref||_W^2``."""
     s = 0.0
@@ -557,7 +555,7 @@ def _distance(q: np.ndarray, q_ref: np.ndarray, weights: np.ndarray) -> float:
     return s
 
 
-@_jit
+@jit
 def posture_search(
     chain: KernelChain,
     target: np.ndarray,

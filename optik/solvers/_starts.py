@@ -23,13 +23,11 @@ from __future__ import annotations
 
 import math
 
-import numba as nb
 import numpy as np
 
 from optik._checks import FloatArray
 from optik._nrt import borrowed
-
-_jit = nb.njit(cache=True, nogil=True, error_model="numpy")
+from optik._numba import jit
 
 TABLE_FIRST = 4
 """Starts taken from the seed table, nearest first, before draws alternate with them."""
@@ -46,7 +44,7 @@ _MIX2 = np.uint64(0x94D049BB133111EB)
 _UNIT = 1.0 / 9007199254740992.0  # 2^-53
 
 
-@_jit
+@jit
 def _splitmix(x: np.uint64) -> np.uint64:
     """SplitMix64's output function: a bijective 64-bit mix (Steele et al. 2014)."""
     x = (x ^ (x >> np.uint64(30))) * _MIX1
@@ -54,7 +52,7 @@ def _splitmix(x: np.uint64) -> np.uint64:
     return x ^ (x >> np.uint64(31))
 
 
-@_jit
+@jit
 def uniform_draw(seed: int, k: int, i: int) -> float:
     """A uniform number in [0, 1) for start ``k``, joint ``i`` of the stream ``seed``."""
     h = _splitmix(np.uint64(seed) * _GOLDEN + np.uint64(k))
@@ -62,7 +60,7 @@ def uniform_draw(seed: int, k: int, i: int) -> float:
     return float(h >> np.uint64(11)) * _UNIT
 
 
-@_jit
+@jit
 def start_into(
     k: int,
     given: np.ndarray,
@@ -112,7 +110,7 @@ the entries' table indices, their squared distances (``-1`` once ranked), and th
 indices nearest first (``-1`` where not ranked yet)."""
 
 
-@_jit
+@jit
 def nearest_table(
     features: np.ndarray,
     centroids: np.ndarray,
@@ -129,7 +127,7 @@ def nearest_table(
     return index, distances, np.full(index.shape[0], -1, dtype=np.int64)
 
 
-@_jit
+@jit
 def nearest_entry(nearest: NearestTable, entry: int) -> int:
     """Table index of the ``entry``-th nearest entry (0 is the nearest), -1 past the last.
 
@@ -159,7 +157,7 @@ def nearest_entry(nearest: NearestTable, entry: int) -> int:
     return ranked[entry]
 
 
-@_jit
+@jit
 def table_candidates(
     features: np.ndarray,
     centroids: np.ndarray,
@@ -215,7 +213,7 @@ def table_candidates(
     return index, distances
 
 
-@_jit
+@jit
 def table_order(
     features: np.ndarray,
     centroids: np.ndarray,

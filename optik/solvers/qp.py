@@ -14,17 +14,18 @@ import math
 import warnings
 from typing import Any, Final
 
-import numba as nb
 import numpy as np
 import qpsolvers
 import qpsolvers.solvers
 import scipy.sparse as spa
 
 from optik._checks import MAX_LENGTH_M, FloatArray
+from optik._numba import jit
 from optik.limits import Q_CLIP_TOLERANCE
 from optik.programs.diff_qp import DiffIKProgram, QPSolution
 from optik.programs.step_arrays import (
     FILL_OK,
+    StepBuffers,
     fill_step,
     step_arrays,
     take_step,
@@ -237,7 +238,7 @@ class QPStepSolver(IKSolver):
              self.trust_ratio, self.min_scale]
         )  # fmt: skip
         buffers = arrays.buffers
-        code = _lm_move(*buffers, arrays.zero_step, q, e, q_new, e_new, vmax, lm)
+        code = _lm_move(buffers, arrays.zero_step, q, e, q_new, e_new, vmax, lm)
         err2, position, orientation = lm[:3].tolist()
         position_tol, orientation_tol = task.position_tol, task.orientation_tol
         if nv == 0:  # every joint frozen: nothing to solve, only to judge
@@ -271,7 +272,7 @@ class QPStepSolver(IKSolver):
             iterations += 1
             if x is None:
                 return SolverOutput(q, iterations, False, f"{self.name} failed: {status}", True)
-            code = _lm_move(*buffers, x, q, e, q_new, e_new, vmax, lm)
+            code = _lm_move(buffers, x, q, e, q_new, e_new, vmax, lm)
             if code == _NOT_FINITE:
                 return SolverOutput(q, iterations, False, f"{self.name} failed: {status}", True)
             err2, position, orientation, scale = lm[:4].tolist()
@@ -286,9 +287,9 @@ _ERR2, _POSITION, _ORIENTATION, _SCALE, _W_BIAS, _RADIUS, _RATIO, _MIN_SCALE = r
 _NOT_FINITE: Final[int] = -1
 
 
-@nb.njit(cache=True, nogil=True, error_model="numpy")
+@jit
 def _lm_fill(
-    buffers: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, bool],
+    buffers: StepBuffers,
     q: np.ndarray,
     e: np.ndarray,
     vmax: np.ndarray,
@@ -313,14 +314,9 @@ def _lm_fill(
     )  # fmt: skip
 
 
-@nb.njit(cache=True, nogil=True, error_model="numpy")
+@jit
 def _lm_move(
-    const: np.ndarray,
-    const_layout: np.ndarray,
-    ints: np.ndarray,
-    buf: np.ndarray,
-    layout: np.ndarray,
-    identity: bool,
+    buffers: StepBuffers,
     x: np.ndarray,
     q: np.ndarray,
     e: np.ndarray,
@@ -330,6 +326,8 @@ def _lm_move(
     lm: np.ndarray,
 ) -> int:
     """Marquardt's move on the backend's point ``x``, then the next program (one call).
+
+    ``buffers`` is :attr:`~optik.programs.step_arrays.StepArrays.buffers`.
 
     The step is taken (``q``, ``e`` and the errors in ``lm`` replaced, the scale halved
     down to ``min_scale``) if it lowers ``||e||^2``, else refused (the scale quadrupled);
@@ -341,14 +339,13 @@ def _lm_move(
     """
     start = not lm[_ERR2] < np.inf
     if start:
+        const, const_layout, ints, buf, layout, identity = buffers
         e[:] = 0.0
         fill_step(
             const, const_layout, ints, q, e, vmax, buf, layout, 1.0, True, Q_CLIP_TOLERANCE,
             MAX_LENGTH_M, 1.0, False, True, 0.0, identity,
         )  # fmt: skip
-    err2, position, orientation = take_step(
-        const, const_layout, ints, buf, layout, identity, x, q_new, e_new
-    )
+    err2, position, orientation = take_step(buffers, x, q_new, e_new)
     if not math.isfinite(err2):
         return _NOT_FINITE
     if err2 < lm[_ERR2]:
@@ -361,7 +358,7 @@ def _lm_move(
             lm[_SCALE] = max(0.5 * lm[_SCALE], lm[_MIN_SCALE])
     else:
         lm[_SCALE] *= 4.0
-    return _lm_fill((const, const_layout, ints, buf, layout, identity), q, e, vmax, lm)
+    return _lm_fill(buffers, q, e, vmax, lm)
 
 
 class QPStepBackend(StepBackend):

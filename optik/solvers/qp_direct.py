@@ -12,13 +12,13 @@ import threading
 import warnings
 from typing import Any, Final
 
-import numba as nb
 import numpy as np
 import qpsolvers
 import qpsolvers.solvers
 import scipy.sparse as spa
 
 from optik._checks import FloatArray
+from optik._numba import jit
 from optik.programs.step_arrays import (
     ScaledProgram,
 )
@@ -240,7 +240,7 @@ def polish(
     return result
 
 
-@nb.njit(cache=True, nogil=True)
+@jit
 def _active_set(lam: np.ndarray, sense: np.ndarray, n: int) -> None:
     """DAQP's warm start from its multipliers: bit 1 active, bit 2 the lower side."""
     for i in range(n):

@@ -1,0 +1,393 @@
+"""Compile optik's kernels before their first call: numba's cache, filled ahead of time.
+
+numba compiles a kernel on its first call in an environment and keeps the machine code in
+its on-disk cache (``__pycache__`` beside the sources), so only the first process pays:
+about a minute of CPU for the kernels behind ``solve_ik``, ``solve_ik_batch`` and
+``optik report --quick``. :func:`warm` pays it ahead: it runs the calls of :data:`GROUPS`
+in worker processes (two stages: groups whose kernels overlap little side by side, then
+the rest on what they compiled), and merges the kernels into the package's cache.
+``optik warmup`` runs it; the wheel's build hook (``hatch_build.py``) runs it with a
+staging folder and ships the merged cache in the wheel.
+
+Each worker compiles into a cache folder of its own (``NUMBA_CACHE_DIR``): numba's cache
+is safe for one writer, but two processes that compile different signatures of one
+kernel at once can each number their file ``.1.nbc`` and leave an index that names the
+other's code. The merge gives every entry a fresh file number and writes each index
+whole. A cache entry is keyed by the kernel's signature, its bytecode, the numba release
+and the CPU; one compiled for another CPU or release is not used (numba compiles afresh).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import pickle
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from numba.core import caching
+
+PACKAGE = Path(__file__).resolve().parent
+
+__all__ = [
+    "FIRST",
+    "GROUPS",
+    "LAST",
+    "WarmReport",
+    "merge_caches",
+    "plan_stages",
+    "run_groups",
+    "warm",
+]
+
+
+def _problem_robot(name: str) -> Any:
+    from optik.problems import load_problem
+
+    return load_problem(name).robot
+
+
+def _targets(robot: Any, n: int, seed: int) -> Any:
+    """``n`` reachable poses (n, 4, 4) of in-limit configurations."""
+    import numpy as np
+
+    rng = np.random.default_rng(seed)
+    Q = rng.uniform(robot.lower, robot.upper, size=(n, robot.dof))
+    return np.stack([robot.fk(q) for q in Q])
+
+
+def _closed_forms() -> None:
+    """``solve_ik`` (closed form first) and ``analytic_ik`` (and its batch) on the built-ins."""
+    import optik
+    from optik.analytic import family_of
+    from optik.problems import builtin_problems
+
+    for path in builtin_problems():
+        robot = _problem_robot(path.stem)
+        targets = _targets(robot, 4, 0)
+        optik.solve_ik(robot, targets[0])
+        if family_of(robot) is not None:
+            optik.analytic_ik(robot, targets[1])
+            optik.analytic_ik_batch(robot, targets)
+
+
+def _kinematics() -> None:
+    """A robot's forward kinematics, Jacobian and frames, one configuration and a batch."""
+    import numpy as np
+
+    robot = _problem_robot("panda")
+    q = robot.mid_limits
+    robot.fk(q)
+    robot.jacobian(q)
+    robot.fk_jacobian(q)
+    robot.fk(np.stack([q, q]))
+    robot.fk_jacobian(np.stack([q, q]))
+    robot.frames(q)
+
+
+def _numeric() -> None:
+    """The numeric solvers of ``solve_ik`` on the Panda, with and without a time limit."""
+    import optik
+
+    robot = _problem_robot("panda")
+    targets = _targets(robot, 3, 1)
+    optik.solve_ik(robot, targets[0])
+    optik.solve_ik(robot, targets[1], timeout_s=1.0)
+    for solver in ("pinv", "transpose"):
+        optik.solve_ik(robot, targets[2], solver=solver, restarts=0, max_iter=5)
+
+
+def _batch() -> None:
+    """``solve_ik_batch`` (compiled kernel on worker threads)."""
+    import optik
+
+    robot = _problem_robot("panda")
+    optik.solve_ik_batch(robot, _targets(robot, 16, 2))
+
+
+def _programs() -> None:
+    """``diff_ik`` and ``solve_ik`` through every installed ``qp:*`` backend."""
+    import numpy as np
+
+    import optik
+
+    robot = _problem_robot("panda")
+    q = robot.mid_limits
+    twist = np.array([0.05, 0.0, 0.0, 0.0, 0.0, 0.0])
+    targets = _targets(robot, 1, 3)
+    for solver in optik.available_solvers(kind="step"):
+        if solver.startswith("qp:"):
+            optik.diff_ik(robot, q, twist, dt=0.01, solver=solver)
+    for solver in optik.available_solvers(kind="ik"):
+        if solver.startswith("qp:"):
+            optik.solve_ik(robot, targets[0], solver=solver, restarts=0, max_iter=5)
+
+
+def _report() -> None:
+    """``optik report --quick``'s runs (one target per robot; nothing rendered)."""
+    from optik.compare.runner import run
+    from optik.report.building import quick_config
+
+    with tempfile.TemporaryDirectory() as folder:
+        run(quick_config(n=1), Path(folder) / "results.csv", progress=False)
+
+
+#: The calls that :func:`warm` runs, by name: what a first session runs first.
+GROUPS: dict[str, Callable[[], None]] = {
+    "closed_forms": _closed_forms,
+    "kinematics": _kinematics,
+    "numeric": _numeric,
+    "batch": _batch,
+    "programs": _programs,
+    "report": _report,
+}
+
+#: Groups compiled side by side first, a worker each (with two workers): the kernels of
+#: one worker's groups share little with the other's (the closed forms and the ``qp:*``
+#: programs; the damped least squares and its batch).
+FIRST: tuple[tuple[str, ...], ...] = (
+    ("closed_forms", "kinematics", "programs"),
+    ("numeric", "batch"),
+)
+#: Groups run last, in one worker that starts from every kernel compiled before: the
+#: report calls nearly every kernel, and compiles only what the first stage left.
+LAST: tuple[str, ...] = ("report",)
+
+
+def run_groups(names: Sequence[str]) -> None:
+    """Run the calls of :data:`GROUPS` named ``names`` in this process."""
+    unknown = [name for name in names if name not in GROUPS]
+    if unknown:
+        raise ValueError(f"unknown warm-up groups {unknown}; known: {sorted(GROUPS)}")
+    for name in names:
+        GROUPS[name]()
+
+
+def _package_folders(package: Path) -> list[Path]:
+    """``package`` and its sub-packages (folders holding Python sources)."""
+    folders = {path.parent for path in package.rglob("*.py")}
+    return sorted(folder for folder in folders if "__pycache__" not in folder.parts)
+
+
+def _cache_subfolder(folder: Path) -> str:
+    """The sub-folder of ``NUMBA_CACHE_DIR`` where numba keeps the kernels of ``folder``."""
+    locator = caching._CacheLocator
+    return str(locator.get_suitable_cache_subpath(str(folder / "__init__.py")))
+
+
+def _read_index(path: Path) -> tuple[str, Any, dict[Any, str]]:
+    """Read numba's cache index: (numba release, source stamp, {key: data file name})."""
+    with open(path, "rb") as f:
+        version = pickle.load(f)
+        stamp, overloads = pickle.loads(f.read())
+    return version, stamp, dict(overloads)
+
+
+def _write_whole(path: Path, data: bytes) -> None:
+    """Write ``path`` whole or not at all (a temporary file renamed into place)."""
+    handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
+    try:
+        with os.fdopen(handle, "wb") as f:
+            f.write(data)
+        os.replace(temporary, path)
+    except BaseException:
+        Path(temporary).unlink(missing_ok=True)
+        raise
+
+
+def _merge_index(source: Path, target_folder: Path) -> int:
+    """Add the entries of index ``source`` to the same index in ``target_folder``.
+
+    Returns the number of entries added. A target index of another numba release or
+    source stamp is stale and replaced.
+    """
+    version, stamp, overloads = _read_index(source)
+    target = target_folder / source.name
+    merged: dict[Any, str] = {}
+    if target.exists():
+        try:
+            old_version, old_stamp, old = _read_index(target)
+        except (OSError, EOFError, pickle.UnpicklingError):
+            old_version, old_stamp, old = "", None, {}
+        if (old_version, old_stamp) == (version, stamp):
+            merged = old
+    base = source.name[: -len(".nbi")]
+    taken = set(merged.values())
+    added = 0
+    for key, name in overloads.items():
+        if key in merged:
+            continue
+        number = 1
+        while f"{base}.{number}.nbc" in taken or (target_folder / f"{base}.{number}.nbc").exists():
+            number += 1
+        fresh = f"{base}.{number}.nbc"
+        _write_whole(target_folder / fresh, (source.parent / name).read_bytes())
+        merged[key] = fresh
+        taken.add(fresh)
+        added += 1
+    if added:
+        index = pickle.dumps(version, protocol=-1) + pickle.dumps((stamp, merged), protocol=-1)
+        _write_whole(target, index)
+    return added
+
+
+def merge_caches(
+    caches: Sequence[Path], package: Path, destination: Path, *, cache_dir: bool = False
+) -> int:
+    """Merge workers' ``NUMBA_CACHE_DIR`` folders into ``destination``.
+
+    Args:
+        caches: the workers' cache folders.
+        package: the package folder the workers imported.
+        destination: with ``cache_dir=False``, the folder that holds the package
+            (``package.parent`` fills the package's own ``__pycache__`` folders; a staging
+            folder collects them for a wheel); with ``cache_dir=True``, a
+            ``NUMBA_CACHE_DIR`` for later processes of this package.
+        cache_dir: lay the kernels out as numba does in a ``NUMBA_CACHE_DIR``.
+
+    Returns:
+        The number of kernels (signatures) merged.
+    """
+    total = 0
+    for folder in _package_folders(package):
+        subfolder = _cache_subfolder(folder)
+        if cache_dir:
+            target = destination / subfolder
+        else:
+            target = destination / folder.relative_to(package.parent) / "__pycache__"
+        for cache in caches:
+            for index in sorted((cache / subfolder).glob("*.nbi")):
+                target.mkdir(parents=True, exist_ok=True)
+                total += _merge_index(index, target)
+    return total
+
+
+@dataclass
+class WarmReport:
+    """What :func:`warm` did: kernels merged, seconds, and the groups of each worker by stage."""
+
+    kernels: int
+    seconds: float
+    stages: list[list[tuple[str, ...]]] = field(default_factory=list)
+
+
+def plan_stages(processes: int) -> list[list[tuple[str, ...]]]:
+    """The workers' groups, stage by stage, for ``processes`` workers side by side."""
+    first = [name for worker in FIRST for name in worker]
+    if processes <= 1:
+        return [[(*first, *LAST)]]
+    if processes == len(FIRST):
+        workers = list(FIRST)
+    else:
+        count = min(processes, len(first))
+        workers = [tuple(first[i::count]) for i in range(count)]
+    return [workers, [LAST]]
+
+
+def _run_stage(
+    stage: Sequence[tuple[str, ...]],
+    caches: Sequence[Path],
+    env: dict[str, str],
+    log: Callable[[str], None] | None,
+    start: float,
+) -> None:
+    """Run each worker of ``stage`` in a process of its own, side by side, and wait."""
+    workers = []
+    for cache, names in zip(caches, stage, strict=True):
+        command = [sys.executable, "-m", "optik._warmup", "--run", ",".join(names)]
+        workers.append(
+            subprocess.Popen(
+                command,
+                env={**env, "NUMBA_CACHE_DIR": str(cache)},
+                stdout=subprocess.PIPE,
+                stderr=subprocess.STDOUT,
+            )
+        )
+    failures = []
+    for worker, names in zip(workers, stage, strict=True):
+        output, _ = worker.communicate()
+        if worker.returncode != 0:
+            failures.append(f"{','.join(names)}: {output.decode(errors='replace')[-2000:]}")
+        elif log is not None:
+            log(f"compiled {', '.join(names)} ({time.perf_counter() - start:.0f} s)")
+    if failures:
+        raise RuntimeError("kernel warm-up failed:\n" + "\n".join(failures))
+
+
+def warm(
+    destination: Path | None = None,
+    *,
+    processes: int = 2,
+    package: Path = PACKAGE,
+    log: Callable[[str], None] | None = None,
+) -> WarmReport:
+    """Compile the kernels of :data:`GROUPS` in worker processes and merge their caches.
+
+    The groups of :data:`FIRST` run side by side, each worker into a cache folder of its
+    own; their caches are merged; then :data:`LAST` runs on the merged kernels and
+    compiles what is left. With one process, every group runs in one worker.
+
+    Args:
+        destination: the folder that holds the ``optik`` package whose ``__pycache__``
+            folders receive the kernels (default: where the processes of this
+            environment look: ``NUMBA_CACHE_DIR`` when it is set, else the package's own
+            ``__pycache__`` folders).
+        processes: worker processes side by side (default 2).
+        package: the ``optik`` package folder the workers import.
+        log: called with a line per finished worker (default: nothing).
+
+    Returns:
+        A :class:`WarmReport`.
+
+    Raises:
+        RuntimeError: a worker failed (its output is in the message).
+    """
+    stages = plan_stages(int(processes))
+    user_cache = os.environ.get("NUMBA_CACHE_DIR") if destination is None else None
+    if destination is None:
+        destination = Path(user_cache) if user_cache else package.parent
+    start = time.perf_counter()
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(package.parent), env.get("PYTHONPATH")]))
+    with tempfile.TemporaryDirectory(prefix="optik-warmup-") as scratch:
+        combined = Path(scratch) / "combined"
+        for k, stage in enumerate(stages):
+            if len(stage) == 1:  # a lone worker writes the combined cache itself
+                caches = [combined]
+            else:
+                caches = [Path(scratch) / f"stage{k}-worker{i}" for i in range(len(stage))]
+                for cache in caches:
+                    if combined.exists():
+                        shutil.copytree(combined, cache)
+            _run_stage(stage, caches, env, log, start)
+            separate = [cache for cache in caches if cache != combined]
+            if separate:
+                merge_caches(separate, package, combined, cache_dir=True)
+        kernels = merge_caches([combined], package, destination, cache_dir=bool(user_cache))
+    return WarmReport(kernels, time.perf_counter() - start, stages)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """``python -m optik._warmup``: warm the package, or (``--run``) run groups here."""
+    parser = argparse.ArgumentParser(prog="python -m optik._warmup", description=__doc__)
+    parser.add_argument("--run", help="comma-separated groups to run in this process")
+    parser.add_argument("--destination", type=Path, help="folder holding the optik package")
+    parser.add_argument("--processes", type=int, default=2, help="worker processes")
+    args = parser.parse_args(argv)
+    if args.run:
+        run_groups(args.run.split(","))
+        return 0
+    report = warm(args.destination, processes=args.processes, log=print)
+    print(f"{report.kernels} kernels merged in {report.seconds:.0f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

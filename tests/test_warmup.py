@@ -1,0 +1,189 @@
+"""The kernel warm-up: workers' numba caches merged into a package's ``__pycache__``.
+
+The merge is checked on a small package of its own (two signatures of one kernel,
+compiled by two processes into separate cache folders, as ``optik._warmup.warm`` runs
+them): a fresh process then loads both from the merged cache and compiles nothing.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import pickle
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+
+from optik._warmup import FIRST, GROUPS, LAST, merge_caches, plan_stages, run_groups
+from optik.cli import main
+
+TOY = textwrap.dedent(
+    """
+    import numba
+
+    @numba.njit(cache=True)
+    def twice(x):
+        return 2 * x
+    """
+)
+
+# Calls ``twice`` with the given argument, then prints the dispatcher's cache statistics.
+CALL = textwrap.dedent(
+    """
+    import json, sys
+    from toy.kernels import twice
+    value = twice(int(sys.argv[1]) if sys.argv[2] == "int" else float(sys.argv[1]))
+    print(json.dumps({
+        "value": value,
+        "misses": sum(twice.stats.cache_misses.values()),
+        "hits": sum(twice.stats.cache_hits.values()),
+    }))
+    """
+)
+
+
+def _call(root: Path, value: str, kind: str, cache: Path | None) -> dict[str, float]:
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
+    env["PYTHONPATH"] = str(root)
+    if cache is not None:
+        env["NUMBA_CACHE_DIR"] = str(cache)
+    done = subprocess.run(
+        [sys.executable, "-c", CALL, value, kind],
+        env=env,
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    return dict(json.loads(done.stdout))
+
+
+@pytest.fixture
+def toy(tmp_path: Path) -> Path:
+    package = tmp_path / "src" / "toy"
+    package.mkdir(parents=True)
+    (package / "__init__.py").write_text("")
+    (package / "kernels.py").write_text(TOY)
+    return package
+
+
+def test_two_workers_caches_merge_into_one_that_a_fresh_process_loads(
+    toy: Path, tmp_path: Path
+) -> None:
+    root = toy.parent
+    first, second = tmp_path / "worker0", tmp_path / "worker1"
+    # Each worker compiles its own signature of the same kernel into its own folder.
+    assert _call(root, "3", "int", first) == {"value": 6, "misses": 1, "hits": 0}
+    assert _call(root, "1.5", "float", second) == {"value": 3.0, "misses": 1, "hits": 0}
+    # Both numbered their data file 1: copied side by side they would clash.
+    assert sorted(p.name for p in first.rglob("*.nbc")) == sorted(
+        p.name for p in second.rglob("*.nbc")
+    )
+
+    assert merge_caches([first, second], toy, root) == 2
+    cached = sorted(p.name for p in (toy / "__pycache__").glob("kernels.twice*"))
+    assert len([n for n in cached if n.endswith(".nbc")]) == 2
+    assert len([n for n in cached if n.endswith(".nbi")]) == 1
+
+    # A fresh process without NUMBA_CACHE_DIR finds both in the package's own cache.
+    assert _call(root, "4", "int", None) == {"value": 8, "misses": 0, "hits": 1}
+    assert _call(root, "2.5", "float", None) == {"value": 5.0, "misses": 0, "hits": 1}
+
+    # Merging again adds nothing and keeps one file per signature.
+    assert merge_caches([first, second], toy, root) == 0
+    assert sorted(p.name for p in (toy / "__pycache__").glob("kernels.twice*")) == cached
+
+
+def test_a_stale_index_is_replaced_not_extended(toy: Path, tmp_path: Path) -> None:
+    root = toy.parent
+    cache = tmp_path / "worker0"
+    _call(root, "3", "int", cache)
+    merge_caches([cache], toy, root)
+    index = next((toy / "__pycache__").glob("*.nbi"))
+    with open(index, "rb") as f:
+        version = pickle.load(f)
+        stamp, overloads = pickle.loads(f.read())
+    # The source changes: the index left behind names code of the old source.
+    stale = pickle.dumps(version) + pickle.dumps(("another source", overloads))
+    index.write_bytes(stale)
+    assert merge_caches([cache], toy, root) == 1
+    with open(index, "rb") as f:
+        pickle.load(f)
+        assert pickle.loads(f.read())[0] == stamp
+    assert _call(root, "5", "int", None) == {"value": 10, "misses": 0, "hits": 1}
+
+
+def test_the_merge_names_the_workers_folders_as_numba_does(toy: Path, tmp_path: Path) -> None:
+    # Nothing compiled: nothing merged, no folder created.
+    assert merge_caches([tmp_path / "empty"], toy, toy.parent) == 0
+    assert not (toy / "__pycache__").exists()
+
+
+@pytest.mark.parametrize("processes", [1, 2, 3, 5, 8])
+def test_every_group_runs_once_whatever_the_number_of_processes(processes: int) -> None:
+    stages = plan_stages(processes)
+    planned = [name for stage in stages for worker in stage for name in worker]
+    assert sorted(planned) == sorted(GROUPS)
+    assert len(set(planned)) == len(planned)
+    assert all(len(stage) <= max(processes, 1) for stage in stages)
+    if processes > 1:  # the report runs last, alone, on what the first stage compiled
+        assert stages[-1] == [LAST] and set(LAST).isdisjoint(n for w in FIRST for n in w)
+
+
+def test_unknown_groups_are_refused() -> None:
+    with pytest.raises(ValueError, match="unknown warm-up groups"):
+        run_groups(["closed_forms", "no-such-group"])
+
+
+def test_the_command_refuses_fewer_than_one_process(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["warmup", "--processes", "0"]) == 2
+    assert "--processes must be at least 1" in capsys.readouterr().err
+
+
+def test_a_merge_into_a_numba_cache_dir_serves_processes_that_use_it(
+    toy: Path, tmp_path: Path
+) -> None:
+    root = toy.parent
+    worker, shared = tmp_path / "worker0", tmp_path / "shared"
+    _call(root, "3", "int", worker)
+    assert merge_caches([worker], toy, shared, cache_dir=True) == 1
+    assert not (toy / "__pycache__").exists()
+    assert _call(root, "6", "int", shared) == {"value": 12, "misses": 0, "hits": 1}
+
+
+def test_the_command_line_says_once_when_it_compiles_on_a_terminal() -> None:
+    import io
+
+    import numba
+
+    from optik.cli import COMPILE_NOTICE, say_when_compiling
+
+    class Terminal(io.StringIO):
+        def isatty(self) -> bool:
+            return True
+
+    terminal, pipe = Terminal(), io.StringIO()
+    say_when_compiling(terminal)
+    say_when_compiling(terminal)  # registered once per stream
+    say_when_compiling(pipe)  # not a terminal: silent
+    numba.njit(lambda x: x + 1)(1)  # fresh functions: they compile
+    numba.njit(lambda x: x + 2)(1)
+    assert terminal.getvalue() == COMPILE_NOTICE + "\n"
+    assert pipe.getvalue() == ""
+
+
+def test_the_build_requires_what_the_warm_up_imports() -> None:
+    # The wheel's build hook imports optik in the build's environment: every core
+    # dependency must be a build requirement too, with the same bounds.
+    try:
+        import tomllib
+    except ModuleNotFoundError:  # Python 3.10
+        import tomli as tomllib  # type: ignore[no-redef]
+
+    data = tomllib.loads((Path(__file__).resolve().parent.parent / "pyproject.toml").read_text())
+    requires = set(data["build-system"]["requires"])
+    assert set(data["project"]["dependencies"]) <= requires
+    hook = data["tool"]["hatch"]["build"]["targets"]["wheel"]["hooks"]["custom"]
+    assert hook == {"path": "hatch_build.py"}
