@@ -37,6 +37,7 @@ import numpy as np
 
 from optik import _kernels
 from optik._checks import FloatArray, finite_array
+from optik._clock import one_time_setup
 from optik.errors import OptikError
 from optik.model import Robot
 from optik.programs.nlp import NLPProgram, NLPSolution, build_nlp, task_shape
@@ -474,8 +475,9 @@ def nlp_backend(
     merged = {**NLP_OPTIONS.get(plugin, {}), **(options or {})}
     merged[_MAX_ITER_OPTION.get(plugin, "max_iter")] = int(max_iter)
     key = (shape, plugin, repr(sorted(merged.items())), bool(codegen))
-    program = build_nlp(robot, task)
-    with _lock:
+    # Building (and compiling) a solver is paid once: a timeout_s does not count it.
+    with _lock, one_time_setup():
+        program = build_nlp(robot, task)
         per_robot = _BACKENDS.setdefault(robot, {})
         backend = per_robot.get(key)
         if backend is None:
