@@ -237,7 +237,8 @@ class NLPBackend:
         program: the program it solves.
         plugin: the ``casadi.nlpsol`` plugin.
         max_iter: the iteration limit of one solve.
-        options: the options the solver was built with (``hess_lag`` excepted).
+        options: the options the solver was built with (``hess_lag`` and the monitor's
+            ``iteration_callback`` excepted).
         solver: the solver as a ``casadi.Function`` with ``casadi.nlpsol``'s inputs and
             outputs: the nlpsol itself, or the whole solver compiled to C
             (``compiled``).
@@ -452,10 +453,11 @@ def nlp_backend(
             gets only ``options`` and CasADi's exact Hessian.
         max_iter: iteration limit of one solve.
         options: extra ``nlpsol`` options, merged over the defaults (part of the cache key).
-        codegen: run the solver on its functions compiled to C
-            (:func:`optik.programs.nlp_codegen.compiled_nlpsol`, cached on disk; the SX
-            functions when no C compiler is found). ``backend.compile_report`` says which
-            and what it cost.
+        codegen: run the solver compiled to C, cached on disk: ``sqpmethod`` whole
+            (:func:`optik.programs.nlp_codegen.compiled_solver`), others on their
+            compiled functions (:func:`optik.programs.nlp_codegen.compiled_nlpsol`),
+            Ipopt with its compiled monitor (:data:`MONITORED`); the SX functions when no
+            C compiler is found. ``backend.compile_report`` says which and what it cost.
 
     Raises:
         OptikError: not a robot, an unknown mode, a ``max_iter`` below 1, or a plugin
