@@ -208,14 +208,11 @@ class _SlotPool:
                 self._given.wait()
             if self._free:
                 return self._free.pop()
+            # Made under the lock: a buffer checks out a memory slot of the generated
+            # code, whose checkout is not thread-safe.
+            slot = self._make()
             self._made += 1
-        try:
-            return self._make()
-        except BaseException:
-            with self._lock:
-                self._made -= 1
-                self._given.notify()
-            raise
+            return slot
 
     def give(self, slot: _Slot) -> None:
         with self._lock:
