@@ -25,6 +25,13 @@ def _fresh_robot() -> optik.Robot:
     return optik.load_problem("puma560").robot
 
 
+def _compiling_into(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Libraries compiled into ``tmp_path`` (a C compiler is required: CI images have one)."""
+    if find_compiler() is None:
+        pytest.fail("no C compiler: the codegen path cannot be tested here")
+    monkeypatch.setenv("OPTIK_CACHE_DIR", str(tmp_path))
+
+
 def _case(
     robot: optik.Robot, rng: np.random.Generator, spread: float
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -61,9 +68,7 @@ def test_compiled_solver_gives_the_sx_answers(
 def test_library_is_found_on_disk_by_the_next_build(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    if find_compiler() is None:
-        pytest.fail("no C compiler: the codegen path cannot be tested here")
-    monkeypatch.setenv("OPTIK_CACHE_DIR", str(tmp_path))
+    _compiling_into(tmp_path, monkeypatch)
     first = nlp_backend(_fresh_robot(), "position", plugin="sqpmethod").compile_report
     second = nlp_backend(_fresh_robot(), "position", plugin="sqpmethod").compile_report
     assert first.compiled and not first.cached
@@ -164,9 +169,7 @@ def test_whole_compiled_sqpmethod_reports_what_nlpsol_reports(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """Iterations, the claim and the status of the compiled loop equal ``stats()``'s."""
-    if find_compiler() is None:
-        pytest.fail("no C compiler: the codegen path cannot be tested here")
-    monkeypatch.setenv("OPTIK_CACHE_DIR", str(tmp_path))
+    _compiling_into(tmp_path, monkeypatch)
     robot = _fresh_robot()
     rng = np.random.default_rng(SEED + 2)
     statuses = set()
@@ -230,9 +233,7 @@ def test_monitor_counts_ipopts_iterations_and_stops_at_the_tolerance(
 ) -> None:
     """Never stopping, the monitor counts ``stats()["iter_count"]`` and changes nothing;
     armed with the task's threshold, Ipopt stops within the task's tolerances, sooner."""
-    if find_compiler() is None:
-        pytest.fail("no C compiler: the codegen path cannot be tested here")
-    monkeypatch.setenv("OPTIK_CACHE_DIR", str(tmp_path))
+    _compiling_into(tmp_path, monkeypatch)
     robot = _fresh_robot()
     task = optik.task.make_task("pose", tol=1e-6)
     monitored = nlp_backend(robot, task, plugin="ipopt", max_iter=30)
@@ -301,9 +302,7 @@ def test_building_the_solver_is_not_charged_to_the_timeout(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """A first call compiles its solver (a second or more), yet meets a 0.2 s timeout."""
-    if find_compiler() is None:
-        pytest.fail("no C compiler: the codegen path cannot be tested here")
-    monkeypatch.setenv("OPTIK_CACHE_DIR", str(tmp_path))
+    _compiling_into(tmp_path, monkeypatch)
     robot = _fresh_robot()
     target = robot.fk(robot.mid_limits + 0.3)
     for solver in ("casadi:sqpmethod", "casadi:ipopt"):
