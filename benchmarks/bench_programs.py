@@ -1,8 +1,8 @@
 """The programs against their backends: ``diff_ik`` and QP / CasADi IK on the Panda.
 
 Run: ``python benchmarks/bench_programs.py [--robot panda] [--steps 300] [--targets 100]
-[--seed 0] [--json FILE]`` (see benchmarks/README.md). pink's rows need pink and Pinocchio
-(``/work/venv-bench``); without them they are listed as not run.
+[--seed 0] [--clock wall|cpu] [--json FILE]`` (see benchmarks/README.md). pink's rows need
+pink and Pinocchio (``/work/venv-bench``); without them they are listed as not run.
 
 Two parts, each in one process, every method interleaved sample by sample in a fresh
 seeded random order, garbage collection off inside the timed loop:
@@ -23,6 +23,12 @@ seeded random order, garbage collection off inside the timed loop:
    Success
    is decided here from FK and the limits. The first call of each method (compilation,
    code generation) is timed apart and reported as its first-call time.
+
+Each call is timed on the wall clock (``--clock wall``, :func:`time.perf_counter`) or on
+the calling thread's CPU time (``--clock cpu``, :func:`time.thread_time`): on a shared,
+loaded machine a call of a few milliseconds is preempted far more often than one of
+0.1 ms, which inflates long calls' wall times and their ratios; CPU time of the thread
+is what the call costs (every method here computes on the calling thread).
 
 Output: the tables (median and p95 time per call, ratios to the reference row: raw solve
 + Jacobian for the steps, ``dls`` for IK), the versions, the hardware and the load.
@@ -69,6 +75,7 @@ TWIST_SCALE = 0.1  # m/s and rad/s per component
 DT = 0.01  # s
 GC_EVERY = 50
 WARMUP = 3
+CLOCKS: dict[str, Callable[[], float]] = {"wall": time.perf_counter, "cpu": time.thread_time}
 
 
 @dataclass
@@ -91,12 +98,15 @@ class Row:
         return float(np.percentile(self.times, 95)) if self.times else math.nan
 
 
-def interleave(rows: list[Row], count: int, seed: int) -> None:
+def interleave(
+    rows: list[Row], count: int, seed: int, clock: Callable[[], float] = time.perf_counter
+) -> None:
     """Time every row on samples ``0..count-1``, in a fresh random order per sample.
 
-    The first call of each row runs untimed before the loop (its time is kept as
+    The first call of each row runs untimed before the loop (its wall time is kept as
     ``first_s``: compilation, code generation, caches), then ``WARMUP`` more on the first
-    samples. A row that raises stops, with the error kept.
+    samples. A row that raises stops, with the error kept. ``clock`` times the calls
+    (s): :func:`time.perf_counter` or :func:`time.thread_time`.
     """
     for row in rows:
         t0 = time.perf_counter()
@@ -115,13 +125,13 @@ def interleave(rows: list[Row], count: int, seed: int) -> None:
                 row = rows[j]
                 if row.error:
                     continue
-                t0 = time.perf_counter()
+                t0 = clock()
                 try:
                     answer = row.call(k)
                 except Exception as exc:
                     row.error = f"sample {k}: {type(exc).__name__}: {exc}"[:160]
                     continue
-                row.times.append(time.perf_counter() - t0)
+                row.times.append(clock() - t0)
                 row.answers.append(answer)
             if (k + 1) % GC_EVERY == 0:
                 gc.collect()
@@ -396,6 +406,12 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     p.add_argument(
         "--solvers", default=",".join(IK_SOLVERS), help="solve_ik solvers, comma-separated"
     )
+    p.add_argument(
+        "--clock",
+        choices=sorted(CLOCKS),
+        default="wall",
+        help="time calls on the wall clock or on the thread's CPU time (default: %(default)s)",
+    )
     p.add_argument("--no-steps", action="store_true", help="skip part 1")
     p.add_argument("--no-ik", action="store_true", help="skip part 2")
     p.add_argument("--json", type=Path, help="write the figures (see _record.py)")
@@ -420,13 +436,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not args.no_steps:
         step_results, more = step_rows(robot, args)
         notes += more
-        interleave(step_results, args.steps, args.seed)
+        interleave(step_results, args.steps, args.seed, CLOCKS[args.clock])
     if not args.no_ik:
         rng = np.random.default_rng([args.seed, 1])
         targets = robot.fk(rng.uniform(robot.lower, robot.upper, (args.targets, robot.dof)))
         ik_results, more = ik_rows(robot, args, targets)
         notes += more
-        interleave(ik_results, args.targets, args.seed)
+        interleave(ik_results, args.targets, args.seed, CLOCKS[args.clock])
     load_after = bench_ik.load_average()
     source = _record.optik_source()
     meta = {
@@ -438,6 +454,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         "cores": os.cpu_count(),
         "load_before": load_before,
         "load_after": load_after,
+        "clock": args.clock,
         "versions": bench_ik.versions(),
         "not_run": notes,
     }
@@ -445,6 +462,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     for key in ("command", "date_utc", "optik_commit", "optik_path", "cpu", "cores"):
         print(f"- {key}: {meta[key]}")
     print(f"- load: before {load_before}; after {load_after}")
+    print(f"- clock: {'thread CPU time' if args.clock == 'cpu' else 'wall time'} per call")
     print("- versions: " + ", ".join(f"{k} {v}" for k, v in meta["versions"].items()))
     for note in notes:
         print(f"- not run: {note}")

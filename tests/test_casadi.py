@@ -42,6 +42,7 @@ from optik.solvers.casadi_conic import (
 )
 from optik.solvers.casadi_nlp import nlp_backend
 from optik.spatial import rotation_angle
+from optik.task import make_task
 
 PLUGINS = casadi_conic_plugins()
 
@@ -205,6 +206,55 @@ def test_nlp_position_mode_accepts_a_point() -> None:
     p = robot.fk(q)[:3, 3]
     sol = backend.solve(p, np.clip(q + 0.05, robot.lower, robot.upper))
     assert np.linalg.norm(robot.fk(sol.q)[:3, 3] - p) < 1e-8, sol.status
+
+
+@pytest.mark.parametrize(
+    "task",
+    [
+        {"mode": "pose"},
+        {"mode": "position", "tol": (2e-3, 1e-9)},
+        {"mode": "orientation"},
+        {"mode": "axis", "axis": "x"},
+        {"weights": [2.0, 0.3, 0.0, 1.0, 0.5, 4.0], "tol": (1e-3, 3e-3)},
+        {"mode": "axis", "axis": "z", "weights": [1.0, 1.0, 1.0, 0.2, 3.0, 0.0]},
+    ],
+)
+def test_stop_objective_bounds_the_judged_errors(task: dict) -> None:
+    """Below ``stop_objective`` both judged errors are within sqrt(STOP_FRACTION) tol.
+
+    Configurations near a target's own, at distances from 1e-6 to 1e-1 rad; the errors
+    are computed here with numpy (position over the constrained target axes, the angle
+    of ``R*^T R`` or between the tool axis and the target's), the objective by the
+    program's CasADi function.
+    """
+    robot = robot_of("panda")
+    spec = make_task(**{"tol": 1e-3, **task})
+    prog = build_nlp(robot, spec)
+    f = casadi.Function("f", [prog.q, prog.parameters], [prog.objective])
+    threshold = casadi_nlp.stop_objective(spec)
+    bound = np.sqrt(casadi_nlp.STOP_FRACTION)
+    rng = np.random.default_rng(SEED + 9)
+    w = spec.weights
+    below = 0
+    for _ in range(400):
+        q_true = random_q(robot, rng)
+        T = robot.fk(q_true)
+        q = q_true + 10.0 ** rng.uniform(-6.0, -1.0) * rng.normal(size=robot.dof)
+        if float(f(q, prog.parameter_vector(T, weights=spec))) > threshold:
+            continue
+        below += 1
+        T_q = robot.fk(q)
+        d = T[:3, :3].T @ (T_q[:3, 3] - T[:3, 3])
+        assert np.linalg.norm(d[w[:3] > 0.0]) <= bound * spec.position_tol
+        if np.all(w[3:] > 0.0):
+            angle = rotation_angle(T[:3, :3].T @ T_q[:3, :3])
+            assert angle <= bound * spec.orientation_tol
+        elif np.any(w[3:] > 0.0):
+            k = int(np.flatnonzero(w[3:] == 0.0)[0])
+            a, b = T_q[:3, k], T[:3, k]
+            angle = np.arctan2(np.linalg.norm(np.cross(a, b)), a @ b)
+            assert angle <= bound * spec.orientation_tol
+    assert below >= 40  # the implication was put to the test
 
 
 @pytest.mark.parametrize(

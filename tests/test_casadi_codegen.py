@@ -6,6 +6,8 @@ its own cache directory, so what is compiled, found on disk or refused is known.
 
 from __future__ import annotations
 
+import threading
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -13,12 +15,30 @@ import pytest
 from conftest import SEED, assert_close
 
 import optik
-from optik.programs.nlp_codegen import cache_dir, find_compiler
+from optik.programs.nlp_codegen import INFO_SYMBOL, cache_dir, find_compiler, instrument
+from optik.solvers import casadi_nlp
 from optik.solvers.casadi_nlp import nlp_backend
+from optik.spatial import rotation_angle
 
 
 def _fresh_robot() -> optik.Robot:
     return optik.load_problem("puma560").robot
+
+
+def _compiling_into(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Libraries compiled into ``tmp_path`` (a C compiler is required: CI images have one)."""
+    if find_compiler() is None:
+        pytest.fail("no C compiler: the codegen path cannot be tested here")
+    monkeypatch.setenv("OPTIK_CACHE_DIR", str(tmp_path))
+
+
+def _case(
+    robot: optik.Robot, rng: np.random.Generator, spread: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """A reachable target and a start about ``spread`` rad from its configuration."""
+    q_true = rng.uniform(robot.lower, robot.upper)
+    q0 = np.clip(q_true + spread * rng.normal(size=robot.dof), robot.lower, robot.upper)
+    return robot.fk(q_true), q0
 
 
 def test_compiled_solver_gives_the_sx_answers(
@@ -38,9 +58,7 @@ def test_compiled_solver_gives_the_sx_answers(
         if report.compiled:
             assert Path(report.detail).parent == cache_dir() and report.seconds > 0.0
         for _ in range(3):
-            q_true = rng.uniform(robot.lower, robot.upper)
-            q0 = np.clip(q_true + 0.05 * rng.normal(size=6), robot.lower, robot.upper)
-            target = robot.fk(q_true)
+            target, q0 = _case(robot, rng, 0.05)
             a = compiled.solve(target, q0)
             b = plain.solve(target, q0)
             assert a.iterations == b.iterations
@@ -50,9 +68,7 @@ def test_compiled_solver_gives_the_sx_answers(
 def test_library_is_found_on_disk_by_the_next_build(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    if find_compiler() is None:
-        pytest.fail("no C compiler: the codegen path cannot be tested here")
-    monkeypatch.setenv("OPTIK_CACHE_DIR", str(tmp_path))
+    _compiling_into(tmp_path, monkeypatch)
     first = nlp_backend(_fresh_robot(), "position", plugin="sqpmethod").compile_report
     second = nlp_backend(_fresh_robot(), "position", plugin="sqpmethod").compile_report
     assert first.compiled and not first.cached
@@ -118,5 +134,178 @@ def test_compiled_task_programs_give_the_sx_answers(
             axis, goal = robot.fk(a.q)[:3, 2], target[:3, 2]
             angle = np.arctan2(np.linalg.norm(np.cross(axis, goal)), float(axis @ goal))
             assert angle < 1e-6
-    if find_compiler() is not None:
-        assert len(list((tmp_path / "casadi").glob("*.so"))) == 2
+    if find_compiler() is not None:  # a library per plugin, and Ipopt's monitor
+        assert len(list((tmp_path / "casadi").glob("ik_*.so"))) == 2
+        assert len(list((tmp_path / "casadi").glob("optik_monitor_*.so"))) == 1
+
+
+# ------------------------------------------------------------------ the whole SQP solver in C
+_LOOP = """  while (1) {
+    du_inf = casadi_norm_inf(7, d->gLag);
+    if (iter_count >= 0 && pr_inf < 1e-10 && du_inf < 1e-10) break;
+    if (iter_count >= 8) break;
+    iter_count++;
+  }
+"""
+
+
+def test_instrument_keeps_the_loops_count_and_test() -> None:
+    code = instrument(_LOOP)
+    assert code is not None
+    lines = [line.strip() for line in code.splitlines()]
+    at = lines.index("optik_iterations = iter_count;")
+    assert (
+        lines[at + 1] == "optik_converged = (iter_count >= 0 && pr_inf < 1e-10 && du_inf < 1e-10);"
+    )
+    assert lines[at + 2] == "if (optik_converged) break;"
+    assert lines[at + 3] == "if (iter_count >= 8) break;"  # the rest of the loop untouched
+    assert f"long long {INFO_SYMBOL}(void)" in code
+    # Not exactly one convergence test: not instrumented (the solver is not compiled whole).
+    assert instrument(_LOOP.replace("pr_inf < 1e-10 && ", "")) is None
+    assert instrument(_LOOP + _LOOP) is None
+
+
+def test_whole_compiled_sqpmethod_reports_what_nlpsol_reports(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Iterations, the claim and the status of the compiled loop equal ``stats()``'s."""
+    _compiling_into(tmp_path, monkeypatch)
+    robot = _fresh_robot()
+    rng = np.random.default_rng(SEED + 2)
+    statuses = set()
+    for max_iter in (2, 8):
+        compiled = nlp_backend(robot, "pose", plugin="sqpmethod", max_iter=max_iter)
+        plain = nlp_backend(robot, "pose", plugin="sqpmethod", max_iter=max_iter, codegen=False)
+        assert compiled.compiled is not None and plain.compiled is None
+        assert compiled.compile_report.compiled
+        for _ in range(6):
+            target, q0 = _case(robot, rng, 0.3)
+            a = compiled.solve(target, q0)
+            b = plain.solve(target, q0)
+            assert (a.iterations, a.success, a.status) == (b.iterations, b.success, b.status)
+            assert_close(a.q, b.q, atol=1e-12, what="compiled whole vs nlpsol")
+            statuses.add(a.status)
+    assert {"Solve_Succeeded", "Maximum_Iterations_Exceeded"} <= statuses
+
+
+def test_whole_compiled_solver_from_threads(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Solves from four threads give the answers (and counts) of the same solves in one."""
+    monkeypatch.setenv("OPTIK_CACHE_DIR", str(tmp_path))
+    robot = _fresh_robot()
+    backend = nlp_backend(robot, "pose", plugin="sqpmethod")
+    rng = np.random.default_rng(SEED + 4)
+    cases = [_case(robot, rng, 0.2) for _ in range(24)]
+    expected = [backend.solve(target, q0) for target, q0 in cases]
+    with ThreadPoolExecutor(4) as pool:
+        got = list(pool.map(lambda case: backend.solve(*case), cases * 4))
+    for a, b in zip(got, expected * 4, strict=True):
+        assert (a.iterations, a.success, a.status) == (b.iterations, b.success, b.status)
+        assert np.array_equal(a.q, b.q)
+
+
+def test_slot_pool_makes_at_most_its_limit_and_waits() -> None:
+    made: list[object] = []
+
+    def make() -> object:
+        made.append(object())
+        return made[-1]
+
+    pool = casadi_nlp._SlotPool(make, 2)  # type: ignore[arg-type]
+    first, second = pool.take(), pool.take()
+    got: list[object] = []
+    waiter = threading.Thread(target=lambda: got.append(pool.take()))
+    waiter.start()
+    waiter.join(0.3)
+    assert waiter.is_alive() and not got and len(made) == 2  # the third caller waits
+    pool.give(first)
+    waiter.join(10.0)
+    assert got == [first] and len(made) == 2  # and gets the slot given back
+    pool.give(second)
+    pool.give(got[0])
+    assert pool.take() in (first, second)
+
+
+# ------------------------------------------------------------------ Ipopt's compiled monitor
+def test_monitor_counts_ipopts_iterations_and_stops_at_the_tolerance(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Never stopping, the monitor counts ``stats()["iter_count"]`` and changes nothing;
+    armed with the task's threshold, Ipopt stops within the task's tolerances, sooner."""
+    _compiling_into(tmp_path, monkeypatch)
+    robot = _fresh_robot()
+    task = optik.task.make_task("pose", tol=1e-6)
+    monitored = nlp_backend(robot, task, plugin="ipopt", max_iter=30)
+    plain = nlp_backend(robot, task, plugin="ipopt", max_iter=30, codegen=False)
+    assert monitored.monitor is not None and plain.monitor is None
+    stop = casadi_nlp.stop_objective(task)
+    rng = np.random.default_rng(SEED + 5)
+    saved = 0
+    for _ in range(8):
+        target, q0 = _case(robot, rng, 0.2)
+        params = monitored.program.parameter_vector(target, weights=task)
+        counted = monitored.solve_parameters(params, q0)
+        assert monitored.monitor.last_solve() == (counted.iterations, False)
+        reference = plain.solve_parameters(params, q0)
+        assert (counted.iterations, counted.status) == (reference.iterations, reference.status)
+        assert np.array_equal(counted.q, reference.q)
+        stopped = monitored.solve_parameters(params, q0, stop=stop)
+        if not reference.success:
+            continue
+        assert stopped.success and stopped.status == casadi_nlp.STOP_STATUS
+        assert stopped.iterations <= reference.iterations
+        saved += reference.iterations - stopped.iterations
+        T = robot.fk(stopped.q)
+        limit = np.sqrt(casadi_nlp.STOP_FRACTION) * 1e-6
+        assert np.linalg.norm(T[:3, 3] - target[:3, 3]) <= limit
+        assert rotation_angle(target[:3, :3].T @ T[:3, :3]) <= limit
+    assert saved > 0
+
+
+@pytest.mark.parametrize("solver", ["casadi:sqpmethod", "casadi:ipopt"])
+def test_compiled_solvers_take_every_task_shape(solver: str) -> None:
+    """solve_ik on the compiled solvers (the whole SQP, Ipopt with its monitor), verified
+    from FK here, for each program shape and weights; the library cache is the default."""
+    robot = optik.load_problem("panda").robot  # fresh: its backends are built here
+    rng = np.random.default_rng(SEED + 6)
+    tasks = [
+        {"mode": "pose"},
+        {"mode": "position"},
+        {"mode": "orientation"},
+        {"mode": "axis", "axis": "x"},
+        {"weights": [2.0, 1.0, 0.0, 1.0, 3.0, 0.2]},
+    ]
+    for kw in tasks:
+        for _ in range(3):
+            q_true = rng.uniform(robot.lower, robot.upper)
+            target = robot.fk(q_true)
+            result = optik.solve_ik(robot, target, solver=solver, tol=1e-6, **kw)
+            assert result.success, (kw, result.status, result.message)
+            spec = optik.task.make_task(**kw)
+            T = robot.fk(result.q)
+            w = spec.weights
+            d = target[:3, :3].T @ (T[:3, 3] - target[:3, 3])
+            assert np.linalg.norm(d[w[:3] > 0.0]) <= 1e-6
+            if np.all(w[3:] > 0.0):
+                assert rotation_angle(target[:3, :3].T @ T[:3, :3]) <= 1e-6
+            elif np.any(w[3:] > 0.0):
+                k = int(np.flatnonzero(w[3:] == 0.0)[0])
+                a, b = T[:3, k], target[:3, k]
+                assert np.arctan2(np.linalg.norm(np.cross(a, b)), a @ b) <= 1e-6
+            assert robot.within_limits(result.q, tol=0.0)
+    backend = casadi_nlp.nlp_backend(robot, "pose", plugin=solver.split(":")[1], max_iter=8)
+    assert backend.compile_report.compiled == (find_compiler() is not None)
+
+
+def test_building_the_solver_is_not_charged_to_the_timeout(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A first call compiles its solver (a second or more), yet meets a 0.2 s timeout."""
+    _compiling_into(tmp_path, monkeypatch)
+    robot = _fresh_robot()
+    target = robot.fk(robot.mid_limits + 0.3)
+    for solver in ("casadi:sqpmethod", "casadi:ipopt"):
+        result = optik.solve_ik(robot, target, solver=solver, timeout_s=0.2, warm_start="q0")
+        assert result.status == "converged", (solver, result.message)
+    assert len(list((tmp_path / "casadi").glob("ik_*.so"))) == 2  # both compiled here
