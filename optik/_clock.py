@@ -12,7 +12,8 @@ this process spent on one-time work:
   a fresh compilation (tens of milliseconds in all, outside those events);
 - a robot's derived data, built once per :class:`~optik.model.Robot` on first use
   (:meth:`~optik.model.Robot.cached`: the seed table's clustering, the closed-form
-  family's detection, ...): :func:`one_time_setup`.
+  family's detection, ...), and a CasADi solver built and compiled once per robot and
+  task shape: :func:`one_time_setup`.
 
 A deadline set and checked on it measures the caller's query alone.
 """
