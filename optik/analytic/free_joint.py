@@ -13,7 +13,13 @@ ones seen from the tool at ``q = 0``, with reversed directions, in reverse order
 
 For a spherical-shoulder, spherical-wrist arm (KUKA iiwa: axes 1-3 meet, axes 5-7 meet)
 holding joint 1, 2 or 3 gives the direct form, joint 5, 6 or 7 the reversed one; holding
-the elbow (joint 4) leaves the shoulder-wrist distance fixed: no closed form.
+the elbow (joint 4) leaves the shoulder-wrist distance fixed: no closed form. The Franka
+Panda holding joint 7 gives the reversed form: axes 6 and 5 meet at the wrist point,
+axis 4 is the elbow, axes 3, 2 and 1 meet at the shoulder. Its offsets do not break it:
+the two 0.0825 m elbow offsets only shape the shoulder-wrist distance as a function of
+q4, and the 0.088 m between axes 6 and 7 moves with the held joint (the tool at q = 0
+turned by it). Holding any other Panda joint leaves two axes that neither meet nor are
+parallel at one end of the six: no closed form.
 
 The structure is decided from the geometry, once per robot and held joint: it must hold
 whatever the held value, and does when it holds at three distinct values (whether two

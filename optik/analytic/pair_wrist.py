@@ -63,8 +63,11 @@ _jit = nb.njit(cache=True, nogil=True, error_model="numpy")
 
 REACH_TOL = 1e-9
 """A wrist centre beyond the elbow's reach by at most this (relative) takes the tangent
-elbow (:func:`optik.analytic._subproblems.distance_angles`); the FK check and the
-polish judge the rest."""
+elbow (:func:`optik.analytic._subproblems.distance_angles`), and the shoulder's
+subproblem 2 the tangent pair when its gap is below zero by at most ``REACH_TOL |p|^2``
+(:func:`optik.analytic._subproblems.sp2_angles`): axes that meet only to the geometry's
+tolerance (a URDF angle written to 11 digits; the Panda at q5 = +-pi/2 with q7 held) put
+a double root just out of exact reach. The FK check and the polish judge the rest."""
 
 
 @nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
@@ -126,7 +129,7 @@ def pair_wrist_candidates(
         W3 = sub(W, p3)
         W3 = rotate(z3, s3, c3, W3)
         P = sub((W3[0] + p3[0], W3[1] + p3[1], W3[2] + p3[2]), S)
-        n12, ta1, tb1, ta2, tb2 = sp2_angles(z1, z2, P, q, ref[0], ref[1], trig_tol, axis_tol)
+        n12, ta1, tb1, ta2, tb2 = sp2_angles(z1, z2, P, q, ref[0], ref[1], REACH_TOL, axis_tol)
         R3 = rotation(z3, t3)
         for i12 in range(n12):
             t1 = ta1 if i12 == 0 else ta2
