@@ -49,7 +49,7 @@ from optik.analytic._base import (
     explain_family,
     match_families,
 )
-from optik.analytic._polish import polish
+from optik.analytic._polish import near_solution, polish
 from optik.errors import AnalyticIKError, OptikError, ShapeError
 from optik.limits import LIMIT_TOLERANCE
 from optik.model import DECLARED_FAMILY_CHECKS, Robot
@@ -510,9 +510,15 @@ def _free_joint_fallback(
 ) -> list[FloatArray]:
     """A held-joint target on which the compiled call found no branch (numpy steps).
 
-    Beyond the reach: none (a proof). Else the raw candidates and the reference are
-    polished (rounding at a degenerate pose), and when branches exist only outside the
-    limits, other references are tried for the angles a singularity leaves free.
+    Beyond the reach: none (a proof). Without a single raw candidate, none either unless
+    the reference is itself a near-solution (:func:`optik.analytic._polish.near_solution`):
+    the closed form takes tangent roots up to its reach tolerance
+    (:data:`optik.analytic.pair_wrist.REACH_TOL`), so no candidate means no branch at this
+    held value, and polishing a distant reference would be a search (a sweep over the held
+    joint meets this case at most values; it cost about 40 times a solved pose). Else the
+    raw candidates and the reference are polished (rounding at a degenerate pose), and
+    when branches exist only outside the limits, other references are tried for the
+    angles a singularity leaves free.
     """
     if _beyond_reach(robot, T_target):
         return []
@@ -521,6 +527,8 @@ def _free_joint_fallback(
     ref[k] = value
     held = (k, value)
     raw = _free_joint_raw(plan, value, T_target, ref)
+    if not raw and not near_solution(robot, T_target, ref):
+        return []
     polished = polish(robot, T_target, "pose", [*raw, ref], 0.1 * VERIFY_TOLERANCE, held=k)
     branches = _finish(robot, polished, T_target, "pose", ref, sort, within, held)
     if branches or not within or not _finish(robot, raw, T_target, "pose", ref, False, False, held):
