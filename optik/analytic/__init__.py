@@ -38,6 +38,10 @@ from optik.analytic import (  # noqa: F401  (importing a family registers it: th
 )
 
 # isort: split
+# The family found from the joint axes alone, after the DH families: detected last.
+from optik.analytic import spherical_axes  # noqa: F401
+
+# isort: split
 # After the families: the pipeline imports two of them, which would register them first.
 from optik.analytic import _pipeline, free_joint
 from optik.analytic._base import (

@@ -52,7 +52,7 @@ from optik.analytic._pipeline import (
     work_rows,
 )
 from optik.analytic._subproblems import Vec3, apply, rotation, sub
-from optik.analytic.geometry import Axes, joint_axes, revolute_chain_reason
+from optik.analytic.geometry import Axes, joint_axes, reversed_axes, revolute_chain_reason
 from optik.analytic.pair_wrist import pair_wrist_candidates, structure_reason
 from optik.model import Robot
 
@@ -118,15 +118,6 @@ def _turned(axes: Axes, k: int, v: float) -> Axes:
     return Axes(z, p, E @ axes.tool, axes.size)
 
 
-def _reversed(axes: Axes) -> Axes:
-    """The axes of the chain read backwards (seen from the tool at ``q = 0``)."""
-    M_inv = np.linalg.inv(axes.tool)
-    R, t = M_inv[:3, :3], M_inv[:3, 3]
-    z = -(axes.directions[::-1] @ R.T)
-    p = axes.points[::-1] @ R.T + t
-    return Axes(z, p, np.asarray(M_inv, dtype=np.float64), axes.size)
-
-
 def free_joint_plan(robot: Robot, k: int) -> FreeJointPlan:
     """Whether (and how) ``robot`` with joint ``k`` held has the pair-wrist closed form."""
     axes = joint_axes(robot)
@@ -142,7 +133,7 @@ def free_joint_plan(robot: Robot, k: int) -> FreeJointPlan:
         for v in CHECK_VALUES:
             six = _turned(axes, k, v)
             if reverse:
-                why = structure_reason(_reversed(six), names[::-1])
+                why = structure_reason(reversed_axes(six), names[::-1])
             else:
                 why = structure_reason(six, names)
             if why is not None:
