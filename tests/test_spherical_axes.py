@@ -19,14 +19,22 @@ from eaik.IK_HP import HPRobot
 from scipy.spatial.transform import Rotation
 
 from optik import Robot, load_problem, solve_ik
-from optik.analytic import analytic_ik, family_of
+from optik.analytic import _finish, analytic_ik, analytic_ik_batch, family_of
 from optik.analytic.geometry import joint_axes
 from optik.analytic.parallel_arm import PARALLEL_12, PARALLEL_23
-from optik.analytic.spherical_axes import INTERSECTING, axes_plan
+from optik.analytic.spherical_axes import (
+    INTERSECTING,
+    _candidates_into,
+    _scratch,
+    axes_plan,
+    pack_axes_params,
+)
 from optik.errors import AnalyticIKError
 from optik.problems import builtin_problems
 
 FK_TOL = 1e-10
+LIMITS = np.array([[-2.5, 2.5], [-2.0, 2.0], [-2.8, 2.8], [-3.0, 3.0], [-2.0, 2.0], [-3.0, 3.0]])
+"""Limits narrower than a turn (rad), so that the limit filter and the wrapping act."""
 SOURCE_TOL = 1e-8
 WRIST = [(0.0, -90.0, 0.45, 0.0), (0.0, 90.0, 0.0, 0.3), (0.0, 0.0, 0.1, 0.0)]
 """A spherical wrist: standard DH rows (a, alpha deg, d, theta) of joints 4 to 6."""
@@ -286,3 +294,52 @@ def test_what_does_not_fit_says_why() -> None:
     assert axes_plan(panda).reason == "7 joints (the family takes 6)"
     three = [(0.4, 0.0, 0.3, 0.0), (0.3, 0.0, 0.1, 0.0), (0.05, 80.0, 0.0, 0.0), *WRIST]
     assert "axes 1-3 are parallel" in axes_plan(Robot.from_dh(_rows(three))).reason
+
+
+@pytest.mark.parametrize("arm", sorted(ARMS))
+def test_compiled_call_gives_the_numpy_steps_row_for_row(arm: str) -> None:
+    """One compiled call (closed form, wrap, limits, FK check, dedupe, sort) against the
+    numpy steps (``_finish``: ``Robot.fk``) on the same raw candidates."""
+    spec = ARMS[arm][0]
+    base, tool = _moved()
+    robot = Robot.from_dh(_rows(spec), name=arm, base=base, tool=tool, limits=LIMITS)
+    params = pack_axes_params(robot, axes_plan(robot))
+    rng = np.random.default_rng(6)
+    compared = 0
+    for q in rng.uniform(-math.pi, math.pi, (120, 6)):
+        T = robot.fk(q)
+        for sort, within in ((True, True), (False, True), (True, False)):
+            ref = rng.uniform(robot.lower, robot.upper) if sort else robot.mid_limits
+            got = analytic_ik(robot, T, q_ref=ref if sort else None, within_limits=within)
+            rows = np.empty((8, 6))
+            n = _candidates_into(params, T, ref, rows, _scratch(params))
+            expected = _finish(robot, list(rows[:n]), T, "pose", ref, sort, within)
+            if not expected:
+                continue  # the polish's case, not the compiled steps'
+            compared += 1
+            assert len(got) == len(expected)
+            for a, b in zip(got, expected, strict=True):
+                np.testing.assert_allclose(a, b, rtol=0.0, atol=1e-15)
+    assert compared >= 200
+
+
+@pytest.mark.parametrize("arm", ["first two parallel", "spherical shoulder"])
+def test_batch_equals_single_calls(arm: str) -> None:
+    spec = ARMS[arm][0]
+    robot = Robot.from_dh(_rows(spec), name=arm, limits=LIMITS)
+    rng = np.random.default_rng(7)
+    Q = rng.uniform(-math.pi, math.pi, (60, 6))
+    Q[::5, 4] = 0.0  # wrist singularities
+    T = robot.fk(Q)
+    T[3, :3, 3] = (5.0, 0.0, 0.0)  # out of reach
+    refs = rng.uniform(robot.lower, robot.upper, (60, 6))
+    for q_ref in (None, refs[0], refs):
+        for within in (True, False):
+            batch = analytic_ik_batch(robot, T, q_ref=q_ref, within_limits=within)
+            assert batch.counts[3] == 0
+            for i in range(60):
+                ref = None if q_ref is None else (q_ref[i] if np.ndim(q_ref) == 2 else q_ref)
+                single = analytic_ik(robot, T[i], q_ref=ref, within_limits=within)
+                assert batch.counts[i] == len(single)
+                if single:
+                    np.testing.assert_array_equal(batch.q[i, : len(single)], np.array(single))

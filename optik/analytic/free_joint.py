@@ -29,24 +29,21 @@ reciprocal product of their Plücker coordinates).
 
 from __future__ import annotations
 
-import math
 from typing import NamedTuple
 
 import numba as nb
 import numpy as np
 
 from optik._checks import FloatArray
-from optik._math import pose_defect
 from optik.analytic._compiled import (
     MAX_BRANCHES,
-    TOL_BOTTOM_ROW,
-    TOL_ROTATION,
     tolerance_block,
 )
 from optik.analytic._pipeline import (
     SORT,
     WITHIN_LIMITS,
     Layout,
+    input_code,
     pad_rows,
     postprocess_rows,
     work_rows,
@@ -250,8 +247,8 @@ def _candidates_into(
         # target T^-1, home M^-1.
         Mi = frames[1]
         Ti = frames[2]
-        _inverse_into(M, Mi)
-        _inverse_into(T, Ti)
+        inverse_into(M, Mi)
+        inverse_into(T, Ti)
         zr = axes[2]
         pr = axes[3]
         rr = refs[1]
@@ -305,7 +302,7 @@ def _row3(params: np.ndarray, at: int, i: int) -> Vec3:
 
 
 @_jit
-def _inverse_into(T: np.ndarray, out: np.ndarray) -> None:
+def inverse_into(T: np.ndarray, out: np.ndarray) -> None:
     """``out`` <- the inverse of a rigid transform ``T`` (4, 4): ``[R^T, -R^T t]``."""
     for a in range(3):
         for b in range(3):
@@ -338,11 +335,9 @@ def solve(
         (:func:`optik._math.pose_defect`), -2 when ``ref`` is not finite.
     """
     T1 = T[None]
-    if pose_defect(T1, 0, params[AT_TOLS + TOL_ROTATION], params[AT_TOLS + TOL_BOTTOM_ROW]) != 0:
-        return -1
-    for j in range(FREE_DOF):
-        if not math.isfinite(ref[j]):
-            return -2
+    code = input_code(params, AT_TOLS, T1, ref)
+    if code != 0:
+        return code
     k = int(params[AT_HELD])
     ref1 = np.empty((1, FREE_DOF))
     for j in range(FREE_DOF):
@@ -401,6 +396,7 @@ __all__ = [
     "FreeJointPlan",
     "free_joint_candidates",
     "free_joint_plan",
+    "inverse_into",
     "pack_free_params",
     "solve",
     "solve_batch",

@@ -17,8 +17,13 @@ shoulder (axes 1, 2 and 3 through one point) and an arm among axes 4 to 6. Toler
 those of the geometry (:data:`optik.analytic.geometry.ANGLE_TOL`, ``LENGTH_TOL`` times the
 arm's size). It is registered after the DH families: a robot that ``spherical_wrist`` or
 ``ur`` fits keeps that family; this one covers the twists, offsets and joint orders they
-do not. The closed forms are compiled; the wrapping, limit filter and FK check run in
-numpy (:func:`optik.analytic.analytic_ik`'s Python path).
+do not.
+
+Compiled end to end as the DH families are: :func:`solve` (one target) and
+:func:`solve_batch` run the closed form, then the steps of
+:func:`optik.analytic._pipeline.postprocess_rows` (wrapping into the limits, the limit
+filter, the FK check on the robot's own chain, de-duplication, the sort), on the robot's
+parameter vector (:func:`pack_axes_params`; :meth:`SphericalAxes.compiled`).
 """
 
 from __future__ import annotations
@@ -29,8 +34,21 @@ import numba as nb
 import numpy as np
 
 from optik._checks import FloatArray
-from optik.analytic._base import AnalyticFamily, register
-from optik.analytic._compiled import MAX_BRANCHES, tolerance_block
+from optik.analytic._base import AnalyticFamily, CompiledPipeline, register
+from optik.analytic._compiled import (
+    MAX_BRANCHES,
+    tolerance_block,
+)
+from optik.analytic._pipeline import (
+    SORT,
+    WITHIN_LIMITS,
+    Layout,
+    input_code,
+    pad_rows,
+    postprocess_rows,
+    work_rows,
+)
+from optik.analytic.free_joint import inverse_into
 from optik.analytic.geometry import (
     ANGLE_TOL,
     LENGTH_TOL,
@@ -157,6 +175,157 @@ def _arrays(axes: Axes) -> tuple[FloatArray, FloatArray, FloatArray]:
     )
 
 
+DOF = 6
+# Layout of the compiled kernels' parameter vector (pack_axes_params, flat float64):
+# offsets of each block.
+AT_ARM = 0  # (1,) the arm's kind
+AT_REVERSE = 1  # (1,) 1.0 when the closed form solves the chain read backwards
+AT_KIND = 2  # (6,) 1.0 for a prismatic joint (none here: the layout's rule)
+AT_LOWER = AT_KIND + DOF  # (6,) lower limits (rad), -inf allowed
+AT_UPPER = AT_LOWER + DOF  # (6,) upper limits (rad), +inf allowed
+AT_CHAIN = AT_UPPER + DOF  # (7, 3, 4) top rows of the robot's chain _K (FK check)
+AT_DIRECTIONS = AT_CHAIN + 12 * (DOF + 1)  # (6, 3) joint directions of the chain solved
+AT_POINTS = AT_DIRECTIONS + 3 * DOF  # (6, 3) a point on each of its axes (m)
+AT_TOOL = AT_POINTS + 3 * DOF  # (4, 4) its tool at q = 0, row-major
+AT_TOLS = AT_TOOL + 16  # the tolerance block of optik.analytic._compiled
+AXES_LAYOUT: Layout = (AT_KIND, 1, AT_LOWER, AT_UPPER, AT_CHAIN, AT_TOLS)
+"""Where :func:`optik.analytic._pipeline.postprocess_rows` finds the robot's data."""
+
+
+def pack_axes_params(robot: Robot, plan: AxesPlan) -> FloatArray:
+    """The flat parameter vector of :func:`solve` and :func:`solve_batch` (layout above).
+
+    Args:
+        robot: the robot (fits the family).
+        plan: its :func:`axes_plan`.
+    """
+    params = np.zeros(AT_TOLS + len(plan.tols))
+    params[AT_ARM] = plan.kind
+    params[AT_REVERSE] = 1.0 if plan.reverse else 0.0
+    params[AT_KIND:AT_LOWER] = robot.chain.prismatic
+    params[AT_LOWER:AT_UPPER] = robot.lower
+    params[AT_UPPER:AT_CHAIN] = robot.upper
+    params[AT_CHAIN:AT_DIRECTIONS] = robot.chain.K[:, :3, :].reshape(-1)
+    params[AT_DIRECTIONS:AT_POINTS] = plan.directions.reshape(-1)
+    params[AT_POINTS:AT_TOOL] = plan.points.reshape(-1)
+    params[AT_TOOL:AT_TOLS] = plan.tool.reshape(-1)
+    params[AT_TOLS:] = plan.tols
+    return params
+
+
+@_jit
+def _scratch(params: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(z, p, M, work)`` of :func:`_candidates_into`, made once per call or batch.
+
+    ``z``, ``p`` (6, 3) and ``M`` (4, 4) the axes and tool of the chain solved (copied
+    from ``params``); ``work`` (3, 8, 6): the inverse target (in its first rows), the
+    reversed reference and the branches of the chain read backwards.
+    """
+    z = np.empty((DOF, 3))
+    p = np.empty((DOF, 3))
+    M = np.empty((4, 4))
+    for i in range(DOF):
+        for a in range(3):
+            z[i, a] = params[AT_DIRECTIONS + 3 * i + a]
+            p[i, a] = params[AT_POINTS + 3 * i + a]
+    for a in range(4):
+        for b in range(4):
+            M[a, b] = params[AT_TOOL + 4 * a + b]
+    return z, p, M, np.empty((3, MAX_BRANCHES, DOF))
+
+
+@_jit
+def _candidates_into(
+    params: np.ndarray,
+    T: np.ndarray,
+    ref: np.ndarray,
+    rows: np.ndarray,
+    scratch: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+) -> int:
+    """Raw branches of world target ``T`` (4, 4) into ``rows`` (>= 8, 6), in joint order.
+
+    Read backwards (``params[AT_REVERSE]``) the chain's target is ``T^-1``, its
+    reference ``ref`` reversed, and its branches are turned back into the robot's order.
+    """
+    z, p, M, work = scratch
+    kind = int(params[AT_ARM])
+    tols = params[AT_TOLS:]
+    if params[AT_REVERSE] == 0.0:
+        return axes_candidates(z, p, M, T, ref, kind, tols, rows)
+    Ti = work[0, :4, :4]
+    inverse_into(T, Ti)
+    back = work[1, 0]
+    for j in range(DOF):
+        back[j] = ref[DOF - 1 - j]
+    cand = work[2]
+    n = axes_candidates(z, p, M, Ti, back, kind, tols, cand)
+    for r in range(n):
+        for j in range(DOF):
+            rows[r, j] = cand[r, DOF - 1 - j]
+    return n
+
+
+@_jit
+def solve(params: np.ndarray, T: np.ndarray, ref: np.ndarray, flags: int, out: np.ndarray) -> int:
+    """Every branch of one target: solve, wrap, filter, verify, sort (``spherical_axes``).
+
+    Args:
+        params: :func:`pack_axes_params`'s vector.
+        T: (4, 4) world target of the tool.
+        ref: (6,) reference configuration (rad).
+        flags: :data:`optik.analytic._pipeline.SORT` and / or ``WITHIN_LIMITS``.
+        out: (8, 6) output rows.
+
+    Returns:
+        The number of branches written (0 to 8); -1 when ``T`` is not a valid pose
+        (:func:`optik._math.pose_defect`), -2 when ``ref`` is not finite.
+    """
+    T1 = T[None]
+    code = input_code(params, AT_TOLS, T1, ref)
+    if code != 0:
+        return code
+    ref1 = ref[None]
+    pre, flat, rows = work_rows(DOF)
+    n = _candidates_into(params, T, ref, rows, _scratch(params))
+    return postprocess_rows(
+        params, AXES_LAYOUT, DOF, -1, 0.0, T1, 0, ref1, 0, (flags & SORT) != 0,
+        (flags & WITHIN_LIMITS) != 0, rows, flat, n, pre, out[None],
+    )  # fmt: skip
+
+
+@_jit
+def solve_batch(
+    params: np.ndarray, T: np.ndarray, ref: np.ndarray, flags: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`solve` over validated targets ``T`` (N, 4, 4), serially.
+
+    Args:
+        params: :func:`pack_axes_params`'s vector.
+        T: (N, 4, 4) world targets of the tool, already validated.
+        ref: (1, 6) one reference for every target, or (N, 6) one per target; finite.
+        flags: :data:`optik.analytic._pipeline.SORT` and / or ``WITHIN_LIMITS``.
+
+    Returns:
+        ``Q`` (N, 8, 6): branches, rows past each count filled with NaN; ``counts`` (N,).
+    """
+    N = T.shape[0]
+    sort = (flags & SORT) != 0
+    within = (flags & WITHIN_LIMITS) != 0
+    scratch = _scratch(params)
+    pre, flat, rows = work_rows(DOF)
+    Q = np.empty((N, MAX_BRANCHES, DOF))
+    counts = np.zeros(N, dtype=np.int64)
+    for k in range(N):
+        kr = 0 if ref.shape[0] == 1 else k
+        n = _candidates_into(params, T[k], ref[kr], rows, scratch)
+        counts[k] = postprocess_rows(
+            params, AXES_LAYOUT, DOF, -1, 0.0, T, k, ref, kr, sort, within, rows, flat, n,
+            pre, Q,
+        )  # fmt: skip
+        pad_rows(Q, k, counts[k])
+    return Q, counts
+
+
 @_jit
 def axes_candidates(
     z: np.ndarray,
@@ -168,12 +337,12 @@ def axes_candidates(
     tols: np.ndarray,
     cand: np.ndarray,
 ) -> int:
-    """Raw branches of arm ``kind`` and a spherical wrist into ``cand`` (8, 6).
+    """Raw branches of arm ``kind`` and a spherical wrist into ``cand`` (>= 8, 6).
 
     Arguments as :func:`optik.analytic.parallel_arm.parallel_arm_candidates` (world
     frame; ``T`` the tool's target); returns the number of rows written.
     """
-    lsq = np.empty((3, 6, 6))
+    lsq = np.empty((3, DOF, DOF))
     if kind == INTERSECTING:
         return pair_wrist_candidates(z, p, M, T, ref, tols, cand, lsq)
     return parallel_arm_candidates(z, p, M, T, ref, kind, tols, cand, lsq)
@@ -192,6 +361,15 @@ class SphericalAxes(AnalyticFamily):
     def explain(self, robot: Robot) -> str | None:
         """Why the axes do not have the structure, or ``None`` when they do."""
         return robot.cached(axes_plan).reason or None
+
+    def compiled(self, robot: Robot) -> CompiledPipeline | None:
+        """:func:`solve` and :func:`solve_batch` on the robot's parameter vector.
+
+        Args:
+            robot: the robot (fits this family).
+        """
+        params = pack_axes_params(robot, robot.cached(axes_plan))
+        return CompiledPipeline(solve, solve_batch, params, robot.mid_limits)
 
     def candidates(
         self, robot: Robot, T_0_target: FloatArray, mode: str, q_ref: FloatArray
@@ -225,4 +403,13 @@ class SphericalAxes(AnalyticFamily):
         return [np.array(row) for row in rows]
 
 
-__all__ = ["INTERSECTING", "AxesPlan", "SphericalAxes", "arm_kind", "axes_plan"]
+__all__ = [
+    "INTERSECTING",
+    "AxesPlan",
+    "SphericalAxes",
+    "arm_kind",
+    "axes_plan",
+    "pack_axes_params",
+    "solve",
+    "solve_batch",
+]
