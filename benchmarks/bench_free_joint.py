@@ -1,38 +1,44 @@
-"""Seven-joint closed forms around a held joint (KUKA iiwa): speed, and the sweep as a start.
+"""Seven-joint closed forms around a held joint (KUKA iiwa, Franka Panda): speed, sweeps.
 
-Run: ``python benchmarks/bench_free_joint.py [--single 500] [--batch 20000] [--repeat 9]
-[--targets 300] [--sweeps 4 8 16] [--no-speed] [--no-warm-start] [--no-peers]``
+Run: ``python benchmarks/bench_free_joint.py [--arms iiwa panda] [--single 500]
+[--batch 20000] [--repeat 9] [--targets 300] [--sweeps 4 8 16] [--no-speed]
+[--no-warm-start] [--no-peers]``
 
-The iiwa of pybullet's ``pybullet_data`` (``kuka_iiwa/model.urdf``, the ``test`` extra),
-loaded with ``Robot.from_urdf``. Targets are the poses of configurations drawn uniformly
-inside the limits (numpy generator, seeded), so each is reachable inside them.
+The arms: the iiwa of pybullet's ``pybullet_data`` (``kuka_iiwa/model.urdf``, the ``test``
+extra), loaded with ``Robot.from_urdf``, and the Panda of ``problems/panda.toml`` (modified
+DH, the hand as tool). Targets are the poses of configurations drawn uniformly inside the
+limits (numpy generator, seeded), so each is reachable inside them.
 
-**Speed** (``--no-speed`` skips it). For joint 3 held (the closed form of the six others
-in order) and joint 7 held (the chain read backwards), after a warm-up, optik and EAIK
-alternating within each timed run:
+**Speed** (``--no-speed`` skips it). The iiwa with joint 3 held (the closed form of the six
+others in order) and joint 7 held (the chain read backwards); the Panda with joint 7 held
+(read backwards). After a warm-up, optik and EAIK alternating within each timed run:
 
 - ``analytic_ik(robot, T, free_joint=..., free_value=v)``: every branch with the joint at
   ``v``, wrapped into the limits, filtered by them and verified by FK (µs per pose), and
   the same with ``within_limits=False``;
 - ``analytic_ik_batch(robot, T, free_joint=..., free_value=values)`` (poses per second);
-- EAIK (``pip install eaik``): ``UrdfRobot(urdf, fixed_axes=[(j, v)]).IK(T)`` per pose
-  and ``IK_batched(..., num_worker_threads=1)``. EAIK fixes the joint when the robot is
-  built, so its poses all have the joint at one value ``v``; optik is timed on the same
-  poses with that value. EAIK ignores the limits and does not verify its branches.
+- EAIK (``pip install eaik``): ``HPRobot(H, P, fixed_axes=[(j, v)]).IK(T)`` per pose and
+  ``IK_batched(..., num_worker_threads=1)``, on the joint axes optik finds (directions
+  ``H``, offsets ``P`` between joint points; the targets turned into EAIK's end frame
+  beforehand, outside the timing). EAIK fixes the joint when the robot is built, so its
+  poses all have the joint at one value ``v``; optik is timed on the same poses with
+  that value. EAIK ignores the limits and does not verify its branches.
 
 Times are wall medians over runs (``time.perf_counter``) and, beside them, the CPU time
 of the thread (``time.thread_time``; the load of a shared machine spares it). The
 branches per pose (without limits) turn a time per pose into a time per solution, the
-unit of GeoFIK's published figure (about 0.08 ms per solution for the Panda, C++).
+unit of GeoFIK's published figure (about 0.08 ms per solution for the Panda, C++, q7
+given).
 
 **Warm start** (``--no-warm-start`` skips it). On ``--targets`` targets, in one process,
-per target in a random order:
+per target in a random order (the iiwa sweeps its joint 3, the Panda its joint 7):
 
 - ``seed table``: ``solve_ik(robot, T)`` as today (the numeric solver from the seed
   table's entry nearest the target, restarts from seeded random configurations);
-- ``sweep K + solve_ik``: ``analytic_ik_batch`` of the target with joint 3 held at ``K``
-  values spread over its range (one compiled call), the branch nearest mid-limits as
-  ``q0`` of ``solve_ik`` (no branch: ``solve_ik`` as today); the time includes the sweep;
+- ``sweep K + solve_ik``: ``analytic_ik_batch`` of the target with the joint held at
+  ``K`` values spread over its range (one compiled call), the branch nearest mid-limits
+  as ``q0`` of ``solve_ik`` (no branch: ``solve_ik`` as today); the time includes the
+  sweep;
 - ``sweep K alone``: the sweep's branch itself (FK-verified to 1e-9, inside the limits),
   no numeric solve;
 - ``kernel sweep ...``: the same with the compiled loop alone (see :func:`sweep_start`).
@@ -58,25 +64,45 @@ import statistics  # noqa: E402
 import time  # noqa: E402
 from collections.abc import Callable, Sequence  # noqa: E402
 from pathlib import Path  # noqa: E402
-from typing import Any  # noqa: E402
+from typing import Any, NamedTuple  # noqa: E402
 
 import numba  # noqa: E402
 import numpy as np  # noqa: E402
 from numpy.typing import NDArray  # noqa: E402
 
-from optik import Robot, analytic_ik, analytic_ik_batch, solve_ik  # noqa: E402
+from optik import Robot, analytic_ik, analytic_ik_batch, load_problem, solve_ik  # noqa: E402
+from optik.analytic.geometry import joint_axes  # noqa: E402
 
 Array = NDArray[np.float64]
 TOL = 1e-6
 GEOFIK_MS_PER_SOLUTION = 0.08  # published, Panda, per solution
 
 
-def iiwa() -> tuple[Robot, Path]:
-    """The KUKA iiwa of ``pybullet_data`` and its URDF path."""
+class Arm(NamedTuple):
+    """A seven-joint arm of the benchmark: the joints held for speed, the one swept."""
+
+    label: str
+    robot: Robot
+    held: tuple[int, ...]
+    swept: int
+
+
+def iiwa() -> Arm:
+    """The KUKA iiwa of ``pybullet_data``: joints 3 and 7 held, joint 3 swept."""
     import pybullet_data
 
     path = Path(pybullet_data.getDataPath()) / "kuka_iiwa" / "model.urdf"
-    return Robot.from_urdf(path, "lbr_iiwa_link_0", "lbr_iiwa_link_7"), path
+    robot = Robot.from_urdf(path, "lbr_iiwa_link_0", "lbr_iiwa_link_7")
+    return Arm("KUKA iiwa, pybullet_data", robot, (2, 6), 2)
+
+
+def panda() -> Arm:
+    """The Panda of ``problems/panda.toml``: joint 7 held and swept."""
+    path = Path(__file__).resolve().parents[1] / "problems" / "panda.toml"
+    return Arm("Franka Panda, problems/panda.toml", load_problem(path).robot, (6,), 6)
+
+
+ARMS: dict[str, Callable[[], Arm]] = {"iiwa": iiwa, "panda": panda}
 
 
 def in_limit_configurations(robot: Robot, n: int, seed: int) -> Array:
@@ -102,18 +128,23 @@ def timed_runs(
     return {n: (statistics.median(wall[n]), statistics.median(cpu[n])) for n in methods}
 
 
-def eaik_robot(path: Path, joint: int, value: float) -> Any | None:
-    """EAIK's robot with ``joint`` fixed at ``value``, or ``None`` without EAIK."""
+def eaik_robot(robot: Robot, joint: int, value: float) -> tuple[Any, Array] | None:
+    """EAIK's robot on ``robot``'s joint axes with ``joint`` fixed at ``value``, or ``None``.
+
+    Also returns the tool's rotation at ``q = 0``: EAIK's end frame has the world's
+    orientation there, so a target ``T`` is ``[R_T R_0^T, p_T]`` for EAIK.
+    """
     try:
-        from eaik.IK_URDF import UrdfRobot
+        from eaik.IK_HP import HPRobot
     except ImportError:
         return None
-    return UrdfRobot(str(path), fixed_axes=[(joint, value)])
+    axes = joint_axes(robot)
+    points = np.vstack([np.zeros(3), axes.points, axes.tool[:3, 3]])
+    bot = HPRobot(axes.directions, np.diff(points, axis=0), fixed_axes=[(joint, value)])
+    return bot, axes.tool[:3, :3]
 
 
-def speed(
-    robot: Robot, path: Path, joint: int, single: int, batch: int, repeat: int, peers: bool
-) -> None:
+def speed(robot: Robot, joint: int, single: int, batch: int, repeat: int, peers: bool) -> None:
     """Print the speed table of one held joint."""
     name = robot.joint_names[joint]
     value = 0.5 * float(robot.lower[joint] + robot.upper[joint]) + 0.3
@@ -145,11 +176,14 @@ def speed(
             robot, big, free_joint=name, free_value=values
         )
     }
-    bot = eaik_robot(path, joint, value) if peers else None
+    made = eaik_robot(robot, joint, value) if peers else None
     eaik_note = "EAIK not run"
-    if bot is not None:
-        listed = list(poses)
-        theirs = [int(np.sum(~np.asarray(bot.IK(T).is_LS, dtype=bool))) for T in poses]
+    if made is not None:
+        bot, R0 = made
+        turned = poses.copy()
+        turned[:, :3, :3] = poses[:, :3, :3] @ R0.T
+        listed = list(turned)
+        theirs = [int(np.sum(~np.asarray(bot.IK(T).is_LS, dtype=bool))) for T in listed]
         eaik_note = (
             f"EAIK exact solutions per pose {np.mean(theirs):.2f}; optik without limits "
             f"{per_pose:.2f}; equal counts on {int(np.sum(np.array(theirs) == counts))}"
@@ -157,7 +191,7 @@ def speed(
         )
 
         def eaik_single() -> None:
-            for T in poses:
+            for T in listed:
                 bot.IK(T)
 
         singles["EAIK IK (fixed joint, no limits, not verified)"] = eaik_single
@@ -172,7 +206,10 @@ def speed(
     for label, (wall, cpu) in (s | b).items():
         print(f"  {label:<50}{wall * 1e6:13.2f}{cpu * 1e6:13.2f}{cpu * 1e6 / per_pose:17.2f}")
     print(f"  {eaik_note}")
-    print(f"  GeoFIK (published, Panda, C++): {GEOFIK_MS_PER_SOLUTION * 1e3:.0f} us per solution")
+    print(
+        f"  GeoFIK (published, Panda, q7 given, C++): "
+        f"{GEOFIK_MS_PER_SOLUTION * 1e3:.0f} us per solution"
+    )
 
 
 # ---------------------------------------------------------------------- warm start
@@ -214,9 +251,8 @@ def sweep_start(robot: Robot, T: Array, joint: int, K: int, kernel: bool) -> Arr
     return np.asarray(first[np.argmin(np.linalg.norm(first - mid, axis=1))])
 
 
-def warm_start(robot: Robot, n: int, sweeps: Sequence[int], seed: int) -> None:
+def warm_start(robot: Robot, joint: int, n: int, sweeps: Sequence[int], seed: int) -> None:
     """Print the warm-start table: today's seed table against the free-joint sweep."""
-    joint = 2
     targets = robot.fk(in_limit_configurations(robot, n, seed))
     rng = np.random.default_rng(seed + 1)
 
@@ -285,18 +321,21 @@ def main(argv: Sequence[str] | None = None) -> None:
     parser.add_argument("--speed", action=argparse.BooleanOptionalAction, default=True)
     parser.add_argument("--warm-start", action=argparse.BooleanOptionalAction, default=True)
     parser.add_argument("--peers", action=argparse.BooleanOptionalAction, default=True)
+    parser.add_argument("--arms", nargs="+", choices=sorted(ARMS), default=["iiwa", "panda"])
     args = parser.parse_args(argv)
-    robot, path = iiwa()
     print(
-        f"optik free-joint benchmark (KUKA iiwa, pybullet_data); python "
+        f"optik free-joint benchmark; python "
         f"{platform.python_version()}, numpy {np.__version__}, numba {numba.__version__}, "
         f"{platform.machine()}, {os.cpu_count()} CPUs; 1-min load {os.getloadavg()[0]:.2f}"
     )
-    if args.speed:
-        for joint in (2, 6):
-            speed(robot, path, joint, args.single, args.batch, args.repeat, args.peers)
-    if args.warm_start:
-        warm_start(robot, args.targets, args.sweeps, args.seed)
+    for key in args.arms:
+        arm = ARMS[key]()
+        print(f"== {arm.label}")
+        if args.speed:
+            for joint in arm.held:
+                speed(arm.robot, joint, args.single, args.batch, args.repeat, args.peers)
+        if args.warm_start:
+            warm_start(arm.robot, arm.swept, args.targets, args.sweeps, args.seed)
     print(f"1-min load at the end {os.getloadavg()[0]:.2f}")
 
 

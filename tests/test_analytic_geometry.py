@@ -498,14 +498,14 @@ def test_equivalent_table_of_random_arms_reproduces_fk(seed: int) -> None:
         )
 
 
-@pytest.mark.parametrize("index", [0, 1])
+@pytest.mark.parametrize("index", [0, 1, 2])
 def test_docs_examples_print_what_the_page_shows(
     index: int, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """The Python blocks of docs/analytic.md, each followed by its printed output."""
     text = (REPO / "docs" / "analytic.md").read_text(encoding="utf-8")
     pairs = re.findall(r"```python\n(.*?)```\s*```text\n(.*?)```", text, flags=re.S)
-    assert len(pairs) == 2
+    assert len(pairs) == 3
     code, shown = pairs[index]
     if "example-robot-data" in code:  # a test dependency: its absence is a failure
         assert ROBOTS_DIR is not None, "example-robot-data is not installed (the test extra)"

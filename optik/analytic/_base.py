@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from abc import ABC, abstractmethod
 from collections.abc import Callable
-from typing import ClassVar, NamedTuple
+from typing import Any, ClassVar, NamedTuple
 
 import numpy as np
 
@@ -45,7 +45,9 @@ class AnalyticFamily(ABC):
     A family whose closed form is compiled (:mod:`optik.analytic._compiled`) sets
     ``kernel`` to its id there; ``analytic_ik`` and ``analytic_ik_batch`` then run the
     whole pipeline (closed form, wrapping, limits, FK check, sorting) in one compiled
-    call. Such a family must fit only six-joint DH robots without coupled joints.
+    call. Such a family must fit only six-joint DH robots without coupled joints. A
+    six-joint family without a DH table compiles its own pipeline on its own parameters
+    and returns it from :meth:`compiled` (``spherical_axes``).
     """
 
     name: str = ""
@@ -93,6 +95,36 @@ class AnalyticFamily(ABC):
             mode: ``"pose"`` or ``"position"``.
             q_ref: reference configuration, used for joints left free at singularities.
         """
+
+    def compiled(self, robot: Robot) -> CompiledPipeline | None:
+        """The compiled pipeline that solves ``robot`` in pose mode, or ``None``.
+
+        For a family without a DH table (``kernel`` 0) whose closed form and
+        post-processing are compiled on its own parameters; the DH families' pipeline is
+        :mod:`optik.analytic._pipeline`'s, chosen by ``kernel``.
+
+        Args:
+            robot: the robot (fits this family).
+        """
+        return None
+
+
+class CompiledPipeline(NamedTuple):
+    """A compiled pose-mode pipeline of one robot (:meth:`AnalyticFamily.compiled`).
+
+    Attributes:
+        solve: ``solve(params, T, ref, flags, out) -> n``, as
+            :func:`optik.analytic._pipeline.solve` (six joints).
+        solve_batch: ``solve_batch(params, T, ref, flags) -> (Q, counts)``, as
+            :func:`optik.analytic._pipeline.solve_batch`.
+        params: the robot's parameter vector for both.
+        mid: (6,) the default reference (mid-limits), rad.
+    """
+
+    solve: Any
+    solve_batch: Any
+    params: FloatArray
+    mid: FloatArray
 
 
 FAMILIES: dict[str, AnalyticFamily] = {}

@@ -464,6 +464,22 @@ def postprocess_rows(
 
 
 @_inline
+def input_code(params: np.ndarray, tols: int, T1: np.ndarray, ref: np.ndarray) -> int:
+    """The inputs of a single call checked: 0 valid, -1 or -2 as :func:`solve` returns.
+
+    -1 when ``T1[0]`` is not a valid pose (:func:`optik._math.pose_defect`, with the
+    tolerances of the block at offset ``tols`` of ``params``), -2 when ``ref`` (dof,) is
+    not finite. The caller raises the matching optik error.
+    """
+    if pose_defect(T1, 0, params[tols + TOL_ROTATION], params[tols + TOL_BOTTOM_ROW]) != 0:
+        return -1
+    for j in range(ref.shape[0]):
+        if not math.isfinite(ref[j]):
+            return -2
+    return 0
+
+
+@_inline
 def work_rows(dof: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Scratch of :func:`postprocess_rows` for ``dof`` joints: ``(pre, flat, rows)``.
 
@@ -510,11 +526,9 @@ def solve(params: np.ndarray, T: np.ndarray, ref: np.ndarray, flags: int, out: n
         the matching optik error.
     """
     T1 = T[None]
-    if pose_defect(T1, 0, params[AT_TOLS + TOL_ROTATION], params[AT_TOLS + TOL_BOTTOM_ROW]) != 0:
-        return -1
-    for j in range(ref.shape[0]):
-        if not math.isfinite(ref[j]):
-            return -2
+    code = input_code(params, AT_TOLS, T1, ref)
+    if code != 0:
+        return code
     # Scratch (a reshape is a C call: the per-pose path indexes instead), then the steps.
     ref1 = ref[None]
     T0 = np.empty((4, 4))

@@ -15,6 +15,7 @@ import numpy as np
 
 from optik._checks import FloatArray
 from optik.model import Robot
+from optik.spatial import rotation_angle
 from optik.task import make_task, task_error, task_rows
 
 POLISH_STEPS = 12
@@ -27,6 +28,18 @@ MAX_STEP = 0.5
 GIVE_UP = 1e-3
 """A candidate still this far (m or rad) from the target after three steps is dropped:
 the polish refines near-solutions, it does not search."""
+
+
+def near_solution(robot: Robot, target: FloatArray, q: FloatArray) -> bool:
+    """Whether ``q`` (dof,) reaches the world pose ``target`` (4x4) within :data:`GIVE_UP`.
+
+    Position (m) and rotation angle (rad) both: a start that :func:`polish` refines
+    rather than searches from.
+    """
+    T = robot.fk(q)
+    if not float(np.linalg.norm(T[:3, 3] - target[:3, 3])) <= GIVE_UP:
+        return False
+    return float(rotation_angle(T[:3, :3].T @ target[:3, :3])) <= GIVE_UP
 
 
 def polish(

@@ -8,7 +8,9 @@ rad); vectors are 3-tuples of floats (m, or unitless directions):
 - :func:`sp2_angles`: the angles ``(ta, tb)`` with ``R(wa, ta) R(wb, tb) p = q``, two
   axes through one point (subproblem 2): up to two pairs;
 - :func:`distance_angles`: the angle ``t`` that puts a point rotated about a line at a
-  given distance from a centre (subproblem 3): up to two angles.
+  given distance from a centre (subproblem 3): up to two angles;
+- :func:`plane_angles`: the angle ``t`` that puts a point rotated about a line at a
+  given height along a direction (subproblem 4): up to two angles.
 
 Each is solved as a trig equation ``a cos t + b sin t = c`` normalised to ``a^2 + b^2``
 of order 1 (:func:`optik._math.trig_roots`, with its tangent and free-angle rules), then
@@ -233,10 +235,7 @@ def distance_angles(
     normalised equation) gives the tangent angle: axes that meet only to within the
     geometry's tolerance put a stretched arm's target just out of its exact reach.
     """
-    rel = sub(point, on_axis)
-    foot = axpy(dot(w, rel), w, on_axis)
-    u = sub(point, foot)
-    v = cross(w, u)
+    foot, u, v = _circle(w, on_axis, point)
     d = sub(foot, centre)
     scale = dot(d, d) + dot(u, u)
     if not scale > 0.0:
@@ -244,15 +243,80 @@ def distance_angles(
     a = 2.0 * dot(d, u) / scale
     b = 2.0 * dot(d, v) / scale
     c = (dist2 - scale) / scale
+    return _roots_or_tangent(a, b, c, ref, trig_tol, eps, free_tol, reach_tol)
+
+
+@_inline
+def _circle(w: Vec3, on_axis: Vec3, point: Vec3) -> tuple[Vec3, Vec3, Vec3]:
+    """The circle ``point`` runs on about a line: ``(o, u, w x u)``.
+
+    ``o`` is the foot of ``point`` on the line through ``on_axis`` with unit direction
+    ``w`` and ``u = point - o``: the point turned by ``t`` is ``o + u cos t + (w x u) sin t``.
+    """
+    foot = axpy(dot(w, sub(point, on_axis)), w, on_axis)
+    u = sub(point, foot)
+    return foot, u, cross(w, u)
+
+
+@_inline
+def _roots_or_tangent(
+    a: float,
+    b: float,
+    c: float,
+    ref: float,
+    trig_tol: float,
+    eps: float,
+    free_tol: float,
+    reach_tol: float,
+) -> tuple[int, float, float]:
+    """:func:`optik._math.trig_roots` of ``a cos t + b sin t = c``, or its tangent root.
+
+    A right-hand side beyond the reachable range ``sqrt(a^2 + b^2)`` by at most
+    ``reach_tol`` (relative) gives the tangent angle: axes that meet only to within the
+    geometry's tolerance put a stretched arm's target just out of its exact reach; the
+    caller's FK check judges the miss.
+    """
     n, t1, t2 = trig_roots(a, b, c, ref, trig_tol, eps, free_tol)
     r = math.sqrt(a * a + b * b)
     if n == 0 and r > eps and abs(c) <= r * (1.0 + reach_tol):
-        # Just beyond the farthest (or nearest) distance, by less than the geometry's
-        # tolerance: the tangent angle, whose miss the caller's FK check judges.
         t = math.atan2(b, a) + (0.0 if c > 0.0 else math.pi)
         t = math.atan2(math.sin(t), math.cos(t))
         return 1, t, t
     return n, t1, t2
+
+
+@_jit
+def plane_angles(
+    w: Vec3,
+    on_axis: Vec3,
+    point: Vec3,
+    h: Vec3,
+    height: float,
+    ref: float,
+    trig_tol: float,
+    eps: float,
+    free_tol: float,
+    reach_tol: float,
+) -> tuple[int, float, float]:
+    """Angles ``t`` with ``h . R_line(t) point = height``: ``(count, t_1, t_2)``.
+
+    ``R_line(t)`` turns about the line through ``on_axis`` with unit direction ``w``; ``h``
+    is a unit direction. The rotated point is ``o + u cos t + (w x u) sin t`` (``o`` the
+    foot of ``point`` on the line, ``u = point - o``), so the condition is
+    ``h.u cos t + h.(w x u) sin t = height - h.o``, divided by ``|u| + |height - h.o|``
+    (coefficients of order 1). Both ``h.u`` and ``h.(w x u)`` vanish (the height does
+    not depend on ``t``: ``point`` on the line, or ``h`` along it) -> the free rule of
+    :func:`optik._math.trig_roots`, ``ref``. A height beyond the reachable range by at
+    most ``reach_tol`` (relative) gives the tangent angle (:func:`_roots_or_tangent`).
+    """
+    foot, u, v = _circle(w, on_axis, point)
+    rhs = height - dot(h, foot)
+    scale = norm(u) + abs(rhs)
+    if not scale > 0.0:
+        return 1, ref, ref
+    a = dot(h, u) / scale
+    b = dot(h, v) / scale
+    return _roots_or_tangent(a, b, rhs / scale, ref, trig_tol, eps, free_tol, reach_tol)
 
 
 @_jit

@@ -13,7 +13,13 @@ ones seen from the tool at ``q = 0``, with reversed directions, in reverse order
 
 For a spherical-shoulder, spherical-wrist arm (KUKA iiwa: axes 1-3 meet, axes 5-7 meet)
 holding joint 1, 2 or 3 gives the direct form, joint 5, 6 or 7 the reversed one; holding
-the elbow (joint 4) leaves the shoulder-wrist distance fixed: no closed form.
+the elbow (joint 4) leaves the shoulder-wrist distance fixed: no closed form. The Franka
+Panda holding joint 7 gives the reversed form: axes 6 and 5 meet at the wrist point,
+axis 4 is the elbow, axes 3, 2 and 1 meet at the shoulder. Its offsets do not break it:
+the two 0.0825 m elbow offsets only shape the shoulder-wrist distance as a function of
+q4, and the 0.088 m between axes 6 and 7 moves with the held joint (the tool at q = 0
+turned by it). Holding any other Panda joint leaves two axes that neither meet nor are
+parallel at one end of the six: no closed form.
 
 The structure is decided from the geometry, once per robot and held joint: it must hold
 whatever the held value, and does when it holds at three distinct values (whether two
@@ -23,30 +29,27 @@ reciprocal product of their Plücker coordinates).
 
 from __future__ import annotations
 
-import math
 from typing import NamedTuple
 
 import numba as nb
 import numpy as np
 
 from optik._checks import FloatArray
-from optik._math import pose_defect
 from optik.analytic._compiled import (
     MAX_BRANCHES,
-    TOL_BOTTOM_ROW,
-    TOL_ROTATION,
     tolerance_block,
 )
 from optik.analytic._pipeline import (
     SORT,
     WITHIN_LIMITS,
     Layout,
+    input_code,
     pad_rows,
     postprocess_rows,
     work_rows,
 )
 from optik.analytic._subproblems import Vec3, apply, rotation, sub
-from optik.analytic.geometry import Axes, joint_axes, revolute_chain_reason
+from optik.analytic.geometry import Axes, joint_axes, reversed_axes, revolute_chain_reason
 from optik.analytic.pair_wrist import pair_wrist_candidates, structure_reason
 from optik.model import Robot
 
@@ -112,15 +115,6 @@ def _turned(axes: Axes, k: int, v: float) -> Axes:
     return Axes(z, p, E @ axes.tool, axes.size)
 
 
-def _reversed(axes: Axes) -> Axes:
-    """The axes of the chain read backwards (seen from the tool at ``q = 0``)."""
-    M_inv = np.linalg.inv(axes.tool)
-    R, t = M_inv[:3, :3], M_inv[:3, 3]
-    z = -(axes.directions[::-1] @ R.T)
-    p = axes.points[::-1] @ R.T + t
-    return Axes(z, p, np.asarray(M_inv, dtype=np.float64), axes.size)
-
-
 def free_joint_plan(robot: Robot, k: int) -> FreeJointPlan:
     """Whether (and how) ``robot`` with joint ``k`` held has the pair-wrist closed form."""
     axes = joint_axes(robot)
@@ -136,7 +130,7 @@ def free_joint_plan(robot: Robot, k: int) -> FreeJointPlan:
         for v in CHECK_VALUES:
             six = _turned(axes, k, v)
             if reverse:
-                why = structure_reason(_reversed(six), names[::-1])
+                why = structure_reason(reversed_axes(six), names[::-1])
             else:
                 why = structure_reason(six, names)
             if why is not None:
@@ -253,8 +247,8 @@ def _candidates_into(
         # target T^-1, home M^-1.
         Mi = frames[1]
         Ti = frames[2]
-        _inverse_into(M, Mi)
-        _inverse_into(T, Ti)
+        inverse_into(M, Mi)
+        inverse_into(T, Ti)
         zr = axes[2]
         pr = axes[3]
         rr = refs[1]
@@ -308,7 +302,7 @@ def _row3(params: np.ndarray, at: int, i: int) -> Vec3:
 
 
 @_jit
-def _inverse_into(T: np.ndarray, out: np.ndarray) -> None:
+def inverse_into(T: np.ndarray, out: np.ndarray) -> None:
     """``out`` <- the inverse of a rigid transform ``T`` (4, 4): ``[R^T, -R^T t]``."""
     for a in range(3):
         for b in range(3):
@@ -341,11 +335,9 @@ def solve(
         (:func:`optik._math.pose_defect`), -2 when ``ref`` is not finite.
     """
     T1 = T[None]
-    if pose_defect(T1, 0, params[AT_TOLS + TOL_ROTATION], params[AT_TOLS + TOL_BOTTOM_ROW]) != 0:
-        return -1
-    for j in range(FREE_DOF):
-        if not math.isfinite(ref[j]):
-            return -2
+    code = input_code(params, AT_TOLS, T1, ref)
+    if code != 0:
+        return code
     k = int(params[AT_HELD])
     ref1 = np.empty((1, FREE_DOF))
     for j in range(FREE_DOF):
@@ -404,6 +396,7 @@ __all__ = [
     "FreeJointPlan",
     "free_joint_candidates",
     "free_joint_plan",
+    "inverse_into",
     "pack_free_params",
     "solve",
     "solve_batch",

@@ -141,6 +141,37 @@ def joint_axes(robot: Robot) -> Axes:
     return Axes(directions, points, P, arm_size(points))
 
 
+def reversed_axes(axes: Axes) -> Axes:
+    """The axes of the chain read backwards, seen from the tool at ``q = 0``.
+
+    ``fk(q) = R_1(q_1) ... R_n(q_n) M`` gives ``fk(q)^-1 = M^-1 R_n(-q_n) ... R_1(-q_1)``:
+    a chain whose axes are the original ones in the tool's frame, in reverse order, with
+    reversed directions (so its joint values are the original ones), and whose tool at
+    ``q = 0`` is ``M^-1``; its targets are the inverses of the original targets.
+    """
+    M_inv = np.linalg.inv(axes.tool)
+    R, t = M_inv[:3, :3], M_inv[:3, 3]
+    z = -(axes.directions[::-1] @ R.T)
+    p = axes.points[::-1] @ R.T + t
+    return Axes(z, p, np.asarray(M_inv, dtype=np.float64), axes.size)
+
+
+def line_distance(z1: FloatArray, p1: FloatArray, z2: FloatArray, p2: FloatArray) -> float:
+    """Distance (m) between two lines (unit directions ``z``, points ``p``)."""
+    c = np.cross(z1, z2)
+    sn = float(np.linalg.norm(c))
+    r = p2 - p1
+    if sn <= ANGLE_TOL:
+        return float(np.linalg.norm(r - (r @ z1) * z1))
+    return abs(float(r @ c)) / sn
+
+
+def point_line_distance(z: FloatArray, p: FloatArray, x: FloatArray) -> float:
+    """Distance (m) of point ``x`` from the line through ``p`` along the unit ``z``."""
+    r = x - p
+    return float(np.linalg.norm(r - (r @ z) * z))
+
+
 def arm_size(points: FloatArray) -> float:
     """Summed distances between consecutive joint points (m), at least 1 mm."""
     steps = np.linalg.norm(np.diff(points, axis=0), axis=1) if len(points) > 1 else []

@@ -57,14 +57,26 @@ from optik.analytic._subproblems import (
     sp2_angles,
     sub,
 )
-from optik.analytic.geometry import ANGLE_TOL, LENGTH_TOL, Axes
+from optik.analytic.geometry import (
+    ANGLE_TOL,
+    LENGTH_TOL,
+    Axes,
+    line_distance,
+    point_line_distance,
+)
 
 _jit = nb.njit(cache=True, nogil=True, error_model="numpy")
+# Steps shared by the closed forms, inlined into each: a call per shoulder branch cost
+# 4-15 % of a held-joint solve.
+_inline = nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
 
 REACH_TOL = 1e-9
 """A wrist centre beyond the elbow's reach by at most this (relative) takes the tangent
-elbow (:func:`optik.analytic._subproblems.distance_angles`); the FK check and the
-polish judge the rest."""
+elbow (:func:`optik.analytic._subproblems.distance_angles`), and the shoulder's
+subproblem 2 the tangent pair when its gap is below zero by at most ``REACH_TOL |p|^2``
+(:func:`optik.analytic._subproblems.sp2_angles`): axes that meet only to the geometry's
+tolerance (a URDF angle written to 11 digits; the Panda at q5 = +-pi/2 with q7 held) put
+a double root just out of exact reach. The FK check and the polish judge the rest."""
 
 
 @nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
@@ -99,24 +111,15 @@ def pair_wrist_candidates(
         The number of rows written (0 to 8), in the order of the module docstring.
     """
     trig_tol, eps, free_tol, axis_tol = closed_form_tols(tols)
-    z1, z2, z3, z4, z5, z6 = _vec(z, 0), _vec(z, 1), _vec(z, 2), _vec(z, 3), _vec(z, 4), _vec(z, 5)
+    z1, z2, z3, z4, z5 = _vec(z, 0), _vec(z, 1), _vec(z, 2), _vec(z, 3), _vec(z, 4)
     S = meeting_point(z1, _vec(p, 0), z2, _vec(p, 1))
     W = meeting_point(z4, _vec(p, 3), z5, _vec(p, 4))
-    # G = T M^-1: rotation R_G = R_T R_M^T, translation t_T - R_G t_M.
-    RT = (T[0, 0], T[0, 1], T[0, 2], T[1, 0], T[1, 1], T[1, 2], T[2, 0], T[2, 1], T[2, 2])
-    RMt = (M[0, 0], M[1, 0], M[2, 0], M[0, 1], M[1, 1], M[2, 1], M[0, 2], M[1, 2], M[2, 2])
-    RG = mul3(RT, RMt)
-    tM = (M[0, 3], M[1, 3], M[2, 3])
-    GtM = apply(RG, tM)
-    tG = (T[0, 3] - GtM[0], T[1, 3] - GtM[1], T[2, 3] - GtM[2])
+    RG, tG = target_frame(T, M)
     GW = apply(RG, W)
     Wt = (GW[0] + tG[0], GW[1] + tG[1], GW[2] + tG[2])
     q = sub(Wt, S)
     dist2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2]
-    # The wrist's constant direction (axis 6, fixed by R_6) and one across it.
-    across = cross(z5, z6)
-    na = norm(across)
-    across = (across[0] / na, across[1] / na, across[2] / na)
+    across = wrist_across(z)
     p3 = _vec(p, 2)
     n = 0
     n3, e1, e2 = distance_angles(z3, p3, W, S, dist2, ref[2], trig_tol, eps, free_tol, REACH_TOL)
@@ -126,31 +129,82 @@ def pair_wrist_candidates(
         W3 = sub(W, p3)
         W3 = rotate(z3, s3, c3, W3)
         P = sub((W3[0] + p3[0], W3[1] + p3[1], W3[2] + p3[2]), S)
-        n12, ta1, tb1, ta2, tb2 = sp2_angles(z1, z2, P, q, ref[0], ref[1], trig_tol, axis_tol)
+        n12, ta1, tb1, ta2, tb2 = sp2_angles(z1, z2, P, q, ref[0], ref[1], REACH_TOL, axis_tol)
         R3 = rotation(z3, t3)
         for i12 in range(n12):
             t1 = ta1 if i12 == 0 else ta2
             t2 = tb1 if i12 == 0 else tb2
             R123 = mul3(mul3(rotation(z1, t1), rotation(z2, t2)), R3)
-            H = mul3tn(R123, RG)
-            n45, ta, tb, tc, td = sp2_angles(
-                z4, z5, z6, apply(H, z6), ref[3], ref[4], trig_tol, axis_tol
-            )
-            for i45 in range(n45):
-                t4 = ta if i45 == 0 else tc
-                t5 = tb if i45 == 0 else td
-                R45 = mul3(rotation(z4, t4), rotation(z5, t5))
-                target = apply_t(R45, apply(H, across))
-                t6 = sp1_angle(z6, across, target, ref[5], axis_tol)
-                if n < cand.shape[0]:
-                    cand[n, 0] = t1
-                    cand[n, 1] = t2
-                    cand[n, 2] = t3
-                    cand[n, 3] = t4
-                    cand[n, 4] = t5
-                    cand[n, 5] = t6
-                    refine(z, p, M, T, cand, n, lsq)
-                    n += 1
+            n = wrist_branches(z, p, M, T, RG, R123, (t1, t2, t3), across, ref, tols, cand, n, lsq)
+    return n
+
+
+@_inline
+def target_frame(T: np.ndarray, M: np.ndarray) -> tuple[Rot9, Vec3]:
+    """``G = T M^-1`` as (rotation, translation): the motion of the tool from ``q = 0``.
+
+    ``T`` and ``M`` are (4, 4) world poses: the target and the tool at ``q = 0``. The
+    product of exponentials is ``G``, so every point the last joints fix moves by it.
+    """
+    RT = (T[0, 0], T[0, 1], T[0, 2], T[1, 0], T[1, 1], T[1, 2], T[2, 0], T[2, 1], T[2, 2])
+    RMt = (M[0, 0], M[1, 0], M[2, 0], M[0, 1], M[1, 1], M[2, 1], M[0, 2], M[1, 2], M[2, 2])
+    RG = mul3(RT, RMt)
+    GtM = apply(RG, (M[0, 3], M[1, 3], M[2, 3]))
+    return RG, (T[0, 3] - GtM[0], T[1, 3] - GtM[1], T[2, 3] - GtM[2])
+
+
+@_inline
+def wrist_across(z: np.ndarray) -> Vec3:
+    """A unit direction across axis 6 (``z5 x z6``), for :func:`wrist_branches`."""
+    across = cross(_vec(z, 4), _vec(z, 5))
+    na = norm(across)
+    return (across[0] / na, across[1] / na, across[2] / na)
+
+
+@_inline
+def wrist_branches(
+    z: np.ndarray,
+    p: np.ndarray,
+    M: np.ndarray,
+    T: np.ndarray,
+    RG: Rot9,
+    R123: Rot9,
+    arm: Vec3,
+    across: Vec3,
+    ref: np.ndarray,
+    tols: np.ndarray,
+    cand: np.ndarray,
+    n: int,
+    lsq: np.ndarray,
+) -> int:
+    """The spherical wrist's branches (axes 4-6 through one point) after the arm's angles.
+
+    ``R_4 R_5 R_6 = R123^T R_G`` (rotation parts: ``R123`` the arm's rotation at its
+    angles ``arm = (q_1, q_2, q_3)``, ``RG`` from :func:`target_frame`): ``q_4, q_5`` by
+    subproblem 2 on axis 6's direction (which ``R_6`` fixes), ``q_6`` by subproblem 1 on
+    ``across`` (:func:`wrist_across`) from the residual rotation, so ``q_6`` absorbs any
+    rounding of ``q_4``. Writes up to two rows ``(q_1, ..., q_6)`` of ``cand`` from row
+    ``n`` on (each refined by :func:`refine`); returns the new row count. The other
+    arguments as :func:`pair_wrist_candidates`'.
+    """
+    trig_tol, _, _, axis_tol = closed_form_tols(tols)
+    z4, z5, z6 = _vec(z, 3), _vec(z, 4), _vec(z, 5)
+    H = mul3tn(R123, RG)
+    n45, ta, tb, tc, td = sp2_angles(z4, z5, z6, apply(H, z6), ref[3], ref[4], trig_tol, axis_tol)
+    for i45 in range(n45):
+        t4 = ta if i45 == 0 else tc
+        t5 = tb if i45 == 0 else td
+        R45 = mul3(rotation(z4, t4), rotation(z5, t5))
+        t6 = sp1_angle(z6, across, apply_t(R45, apply(H, across)), ref[5], axis_tol)
+        if n < cand.shape[0]:
+            cand[n, 0] = arm[0]
+            cand[n, 1] = arm[1]
+            cand[n, 2] = arm[2]
+            cand[n, 3] = t4
+            cand[n, 4] = t5
+            cand[n, 5] = t6
+            refine(z, p, M, T, cand, n, lsq)
+            n += 1
     return n
 
 
@@ -288,19 +342,41 @@ def refine(
 
 
 # ---------------------------------------------------------------------- the structure
-def _line_distance(z1: FloatArray, p1: FloatArray, z2: FloatArray, p2: FloatArray) -> float:
-    """Distance (m) between two lines (unit directions ``z``, points ``p``)."""
-    c = np.cross(z1, z2)
-    sn = float(np.linalg.norm(c))
-    r = p2 - p1
-    if sn <= ANGLE_TOL:
-        return float(np.linalg.norm(r - (r @ z1) * z1))
-    return abs(float(r @ c)) / sn
+def axis_label(names: tuple[str, ...], i: int) -> str:
+    """Axis ``i`` (0-based) as the messages name it: ``"3 (joint_name)"``."""
+    return f"{i + 1} ({names[i]})"
 
 
-def _point_line_distance(z: FloatArray, p: FloatArray, x: FloatArray) -> float:
-    r = x - p
-    return float(np.linalg.norm(r - (r @ z) * z))
+def meet_reason(axes: Axes, names: tuple[str, ...], i: int, j: int) -> str | None:
+    """Why axes ``i`` and ``j`` do not meet in one point (parallel, or apart), or ``None``."""
+    z, p = axes.directions, axes.points
+    a, b = axis_label(names, i), axis_label(names, j)
+    if float(np.linalg.norm(np.cross(z[i], z[j]))) <= ANGLE_TOL:
+        return f"axes {a} and {b} are parallel"
+    dist = line_distance(z[i], p[i], z[j], p[j])
+    if dist > LENGTH_TOL * axes.size:
+        return f"axes {a} and {b} do not meet ({dist:.3g} m apart)"
+    return None
+
+
+def meeting(axes: Axes, i: int, j: int) -> FloatArray:
+    """The point where axes ``i`` and ``j`` meet (the middle of their common normal)."""
+    z, p = axes.directions, axes.points
+    return np.array(meeting_point(*(tuple(v) for v in (z[i], p[i], z[j], p[j]))))
+
+
+def wrist_reason(axes: Axes, names: tuple[str, ...]) -> str | None:
+    """Why axes 4, 5 and 6 do not meet in one point (a spherical wrist), or ``None``."""
+    why = meet_reason(axes, names, 3, 4) or meet_reason(axes, names, 4, 5)
+    if why is not None:
+        return why
+    miss = point_line_distance(axes.directions[5], axes.points[5], meeting(axes, 3, 4))
+    if miss > LENGTH_TOL * axes.size:
+        return (
+            f"axis {axis_label(names, 5)} misses the point of axes {axis_label(names, 3)}, "
+            f"{axis_label(names, 4)} by {miss:.3g} m"
+        )
+    return None
 
 
 def structure_reason(axes: Axes, names: tuple[str, ...]) -> str | None:
@@ -310,29 +386,18 @@ def structure_reason(axes: Axes, names: tuple[str, ...]) -> str | None:
         axes: the six joint axes at ``q = 0`` (:func:`optik.analytic.geometry.joint_axes`).
         names: the six joints' names, for the messages.
     """
-    z = axes.directions
-    p = axes.points
-    tol = LENGTH_TOL * axes.size
-
-    def label(i: int) -> str:
-        return f"{i + 1} ({names[i]})"
-
-    for i, j in ((0, 1), (3, 4), (4, 5)):
-        if float(np.linalg.norm(np.cross(z[i], z[j]))) <= ANGLE_TOL:
-            return f"axes {label(i)} and {label(j)} are parallel"
-        dist = _line_distance(z[i], p[i], z[j], p[j])
-        if dist > tol:
-            return f"axes {label(i)} and {label(j)} do not meet ({dist:.3g} m apart)"
-    W = np.array(meeting_point(*(tuple(v) for v in (z[3], p[3], z[4], p[4]))))
-    miss = _point_line_distance(z[5], p[5], W)
-    if miss > tol:
-        return f"axis {label(5)} misses the point of axes {label(3)}, {label(4)} by {miss:.3g} m"
-    S = np.array(meeting_point(*(tuple(v) for v in (z[0], p[0], z[1], p[1]))))
-    for point, what in ((S, "the point of axes 1 and 2"), (W, "the wrist centre")):
-        if _point_line_distance(z[2], p[2], point) <= tol:
+    why = meet_reason(axes, names, 0, 1) or wrist_reason(axes, names)
+    if why is not None:
+        return why
+    z3, p3 = axes.directions[2], axes.points[2]
+    for point, what in (
+        (meeting(axes, 0, 1), "the point of axes 1 and 2"),
+        (meeting(axes, 3, 4), "the wrist centre"),
+    ):
+        if point_line_distance(z3, p3, point) <= LENGTH_TOL * axes.size:
             return (
-                f"axis {label(2)} passes through {what}: it does not change the distance "
-                "from the shoulder to the wrist"
+                f"axis {axis_label(names, 2)} passes through {what}: it does not change the "
+                "distance from the shoulder to the wrist"
             )
     return None
 
@@ -346,4 +411,14 @@ def axes_tuple(axes: Axes) -> tuple[FloatArray, FloatArray, FloatArray]:
     )
 
 
-__all__ = ["MAX_BRANCHES", "axes_tuple", "pair_wrist_candidates", "structure_reason"]
+__all__ = [
+    "MAX_BRANCHES",
+    "axes_tuple",
+    "meet_reason",
+    "pair_wrist_candidates",
+    "structure_reason",
+    "target_frame",
+    "wrist_across",
+    "wrist_branches",
+    "wrist_reason",
+]

@@ -1,0 +1,103 @@
+"""The numpy steps after a closed form: wrap into the limits, filter, verify, dedupe, sort.
+
+:func:`optik.analytic.analytic_ik` runs them on the raw branches of the families whose
+closed form returns rows to Python, and on what the polish of a degenerate pose returns;
+the compiled pipelines (:mod:`optik.analytic._pipeline`) run the same steps, row for row.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import NDArray
+
+from optik._checks import FloatArray
+from optik.analytic._base import DUPLICATE_TOLERANCE, VERIFY_TOLERANCE
+from optik.model import Robot
+from optik.spatial import rotation_angle
+
+
+def wrap_into_limits(Q: FloatArray, robot: Robot, q_ref: FloatArray) -> FloatArray:
+    """Shift revolute angles by multiples of 2 pi into the limits, nearest ``q_ref``.
+
+    ``Q`` is (k, dof). A joint whose range spans more than 2 pi has several
+    representatives: the one nearest ``q_ref`` is kept. An angle with no representative
+    inside its limits stays at the representative nearest ``q_ref``.
+    """
+    two_pi = 2.0 * math.pi
+    revolute = np.array([j.kind == "revolute" for j in robot.joints])
+    base = q_ref + np.remainder(Q - q_ref + math.pi, two_pi) - math.pi
+    lower = np.where(np.isfinite(robot.lower), robot.lower, -np.inf)
+    upper = np.where(np.isfinite(robot.upper), robot.upper, np.inf)
+    # Representatives base + 2 pi k inside [lower, upper]: k in [k_min, k_max].
+    with np.errstate(invalid="ignore"):
+        k_min = np.ceil((lower - base) / two_pi - 1e-12)
+        k_max = np.floor((upper - base) / two_pi + 1e-12)
+        k_near = np.round((q_ref - base) / two_pi)
+    k = np.where(np.isfinite(k_min), np.maximum(k_near, k_min), k_near)
+    k = np.where(np.isfinite(k_max), np.minimum(k, k_max), k)
+    k = np.where(k_min > k_max, 0.0, k)
+    k = np.where(np.isfinite(k), k, 0.0)
+    return np.where(revolute, base + two_pi * k, Q)
+
+
+def _beyond_reach(robot: Robot, T_target: FloatArray) -> bool:
+    """Whether one coordinate alone puts the target outside the reach sphere.
+
+    Sound (the distance is at least the largest coordinate difference) and free of
+    squares, so a target 1e155 m away is ruled out without an overflow.
+    """
+    centre, radius = robot.reach_sphere
+    return bool(np.max(np.abs(T_target[:3, 3] - centre)) > radius * (1 + 1e-9) + 1e-12)
+
+
+def _finish(
+    robot: Robot,
+    raw: list[FloatArray],
+    T_target: FloatArray,
+    mode: str,
+    ref: FloatArray,
+    sort: bool,
+    within_limits: bool,
+    held: tuple[int, float] | None = None,
+) -> list[FloatArray]:
+    """Wrap, filter by the limits, verify by FK, dedupe and sort raw branches (numpy).
+
+    The steps of the compiled pipeline (:func:`optik.analytic._pipeline.solve`), for the
+    families that run in Python. ``held = (index, value)``: that joint keeps exactly
+    ``value`` (no 2 pi shift).
+    """
+    if not raw:
+        return []
+    Q = np.array(raw, dtype=float)
+    Q = wrap_into_limits(Q[np.all(np.isfinite(Q), axis=1)], robot, ref)
+    if held is not None:
+        Q[:, held[0]] = held[1]
+    if within_limits:
+        Q = Q[np.asarray(robot.within_limits(Q), dtype=bool).reshape(-1)]
+    if len(Q) == 0:
+        return []
+    branches: list[FloatArray] = []
+    for q in Q[_verified(robot, Q, T_target, mode)]:
+        if any(np.max(np.abs(q - other)) < DUPLICATE_TOLERANCE for other in branches):
+            continue
+        branches.append(q)
+    if sort:
+        branches.sort(key=lambda q: float(np.linalg.norm(q - ref)))
+    return branches
+
+
+def _verified(robot: Robot, Q: FloatArray, T_target: FloatArray, mode: str) -> NDArray[np.bool_]:
+    """(k,) whether each row of ``Q`` (k, dof) reaches ``T_target`` by ``Robot.fk``.
+
+    Position error (m) and, in pose mode, the rotation angle (rad) within
+    :data:`VERIFY_TOLERANCE`; a row with a NaN is not verified.
+    """
+    T = robot.fk(Q)
+    good = np.linalg.norm(T[:, :3, 3] - T_target[:3, 3], axis=1) <= VERIFY_TOLERANCE
+    if mode == "pose":
+        R_rel = np.swapaxes(T[:, :3, :3], 1, 2) @ T_target[:3, :3]
+        angle = np.asarray(rotation_angle(R_rel), dtype=float).reshape(-1)
+        good &= angle <= VERIFY_TOLERANCE
+    return np.asarray(good, dtype=bool)

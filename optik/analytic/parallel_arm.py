@@ -1,0 +1,147 @@
+"""Six revolute axes: a spherical wrist after an arm with two parallel axes (from the axes).
+
+The structure (in the product of exponentials of the joint axes at ``q = 0``,
+:func:`optik.analytic.geometry.joint_axes`: ``fk(q) = R_1(q_1) ... R_6(q_6) M``):
+axes 4, 5 and 6 meet at the wrist centre ``W``, and of the arm's axes either
+
+- axes 1 and 2 are parallel (direction ``h``), distinct, and axis 3 is not parallel to
+  them and misses ``W`` (:data:`PARALLEL_12`), or
+- axes 2 and 3 are parallel (direction ``h``), distinct, and axis 1 is not parallel to
+  them (:data:`PARALLEL_23`).
+
+A rotation about a line of direction ``h`` keeps every point's height along ``h``, which
+leaves one joint alone to set a height (Paden–Kahan subproblem 4); with ``G = T M^-1``
+and the wrist centre's target ``W_t = G W``:
+
+- :data:`PARALLEL_12`: ``h . R_3(q_3) W = h . W_t`` gives up to two ``q_3``
+  (:func:`optik.analytic._subproblems.plane_angles`); then ``X = R_3 W`` must turn about
+  axis 2 to the distance of ``W_t`` from axis 1 (subproblem 3, up to two ``q_2``), and
+  ``q_1`` turns ``R_2 X`` onto ``W_t`` (subproblem 1);
+- :data:`PARALLEL_23`: ``h . R_1(q_1)^-1 W_t = h . W`` gives up to two ``q_1``; then
+  ``R_3(q_3) W`` must lie at the distance of ``X = R_1^-1 W_t`` from axis 2 (subproblem 3,
+  up to two ``q_3``), and ``q_2`` turns ``R_3 W`` onto ``X`` (subproblem 1).
+
+The wrist follows as in :func:`optik.analytic.pair_wrist.wrist_branches`. Up to
+2 x 2 x 2 = 8 branches, each refined by one Newton step on the axes
+(:func:`optik.analytic.pair_wrist.refine`). At a singularity a free angle takes the
+reference: ``q_1`` with ``W_t`` on axis 1 (:data:`PARALLEL_23`), the distance angle with
+its point on its axis, the wrist's ``q_4`` with axes 4 and 6 aligned.
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+from optik._math import sincos
+from optik.analytic._compiled import closed_form_tols, mul3
+from optik.analytic._subproblems import (
+    Vec3,
+    apply,
+    axpy,
+    distance_angles,
+    dot,
+    meeting_point,
+    plane_angles,
+    rotate,
+    rotation,
+    sp1_angle,
+    sub,
+)
+from optik.analytic.pair_wrist import REACH_TOL, target_frame, wrist_across, wrist_branches
+
+_jit = nb.njit(cache=True, nogil=True, error_model="numpy")
+
+PARALLEL_12 = 1
+"""Arm kind: axes 1 and 2 parallel."""
+PARALLEL_23 = 2
+"""Arm kind: axes 2 and 3 parallel."""
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _vec(a: np.ndarray, i: int) -> Vec3:
+    return (a[i, 0], a[i, 1], a[i, 2])
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _turn(w: Vec3, on_axis: Vec3, t: float, x: Vec3) -> Vec3:
+    """``x`` turned by ``t`` (rad) about the line through ``on_axis`` along ``w``."""
+    s, c = sincos(t)
+    return axpy(1.0, rotate(w, s, c, sub(x, on_axis)), on_axis)
+
+
+@_jit
+def parallel_arm_candidates(
+    z: np.ndarray,
+    p: np.ndarray,
+    M: np.ndarray,
+    T: np.ndarray,
+    ref: np.ndarray,
+    kind: int,
+    tols: np.ndarray,
+    cand: np.ndarray,
+    lsq: np.ndarray,
+) -> int:
+    """Raw branches of the parallel-arm, spherical-wrist closed form into ``cand`` (>= 8, 6).
+
+    Args:
+        z: (6, 3) unit joint directions at ``q = 0`` (world frame).
+        p: (6, 3) a point on each axis (m).
+        M: (4, 4) world pose of the tool at ``q = 0``.
+        T: (4, 4) world target of the tool.
+        ref: (6,) reference angles for free joints (rad).
+        kind: :data:`PARALLEL_12` or :data:`PARALLEL_23`.
+        tols: the tolerance block of :mod:`optik.analytic._compiled`.
+        cand: output rows (joint angles, rad, not wrapped).
+        lsq: (3, 6, 6) scratch of :func:`optik.analytic.pair_wrist.refine`.
+
+    Returns:
+        The number of rows written (0 to 8): the first arm angle solved, then the second
+        (each pair ascending), then the wrist.
+    """
+    trig_tol, eps, free_tol, axis_tol = closed_form_tols(tols)
+    z1, z2, z3 = _vec(z, 0), _vec(z, 1), _vec(z, 2)
+    p1, p2, p3 = _vec(p, 0), _vec(p, 1), _vec(p, 2)
+    W = meeting_point(_vec(z, 3), _vec(p, 3), _vec(z, 4), _vec(p, 4))
+    RG, tG = target_frame(T, M)
+    Wt = axpy(1.0, apply(RG, W), tG)
+    across = wrist_across(z)
+    n = 0
+    if kind == PARALLEL_12:
+        na, a1, a2 = plane_angles(
+            z3, p3, W, z1, dot(z1, Wt), ref[2], trig_tol, eps, free_tol, REACH_TOL
+        )
+        d = sub(Wt, p1)
+        for ia in range(na):
+            t3 = a1 if ia == 0 else a2
+            X = _turn(z3, p3, t3, W)
+            nb_, b1, b2 = distance_angles(
+                z2, p2, X, p1, dot(d, d), ref[1], trig_tol, eps, free_tol, REACH_TOL
+            )
+            for ib in range(nb_):
+                t2 = b1 if ib == 0 else b2
+                t1 = sp1_angle(z1, sub(_turn(z2, p2, t2, X), p1), d, ref[0], axis_tol)
+                R123 = mul3(mul3(rotation(z1, t1), rotation(z2, t2)), rotation(z3, t3))
+                n = wrist_branches(
+                    z, p, M, T, RG, R123, (t1, t2, t3), across, ref, tols, cand, n, lsq
+                )
+        return n
+    back = (-z1[0], -z1[1], -z1[2])  # R_1(q)^-1 turns by q about -z1
+    na, a1, a2 = plane_angles(
+        back, p1, Wt, z2, dot(z2, W), ref[0], trig_tol, eps, free_tol, REACH_TOL
+    )
+    for ia in range(na):
+        t1 = a1 if ia == 0 else a2
+        d = sub(_turn(back, p1, t1, Wt), p2)
+        nb_, b1, b2 = distance_angles(
+            z3, p3, W, p2, dot(d, d), ref[2], trig_tol, eps, free_tol, REACH_TOL
+        )
+        for ib in range(nb_):
+            t3 = b1 if ib == 0 else b2
+            t2 = sp1_angle(z2, sub(_turn(z3, p3, t3, W), p2), d, ref[1], axis_tol)
+            R123 = mul3(mul3(rotation(z1, t1), rotation(z2, t2)), rotation(z3, t3))
+            n = wrist_branches(z, p, M, T, RG, R123, (t1, t2, t3), across, ref, tols, cand, n, lsq)
+    return n
+
+
+__all__ = ["PARALLEL_12", "PARALLEL_23", "parallel_arm_candidates"]

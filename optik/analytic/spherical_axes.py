@@ -1,0 +1,415 @@
+"""Six revolute joints with three axes through one point, found from the joint axes.
+
+The family ``spherical_axes`` takes any chain of six revolute joints whose axes at
+``q = 0`` (:func:`optik.analytic.geometry.joint_axes`, world frame, whatever the robot
+was read from) have a spherical wrist (axes 4, 5 and 6 through one point) and an arm the
+Paden–Kahan subproblems solve:
+
+- axes 1 and 2 meet, and axis 3 passes through neither that point nor the wrist centre
+  (:mod:`optik.analytic.pair_wrist`; EAIK's "spherical, first two intersecting");
+- axes 1 and 2 are parallel (:data:`optik.analytic.parallel_arm.PARALLEL_12`; "first two
+  parallel");
+- axes 2 and 3 are parallel (:data:`optik.analytic.parallel_arm.PARALLEL_23`; "second
+  two parallel": the Puma and the UR-less industrial arms with any twists and offsets).
+
+Or the same read backwards (:func:`optik.analytic.geometry.reversed_axes`): a spherical
+shoulder (axes 1, 2 and 3 through one point) and an arm among axes 4 to 6. Tolerances are
+those of the geometry (:data:`optik.analytic.geometry.ANGLE_TOL`, ``LENGTH_TOL`` times the
+arm's size). It is registered after the DH families: a robot that ``spherical_wrist`` or
+``ur`` fits keeps that family; this one covers the twists, offsets and joint orders they
+do not.
+
+Compiled end to end as the DH families are: :func:`solve` (one target) and
+:func:`solve_batch` run the closed form, then the steps of
+:func:`optik.analytic._pipeline.postprocess_rows` (wrapping into the limits, the limit
+filter, the FK check on the robot's own chain, de-duplication, the sort), on the robot's
+parameter vector (:func:`pack_axes_params`; :meth:`SphericalAxes.compiled`).
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numba as nb
+import numpy as np
+
+from optik._checks import FloatArray
+from optik.analytic._base import AnalyticFamily, CompiledPipeline, register
+from optik.analytic._compiled import (
+    MAX_BRANCHES,
+    tolerance_block,
+)
+from optik.analytic._pipeline import (
+    SORT,
+    WITHIN_LIMITS,
+    Layout,
+    input_code,
+    pad_rows,
+    postprocess_rows,
+    work_rows,
+)
+from optik.analytic.free_joint import inverse_into
+from optik.analytic.geometry import (
+    ANGLE_TOL,
+    LENGTH_TOL,
+    Axes,
+    joint_axes,
+    line_distance,
+    point_line_distance,
+    reversed_axes,
+    revolute_chain_reason,
+)
+from optik.analytic.pair_wrist import (
+    axis_label,
+    meeting,
+    pair_wrist_candidates,
+    structure_reason,
+    wrist_reason,
+)
+from optik.analytic.parallel_arm import PARALLEL_12, PARALLEL_23, parallel_arm_candidates
+from optik.model import Robot
+from optik.spatial import invert_transform
+
+_jit = nb.njit(cache=True, nogil=True, error_model="numpy")
+
+INTERSECTING = 3
+"""Arm kind: axes 1 and 2 meet (:func:`optik.analytic.pair_wrist.pair_wrist_candidates`)."""
+KIND_NAMES = {
+    INTERSECTING: "axes 1 and 2 meet",
+    PARALLEL_12: "axes 1 and 2 parallel",
+    PARALLEL_23: "axes 2 and 3 parallel",
+}
+"""What each arm kind means, for messages and docs."""
+
+
+class AxesPlan(NamedTuple):
+    """How a six-joint robot is solved by ``spherical_axes`` (:func:`axes_plan`).
+
+    Attributes:
+        kind: the arm's kind (:data:`INTERSECTING`, ``PARALLEL_12``, ``PARALLEL_23``),
+            0 when the robot does not fit.
+        reverse: whether the closed form solves the chain read backwards.
+        directions: (6, 3) unit joint directions at ``q = 0`` of the chain as solved.
+        points: (6, 3) a point on each of its axes (m).
+        tool: (4, 4) its tool at ``q = 0``.
+        tols: the tolerance block of :mod:`optik.analytic._compiled`.
+        reason: ``""`` when the robot fits, else why not.
+    """
+
+    kind: int
+    reverse: bool
+    directions: FloatArray
+    points: FloatArray
+    tool: FloatArray
+    tols: FloatArray
+    reason: str
+
+
+def _parallel(axes: Axes, i: int, j: int) -> bool:
+    z = axes.directions
+    return float(np.linalg.norm(np.cross(z[i], z[j]))) <= ANGLE_TOL
+
+
+def arm_kind(axes: Axes, names: tuple[str, ...]) -> tuple[int, str]:
+    """The arm kind of six axes with a spherical wrist, or ``(0, why not)``.
+
+    Args:
+        axes: the six joint axes at ``q = 0``.
+        names: the six joints' names, for the messages.
+    """
+    why = wrist_reason(axes, names)
+    if why is not None:
+        return 0, why
+    tol = LENGTH_TOL * axes.size
+    z, p = axes.directions, axes.points
+    W = meeting(axes, 3, 4)
+    a1, a2, a3 = (axis_label(names, i) for i in range(3))
+    if not _parallel(axes, 0, 1) and structure_reason(axes, names) is None:
+        return INTERSECTING, ""
+    for i, kind in ((0, PARALLEL_12), (1, PARALLEL_23)):
+        if not _parallel(axes, i, i + 1):
+            continue
+        other = 2 if kind == PARALLEL_12 else 0
+        label = f"axes {axis_label(names, i)} and {axis_label(names, i + 1)}"
+        if line_distance(z[i], p[i], z[i + 1], p[i + 1]) <= tol:
+            return 0, f"{label} are one line"
+        if _parallel(axes, other, i):
+            return 0, f"axes 1-3 are parallel ({label} and {axis_label(names, other)})"
+        if point_line_distance(z[2], p[2], W) <= tol:
+            return 0, f"axis {a3} passes through the wrist centre: it does not move it"
+        return kind, ""
+    # Axes 1 and 2 not parallel (else the loop returned): they fail the pair's test.
+    return 0, (
+        f"{structure_reason(axes, names)}, and neither axes {a1}, {a2} nor {a2}, {a3} are parallel"
+    )
+
+
+def axes_plan(robot: Robot) -> AxesPlan:
+    """Whether (and how) ``spherical_axes`` solves ``robot``: in order, else read backwards.
+
+    Args:
+        robot: the robot.
+    """
+    empty = np.empty((0, 3))
+    none = AxesPlan(0, False, empty, empty, np.eye(4), np.empty(0), "")
+    reason = revolute_chain_reason(robot, 6)
+    if reason is not None:
+        return none._replace(reason=reason)
+    axes = joint_axes(robot)
+    names = robot.chain_names
+    kind, why = arm_kind(axes, names)
+    if kind:
+        return AxesPlan(kind, False, *_arrays(axes), tolerance_block(), "")
+    back = reversed_axes(axes)
+    kind, why_back = arm_kind(back, names[::-1])
+    if kind:
+        return AxesPlan(kind, True, *_arrays(back), tolerance_block(), "")
+    return none._replace(reason=f"{why}; read backwards: {why_back}")
+
+
+def _arrays(axes: Axes) -> tuple[FloatArray, FloatArray, FloatArray]:
+    return (
+        np.ascontiguousarray(axes.directions, dtype=np.float64),
+        np.ascontiguousarray(axes.points, dtype=np.float64),
+        np.ascontiguousarray(axes.tool, dtype=np.float64),
+    )
+
+
+DOF = 6
+# Layout of the compiled kernels' parameter vector (pack_axes_params, flat float64):
+# offsets of each block.
+AT_ARM = 0  # (1,) the arm's kind
+AT_REVERSE = 1  # (1,) 1.0 when the closed form solves the chain read backwards
+AT_KIND = 2  # (6,) 1.0 for a prismatic joint (none here: the layout's rule)
+AT_LOWER = AT_KIND + DOF  # (6,) lower limits (rad), -inf allowed
+AT_UPPER = AT_LOWER + DOF  # (6,) upper limits (rad), +inf allowed
+AT_CHAIN = AT_UPPER + DOF  # (7, 3, 4) top rows of the robot's chain _K (FK check)
+AT_DIRECTIONS = AT_CHAIN + 12 * (DOF + 1)  # (6, 3) joint directions of the chain solved
+AT_POINTS = AT_DIRECTIONS + 3 * DOF  # (6, 3) a point on each of its axes (m)
+AT_TOOL = AT_POINTS + 3 * DOF  # (4, 4) its tool at q = 0, row-major
+AT_TOLS = AT_TOOL + 16  # the tolerance block of optik.analytic._compiled
+AXES_LAYOUT: Layout = (AT_KIND, 1, AT_LOWER, AT_UPPER, AT_CHAIN, AT_TOLS)
+"""Where :func:`optik.analytic._pipeline.postprocess_rows` finds the robot's data."""
+
+
+def pack_axes_params(robot: Robot, plan: AxesPlan) -> FloatArray:
+    """The flat parameter vector of :func:`solve` and :func:`solve_batch` (layout above).
+
+    Args:
+        robot: the robot (fits the family).
+        plan: its :func:`axes_plan`.
+    """
+    params = np.zeros(AT_TOLS + len(plan.tols))
+    params[AT_ARM] = plan.kind
+    params[AT_REVERSE] = 1.0 if plan.reverse else 0.0
+    params[AT_KIND:AT_LOWER] = robot.chain.prismatic
+    params[AT_LOWER:AT_UPPER] = robot.lower
+    params[AT_UPPER:AT_CHAIN] = robot.upper
+    params[AT_CHAIN:AT_DIRECTIONS] = robot.chain.K[:, :3, :].reshape(-1)
+    params[AT_DIRECTIONS:AT_POINTS] = plan.directions.reshape(-1)
+    params[AT_POINTS:AT_TOOL] = plan.points.reshape(-1)
+    params[AT_TOOL:AT_TOLS] = plan.tool.reshape(-1)
+    params[AT_TOLS:] = plan.tols
+    return params
+
+
+@_jit
+def _scratch(params: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(z, p, M, work)`` of :func:`_candidates_into`, made once per call or batch.
+
+    ``z``, ``p`` (6, 3) and ``M`` (4, 4) the axes and tool of the chain solved (copied
+    from ``params``); ``work`` (3, 8, 6): the inverse target (in its first rows), the
+    reversed reference and the branches of the chain read backwards.
+    """
+    z = np.empty((DOF, 3))
+    p = np.empty((DOF, 3))
+    M = np.empty((4, 4))
+    for i in range(DOF):
+        for a in range(3):
+            z[i, a] = params[AT_DIRECTIONS + 3 * i + a]
+            p[i, a] = params[AT_POINTS + 3 * i + a]
+    for a in range(4):
+        for b in range(4):
+            M[a, b] = params[AT_TOOL + 4 * a + b]
+    return z, p, M, np.empty((3, MAX_BRANCHES, DOF))
+
+
+@_jit
+def _candidates_into(
+    params: np.ndarray,
+    T: np.ndarray,
+    ref: np.ndarray,
+    rows: np.ndarray,
+    scratch: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+) -> int:
+    """Raw branches of world target ``T`` (4, 4) into ``rows`` (>= 8, 6), in joint order.
+
+    Read backwards (``params[AT_REVERSE]``) the chain's target is ``T^-1``, its
+    reference ``ref`` reversed, and its branches are turned back into the robot's order.
+    """
+    z, p, M, work = scratch
+    kind = int(params[AT_ARM])
+    tols = params[AT_TOLS:]
+    if params[AT_REVERSE] == 0.0:
+        return axes_candidates(z, p, M, T, ref, kind, tols, rows)
+    Ti = work[0, :4, :4]
+    inverse_into(T, Ti)
+    back = work[1, 0]
+    for j in range(DOF):
+        back[j] = ref[DOF - 1 - j]
+    cand = work[2]
+    n = axes_candidates(z, p, M, Ti, back, kind, tols, cand)
+    for r in range(n):
+        for j in range(DOF):
+            rows[r, j] = cand[r, DOF - 1 - j]
+    return n
+
+
+@_jit
+def solve(params: np.ndarray, T: np.ndarray, ref: np.ndarray, flags: int, out: np.ndarray) -> int:
+    """Every branch of one target: solve, wrap, filter, verify, sort (``spherical_axes``).
+
+    Args:
+        params: :func:`pack_axes_params`'s vector.
+        T: (4, 4) world target of the tool.
+        ref: (6,) reference configuration (rad).
+        flags: :data:`optik.analytic._pipeline.SORT` and / or ``WITHIN_LIMITS``.
+        out: (8, 6) output rows.
+
+    Returns:
+        The number of branches written (0 to 8); -1 when ``T`` is not a valid pose
+        (:func:`optik._math.pose_defect`), -2 when ``ref`` is not finite.
+    """
+    T1 = T[None]
+    code = input_code(params, AT_TOLS, T1, ref)
+    if code != 0:
+        return code
+    ref1 = ref[None]
+    pre, flat, rows = work_rows(DOF)
+    n = _candidates_into(params, T, ref, rows, _scratch(params))
+    return postprocess_rows(
+        params, AXES_LAYOUT, DOF, -1, 0.0, T1, 0, ref1, 0, (flags & SORT) != 0,
+        (flags & WITHIN_LIMITS) != 0, rows, flat, n, pre, out[None],
+    )  # fmt: skip
+
+
+@_jit
+def solve_batch(
+    params: np.ndarray, T: np.ndarray, ref: np.ndarray, flags: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`solve` over validated targets ``T`` (N, 4, 4), serially.
+
+    Args:
+        params: :func:`pack_axes_params`'s vector.
+        T: (N, 4, 4) world targets of the tool, already validated.
+        ref: (1, 6) one reference for every target, or (N, 6) one per target; finite.
+        flags: :data:`optik.analytic._pipeline.SORT` and / or ``WITHIN_LIMITS``.
+
+    Returns:
+        ``Q`` (N, 8, 6): branches, rows past each count filled with NaN; ``counts`` (N,).
+    """
+    N = T.shape[0]
+    sort = (flags & SORT) != 0
+    within = (flags & WITHIN_LIMITS) != 0
+    scratch = _scratch(params)
+    pre, flat, rows = work_rows(DOF)
+    Q = np.empty((N, MAX_BRANCHES, DOF))
+    counts = np.zeros(N, dtype=np.int64)
+    for k in range(N):
+        kr = 0 if ref.shape[0] == 1 else k
+        n = _candidates_into(params, T[k], ref[kr], rows, scratch)
+        counts[k] = postprocess_rows(
+            params, AXES_LAYOUT, DOF, -1, 0.0, T, k, ref, kr, sort, within, rows, flat, n,
+            pre, Q,
+        )  # fmt: skip
+        pad_rows(Q, k, counts[k])
+    return Q, counts
+
+
+@_jit
+def axes_candidates(
+    z: np.ndarray,
+    p: np.ndarray,
+    M: np.ndarray,
+    T: np.ndarray,
+    ref: np.ndarray,
+    kind: int,
+    tols: np.ndarray,
+    cand: np.ndarray,
+) -> int:
+    """Raw branches of arm ``kind`` and a spherical wrist into ``cand`` (>= 8, 6).
+
+    Arguments as :func:`optik.analytic.parallel_arm.parallel_arm_candidates` (world
+    frame; ``T`` the tool's target); returns the number of rows written.
+    """
+    lsq = np.empty((3, DOF, DOF))
+    if kind == INTERSECTING:
+        return pair_wrist_candidates(z, p, M, T, ref, tols, cand, lsq)
+    return parallel_arm_candidates(z, p, M, T, ref, kind, tols, cand, lsq)
+
+
+@register
+class SphericalAxes(AnalyticFamily):
+    """Six revolute joints: a spherical wrist (or shoulder) and an arm of subproblems."""
+
+    name = "spherical_axes"
+
+    def fits(self, robot: Robot) -> bool:
+        """Whether ``robot``'s joint axes have the structure (module docstring)."""
+        return robot.cached(axes_plan).kind != 0
+
+    def explain(self, robot: Robot) -> str | None:
+        """Why the axes do not have the structure, or ``None`` when they do."""
+        return robot.cached(axes_plan).reason or None
+
+    def compiled(self, robot: Robot) -> CompiledPipeline | None:
+        """:func:`solve` and :func:`solve_batch` on the robot's parameter vector.
+
+        Args:
+            robot: the robot (fits this family).
+        """
+        params = pack_axes_params(robot, robot.cached(axes_plan))
+        return CompiledPipeline(solve, solve_batch, params, robot.mid_limits)
+
+    def candidates(
+        self, robot: Robot, T_0_target: FloatArray, mode: str, q_ref: FloatArray
+    ) -> list[FloatArray]:
+        """Up to 8 raw branches: the arm's two angles, two each, then the wrist.
+
+        Args:
+            robot: the robot (fits this family).
+            T_0_target: 4x4 flange target in frame 0.
+            mode: ``"pose"``.
+            q_ref: (6,) reference for the angles a singularity leaves free.
+        """
+        plan = robot.cached(axes_plan)
+        T = robot.T_world_base @ T_0_target @ robot.T_flange_tool
+        ref = np.asarray(q_ref, dtype=np.float64)
+        if plan.reverse:
+            T = invert_transform(T)
+            ref = ref[::-1]
+        out = np.empty((MAX_BRANCHES, 6))
+        n = axes_candidates(
+            plan.directions,
+            plan.points,
+            plan.tool,
+            np.ascontiguousarray(T, dtype=np.float64),
+            np.ascontiguousarray(ref),
+            plan.kind,
+            plan.tols,
+            out,
+        )
+        rows = out[:n, ::-1] if plan.reverse else out[:n]
+        return [np.array(row) for row in rows]
+
+
+__all__ = [
+    "INTERSECTING",
+    "AxesPlan",
+    "SphericalAxes",
+    "arm_kind",
+    "axes_plan",
+    "pack_axes_params",
+    "solve",
+    "solve_batch",
+]
