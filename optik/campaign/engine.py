@@ -4,7 +4,9 @@ A campaign (a capability map, a batch of targets, a base-placement check) cuts i
 into chunks, each a pure function call ``fn(chunk)`` whose answer depends on the chunk
 alone (its per-sample seeds come from the global sample index, never from the worker or
 the order). :func:`run_chunks` hands the chunks that a store has not yet finished to an
-:class:`Engine` and writes each answer, whole, as it arrives:
+:class:`Engine`; where the store allows it, each chunk is written, whole, by the thread or
+worker that computed it, and only a small :class:`Written` receipt comes back (see
+:class:`ChunkStore`). The engines:
 
 - in-process (the default): the chunks run on a pool of threads of this process, as
   many as numba's thread count (``numba.get_num_threads()``), each chunk solved by
@@ -27,6 +29,7 @@ chunks it held, so the answers, and the files, are the same.
 from __future__ import annotations
 
 import contextlib
+import functools
 import math
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ThreadPoolExecutor, wait
@@ -216,16 +219,65 @@ def open_engine(
     return Engine(remote, f"scheduler {scheduler}", [remote])
 
 
+@dataclass(frozen=True)
+class Written:
+    """The receipt of a chunk that its worker wrote to the store itself.
+
+    Attributes:
+        index: the chunk's position in the campaign.
+    """
+
+    index: int
+
+
+class ChunkWriter(Protocol):
+    """Writes a chunk where it was computed (picklable: it travels to Dask workers)."""
+
+    def __call__(self, index: int, result: Any) -> bool:
+        """Write chunk ``index`` whole and return True, or return False.
+
+        False, having marked nothing done, when the store is not this run's from here
+        (another machine's file system, or a store since replaced) or cannot be written
+        from here: the answer then travels back and :meth:`ChunkStore.write` writes it.
+        """
+        ...  # pragma: no cover
+
+
 class ChunkStore(Protocol):
-    """Where a campaign keeps its finished chunks (a Zarr map, Parquet part files, memory)."""
+    """Where a campaign keeps its finished chunks (a Zarr map, Parquet part files, memory).
+
+    A store may also have ``writer() -> ChunkWriter | None``: the writer with which the
+    workers write their own chunks. Without it, or when it gives ``None`` (a store in
+    memory), the answers travel back and :meth:`write` writes them.
+    """
 
     def finished(self) -> set[int]:
         """Indices of the chunks already written whole."""
         ...  # pragma: no cover
 
     def write(self, index: int, result: Any) -> None:
-        """Write chunk ``index`` whole, or not at all."""
+        """Write chunk ``index`` whole, or not at all (in the process that runs the campaign)."""
         ...  # pragma: no cover
+
+
+def compute_and_write(
+    fn: Callable[[T], Any], writer: ChunkWriter | None, item: tuple[int, T]
+) -> Any:
+    """Where a chunk runs: ``fn(chunk)``, written by ``writer`` when it can.
+
+    Args:
+        fn: the chunk function.
+        writer: the store's writer, or ``None``.
+        item: ``(index, chunk)``.
+
+    Returns:
+        A :class:`Written` receipt if ``writer`` wrote the answer, else the answer.
+    """
+    index, chunk = item
+    result = fn(chunk)
+    if writer is not None and writer(index, result):
+        return Written(index)
+    return result
 
 
 def run_chunks(
@@ -244,7 +296,8 @@ def run_chunks(
             Dask it must be picklable (a module-level function or a ``functools.partial``
             of one).
         chunks: every chunk of the campaign, chunk ``i`` at position ``i``.
-        store: the finished chunks and where to write new ones.
+        store: the finished chunks and where to write new ones (by the workers when
+            the store has a ``writer()`` that gives one; see :class:`ChunkStore`).
         progress: called as ``progress(done, total)`` after each chunk is written
             (finished chunks of an earlier run count as done from the start).
 
@@ -257,8 +310,13 @@ def run_chunks(
     if progress is not None:
         progress(total - len(pending), total)
     computed = 0
-    for k, result in engine.map_unordered(fn, [chunks[i] for i in pending]):
-        store.write(pending[k], result)
+    # The worker writes its own chunk (the client's core stays free for the scheduler and
+    # the other workers); only what it could not write comes back to be written here.
+    writer = getattr(store, "writer", None)
+    task = functools.partial(compute_and_write, fn, None if writer is None else writer())
+    for k, result in engine.map_unordered(task, [(i, chunks[i]) for i in pending]):
+        if not isinstance(result, Written):
+            store.write(pending[k], result)
         computed += 1
         if progress is not None:
             progress(total - len(pending) + computed, total)
@@ -311,9 +369,12 @@ __all__ = [
     "CONNECT_TIMEOUT_S",
     "MAX_WORKERS",
     "ChunkStore",
+    "ChunkWriter",
     "Engine",
     "ProgressOption",
+    "Written",
     "chunk_count",
+    "compute_and_write",
     "open_engine",
     "run_chunks",
     "run_chunks_with_progress",
