@@ -34,7 +34,7 @@ from optik.campaign.batch import (
     solve_batch,
     solve_chunk,
 )
-from optik.campaign.engine import Written, compute_and_write
+from optik.campaign.engine import QUIET_CLUSTER, Written, compute_and_write
 from optik.errors import OptikError, OutputFileError
 
 RESTARTS = 20
@@ -57,6 +57,13 @@ def client() -> Iterator[Any]:
         assert engine.description == "2 local worker processes"
         engine.client.run(_warm)
         yield engine.client
+
+
+def _dask_settings(names: tuple[str, ...]) -> tuple[Any, ...]:
+    """Dask settings as a worker process sees them (run there by ``client.run``)."""
+    import dask
+
+    return tuple(dask.config.get(name) for name in names)
 
 
 def _targets(n: int, seed: int = 3) -> np.ndarray:
@@ -399,6 +406,11 @@ def test_a_worker_killed_mid_run_changes_nothing(client: Any, tmp_path: Path) ->
     assert np.array_equal(np.sort(on_disk.column("index").to_numpy()), np.arange(2000))
     client.wait_for_workers(2, timeout=60)
     assert set(client.run(os.getpid).values()) != before  # a new worker took its place
+    # The new worker runs with the quiet settings of the cluster too.
+    names = tuple(QUIET_CLUSTER)
+    quiet = tuple(QUIET_CLUSTER.values())
+    assert list(client.run(_dask_settings, names).values()) == [quiet, quiet]
+    assert _dask_settings(names) != quiet  # this process keeps Dask's defaults
 
 
 @pytest.mark.slow
