@@ -1,18 +1,26 @@
 """Capability-map throughput: in-process, on 1 and 2 local Dask workers, against plain batches.
 
-Run: ``PYTHONPATH=$PWD python benchmarks/bench_map.py`` (about two minutes on two cores;
-``--voxel`` and ``--orientations`` scale it). For each robot it reports:
+Run: ``PYTHONPATH=$PWD python benchmarks/bench_map.py --voxel 0.08`` (a few minutes on two
+cores; ``--voxel`` and ``--orientations`` scale it). Every map is written to Zarr in a
+temporary folder, as ``optik map`` writes it (``--memory``: kept in memory instead). For
+each robot it reports:
 
-- IK queries per second of :func:`optik.capability_map` in-process (numba's threads), and
-  on a local cluster of 1 and of 2 worker processes (1 thread each), and the 1 -> 2
+- IK queries per second of :func:`optik.capability_map` in-process (a thread per core),
+  and on a local cluster of 1 and of 2 worker processes (1 thread each), and the 1 -> 2
   scaling;
 - the same samples solved by one plain :func:`optik.solve_ik_batch` call over the whole
   grid (the same seeds, so the same work: the script checks that both reach the same
-  samples), and the map's overhead against it;
+  samples), and the map's overhead against it, in wall time and in CPU time of the process;
+- where the CPU goes on Dask: the CPU time (user + system, from ``psutil``) of each worker
+  process, and of this process, which runs the client, the scheduler and the workers'
+  nannies of a local cluster; per chunk for this process;
+- the scaling that follows from those CPU times on an idle machine of 2 cores (see
+  :func:`idle_scaling`): a figure that the load of a shared machine does not set, unlike
+  the wall-clock one;
 - Dask's per-task overhead (an empty task, round trip through the scheduler).
 
-Each figure is one timed run after an untimed warm-up (numba's kernels and the workers'
-imports), so the load of a shared machine shows: it is printed before and after.
+Each figure is one timed run after an untimed warm-up (numba's kernels, the workers'
+imports, Zarr), so the load of a shared machine shows: it is printed before and after.
 """
 
 from __future__ import annotations
@@ -20,14 +28,20 @@ from __future__ import annotations
 import argparse
 import os
 import platform
+import shutil
+import tempfile
 import time
+from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 import numba
 import numpy as np
+import psutil
 
 import optik
 from optik.campaign import capability_map, open_engine
+from optik.campaign import engine as engine_module
 
 
 def _noop(x: int) -> int:
@@ -35,8 +49,10 @@ def _noop(x: int) -> int:
 
 
 def _warm() -> None:
-    robot = optik.load_problem("ur5").robot
-    capability_map(robot, voxel=0.5, orientations=2, restarts=0)
+    for name in ("ur5", "panda"):
+        robot = optik.load_problem(name).robot
+        capability_map(robot, voxel=0.5, orientations=2, restarts=0)
+        optik.solve_ik_batch(robot, robot.fk(robot.mid_limits)[None], restarts=0, threads=1)
 
 
 def _grid_poses(ds: Any) -> np.ndarray:
@@ -51,10 +67,44 @@ def _grid_poses(ds: Any) -> np.ndarray:
     return poses.reshape(-1, 4, 4)
 
 
-def _timed(fn: Any) -> tuple[float, Any]:
-    start = time.perf_counter()
-    result = fn()
-    return time.perf_counter() - start, result
+def _cpu(pid: int) -> float:
+    """CPU time (user + system, s) of a process so far."""
+    times = psutil.Process(pid).cpu_times()
+    return float(times.user + times.system)
+
+
+class Timed:
+    """Wall time and CPU time of this process and of the given worker processes."""
+
+    def __init__(self, workers: list[int]) -> None:
+        self.workers = workers
+        self.wall = self.own = 0.0
+        self.each: list[float] = []
+
+    def run(self, fn: Callable[[], Any]) -> Any:
+        """``fn()``, timed."""
+        before = [_cpu(p) for p in self.workers]
+        own, start = _cpu(os.getpid()), time.perf_counter()
+        result = fn()
+        self.wall = time.perf_counter() - start
+        self.own = _cpu(os.getpid()) - own
+        self.each = [_cpu(p) - b for p, b in zip(self.workers, before, strict=True)]
+        return result
+
+
+def idle_scaling(one: Timed, two: Timed, cores: int = 2) -> float:
+    """The 1 -> 2 worker scaling on an idle machine of ``cores`` cores, from CPU times.
+
+    With one worker the map takes the worker's CPU time (this process, the client, the
+    scheduler and the nanny, runs on another core). With two workers on two cores, every
+    process shares them: the map takes at least the CPU time of all of them over the
+    cores, and at least the busiest worker's. The end of the run (one worker finishing the
+    last chunk alone) and the scheduler's latency are left out, so this is an upper bound
+    of what a clock would show.
+    """
+    t1 = max(max(one.each), one.own)
+    t2 = max((sum(two.each) + two.own) / cores, max(two.each))
+    return t1 / t2
 
 
 def main() -> None:
@@ -66,14 +116,25 @@ def main() -> None:
     parser.add_argument("--restarts", type=int, default=3)
     parser.add_argument("--chunk", type=int, default=4)
     parser.add_argument("--workers", default="1,2")
+    parser.add_argument("--memory", action="store_true", help="keep the maps in memory")
+    parser.add_argument(
+        "--dask-defaults",
+        action="store_true",
+        help="start the local clusters with Dask's default settings, diagnostics included "
+        "(instead of optik.campaign.engine.QUIET_CLUSTER)",
+    )
     args = parser.parse_args()
+    if args.dask_defaults:
+        engine_module.QUIET_CLUSTER = {}
     print(
         f"optik map benchmark; python {platform.python_version()}, numba {numba.__version__}, "
         f"{os.cpu_count()} CPUs, load {os.getloadavg()[0]:.2f}"
     )
     print(
         f"settings: voxel {args.voxel} m, {args.orientations} orientations, mode {args.mode}, "
-        f"restarts {args.restarts}, chunk {args.chunk}"
+        f"restarts {args.restarts}, chunk {args.chunk}, "
+        + ("in memory" if args.memory else "written to Zarr")
+        + (", Dask's default settings" if args.dask_defaults else "")
     )
     _warm()
     robots = [optik.load_problem(name).robot for name in args.robots.split(",")]
@@ -84,50 +145,77 @@ def main() -> None:
         "restarts": args.restarts,
         "chunk": args.chunk,
     }
+    folder = Path(tempfile.mkdtemp(prefix="bench-map-"))
+    runs = iter(range(10**6))
+
+    def make_map(robot: Any, **more: Any) -> Any:
+        out = None if args.memory else folder / f"map-{next(runs)}.zarr"
+        return capability_map(robot, out=out, **options, **more)  # read lazily from out
+
     rows: dict[str, dict[str, float]] = {r.name: {} for r in robots}
     reference: dict[str, Any] = {}
-    for robot in robots:
-        capability_map(robot, **options)  # warm-up: the parallel kernel and the Jacobian
-        seconds, ds = _timed(lambda robot=robot: capability_map(robot, **options))
-        queries = int(ds.inside.sum()) * ds.sizes["orientation"]
-        rows[robot.name]["queries"] = queries
-        rows[robot.name]["in-process"] = queries / seconds
-        reference[robot.name] = ds
-        poses = _grid_poses(ds)
-        optik.solve_ik_batch(robot, poses[:1000], mode=args.mode, restarts=args.restarts)
-        plain_s, plain = _timed(
-            lambda robot=robot, poses=poses: optik.solve_ik_batch(
-                robot, poses, mode=args.mode, restarts=args.restarts, max_iter=100
+    timings: dict[tuple[str, int], Timed] = {}
+    try:
+        for robot in robots:
+            make_map(robot)  # warm-up: the kernels, the Jacobian, Zarr
+            timed = Timed([])
+            ds = timed.run(lambda robot=robot: make_map(robot)).load()
+            queries = int(ds.inside.sum()) * ds.sizes["orientation"]
+            chunks = len(range(0, ds.sizes["x"], args.chunk)) * len(
+                range(0, ds.sizes["y"], args.chunk)
             )
-        )
-        same = np.array_equal(
-            plain.success.reshape(ds.reached.shape) & ds.inside.values[..., None],
-            ds.reached.values,
-        )
-        rows[robot.name]["plain batch"] = queries / plain_s
-        rows[robot.name]["same samples reached"] = float(same)
-        print(
-            f"{robot.name}: {queries} queries; map in-process {seconds:.2f} s, plain "
-            f"solve_ik_batch over the grid {plain_s:.2f} s (same reached samples: {same})"
-        )
-    overhead_us = float("nan")
-    for n in (int(w) for w in args.workers.split(",")):
-        with open_engine(workers=n) as engine:
-            engine.client.run(_warm)
-            start = time.perf_counter()
-            futures = engine.client.map(_noop, range(200), pure=False)
-            engine.client.gather(futures)
-            overhead_us = (time.perf_counter() - start) / 200 * 1e6
-            for robot in robots:
-                seconds, ds = _timed(
-                    lambda robot=robot, engine=engine: capability_map(
-                        robot, client=engine.client, **options
-                    )
+            row = rows[robot.name]
+            row.update(queries=queries, chunks=chunks, **{"in-process": queries / timed.wall})
+            row["in-process cpu"] = timed.own
+            reference[robot.name] = ds
+            poses = _grid_poses(ds)
+            optik.solve_ik_batch(robot, poses[:1000], mode=args.mode, restarts=args.restarts)
+            plain = Timed([])
+            result = plain.run(
+                lambda robot=robot, poses=poses: optik.solve_ik_batch(
+                    robot, poses, mode=args.mode, restarts=args.restarts, max_iter=100
                 )
-                same = np.array_equal(ds.reached.values, reference[robot.name].reached.values)
-                rows[robot.name][f"{n} worker(s)"] = rows[robot.name]["queries"] / seconds
-                print(f"{robot.name}: {n} worker(s) {seconds:.2f} s (identical map: {same})")
-        print(f"dask per-task overhead on {n} worker(s): {overhead_us:.0f} us (200 empty tasks)")
+            )
+            same = np.array_equal(
+                result.success.reshape(ds.reached.shape) & ds.inside.values[..., None],
+                ds.reached.values,
+            )
+            row["plain batch"] = queries / plain.wall
+            row["plain cpu"] = plain.own
+            print(
+                f"{robot.name}: {queries} queries in {chunks} chunks; map in-process "
+                f"{timed.wall:.2f} s ({timed.own:.2f} s CPU), plain solve_ik_batch over the "
+                f"grid {plain.wall:.2f} s ({plain.own:.2f} s CPU); same reached samples: {same}"
+            )
+        overhead_us = float("nan")
+        for n in (int(w) for w in args.workers.split(",")):
+            with open_engine(workers=n) as engine:
+                client = engine.client
+                client.run(_warm)
+                pids = sorted(client.run(os.getpid).values())
+                start = time.perf_counter()
+                client.gather(client.map(_noop, range(200), pure=False))
+                overhead_us = (time.perf_counter() - start) / 200 * 1e6
+                for robot in robots:
+                    make_map(robot, client=client)  # warm-up: Zarr on the workers
+                    timed = Timed(pids)
+                    ds = timed.run(lambda robot=robot, c=client: make_map(robot, client=c))
+                    ds = ds.load()
+                    timings[(robot.name, n)] = timed
+                    same = np.array_equal(ds.reached.values, reference[robot.name].reached.values)
+                    row = rows[robot.name]
+                    row[f"{n} worker(s)"] = row["queries"] / timed.wall
+                    print(
+                        f"{robot.name}: {n} worker(s) {timed.wall:.2f} s (identical map: "
+                        f"{same}); CPU s: workers "
+                        + ", ".join(f"{c:.2f}" for c in timed.each)
+                        + f", client + scheduler + nannies {timed.own:.2f} "
+                        f"({timed.own / row['chunks'] * 1e3:.1f} ms per chunk); "
+                        f"load {os.getloadavg()[0]:.2f}"
+                    )
+            print(f"dask per-task overhead on {n} worker(s): {overhead_us:.0f} us (200 tasks)")
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
     print()
     columns = ["in-process", "plain batch", *(f"{w} worker(s)" for w in args.workers.split(","))]
     print(f"{'robot':<10}{'queries':>9}" + "".join(f"{c + ' q/s':>20}" for c in columns))
@@ -136,10 +224,20 @@ def main() -> None:
         print(f"{name:<10}{int(row['queries']):>9}{cells}")
     for name, row in rows.items():
         overhead = row["plain batch"] / row["in-process"] - 1.0
-        line = f"{name}: map overhead against the plain batch {overhead:+.1%}"
+        cpu_overhead = row["in-process cpu"] / row["plain cpu"] - 1.0
+        line = (
+            f"{name}: map overhead against the plain batch {overhead:+.1%} wall, "
+            f"{cpu_overhead:+.1%} CPU"
+        )
         if "1 worker(s)" in row and "2 worker(s)" in row:
             line += f"; scaling 1 -> 2 workers {row['2 worker(s)'] / row['1 worker(s)']:.2f}x"
+        if (name, 1) in timings and (name, 2) in timings:
+            scale = idle_scaling(timings[(name, 1)], timings[(name, 2)])
+            line += f" (from CPU times, idle 2-core machine: {scale:.2f}x)"
         line += f"; per query in-process {1e6 / row['in-process']:.0f} us"
+        if (name, 1) in timings:
+            per_query = max(timings[(name, 1)].each) / row["queries"]
+            line += f", on one worker {per_query * 1e6:.0f} us CPU"
         print(line)
     print(f"load after: {os.getloadavg()[0]:.2f}")
 
