@@ -502,7 +502,9 @@ def open_map(path: str | Path) -> Any:
     except Exception as exc:
         raise OptikError(f"{path}: not a capability map ({exc})") from None
     if _DONE in ds:
-        if not bool(ds[_DONE].all()):
+        # Read by zarr at once, not through a dask graph (60 ms of the client's CPU).
+        marker = require_zarr("a capability map").open_array(store=str(path), path=_DONE, mode="r")
+        if not bool(np.all(marker[...])):
             raise OptikError(f"{path}: the map is unfinished (resume the run to finish it)")
         ds = ds.drop_vars(_DONE)
     return ds
