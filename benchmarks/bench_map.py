@@ -19,8 +19,11 @@ each robot it reports:
   the wall-clock one;
 - Dask's per-task overhead (an empty task, round trip through the scheduler).
 
-Each figure is one timed run after an untimed warm-up (numba's kernels, the workers'
-imports, Zarr), so the load of a shared machine shows: it is printed before and after.
+The configurations run interleaved, ``--rounds`` times (each round: in-process and the
+plain batch for every robot, then a cluster of 1 worker, then one of 2, each started
+afresh), after untimed warm-ups (numba's kernels, the workers' imports, Zarr); the report
+gives medians over the rounds. The load of a shared machine still shows in the wall-clock
+figures: it is printed with every run.
 """
 
 from __future__ import annotations
@@ -107,6 +110,10 @@ def idle_scaling(one: Timed, two: Timed, cores: int = 2) -> float:
     return t1 / t2
 
 
+def _median(values: list[float]) -> float:
+    return float(np.median(values)) if values else float("nan")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--robots", default="ur5,panda")
@@ -115,7 +122,7 @@ def main() -> None:
     parser.add_argument("--mode", default="pose")
     parser.add_argument("--restarts", type=int, default=3)
     parser.add_argument("--chunk", type=int, default=4)
-    parser.add_argument("--workers", default="1,2")
+    parser.add_argument("--rounds", type=int, default=3, help="interleaved rounds (medians)")
     parser.add_argument("--memory", action="store_true", help="keep the maps in memory")
     parser.add_argument(
         "--dask-defaults",
@@ -132,7 +139,7 @@ def main() -> None:
     )
     print(
         f"settings: voxel {args.voxel} m, {args.orientations} orientations, mode {args.mode}, "
-        f"restarts {args.restarts}, chunk {args.chunk}, "
+        f"restarts {args.restarts}, chunk {args.chunk}, {args.rounds} rounds, "
         + ("in memory" if args.memory else "written to Zarr")
         + (", Dask's default settings" if args.dask_defaults else "")
     )
@@ -152,93 +159,99 @@ def main() -> None:
         out = None if args.memory else folder / f"map-{next(runs)}.zarr"
         return capability_map(robot, out=out, **options, **more)  # read lazily from out
 
-    rows: dict[str, dict[str, float]] = {r.name: {} for r in robots}
+    queries: dict[str, int] = {}
+    chunks: dict[str, int] = {}
     reference: dict[str, Any] = {}
-    timings: dict[tuple[str, int], Timed] = {}
+    poses: dict[str, np.ndarray] = {}
+    # (robot, configuration) -> one Timed per round
+    timings: dict[tuple[str, str], list[Timed]] = {}
+    overhead_us: dict[int, list[float]] = {1: [], 2: []}
+
+    def record(robot: Any, config: str, timed: Timed, reached: np.ndarray) -> None:
+        timings.setdefault((robot.name, config), []).append(timed)
+        same = np.array_equal(reached, reference[robot.name].reached.values)
+        workers = ", ".join(f"{c:.2f}" for c in timed.each)
+        print(
+            f"  {robot.name} {config}: {timed.wall:.2f} s, CPU {timed.own:.2f} s here"
+            + (f" and {workers} s in the workers" if workers else "")
+            + f" (identical map: {same}); load {os.getloadavg()[0]:.2f}",
+            flush=True,
+        )
+
     try:
         for robot in robots:
-            make_map(robot)  # warm-up: the kernels, the Jacobian, Zarr
-            timed = Timed([])
-            ds = timed.run(lambda robot=robot: make_map(robot)).load()
-            queries = int(ds.inside.sum()) * ds.sizes["orientation"]
-            chunks = len(range(0, ds.sizes["x"], args.chunk)) * len(
-                range(0, ds.sizes["y"], args.chunk)
-            )
-            row = rows[robot.name]
-            row.update(queries=queries, chunks=chunks, **{"in-process": queries / timed.wall})
-            row["in-process cpu"] = timed.own
+            ds = make_map(robot).load()  # warm-up: the kernels, the Jacobian, Zarr
             reference[robot.name] = ds
-            poses = _grid_poses(ds)
-            optik.solve_ik_batch(robot, poses[:1000], mode=args.mode, restarts=args.restarts)
-            plain = Timed([])
-            result = plain.run(
-                lambda robot=robot, poses=poses: optik.solve_ik_batch(
-                    robot, poses, mode=args.mode, restarts=args.restarts, max_iter=100
-                )
-            )
-            same = np.array_equal(
-                result.success.reshape(ds.reached.shape) & ds.inside.values[..., None],
-                ds.reached.values,
-            )
-            row["plain batch"] = queries / plain.wall
-            row["plain cpu"] = plain.own
-            print(
-                f"{robot.name}: {queries} queries in {chunks} chunks; map in-process "
-                f"{timed.wall:.2f} s ({timed.own:.2f} s CPU), plain solve_ik_batch over the "
-                f"grid {plain.wall:.2f} s ({plain.own:.2f} s CPU); same reached samples: {same}"
-            )
-        overhead_us = float("nan")
-        for n in (int(w) for w in args.workers.split(",")):
-            with open_engine(workers=n) as engine:
-                client = engine.client
-                client.run(_warm)
-                pids = sorted(client.run(os.getpid).values())
-                start = time.perf_counter()
-                client.gather(client.map(_noop, range(200), pure=False))
-                overhead_us = (time.perf_counter() - start) / 200 * 1e6
-                for robot in robots:
-                    make_map(robot, client=client)  # warm-up: Zarr on the workers
-                    timed = Timed(pids)
-                    ds = timed.run(lambda robot=robot, c=client: make_map(robot, client=c))
-                    ds = ds.load()
-                    timings[(robot.name, n)] = timed
-                    same = np.array_equal(ds.reached.values, reference[robot.name].reached.values)
-                    row = rows[robot.name]
-                    row[f"{n} worker(s)"] = row["queries"] / timed.wall
-                    print(
-                        f"{robot.name}: {n} worker(s) {timed.wall:.2f} s (identical map: "
-                        f"{same}); CPU s: workers "
-                        + ", ".join(f"{c:.2f}" for c in timed.each)
-                        + f", client + scheduler + nannies {timed.own:.2f} "
-                        f"({timed.own / row['chunks'] * 1e3:.1f} ms per chunk); "
-                        f"load {os.getloadavg()[0]:.2f}"
+            queries[robot.name] = int(ds.inside.sum()) * ds.sizes["orientation"]
+            nx, ny = ds.sizes["x"], ds.sizes["y"]
+            chunks[robot.name] = len(range(0, nx, args.chunk)) * len(range(0, ny, args.chunk))
+            poses[robot.name] = _grid_poses(ds)
+            optik.solve_ik_batch(robot, poses[robot.name][:1000], restarts=args.restarts)
+        for round_ in range(args.rounds):
+            print(f"round {round_ + 1}", flush=True)
+            for robot in robots:
+                timed = Timed([])
+                ds = timed.run(lambda robot=robot: make_map(robot)).load()
+                record(robot, "in-process", timed, ds.reached.values)
+                plain = Timed([])
+                result = plain.run(
+                    lambda robot=robot: optik.solve_ik_batch(
+                        robot,
+                        poses[robot.name],
+                        mode=args.mode,
+                        restarts=args.restarts,
+                        max_iter=100,
                     )
-            print(f"dask per-task overhead on {n} worker(s): {overhead_us:.0f} us (200 tasks)")
+                )
+                ds = reference[robot.name]
+                reached = result.success.reshape(ds.reached.shape) & ds.inside.values[..., None]
+                record(robot, "plain batch", plain, reached)  # the same samples reached?
+            # One cluster at a time: an idle cluster's scheduler and nannies run in this
+            # process and would count in the other's figures.
+            for n in (1, 2):
+                with open_engine(workers=n) as engine:
+                    client = engine.client
+                    client.run(_warm)
+                    pids = sorted(client.run(os.getpid).values())
+                    start = time.perf_counter()
+                    client.gather(client.map(_noop, range(200), pure=False))
+                    overhead_us[n].append((time.perf_counter() - start) / 200 * 1e6)
+                    for robot in robots:
+                        make_map(robot, client=client)  # warm-up: Zarr on the workers
+                        timed = Timed(pids)
+                        ds = timed.run(lambda robot=robot, c=client: make_map(robot, client=c))
+                        record(robot, f"{n} worker(s)", timed, ds.reached.values)
     finally:
         shutil.rmtree(folder, ignore_errors=True)
     print()
-    columns = ["in-process", "plain batch", *(f"{w} worker(s)" for w in args.workers.split(","))]
-    print(f"{'robot':<10}{'queries':>9}" + "".join(f"{c + ' q/s':>20}" for c in columns))
-    for name, row in rows.items():
-        cells = "".join(f"{row.get(c, float('nan')):>20.0f}" for c in columns)
-        print(f"{name:<10}{int(row['queries']):>9}{cells}")
-    for name, row in rows.items():
-        overhead = row["plain batch"] / row["in-process"] - 1.0
-        cpu_overhead = row["in-process cpu"] / row["plain cpu"] - 1.0
-        line = (
-            f"{name}: map overhead against the plain batch {overhead:+.1%} wall, "
-            f"{cpu_overhead:+.1%} CPU"
+    for n, values in overhead_us.items():
+        print(f"dask per-task overhead on {n} worker(s): {_median(values):.0f} us (200 tasks)")
+    columns = ["in-process", "plain batch", "1 worker(s)", "2 worker(s)"]
+    print(
+        f"{'robot':<10}{'queries':>9}{'chunks':>8}" + "".join(f"{c + ' q/s':>20}" for c in columns)
+    )
+    for robot in robots:
+        name = robot.name
+        rates = [queries[name] / _median([t.wall for t in timings[(name, c)]]) for c in columns]
+        cells = "".join(f"{rate:>20.0f}" for rate in rates)
+        print(f"{name:<10}{queries[name]:>9}{chunks[name]:>8}{cells}")
+    print("(medians over the rounds; each ratio below is the median of the rounds' ratios)")
+    for robot in robots:
+        name = robot.name
+        maps, plains = timings[(name, "in-process")], timings[(name, "plain batch")]
+        ones, twos = timings[(name, "1 worker(s)")], timings[(name, "2 worker(s)")]
+        wall = _median([m.wall / p.wall - 1.0 for m, p in zip(maps, plains, strict=True)])
+        cpu = _median([m.own / p.own - 1.0 for m, p in zip(maps, plains, strict=True)])
+        scaling = _median([a.wall / b.wall for a, b in zip(ones, twos, strict=True)])
+        idle = _median([idle_scaling(a, b) for a, b in zip(ones, twos, strict=True)])
+        client = _median([t.own / chunks[name] * 1e3 for t in twos])
+        per_query = _median([max(t.each) / queries[name] * 1e6 for t in ones])
+        print(
+            f"{name}: map overhead against the plain batch {wall:+.1%} wall, {cpu:+.1%} CPU; "
+            f"scaling 1 -> 2 workers {scaling:.2f}x wall, {idle:.2f}x from the CPU times "
+            f"(idle 2-core machine); on 2 workers this process used {client:.1f} ms of CPU "
+            f"per chunk; one worker {per_query:.1f} us of CPU per query"
         )
-        if "1 worker(s)" in row and "2 worker(s)" in row:
-            line += f"; scaling 1 -> 2 workers {row['2 worker(s)'] / row['1 worker(s)']:.2f}x"
-        if (name, 1) in timings and (name, 2) in timings:
-            scale = idle_scaling(timings[(name, 1)], timings[(name, 2)])
-            line += f" (from CPU times, idle 2-core machine: {scale:.2f}x)"
-        line += f"; per query in-process {1e6 / row['in-process']:.0f} us"
-        if (name, 1) in timings:
-            per_query = max(timings[(name, 1)].each) / row["queries"]
-            line += f", on one worker {per_query * 1e6:.0f} us CPU"
-        print(line)
     print(f"load after: {os.getloadavg()[0]:.2f}")
 
 
