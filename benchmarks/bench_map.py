@@ -14,9 +14,9 @@ each robot it reports:
 - where the CPU goes on Dask: the CPU time (user + system, from ``psutil``) of each worker
   process, and of this process, which runs the client, the scheduler and the workers'
   nannies of a local cluster; per chunk for this process;
-- the scaling that follows from those CPU times on an idle machine of 2 cores (see
-  :func:`idle_scaling`): a figure that the load of a shared machine does not set, unlike
-  the wall-clock one;
+- the scaling that follows from those CPU times on an idle machine of 2 cores,
+  ``2 W1 / (W1 + C2)`` (see :func:`idle_scaling`): a figure that the load of a shared
+  machine hardly moves, unlike the wall-clock one;
 - Dask's per-task overhead (an empty task, round trip through the scheduler).
 
 The configurations run interleaved, ``--rounds`` times (each round: in-process and the
@@ -98,16 +98,18 @@ class Timed:
 def idle_scaling(one: Timed, two: Timed, cores: int = 2) -> float:
     """The 1 -> 2 worker scaling on an idle machine of ``cores`` cores, from CPU times.
 
-    With one worker the map takes the worker's CPU time (this process, the client, the
-    scheduler and the nanny, runs on another core). With two workers on two cores, every
-    process shares them: the map takes at least the CPU time of all of them over the
-    cores, and at least the busiest worker's. The end of the run (one worker finishing the
-    last chunk alone) and the scheduler's latency are left out, so this is an upper bound
-    of what a clock would show.
+    ``S = 2 W1 / (W1 + C2)``: ``W1`` is the CPU time of the single worker over its map,
+    ``C2`` that of this process (client, scheduler, nannies) over the map on 2 workers.
+    With one worker the map takes ``W1``: this process runs on the other core. With two,
+    the workers share the chunks, ``W1`` in all, and this process competes with them for
+    the 2 cores: ``(W1 + C2) / 2``. The 2 workers' own CPU time is not used: on a loaded
+    machine it differs from ``W1`` by up to 10 % either way from run to run (printed as
+    the ratio ``W2 / W1``), for the same chunks. Left out: the run's serial start and end
+    and the last chunk's tail (one worker finishing alone), which a clock would show, and
+    this process's cost per second of wall time, which a loaded machine inflates.
     """
-    t1 = max(max(one.each), one.own)
-    t2 = max((sum(two.each) + two.own) / cores, max(two.each))
-    return t1 / t2
+    w1 = sum(one.each)
+    return cores * w1 / (w1 + two.own)
 
 
 def _median(values: list[float]) -> float:
@@ -244,13 +246,17 @@ def main() -> None:
         cpu = _median([m.own / p.own - 1.0 for m, p in zip(maps, plains, strict=True)])
         scaling = _median([a.wall / b.wall for a, b in zip(ones, twos, strict=True)])
         idle = _median([idle_scaling(a, b) for a, b in zip(ones, twos, strict=True)])
+        spread = ", ".join(
+            f"{sum(b.each) / sum(a.each):.2f}" for a, b in zip(ones, twos, strict=True)
+        )
         client = _median([t.own / chunks[name] * 1e3 for t in twos])
         per_query = _median([max(t.each) / queries[name] * 1e6 for t in ones])
         print(
             f"{name}: map overhead against the plain batch {wall:+.1%} wall, {cpu:+.1%} CPU; "
             f"scaling 1 -> 2 workers {scaling:.2f}x wall, {idle:.2f}x from the CPU times "
-            f"(idle 2-core machine); on 2 workers this process used {client:.1f} ms of CPU "
-            f"per chunk; one worker {per_query:.1f} us of CPU per query"
+            f"(2 W1 / (W1 + C2), idle 2-core machine; W2 / W1 by round: {spread}); on 2 "
+            f"workers this process used {client:.1f} ms of CPU per chunk; one worker "
+            f"{per_query:.1f} us of CPU per query"
         )
     print(f"load after: {os.getloadavg()[0]:.2f}")
 
