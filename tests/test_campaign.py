@@ -15,7 +15,6 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-import distributed
 import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
@@ -24,8 +23,18 @@ import xarray as xr
 from conftest import random_q, robot_of, time_limit
 
 import optik
-from optik.campaign import capability_map, open_engine, run_chunks
-from optik.campaign.batch import PartStore, read_targets, result_columns, solve_batch
+from optik.campaign import capability, capability_map, open_engine, run_chunks
+from optik.campaign.batch import (
+    RUN_FILE,
+    BatchSpec,
+    PartStore,
+    PartWriter,
+    read_targets,
+    result_columns,
+    solve_batch,
+    solve_chunk,
+)
+from optik.campaign.engine import QUIET_CLUSTER, Written, compute_and_write
 from optik.errors import OptikError, OutputFileError
 
 RESTARTS = 20
@@ -43,19 +52,18 @@ def _warm() -> None:
 
 @pytest.fixture(scope="module")
 def client() -> Iterator[Any]:
-    cluster = distributed.LocalCluster(
-        n_workers=2,
-        threads_per_worker=1,
-        processes=True,
-        host="127.0.0.1",
-        dashboard_address=None,
-        silence_logs=40,
-    )
-    dask_client = distributed.Client(cluster)
-    dask_client.run(_warm)
-    yield dask_client
-    dask_client.close()
-    cluster.close()
+    """The client of the local cluster optik starts for ``workers=2``."""
+    with open_engine(workers=2) as engine:
+        assert engine.description == "2 local worker processes"
+        engine.client.run(_warm)
+        yield engine.client
+
+
+def _dask_settings(names: tuple[str, ...]) -> tuple[Any, ...]:
+    """Dask settings as a worker process sees them (run there by ``client.run``)."""
+    import dask
+
+    return tuple(dask.config.get(name) for name in names)
 
 
 def _targets(n: int, seed: int = 3) -> np.ndarray:
@@ -64,6 +72,15 @@ def _targets(n: int, seed: int = 3) -> np.ndarray:
     T = robot.fk(random_q(robot, np.random.default_rng(seed), n))
     T[n // 2 :, :3, 3] *= 0.25
     return T
+
+
+def _files(folder: Path, pattern: str) -> dict[str, tuple[int, int]]:
+    """``(inode, mtime in ns)`` of every file matching ``pattern`` under ``folder``: a file
+    written again (a temporary file renamed over it) gets a new inode."""
+    return {
+        str(f.relative_to(folder)): (f.stat().st_ino, f.stat().st_mtime_ns)
+        for f in folder.glob(pattern)
+    }
 
 
 def _same_tables(a: pa.Table, b: pa.Table) -> None:
@@ -164,8 +181,12 @@ def test_batch_interrupted_then_resumed_writes_every_chunk_once(tmp_path: Path) 
 
     with pytest.raises(Interrupted):
         solve_batch(robot, T, restarts=RESTARTS, chunk=10, out=out, progress=stop_after_three)
-    written = PartStore(out).finished()  # chunks finish in any order on the thread pool
-    assert len(written) == 3 and written <= set(range(9))
+    # Chunks finish in any order on the thread pool, and the threads write their own: the
+    # chunks already running when the run stopped were finished and written whole.
+    written = PartStore(out).finished()
+    assert 3 <= len(written) < 9 and written <= set(range(9))
+    before = _files(out, "part-*.parquet")
+    assert len(before) == len(written)
     # A temporary file left by a killed write is not a part.
     (out / ".part-000004.parquet.0123456789ab.tmp").write_bytes(b"half a file")
     with pytest.raises(OutputFileError, match="exists"):
@@ -182,8 +203,10 @@ def test_batch_interrupted_then_resumed_writes_every_chunk_once(tmp_path: Path) 
         resume=True,
         progress=lambda done, total: calls.append(done),
     )
-    assert calls == list(range(3, 10))  # starts at the 3 finished chunks, 6 computed
+    assert calls == list(range(len(written), 10))  # the unfinished chunks, each once
     assert PartStore(out).finished() == set(range(9))
+    after = _files(out, "part-*.parquet")
+    assert {name: after[name] for name in before} == before  # finished parts not rewritten
     _same_tables(table, reference)
     on_disk = pq.read_table(out).sort_by("index")  # a reader of the folder, not optik's
     assert np.array_equal(on_disk.column("index").to_numpy(), np.arange(90))
@@ -229,37 +252,126 @@ def test_run_chunks_skips_finished_chunks() -> None:
     assert store.rows == {0: 0, 1: 10, 2: 20, 3: 30}
 
 
+def test_run_chunks_takes_receipts_from_a_store_whose_workers_write() -> None:
+    """A writer that wrote a chunk sends a receipt; one that could not, the answer."""
+    on_workers: dict[int, int] = {}
+
+    def writer(index: int, result: int) -> bool:
+        if index % 2:  # as a worker that does not see the store
+            return False
+        on_workers[index] = result
+        return True
+
+    class Store:
+        def __init__(self) -> None:
+            self.rows: dict[int, int] = {}
+
+        def finished(self) -> set[int]:
+            return set(self.rows) | set(on_workers)
+
+        def write(self, index: int, result: int) -> None:
+            self.rows[index] = result
+
+        def writer(self) -> Any:
+            return writer
+
+    store = Store()
+    done: list[int] = []
+    computed = run_chunks(
+        open_engine(), lambda x: 10 * x, list(range(7)), store, progress=lambda d, t: done.append(d)
+    )
+    assert computed == 7 and done == list(range(8))
+    assert on_workers == {0: 0, 2: 20, 4: 40, 6: 60}
+    assert store.rows == {1: 10, 3: 30, 5: 50}
+    assert compute_and_write(lambda x: x + 1, writer, (2, 5)) == Written(2)
+    assert compute_and_write(lambda x: x + 1, writer, (3, 5)) == 6
+    assert compute_and_write(lambda x: x + 1, None, (2, 5)) == 6
+
+
+def test_a_part_writer_writes_only_into_its_own_run(tmp_path: Path) -> None:
+    robot = robot_of("ur5")
+    T = _targets(20)
+    out = tmp_path / "results.parquet"
+    solve_batch(robot, T, restarts=RESTARTS, chunk=10, out=out)
+    rows = solve_chunk(BatchSpec(robot, "pose", "z", 1e-6, RESTARTS, 100, 0, 1), (0, T[:10]))
+    first = PartStore.for_run(out)
+    writer = first.writer()
+    assert writer is not None and writer.folder == str(out.resolve())
+    before = _files(out, "*")
+    resumed = PartStore.for_run(out)  # a later run of the folder (a resume) stamps it anew
+    assert resumed.run != first.run
+    assert not writer(5, rows)  # the earlier run's writer leaves the folder alone
+    assert not (out / PartStore.part_name(5)).exists()
+    again = resumed.writer()
+    assert again is not None and again(5, rows)
+    assert pq.read_table(out / PartStore.part_name(5)).column("index").to_pylist() == list(
+        range(10)
+    )
+    assert {k: v for k, v in _files(out, "*").items() if k in before and k != RUN_FILE} == {
+        k: v for k, v in before.items() if k != RUN_FILE
+    }
+    elsewhere = PartWriter(str(tmp_path / "not-here"), resumed.run)  # another machine's disk
+    assert not elsewhere(0, rows) and not (tmp_path / "not-here").exists()
+    assert PartStore(None).writer() is None
+
+
+def test_a_batch_written_by_the_client_alone_is_the_same(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """When no worker can write the folder, the answers come back and the client writes."""
+    robot = robot_of("ur5")
+    T = _targets(60)
+    reference = solve_batch(robot, T, restarts=RESTARTS, chunk=7)
+    monkeypatch.setattr(PartWriter, "__call__", lambda self, index, result: False)
+    table = solve_batch(robot, T, restarts=RESTARTS, chunk=7, out=tmp_path / "r.parquet")
+    _same_tables(table, reference)
+    assert PartStore(tmp_path / "r.parquet").finished() == set(range(9))
+
+
 # ---------------------------------------------------------------------------- on Dask
 # The cluster takes 10-30 s to start on a loaded machine: these are slow tests.
+def _client_never_writes(self: Any, index: int, result: Any) -> None:
+    """Stands in for a store's ``write`` in the client: the workers must write every chunk."""
+    raise AssertionError(f"chunk {index} came back to the client to be written")
+
+
 @pytest.mark.slow
-def test_batch_on_a_local_cluster_equals_in_process(client: Any) -> None:
+def test_batch_on_a_local_cluster_equals_in_process(
+    client: Any, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     robot = robot_of("ur5")
     T = _targets(240)
     here = solve_batch(robot, T, restarts=RESTARTS, chunk=50)
-    there = solve_batch(robot, T, restarts=RESTARTS, chunk=17, client=client)
+    there = solve_batch(robot, T, restarts=RESTARTS, chunk=17, client=client)  # rows come back
     _same_tables(here, there)
+    monkeypatch.setattr(PartStore, "write", _client_never_writes)
+    out = tmp_path / "results.parquet"
+    written = solve_batch(robot, T, restarts=RESTARTS, chunk=17, client=client, out=out)
+    _same_tables(here, written)
+    assert PartStore(out).finished() == set(range(math.ceil(240 / 17)))
 
 
 @pytest.mark.slow
-def test_map_on_a_local_cluster_equals_in_process(client: Any) -> None:
+def test_map_on_a_local_cluster_equals_in_process(
+    client: Any, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     robot = robot_of("puma560")
     options: dict[str, Any] = {"voxel": 0.3, "orientations": 6, "mode": "axis", "keep_q": True}
     here = capability_map(robot, chunk=4, **options)
-    there = capability_map(robot, chunk=2, client=client, **options)
+    there = capability_map(robot, chunk=2, client=client, **options)  # the arrays come back
     assert set(here.data_vars) == set(there.data_vars)
     for name in here.data_vars:
         assert np.array_equal(here[name].values, there[name].values, equal_nan=True), name
     xr.testing.assert_equal(here, there)
     assert float(here.reachability.max()) > 0.0
+    monkeypatch.setattr(capability.MapStore, "write", _client_never_writes)
+    out = tmp_path / "map.zarr"
+    written = capability_map(robot, chunk=3, client=client, out=out, **options)
+    xr.testing.assert_equal(here, written.load())
 
 
-@pytest.mark.slow
-def test_a_worker_killed_mid_run_changes_nothing(client: Any) -> None:
-    robot = robot_of("ur5")
-    T = _targets(2000, seed=8)
-    reference = solve_batch(robot, T, restarts=RESTARTS, chunk=50)
-    before = set(client.run(os.getpid).values())
-    killed: list[int] = []
+def _kill_a_worker_once(client: Any, before: set[int], killed: list[int]) -> Any:
+    """A progress callback that kills one worker process once the first chunk is in."""
 
     def kill_one(done: int, total: int) -> None:
         if done >= 1 and not killed:  # answers are arriving: the workers are busy
@@ -267,12 +379,59 @@ def test_a_worker_killed_mid_run_changes_nothing(client: Any) -> None:
             os.kill(pid, signal.SIGKILL)
             killed.append(done)
 
+    return kill_one
+
+
+@pytest.mark.slow
+def test_a_worker_killed_mid_run_changes_nothing(client: Any, tmp_path: Path) -> None:
+    robot = robot_of("ur5")
+    T = _targets(2000, seed=8)
+    reference = solve_batch(robot, T, restarts=RESTARTS, chunk=50)
+    before = set(client.run(os.getpid).values())
+    killed: list[int] = []
+    out = tmp_path / "results.parquet"  # the workers write the parts
     with time_limit(120.0):
-        table = solve_batch(robot, T, restarts=RESTARTS, chunk=50, client=client, progress=kill_one)
+        table = solve_batch(
+            robot,
+            T,
+            restarts=RESTARTS,
+            chunk=50,
+            client=client,
+            out=out,
+            progress=_kill_a_worker_once(client, before, killed),
+        )
     assert killed and killed[0] < math.ceil(2000 / 50)  # killed before the end
     _same_tables(table, reference)
+    on_disk = pq.read_table(out)
+    assert np.array_equal(np.sort(on_disk.column("index").to_numpy()), np.arange(2000))
     client.wait_for_workers(2, timeout=60)
     assert set(client.run(os.getpid).values()) != before  # a new worker took its place
+    # The new worker runs with the quiet settings of the cluster too.
+    names = tuple(QUIET_CLUSTER)
+    quiet = tuple(QUIET_CLUSTER.values())
+    assert list(client.run(_dask_settings, names).values()) == [quiet, quiet]
+    assert _dask_settings(names) != quiet  # this process keeps Dask's defaults
+
+
+@pytest.mark.slow
+def test_a_worker_killed_while_writing_a_map_changes_nothing(client: Any, tmp_path: Path) -> None:
+    robot = robot_of("ur5")
+    options: dict[str, Any] = {"voxel": 0.15, "orientations": 8, "mode": "pose", "chunk": 1}
+    reference = capability_map(robot, **options)
+    client.wait_for_workers(2, timeout=60)
+    before = set(client.run(os.getpid).values())
+    killed: list[int] = []
+    out = tmp_path / "map.zarr"
+    with time_limit(120.0):
+        ds = capability_map(
+            robot, client=client, out=out, progress=_kill_a_worker_once(client, before, killed),
+            **options,
+        )  # fmt: skip
+    total = ds.sizes["x"] * ds.sizes["y"]
+    assert killed and killed[0] < total  # killed before the end
+    xr.testing.assert_equal(reference, ds.load())
+    client.wait_for_workers(2, timeout=60)
+    assert set(client.run(os.getpid).values()) != before
 
 
 # ---------------------------------------------------------------------------- the CLI

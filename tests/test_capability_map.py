@@ -4,12 +4,14 @@ from __future__ import annotations
 
 import math
 import sys
+import threading
 import types
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
+import zarr
 from conftest import reference_fk, robot_of
 
 import optik
@@ -34,6 +36,13 @@ def _same_data(a: Any, b: Any) -> None:
     assert set(a.data_vars) == set(b.data_vars)
     for name in a.data_vars:
         assert np.array_equal(a[name].values, b[name].values, equal_nan=True), name
+
+
+def _marker_files(out: Path) -> dict[str, tuple[int, int]]:
+    """``(inode, mtime in ns)`` of each chunk's marker file in a map's Zarr folder (one
+    file per chunk, written when the chunk is done; written again, it gets a new inode)."""
+    files = [f for f in (out / "chunk_done").rglob("*") if f.is_file() and f.name != "zarr.json"]
+    return {str(f.relative_to(out)): (f.stat().st_ino, f.stat().st_mtime_ns) for f in files}
 
 
 def _two_link() -> Robot:
@@ -220,6 +229,10 @@ def test_map_interrupted_then_resumed_computes_every_chunk_once(tmp_path: Path) 
 
     with pytest.raises(Interrupted):
         capability_map(robot, out=out, progress=stop_after_two, **options)
+    # The threads write their own chunks: those running when the run stopped were
+    # finished and written whole, each with its marker.
+    markers = _marker_files(out)
+    assert len(markers) >= 2
     with pytest.raises(OptikError, match="unfinished"):
         open_map(out)
     with pytest.raises(OutputFileError, match="exists"):
@@ -231,9 +244,78 @@ def test_map_interrupted_then_resumed_computes_every_chunk_once(tmp_path: Path) 
         robot, out=out, resume=True, progress=lambda d, t: calls.append((d, t)), **options
     )
     total = calls[0][1]
-    assert [d for d, _ in calls] == list(range(2, total + 1))  # 2 done, the rest once each
+    assert len(markers) < total
+    assert [d for d, _ in calls] == list(range(len(markers), total + 1))  # the rest, once each
+    after = _marker_files(out)
+    assert len(after) == total
+    assert {name: after[name] for name in markers} == markers  # finished chunks not rewritten
     _same_data(ds, reference)
     _same_data(open_map(out), reference)
+
+
+def test_the_threads_write_the_map_and_the_client_only_what_they_cannot(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    robot = robot_of("puma560")
+    options: dict[str, Any] = {"mode": "axis", "chunk": 2, "keep_q": True, **PUMA}
+    reference = capability_map(robot, **options)  # in memory: the arrays come back
+    with monkeypatch.context() as patch:  # the client must write nothing
+        patch.setattr(capability.MapStore, "write", _client_never_writes)
+        _same_data(capability_map(robot, out=tmp_path / "a.zarr", **options), reference)
+    with monkeypatch.context() as patch:  # no worker sees the map: the client writes it all
+        patch.setattr(capability, "_arrays_for_writing", lambda path, run: None)
+        _same_data(capability_map(robot, out=tmp_path / "b.zarr", **options), reference)
+    with monkeypatch.context() as patch:  # a disk the worker cannot write: the client does
+        patch.setattr(capability, "_write_block", _fails_off_the_main_thread)
+        _same_data(capability_map(robot, out=tmp_path / "c.zarr", **options), reference)
+
+
+def _client_never_writes(self: Any, index: int, result: Any) -> None:
+    raise AssertionError(f"chunk {index} came back to the client to be written")
+
+
+_write_block = capability._write_block
+
+
+def _fails_off_the_main_thread(*args: Any) -> None:
+    if threading.current_thread() is not threading.main_thread():
+        raise OSError(28, "No space left on device")
+    _write_block(*args)
+
+
+def test_a_map_writer_writes_only_into_its_own_run(tmp_path: Path) -> None:
+    robot = robot_of("puma560")
+    options: dict[str, Any] = {"mode": "axis", "chunk": 3, **PUMA}
+    out = tmp_path / "map.zarr"
+
+    def stop(done: int, total: int) -> None:
+        raise Interrupted
+
+    with pytest.raises(Interrupted):  # the store, created, before any chunk
+        capability_map(robot, out=out, progress=stop, **options)
+    spec = capability.MapSpec(
+        robot, "axis", "z", 1e-6, 2, 100, 0, orientations("axis", 6, 1, "z"),
+        *lattice(*robot.reach_sphere, 0.25), *robot.reach_sphere, 3, False, 1,
+    )  # fmt: skip
+    block = capability.solve_block(spec, spec.blocks[4])
+    settings = dict(zarr.open_group(str(out), mode="r").attrs["settings"])
+    first = capability.MapStore.reopen(out, spec, settings)
+    writer = first.writer()
+    assert writer is not None and writer.path == str(out.resolve())
+    later = capability.MapStore.reopen(out, spec, settings)  # a resume stamps it anew
+    assert later.run != first.run
+    assert not writer(4, block) and _marker_files(out) == {}  # the earlier run writes nothing
+    elsewhere = capability.MapWriter(str(tmp_path / "none.zarr"), later.run, 3, writer.nby)
+    assert not elsewhere(4, block) and not (tmp_path / "none.zarr").exists()
+    again = later.writer()
+    assert again is not None and again(4, block)
+    bx, by = divmod(4, spec.block_grid[1])
+    assert list(_marker_files(out)) == [f"chunk_done/c/{bx}/{by}"]
+    ix0, ix1, iy0, iy1 = spec.blocks[4]
+    written = zarr.open_group(str(out), mode="r")
+    for name, values in block.items():
+        assert np.array_equal(written[name][ix0:ix1, iy0:iy1], values, equal_nan=True), name
+    assert capability.MemoryMapStore(spec).writer() is None
 
 
 def test_bad_map_options_are_errors(tmp_path: Path) -> None:

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import functools
 import json
+import uuid
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -51,6 +52,8 @@ DEFAULT_CHUNK = 10_000
 POSITION_COLUMNS = ("x", "y", "z")
 QUATERNION_COLUMNS = ("qw", "qx", "qy", "qz")
 SETTINGS_FILE = "_optik.json"
+RUN_FILE = ".optik-run"
+"""The token of the run writing a folder (a hidden file: Parquet readers skip it)."""
 
 
 def read_targets(path: str | Path) -> FloatArray:
@@ -193,17 +196,75 @@ def result_columns(robot: Robot) -> list[str]:
     return ["index", "status", "success", *q, *errors, "iterations", "restarts"]
 
 
-class PartStore:
-    """Parquet part files in a folder, one per chunk (``None`` folder: in memory)."""
+def part_name(index: int) -> str:
+    """File name of chunk ``index``'s part."""
+    return f"part-{index:06d}.parquet"
 
-    def __init__(self, folder: Path | None) -> None:
+
+def _write_part(folder: Path, index: int, result: dict[str, np.ndarray]) -> None:
+    """Write chunk ``index``'s rows to its part file, whole (a temporary file renamed)."""
+    pa = require("pyarrow", "a batch")
+    pq = require("pyarrow.parquet", "a batch")
+    table = pa.table(result)
+    write_atomic_with(
+        folder / part_name(index), lambda handle: pq.write_table(table, handle), binary=True
+    )
+
+
+@dataclass(frozen=True)
+class PartWriter:
+    """Writes a batch's part file where its chunk was computed.
+
+    A :class:`~optik.campaign.engine.ChunkWriter`: it writes only into a folder stamped
+    with its run's token.
+
+    Attributes:
+        folder: the output folder, absolute.
+        run: the token of the run that writes it (the folder's :data:`RUN_FILE`).
+    """
+
+    folder: str
+    run: str
+
+    def __call__(self, index: int, result: dict[str, np.ndarray]) -> bool:
+        """Write chunk ``index``'s part whole (True), or nothing (False).
+
+        False when the folder is not this run's from here (another machine's disk, or a
+        run since replaced) or cannot be written from here: the client then writes it.
+        """
+        folder = Path(self.folder)
+        try:
+            if (folder / RUN_FILE).read_text(encoding="utf-8") != self.run:
+                return False
+            _write_part(folder, index, result)
+        except (OSError, OutputFileError):  # not there, or not writable from this worker
+            return False
+        return True
+
+
+class PartStore:
+    """Parquet part files in a folder, one per chunk (``None`` folder: in memory).
+
+    A run that writes the folder (a new one or a resumed one) gives it a new token
+    (:meth:`for_run`); the workers write their own parts (:meth:`writer`) when they find
+    that token there.
+    """
+
+    def __init__(self, folder: Path | None, run: str | None = None) -> None:
         self.folder = folder
         self.memory: dict[int, Any] = {}
+        self.run = run
 
-    @staticmethod
-    def part_name(index: int) -> str:
-        """File name of chunk ``index``'s part."""
-        return f"part-{index:06d}.parquet"
+    @classmethod
+    def for_run(cls, folder: Path | None) -> PartStore:
+        """The store of a run about to write ``folder``, stamped with a new run token."""
+        if folder is None:
+            return cls(None)
+        run = uuid.uuid4().hex
+        write_atomic(folder / RUN_FILE, run)
+        return cls(folder, run)
+
+    part_name = staticmethod(part_name)
 
     def finished(self) -> set[int]:
         """Chunks whose part file exists (a part is renamed into place only when whole)."""
@@ -217,18 +278,18 @@ class PartStore:
         return done
 
     def write(self, index: int, result: dict[str, np.ndarray]) -> None:
-        """Write chunk ``index`` whole."""
-        pa = require("pyarrow", "a batch")
-        pq = require("pyarrow.parquet", "a batch")
-        table = pa.table(result)
+        """Write chunk ``index`` whole (here, in the client)."""
         if self.folder is None:
-            self.memory[index] = table
+            pa = require("pyarrow", "a batch")
+            self.memory[index] = pa.table(result)
             return
-        write_atomic_with(
-            self.folder / self.part_name(index),
-            lambda handle: pq.write_table(table, handle),
-            binary=True,
-        )
+        _write_part(self.folder, index, result)
+
+    def writer(self) -> PartWriter | None:
+        """The workers' writer of this folder (``None`` in memory or unstamped)."""
+        if self.folder is None or self.run is None:
+            return None
+        return PartWriter(str(self.folder.resolve()), self.run)
 
     def table(self) -> Any:
         """Every row, sorted by target index."""
@@ -323,7 +384,7 @@ def solve_batch(
         "optik": versions()["optik"],
     }
     folder = _prepare(out, settings, resume)
-    store = PartStore(folder)
+    store = PartStore.for_run(folder)
     items = [(s, poses[s : s + chunk]) for s in range(0, len(poses), chunk)]
     with open_engine(client=client, workers=workers, scheduler=scheduler) as engine:
         threads = engine.threads_for(chunk_count(len(poses), chunk))
@@ -383,6 +444,7 @@ __all__ = [
     "DEFAULT_CHUNK",
     "BatchSpec",
     "PartStore",
+    "PartWriter",
     "read_targets",
     "result_columns",
     "solve_batch",

@@ -34,6 +34,8 @@ from __future__ import annotations
 import functools
 import math
 import shutil
+import uuid
+from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -57,6 +59,7 @@ MAX_SEED = 2**40
 """Largest ``seed`` of a map (sample streams run up to ``seed`` + number of samples)."""
 
 _DONE = "chunk_done"
+_RUN = "run"  # chunk_done's attribute: the token of the run writing the map
 
 
 @dataclass(frozen=True)
@@ -301,6 +304,10 @@ class MemoryMapStore:
             self.arrays[name][ix0:ix1, iy0:iy1] = values
         self.done.add(index)
 
+    def writer(self) -> None:
+        """None: the chunks travel back to this process."""
+        return None
+
     def dataset(self, attrs: dict[str, Any]) -> Any:
         """The map as an :class:`xarray.Dataset`."""
         xr = require("xarray", "a capability map")
@@ -328,22 +335,107 @@ def _create_array(
     )  # fmt: skip
 
 
+def _write_block(arrays: Mapping[str, Any], chunk: int, nby: int, index: int, result: Any) -> None:
+    """Write chunk ``index``'s arrays into a map's Zarr ``arrays``, then its marker.
+
+    Chunk ``index`` is block ``(bx, by) = divmod(index, nby)`` of ``chunk x chunk``
+    columns: exactly one Zarr chunk of every variable, each written whole (zarr writes a
+    temporary file and renames it). The marker ``chunk_done[bx, by]`` goes last, so a
+    chunk interrupted halfway has none and is computed again on ``resume``.
+    """
+    bx, by = divmod(index, nby)
+    ix0, iy0 = bx * chunk, by * chunk
+    for name, values in result.items():
+        arrays[name][ix0 : ix0 + values.shape[0], iy0 : iy0 + values.shape[1]] = values
+    arrays[_DONE][bx, by] = 1
+
+
+_OPEN: dict[tuple[str, str], dict[str, Any]] = {}
+"""The arrays of the maps this process writes chunks into, by (path, run token)."""
+
+
+def _arrays_for_writing(path: str, run: str) -> dict[str, Any] | None:
+    """The Zarr arrays of the map at ``path`` if it is run ``run``'s from here, else None.
+
+    The marker array is opened afresh every time, so a map replaced since (another run
+    at the same path) is never written into; the data arrays are opened once.
+    """
+    zarr = require_zarr("a capability map")
+    try:
+        marker = zarr.open_array(store=path, path=_DONE, mode="r+")
+    except Exception:  # no such map from here (another machine's disk): the client writes
+        return None
+    if marker.attrs.get(_RUN) != run:
+        return None
+    arrays = _OPEN.get((path, run))
+    if arrays is None:
+        group = zarr.open_group(store=path, mode="r+")
+        arrays = {name: group[name] for name in group.array_keys() if name != _DONE}
+        if len(_OPEN) >= 8:  # a long-lived worker that served many maps
+            _OPEN.clear()
+        _OPEN[(path, run)] = arrays
+    return {**arrays, _DONE: marker}
+
+
+@dataclass(frozen=True)
+class MapWriter:
+    """Writes a map's chunk where it was computed.
+
+    A :class:`~optik.campaign.engine.ChunkWriter`: it writes only into a map stamped with
+    its run's token.
+
+    Attributes:
+        path: the map's Zarr folder, absolute.
+        run: the token of the run that writes it (``chunk_done``'s attribute ``run``).
+        chunk: columns per chunk along x and y.
+        nby: chunks along y.
+    """
+
+    path: str
+    run: str
+    chunk: int
+    nby: int
+
+    def __call__(self, index: int, result: dict[str, np.ndarray]) -> bool:
+        """Write chunk ``index`` whole (True), or leave it unmarked (False).
+
+        False when the map is not this run's from here (another machine's disk, or a map
+        since replaced) or cannot be written from here: the client then writes it.
+        """
+        arrays = _arrays_for_writing(self.path, self.run)
+        if arrays is None:
+            return False
+        try:
+            _write_block(arrays, self.chunk, self.nby, index, result)
+        except OSError:  # a disk this worker cannot write: the client tries, or says why
+            return False
+        return True
+
+
 class MapStore:
     """A map in a Zarr group, chunk by chunk (a chunk is done once its marker is written).
 
     Every variable is chunked as the map is, ``(chunk, chunk, nz, ...)``, so a chunk of
-    the map is one Zarr chunk per variable; each Zarr chunk is written whole (a temporary
-    file renamed over the old one). The marker ``chunk_done[bx, by]`` is written last, so
-    a chunk interrupted halfway has no marker and is computed again on ``resume``.
+    the map is one Zarr chunk per variable, written whole (see :func:`_write_block`); the
+    marker ``chunk_done[bx, by]`` is written last. The workers write their own chunks
+    (:meth:`writer`) when they see the folder; each opening of the store (a new run or a
+    resumed one) stamps ``chunk_done`` with a new run token, which the workers check.
     """
 
-    def __init__(self, group: Any, spec: MapSpec) -> None:
+    def __init__(self, group: Any, spec: MapSpec, path: str | None = None) -> None:
         self.group = group
         self.spec = spec
+        self.path = path
+        self.run = uuid.uuid4().hex  # this run's: the workers check it before writing
+        group[_DONE].attrs.update({_RUN: self.run})
 
     @classmethod
     def create(cls, store: Any, spec: MapSpec, attrs: dict[str, Any]) -> MapStore:
-        """A new, empty map group in ``store`` (a path or a Zarr store)."""
+        """A new, empty map group in ``store``.
+
+        A path (the workers then write their own chunks), or a Zarr store that this
+        process alone writes.
+        """
         zarr = require_zarr("a capability map")
         group = zarr.open_group(store=store, mode="w-")
         group.attrs.update(attrs)
@@ -363,7 +455,8 @@ class MapStore:
             group, _DONE, shape=spec.block_grid, chunks=(1, 1), dtype="u1",
             dims=("chunk_x", "chunk_y"), fill_value=0,
         )  # fmt: skip
-        return cls(group, spec)
+        path = str(Path(store).resolve()) if isinstance(store, str | Path) else None
+        return cls(group, spec, path)
 
     @classmethod
     def reopen(cls, path: Path, spec: MapSpec, settings: dict[str, Any]) -> MapStore:
@@ -375,7 +468,7 @@ class MapStore:
         except Exception as exc:  # not a Zarr group, or a damaged one
             raise OptikError(f"{path}: not a capability map to resume ({exc})") from None
         check_same_run(str(path), stored, settings)
-        return cls(group, spec)
+        return cls(group, spec, str(Path(path).resolve()))
 
     def finished(self) -> set[int]:
         """Indices (in :attr:`MapSpec.blocks` order) of the chunks with their marker."""
@@ -383,12 +476,15 @@ class MapStore:
         return {int(i) for i in np.flatnonzero(done)}
 
     def write(self, index: int, result: dict[str, np.ndarray]) -> None:
-        """Write chunk ``index``'s arrays, then its marker."""
-        ix0, ix1, iy0, iy1 = self.spec.blocks[index]
-        for name, values in result.items():
-            self.group[name][ix0:ix1, iy0:iy1] = values
-        _, nby = self.spec.block_grid
-        self.group[_DONE][index // nby, index % nby] = 1
+        """Write chunk ``index``'s arrays, then its marker (here, in the client)."""
+        arrays = {name: self.group[name] for name in (*result, _DONE)}
+        _write_block(arrays, self.spec.chunk, self.spec.block_grid[1], index, result)
+
+    def writer(self) -> MapWriter | None:
+        """The workers' writer of this map (``None`` for a store without a folder)."""
+        if self.path is None:
+            return None
+        return MapWriter(self.path, self.run, self.spec.chunk, self.spec.block_grid[1])
 
 
 def open_map(path: str | Path) -> Any:
@@ -406,7 +502,9 @@ def open_map(path: str | Path) -> Any:
     except Exception as exc:
         raise OptikError(f"{path}: not a capability map ({exc})") from None
     if _DONE in ds:
-        if not bool(ds[_DONE].all()):
+        # Read by zarr at once, not through a dask graph (60 ms of the client's CPU).
+        marker = require_zarr("a capability map").open_array(store=str(path), path=_DONE, mode="r")
+        if not bool(np.all(marker[...])):
             raise OptikError(f"{path}: the map is unfinished (resume the run to finish it)")
         ds = ds.drop_vars(_DONE)
     return ds
@@ -573,6 +671,7 @@ __all__ = [
     "MAP_MODES",
     "MapSpec",
     "MapStore",
+    "MapWriter",
     "capability_map",
     "manipulability",
     "open_map",

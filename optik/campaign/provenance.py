@@ -7,6 +7,7 @@ an error rather than a file that mixes two runs.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import importlib.metadata
 import json
@@ -40,6 +41,12 @@ def array_fingerprint(array: np.ndarray) -> str:
 
 def versions() -> dict[str, str]:
     """Versions of optik, Python and the packages whose code decides a campaign's numbers."""
+    return dict(_versions())
+
+
+@functools.cache
+def _versions() -> dict[str, str]:
+    """:func:`versions`, looked up once per process (about 30 ms of package metadata)."""
     found = {"python": platform.python_version()}
     for name in VERSIONED:
         try:
