@@ -272,8 +272,9 @@ def lm_solve(
     """
     q = q0.copy()
     scratch = workspace(chain[1].shape[0], q0.shape[0])
+    # np.int64: a literal argument would compile lm_attempt once more, for that literal.
     it, ok, pos, rot = lm_attempt(
-        chain, target, task, q, max_iter, w_bias, STALL_WINDOW, STALL_RATIO, scratch
+        chain, target, task, q, max_iter, w_bias, np.int64(STALL_WINDOW), STALL_RATIO, scratch
     )
     return q, it, ok, pos, rot
 

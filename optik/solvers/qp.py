@@ -308,9 +308,10 @@ def _lm_fill(
         vmax[i] = radius
     damping = math.sqrt(lm[_SCALE] * (0.5 * err2 + lm[_W_BIAS]))
     const, const_layout, ints, buf, layout, identity = buffers
+    yes = np.bool_(True)  # a value, not a literal (see _lm_move)
     return fill_step(
-        const, const_layout, ints, q, e, vmax, buf, layout, 1.0, True, Q_CLIP_TOLERANCE,
-        MAX_LENGTH_M, 1.0, True, True, damping, identity,
+        const, const_layout, ints, q, e, vmax, buf, layout, 1.0, yes, Q_CLIP_TOLERANCE,
+        MAX_LENGTH_M, 1.0, yes, yes, damping, identity,
     )  # fmt: skip
 
 
@@ -341,9 +342,12 @@ def _lm_move(
     if start:
         const, const_layout, ints, buf, layout, identity = buffers
         e[:] = 0.0
+        # Booleans as values, not literals: numba compiles a callee once per pattern of
+        # literal arguments, and fill_step is large (ProgramArrays.fill compiles it too).
+        yes, no = np.bool_(True), np.bool_(False)
         fill_step(
-            const, const_layout, ints, q, e, vmax, buf, layout, 1.0, True, Q_CLIP_TOLERANCE,
-            MAX_LENGTH_M, 1.0, False, True, 0.0, identity,
+            const, const_layout, ints, q, e, vmax, buf, layout, 1.0, yes, Q_CLIP_TOLERANCE,
+            MAX_LENGTH_M, 1.0, no, yes, 0.0, identity,
         )  # fmt: skip
     err2, position, orientation = take_step(buffers, x, q_new, e_new)
     if not math.isfinite(err2):
