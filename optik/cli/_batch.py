@@ -3,34 +3,23 @@
 from __future__ import annotations
 
 import argparse
-import time
 from collections import Counter
 from typing import Any
 
 from optik.campaign.batch import DEFAULT_CHUNK, solve_batch
+from optik.cli._campaign import add_campaign_ik_arguments, add_engine_arguments, run_campaign
 from optik.cli._common import (
     EXIT_OK,
-    add_engine_arguments,
     add_out_argument,
     add_robot_arguments,
-    campaign_keywords,
     command,
-    non_negative_int,
     path_text,
-    positive_float,
-    positive_int,
-    problem_from_args,
-    seed_int,
 )
 from optik.ik import DEFAULT_RESTARTS
 
 
 def _cmd_batch(args: argparse.Namespace) -> int:
-    problem = problem_from_args(args)
-    robot = problem.robot
-    start = time.perf_counter()
-    table = solve_batch(robot, args.targets, max_iter=args.max_iter, **campaign_keywords(args))
-    wall = time.perf_counter() - start
+    problem, table, wall = run_campaign(args, solve_batch, args.targets, max_iter=args.max_iter)
     n = table.num_rows
     counts = Counter(table.column("status").to_pylist())
     solved = counts.get("converged", 0)
@@ -66,41 +55,17 @@ def add_batch_command(sub: Any) -> None:
         type=path_text,
         help="the targets file, .npy or .parquet (m; no unit for quaternions)",
     )
-    p.add_argument(
-        "--mode",
-        choices=["pose", "position", "orientation", "axis"],
-        default="pose",
-        help="the task of every target (no unit; default pose)",
-    )
-    p.add_argument(
-        "--axis",
-        choices=["x", "y", "z"],
-        default="z",
-        help="the tool axis of --mode axis (no unit; default z)",
-    )
-    p.add_argument(
-        "--tol", type=positive_float, default=1e-6, help="IK tolerance, m and rad (default 1e-6)"
-    )
-    p.add_argument(
-        "--restarts",
-        type=non_negative_int,
-        default=DEFAULT_RESTARTS,
-        help=f"numeric restarts per target (no unit; default {DEFAULT_RESTARTS})",
-    )
-    p.add_argument(
-        "--max-iter",
-        type=positive_int,
-        default=100,
-        help="iterations per attempt (no unit; default 100)",
-    )
-    p.add_argument(
-        "--seed", type=seed_int, default=0, help="base seed: target k uses SEED + k (no unit)"
-    )
-    p.add_argument(
-        "--chunk",
-        type=positive_int,
-        default=DEFAULT_CHUNK,
-        help=f"targets per chunk (no unit; default {DEFAULT_CHUNK})",
+    add_campaign_ik_arguments(
+        p,
+        modes=("pose", "position", "orientation", "axis"),
+        mode_help="the task of every target",
+        axis_help="the tool axis of --mode axis",
+        per="target",
+        restarts=DEFAULT_RESTARTS,
+        seed="base seed: target k uses SEED + k",
+        chunk=DEFAULT_CHUNK,
+        chunk_help="targets per chunk",
+        max_iter=True,
     )
     add_out_argument(
         p, "PATH", "the Parquet folder to write (no unit); it must not exist unless --resume"

@@ -452,39 +452,17 @@ def add_out_argument(
     )
 
 
-def add_engine_arguments(p: argparse.ArgumentParser) -> None:
-    """``--workers N`` or ``--scheduler ADDRESS``, and ``--resume``: where a campaign runs."""
-    where = p.add_mutually_exclusive_group()
-    where.add_argument(
-        "--workers",
-        type=positive_int,
-        metavar="N",
-        help="run on a local Dask cluster of N worker processes, 1 thread each (no unit; "
-        "default: in this process, on numba's threads)",
-    )
-    where.add_argument(
-        "--scheduler",
-        metavar="ADDRESS",
-        help="run on the running Dask scheduler at ADDRESS, e.g. tcp://host:8786 (no unit)",
-    )
+def add_tol_argument(p: Any, what: str = "tolerance") -> None:
+    """``--tol``: one tolerance for the position (m) and the orientation (rad), 1e-6 by default."""
     p.add_argument(
-        "--resume",
-        action="store_true",
-        help="finish the run already at --out (same settings), skipping finished chunks (no unit)",
+        "--tol", type=positive_float, default=1e-6, help=f"{what}, m and rad (default 1e-6)"
     )
 
 
-#: The options of ``optik map`` and ``optik batch`` passed as they are to the campaign
-#: (the IK options, ``--chunk``, ``--out``, and those of :func:`add_engine_arguments`).
-CAMPAIGN_OPTIONS: tuple[str, ...] = (
-    *("mode", "axis", "tol", "restarts", "seed", "chunk", "out"),
-    *("workers", "scheduler", "resume"),
-)
-
-
-def campaign_keywords(args: argparse.Namespace) -> dict[str, Any]:
-    """:data:`CAMPAIGN_OPTIONS` of ``args`` as keywords of a campaign function."""
-    return {name: getattr(args, name) for name in CAMPAIGN_OPTIONS}
+def add_seed_argument(p: Any, what: str, *, show_default: bool = False) -> None:
+    """``--seed``: a :func:`seed_int`, 0 by default; ``what`` says what it seeds."""
+    default = "; default 0" if show_default else ""
+    p.add_argument("--seed", type=seed_int, default=0, help=f"{what} (no unit{default})")
 
 
 def command(sub: Any, name: str, summary: str, description: str, examples: str) -> Any:

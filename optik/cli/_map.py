@@ -3,45 +3,36 @@
 from __future__ import annotations
 
 import argparse
-import time
 from typing import Any
 
 import numpy as np
 
 from optik.campaign import capability_map, plot_map
+from optik.cli._campaign import add_campaign_ik_arguments, add_engine_arguments, run_campaign
 from optik.cli._common import (
     EXIT_OK,
-    add_engine_arguments,
     add_out_argument,
     add_robot_arguments,
-    campaign_keywords,
     command,
     length_float,
-    non_negative_int,
     path_text,
     positive_float,
     positive_int,
-    problem_from_args,
-    seed_int,
 )
 from optik.errors import OptikError
 
 
 def _cmd_map(args: argparse.Namespace) -> int:
-    problem = problem_from_args(args)
-    robot = problem.robot
     bounds = None if args.bounds is None else np.reshape(args.bounds, (3, 2))
-    start = time.perf_counter()
-    ds = capability_map(
-        robot,
+    problem, ds, wall = run_campaign(
+        args,
+        capability_map,
         voxel=args.voxel,
         bounds=bounds,
         orientations=args.orientations,
         rolls=args.rolls,
         keep_q=args.keep_q,
-        **campaign_keywords(args),
     )
-    wall = time.perf_counter() - start
     settings = ds.attrs["settings"]
     inside = ds["inside"].values
     index = ds["reachability"].values
@@ -107,30 +98,16 @@ def add_map_command(sub: Any) -> None:
         default=1,
         help="rotations about the tool axis per direction, pose mode (no unit; default 1)",
     )
-    p.add_argument(
-        "--mode",
-        choices=["pose", "axis", "position"],
-        default="pose",
-        help="what a sample asks: full pose, tool axis only, or position (no unit; default pose)",
-    )
-    p.add_argument(
-        "--axis", choices=["x", "y", "z"], default="z", help="the tool axis (no unit; default z)"
-    )
-    p.add_argument(
-        "--tol", type=positive_float, default=1e-6, help="IK tolerance, m and rad (default 1e-6)"
-    )
-    p.add_argument(
-        "--restarts",
-        type=non_negative_int,
-        default=3,
-        help="numeric restarts per sample (no unit; default 3)",
-    )
-    p.add_argument("--seed", type=seed_int, default=0, help="base seed of the samples (no unit)")
-    p.add_argument(
-        "--chunk",
-        type=positive_int,
-        default=4,
-        help="voxel columns per chunk along x and y (no unit; default 4)",
+    add_campaign_ik_arguments(
+        p,
+        modes=("pose", "axis", "position"),
+        mode_help="what a sample asks: full pose, tool axis only, or position",
+        axis_help="the tool axis",
+        per="sample",
+        restarts=3,
+        seed="base seed of the samples",
+        chunk=4,
+        chunk_help="voxel columns per chunk along x and y",
     )
     p.add_argument(
         "--keep-q",

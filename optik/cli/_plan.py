@@ -15,6 +15,7 @@ from optik.cli._common import (
     add_out_argument,
     add_path_group,
     add_robot_arguments,
+    add_seed_argument,
     command,
     finite_float,
     non_negative_float,
@@ -23,7 +24,6 @@ from optik.cli._common import (
     pose_from_args,
     positive_float,
     problem_from_args,
-    seed_int,
 )
 from optik.cli._task import ORIENTED_MODES, add_task_arguments, task_keywords
 from optik.errors import OptikError
@@ -184,7 +184,7 @@ def add_plan_command(sub: Any) -> None:
         metavar="Q",
         help="current configuration, one value per joint: rad (revolute) or m (prismatic)",
     )
-    p.add_argument("--seed", type=seed_int, default=0, help="seed of the restarts (no unit)")
+    add_seed_argument(p, "seed of the restarts")
     timing = p.add_argument_group("trajectory (time-optimal, TOPP-RA)")
     timing.add_argument(
         "--trajectory",

@@ -11,6 +11,8 @@ from optik.cli._common import (
     EXIT_OK,
     add_out_argument,
     add_robot_arguments,
+    add_seed_argument,
+    add_tol_argument,
     command,
     count_int,
     dh_problem,
@@ -18,7 +20,6 @@ from optik.cli._common import (
     path_text,
     positive_float,
     robot_choice,
-    seed_int,
     urdf_problem,
 )
 from optik.compare import AGREEMENT_TOL, RunConfig
@@ -176,12 +177,7 @@ def add_report_command(subparsers: Any) -> argparse.ArgumentParser:
         default=None,
         help=f"targets per robot (no unit; default {DEFAULT_N}; quick 5)",
     )
-    p.add_argument(
-        "--seed",
-        type=seed_int,
-        default=0,
-        help="seed of the targets (no unit; default 0)",
-    )
+    add_seed_argument(p, "seed of the targets", show_default=True)
     p.add_argument(
         "--timeout-ms",
         type=positive_float,
@@ -189,9 +185,7 @@ def add_report_command(subparsers: Any) -> argparse.ArgumentParser:
         metavar="MS",
         help=f"time limit per IK call, ms (default {DEFAULT_TIMEOUT_S * 1e3:g}; quick 100)",
     )
-    p.add_argument(
-        "--tol", type=positive_float, default=1e-6, help="tolerance, m and rad (default 1e-6)"
-    )
+    add_tol_argument(p)
     p.add_argument(
         "--cap",
         action="append",

@@ -11,6 +11,8 @@ from optik.cli._common import (
     EXIT_OK,
     add_orientation_arguments,
     add_robot_arguments,
+    add_seed_argument,
+    add_tol_argument,
     command,
     finite_float,
     json_value,
@@ -18,7 +20,6 @@ from optik.cli._common import (
     orientation_flag,
     positive_float,
     problem_from_args,
-    seed_int,
     target_from_args,
     value_text,
 )
@@ -151,9 +152,7 @@ def add_solve_command(sub: Any) -> None:
         choices=["auto", *available_solvers()],
         help="solver name (no unit; default auto)",
     )
-    p.add_argument(
-        "--tol", type=positive_float, default=1e-6, help="tolerance, m and rad (default 1e-6)"
-    )
+    add_tol_argument(p)
     p.add_argument(
         "--q0",
         nargs="+",
@@ -164,7 +163,7 @@ def add_solve_command(sub: Any) -> None:
     p.add_argument(
         "--timeout-ms", type=positive_float, metavar="MS", help="time budget of the solver, ms"
     )
-    p.add_argument("--seed", type=seed_int, default=0, help="seed of the restarts (no unit)")
+    add_seed_argument(p, "seed of the restarts")
     p.add_argument(
         "--json", action="store_true", help="print the result as one JSON object (no unit)"
     )
