@@ -27,17 +27,22 @@ from __future__ import annotations
 
 import math
 
-import numba as nb
+import numpy as np
 
 from optik._math import sincos, trig_roots
+from optik._numba import inline as _inline
+from optik._numba import jit as _jit
 
 Vec3 = tuple[float, float, float]
 """A vector (or point) in scalars."""
 Rot9 = tuple[float, float, float, float, float, float, float, float, float]
 """A 3x3 rotation, row-major, in scalars."""
 
-_inline = nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
-_jit = nb.njit(cache=True, nogil=True, error_model="numpy")
+
+@_inline
+def vec_at(a: np.ndarray, i: int) -> Vec3:
+    """Row ``i`` of an (n, 3) array ``a`` as a vector."""
+    return (a[i, 0], a[i, 1], a[i, 2])
 
 
 @_inline

@@ -30,10 +30,11 @@ its point on its axis, the wrist's ``q_4`` with axes 4 and 6 aligned.
 
 from __future__ import annotations
 
-import numba as nb
 import numpy as np
 
 from optik._math import sincos
+from optik._numba import inline as _inline
+from optik._numba import jit as _jit
 from optik.analytic._compiled import closed_form_tols, mul3
 from optik.analytic._subproblems import (
     Vec3,
@@ -47,10 +48,9 @@ from optik.analytic._subproblems import (
     rotation,
     sp1_angle,
     sub,
+    vec_at,
 )
 from optik.analytic.pair_wrist import REACH_TOL, target_frame, wrist_across, wrist_branches
-
-_jit = nb.njit(cache=True, nogil=True, error_model="numpy")
 
 PARALLEL_12 = 1
 """Arm kind: axes 1 and 2 parallel."""
@@ -58,12 +58,7 @@ PARALLEL_23 = 2
 """Arm kind: axes 2 and 3 parallel."""
 
 
-@nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _vec(a: np.ndarray, i: int) -> Vec3:
-    return (a[i, 0], a[i, 1], a[i, 2])
-
-
-@nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+@_inline
 def _turn(w: Vec3, on_axis: Vec3, t: float, x: Vec3) -> Vec3:
     """``x`` turned by ``t`` (rad) about the line through ``on_axis`` along ``w``."""
     s, c = sincos(t)
@@ -100,9 +95,9 @@ def parallel_arm_candidates(
         (each pair ascending), then the wrist.
     """
     trig_tol, eps, free_tol, axis_tol = closed_form_tols(tols)
-    z1, z2, z3 = _vec(z, 0), _vec(z, 1), _vec(z, 2)
-    p1, p2, p3 = _vec(p, 0), _vec(p, 1), _vec(p, 2)
-    W = meeting_point(_vec(z, 3), _vec(p, 3), _vec(z, 4), _vec(p, 4))
+    z1, z2, z3 = vec_at(z, 0), vec_at(z, 1), vec_at(z, 2)
+    p1, p2, p3 = vec_at(p, 0), vec_at(p, 1), vec_at(p, 2)
+    W = meeting_point(vec_at(z, 3), vec_at(p, 3), vec_at(z, 4), vec_at(p, 4))
     RG, tG = target_frame(T, M)
     Wt = axpy(1.0, apply(RG, W), tG)
     across = wrist_across(z)
