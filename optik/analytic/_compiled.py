@@ -251,6 +251,11 @@ class AxesOffsets(NamedTuple):
     tool: int
     tols: int
 
+    @property
+    def layout(self) -> tuple[int, int, int, int, int, int]:
+        """Where :func:`optik.analytic._pipeline.postprocess_rows` finds the robot's data."""
+        return (self.kind, 1, self.lower, self.upper, self.chain, self.tols)
+
 
 def axes_offsets(dof: int, head: int) -> AxesOffsets:
     """The :class:`AxesOffsets` of a ``dof``-joint chain after ``head`` entries."""

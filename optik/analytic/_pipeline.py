@@ -455,6 +455,34 @@ def postprocess_rows(
 
 
 @_inline
+def postprocess_one(
+    params: np.ndarray,
+    layout: Layout,
+    dof: int,
+    held: int,
+    held_value: float,
+    T1: np.ndarray,
+    ref1: np.ndarray,
+    flags: int,
+    rows: np.ndarray,
+    flat: np.ndarray,
+    n: int,
+    pre: np.ndarray,
+    out: np.ndarray,
+) -> int:
+    """:func:`postprocess_rows` of a single call: target ``T1[0]``, reference ``ref1[0]``.
+
+    ``flags`` as :func:`solve` takes them; the rows go to ``out`` (8, dof). Returns their
+    count.
+    """
+    sort, within = flag_bits(flags)
+    return postprocess_rows(
+        params, layout, dof, held, held_value, T1, 0, ref1, 0, sort, within, rows, flat, n,
+        pre, out[None],
+    )  # fmt: skip
+
+
+@_inline
 def input_code(params: np.ndarray, tols: int, T1: np.ndarray, ref: np.ndarray) -> int:
     """The inputs of a single call checked: 0 valid, -1 or -2 as :func:`solve` returns.
 
@@ -495,7 +523,8 @@ def batch_work(
     pre, flat, rows = work_rows(dof)
     Q = np.empty((n, MAX_BRANCHES, dof))
     counts = np.zeros(n, dtype=np.int64)
-    return (flags & SORT) != 0, (flags & WITHIN_LIMITS) != 0, pre, flat, rows, Q, counts
+    sort, within = flag_bits(flags)
+    return sort, within, pre, flat, rows, Q, counts
 
 
 @_inline
@@ -510,6 +539,12 @@ SORT = 1
 """Flag of :func:`solve` / :func:`solve_batch`: sort the branches by distance to ``ref``."""
 WITHIN_LIMITS = 2
 """Flag of :func:`solve` / :func:`solve_batch`: drop branches outside the joint limits."""
+
+
+@_inline
+def flag_bits(flags: int) -> tuple[bool, bool]:
+    """``(sort, within)``: the :data:`SORT` and :data:`WITHIN_LIMITS` bits of ``flags``."""
+    return (flags & SORT) != 0, (flags & WITHIN_LIMITS) != 0
 
 
 @_jit
@@ -543,12 +578,9 @@ def solve(params: np.ndarray, T: np.ndarray, ref: np.ndarray, flags: int, out: n
     _transform_target(params, T1, 0, T0)
     dh = params[AT_DH:AT_LOWER].reshape((DOF, NCOL))
     n = robot_candidates(params, dh, T1, 0, T0, ref1, 0, rows)
-    sort = (flags & SORT) != 0
-    within = (flags & WITHIN_LIMITS) != 0
-    return postprocess_rows(
-        params, SIX_JOINT_LAYOUT, DOF, -1, 0.0, T1, 0, ref1, 0, sort, within, rows, flat, n,
-        pre, out[None],
-    )  # fmt: skip
+    return postprocess_one(
+        params, SIX_JOINT_LAYOUT, DOF, -1, 0.0, T1, ref1, flags, rows, flat, n, pre, out
+    )
 
 
 @_jit

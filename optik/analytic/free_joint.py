@@ -43,12 +43,11 @@ from optik.analytic._compiled import (
     tolerance_block,
 )
 from optik.analytic._pipeline import (
-    SORT,
-    WITHIN_LIMITS,
     Layout,
     batch_work,
     input_code,
     pad_rows,
+    postprocess_one,
     postprocess_rows,
     work_rows,
 )
@@ -68,10 +67,9 @@ FREE_DOF = 7
 # optik.analytic._compiled.AxesOffsets (limits, chain, axes and tool at q = 0, tolerances).
 AT_HELD = 0  # (1,) the held joint's index
 AT_REVERSE = 1  # (1,) 1.0 when the closed form solves the chain read backwards
-AT_KIND, AT_LOWER, AT_UPPER, AT_CHAIN, AT_DIRECTIONS, AT_POINTS, AT_TOOL, AT_TOLS = axes_offsets(
-    FREE_DOF, 2
-)
-FREE_LAYOUT: Layout = (AT_KIND, 1, AT_LOWER, AT_UPPER, AT_CHAIN, AT_TOLS)
+_AT = axes_offsets(FREE_DOF, 2)
+AT_KIND, AT_LOWER, AT_UPPER, AT_CHAIN, AT_DIRECTIONS, AT_POINTS, AT_TOOL, AT_TOLS = _AT
+FREE_LAYOUT: Layout = _AT.layout
 """Where :func:`optik.analytic._pipeline.postprocess_rows` finds the robot's data."""
 
 
@@ -333,10 +331,9 @@ def solve(
     ref1[0, k] = value
     pre, flat, rows = work_rows(FREE_DOF)
     n = _candidates_into(params, value, T, ref1[0], rows, _scratch())
-    return postprocess_rows(
-        params, FREE_LAYOUT, FREE_DOF, k, value, T1, 0, ref1, 0, (flags & SORT) != 0,
-        (flags & WITHIN_LIMITS) != 0, rows, flat, n, pre, out[None],
-    )  # fmt: skip
+    return postprocess_one(
+        params, FREE_LAYOUT, FREE_DOF, k, value, T1, ref1, flags, rows, flat, n, pre, out
+    )
 
 
 @_jit

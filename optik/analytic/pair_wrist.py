@@ -117,7 +117,8 @@ def pair_wrist_candidates(
     across = wrist_across(z)
     p3 = vec_at(p, 2)
     n = 0
-    n3, e1, e2 = distance_angles(z3, p3, W, S, dist2, ref[2], trig_tol, eps, free_tol, REACH_TOL)
+    roots = (trig_tol, eps, free_tol, REACH_TOL)
+    n3, e1, e2 = distance_angles(z3, p3, W, S, dist2, ref[2], roots)
     for i3 in range(n3):
         t3 = e1 if i3 == 0 else e2
         s3, c3 = sincos(t3)

@@ -95,6 +95,7 @@ def parallel_arm_candidates(
         (each pair ascending), then the wrist.
     """
     trig_tol, eps, free_tol, axis_tol = closed_form_tols(tols)
+    roots = (trig_tol, eps, free_tol, REACH_TOL)
     z1, z2, z3 = vec_at(z, 0), vec_at(z, 1), vec_at(z, 2)
     p1, p2, p3 = vec_at(p, 0), vec_at(p, 1), vec_at(p, 2)
     W = meeting_point(vec_at(z, 3), vec_at(p, 3), vec_at(z, 4), vec_at(p, 4))
@@ -103,16 +104,12 @@ def parallel_arm_candidates(
     across = wrist_across(z)
     n = 0
     if kind == PARALLEL_12:
-        na, a1, a2 = plane_angles(
-            z3, p3, W, z1, dot(z1, Wt), ref[2], trig_tol, eps, free_tol, REACH_TOL
-        )
+        na, a1, a2 = plane_angles(z3, p3, W, z1, dot(z1, Wt), ref[2], roots)
         d = sub(Wt, p1)
         for ia in range(na):
             t3 = a1 if ia == 0 else a2
             X = _turn(z3, p3, t3, W)
-            nb_, b1, b2 = distance_angles(
-                z2, p2, X, p1, dot(d, d), ref[1], trig_tol, eps, free_tol, REACH_TOL
-            )
+            nb_, b1, b2 = distance_angles(z2, p2, X, p1, dot(d, d), ref[1], roots)
             for ib in range(nb_):
                 t2 = b1 if ib == 0 else b2
                 t1 = sp1_angle(z1, sub(_turn(z2, p2, t2, X), p1), d, ref[0], axis_tol)
@@ -122,15 +119,11 @@ def parallel_arm_candidates(
                 )
         return n
     back = (-z1[0], -z1[1], -z1[2])  # R_1(q)^-1 turns by q about -z1
-    na, a1, a2 = plane_angles(
-        back, p1, Wt, z2, dot(z2, W), ref[0], trig_tol, eps, free_tol, REACH_TOL
-    )
+    na, a1, a2 = plane_angles(back, p1, Wt, z2, dot(z2, W), ref[0], roots)
     for ia in range(na):
         t1 = a1 if ia == 0 else a2
         d = sub(_turn(back, p1, t1, Wt), p2)
-        nb_, b1, b2 = distance_angles(
-            z3, p3, W, p2, dot(d, d), ref[2], trig_tol, eps, free_tol, REACH_TOL
-        )
+        nb_, b1, b2 = distance_angles(z3, p3, W, p2, dot(d, d), ref[2], roots)
         for ib in range(nb_):
             t3 = b1 if ib == 0 else b2
             t2 = sp1_angle(z2, sub(_turn(z3, p3, t3, W), p2), d, ref[1], axis_tol)

@@ -43,12 +43,11 @@ from optik.analytic._compiled import (
     tolerance_block,
 )
 from optik.analytic._pipeline import (
-    SORT,
-    WITHIN_LIMITS,
     Layout,
     batch_work,
     input_code,
     pad_rows,
+    postprocess_one,
     postprocess_rows,
     work_rows,
 )
@@ -183,10 +182,9 @@ DOF = 6
 # optik.analytic._compiled.AxesOffsets (limits, chain, axes and tool at q = 0, tolerances).
 AT_ARM = 0  # (1,) the arm's kind
 AT_REVERSE = 1  # (1,) 1.0 when the closed form solves the chain read backwards
-AT_KIND, AT_LOWER, AT_UPPER, AT_CHAIN, AT_DIRECTIONS, AT_POINTS, AT_TOOL, AT_TOLS = axes_offsets(
-    DOF, 2
-)
-AXES_LAYOUT: Layout = (AT_KIND, 1, AT_LOWER, AT_UPPER, AT_CHAIN, AT_TOLS)
+_AT = axes_offsets(DOF, 2)
+AT_KIND, AT_LOWER, AT_UPPER, AT_CHAIN, AT_DIRECTIONS, AT_POINTS, AT_TOOL, AT_TOLS = _AT
+AXES_LAYOUT: Layout = _AT.layout
 """Where :func:`optik.analytic._pipeline.postprocess_rows` finds the robot's data."""
 
 
@@ -258,10 +256,9 @@ def solve(params: np.ndarray, T: np.ndarray, ref: np.ndarray, flags: int, out: n
     ref1 = ref[None]
     pre, flat, rows = work_rows(DOF)
     n = _candidates_into(params, T, ref, rows, _scratch(params))
-    return postprocess_rows(
-        params, AXES_LAYOUT, DOF, -1, 0.0, T1, 0, ref1, 0, (flags & SORT) != 0,
-        (flags & WITHIN_LIMITS) != 0, rows, flat, n, pre, out[None],
-    )  # fmt: skip
+    return postprocess_one(
+        params, AXES_LAYOUT, DOF, -1, 0.0, T1, ref1, flags, rows, flat, n, pre, out
+    )
 
 
 @_jit
