@@ -31,14 +31,15 @@ from __future__ import annotations
 import math
 from abc import abstractmethod
 from collections.abc import Callable, Sequence
-from typing import TYPE_CHECKING, ClassVar
+from typing import TYPE_CHECKING, ClassVar, NamedTuple
 
-import numba as nb
 import numpy as np
 
 from optik._checks import FloatArray
 from optik._kernels import Rows12
 from optik._math import sincos
+from optik._numba import inline as _inline
+from optik._numba import jit as _jit
 from optik.analytic._base import (
     DUPLICATE_TOLERANCE,
     FAMILIES,
@@ -60,7 +61,6 @@ from optik.trig import TRIG_TOL
 if TYPE_CHECKING:
     from optik.model import DHJoint, Robot
 
-_jit = nb.njit(cache=True, nogil=True, error_model="numpy")
 
 Rot9 = tuple[float, float, float, float, float, float, float, float, float]
 """A 3x3 rotation (or any 3x3 block), row-major, held in scalars."""
@@ -224,6 +224,83 @@ def tolerance_block() -> FloatArray:
     )
 
 
+class AxesOffsets(NamedTuple):
+    """Offsets of the blocks of a parameter vector built on the joint axes (flat float64).
+
+    The families solved from the joint axes at ``q = 0`` (``spherical_axes``, the
+    held-joint form of :mod:`optik.analytic.free_joint`) put a head of their own entries
+    first, then these blocks, for a chain of ``dof`` joints:
+
+    Attributes:
+        kind: (dof,) 1.0 for a prismatic joint.
+        lower: (dof,) lower limits (rad or m), -inf allowed.
+        upper: (dof,) upper limits, +inf allowed.
+        chain: (dof + 1, 3, 4) top rows of the robot's chain ``_K`` (the FK check).
+        directions: (dof, 3) unit joint directions at ``q = 0`` of the chain solved.
+        points: (dof, 3) a point on each of its axes (m).
+        tool: (4, 4) its tool at ``q = 0``, row-major.
+        tols: the tolerance block (:func:`tolerance_block`).
+    """
+
+    kind: int
+    lower: int
+    upper: int
+    chain: int
+    directions: int
+    points: int
+    tool: int
+    tols: int
+
+    @property
+    def layout(self) -> tuple[int, int, int, int, int, int]:
+        """Where :func:`optik.analytic._pipeline.postprocess_rows` finds the robot's data."""
+        return (self.kind, 1, self.lower, self.upper, self.chain, self.tols)
+
+
+def axes_offsets(dof: int, head: int) -> AxesOffsets:
+    """The :class:`AxesOffsets` of a ``dof``-joint chain after ``head`` entries."""
+    lower = head + dof
+    upper = lower + dof
+    chain = upper + dof
+    directions = chain + 12 * (dof + 1)
+    points = directions + 3 * dof
+    tool = points + 3 * dof
+    return AxesOffsets(head, lower, upper, chain, directions, points, tool, tool + 16)
+
+
+def pack_axes_vector(
+    robot: Robot,
+    head: Sequence[float],
+    directions: FloatArray,
+    points: FloatArray,
+    tool: FloatArray,
+    tols: FloatArray,
+) -> FloatArray:
+    """The flat parameter vector of a family solved on the joint axes (:class:`AxesOffsets`).
+
+    Args:
+        robot: the robot (its limits, prismatic flags and chain transforms ``_K``: the
+            FK check uses the kinematics of ``Robot.fk``).
+        head: the family's own leading entries.
+        directions: (dof, 3) unit joint directions at ``q = 0`` of the chain solved.
+        points: (dof, 3) a point on each of its axes (m).
+        tool: (4, 4) its tool at ``q = 0``.
+        tols: the tolerance block (:func:`tolerance_block`; numba freezes globals).
+    """
+    at = axes_offsets(robot.dof, len(head))
+    params = np.zeros(at.tols + len(tols))
+    params[: len(head)] = head
+    params[at.kind : at.lower] = robot.chain.prismatic
+    params[at.lower : at.upper] = robot.lower
+    params[at.upper : at.chain] = robot.upper
+    params[at.chain : at.directions] = robot.chain.K[:, :3, :].reshape(-1)
+    params[at.directions : at.points] = directions.reshape(-1)
+    params[at.points : at.tool] = points.reshape(-1)
+    params[at.tool : at.tols] = tool.reshape(-1)
+    params[at.tols :] = tols
+    return params
+
+
 def params_of(robot: Robot, family: int) -> FloatArray:
     """:func:`pack_params` of ``robot``, cached in the robot (do not modify it)."""
     kernel = _PACKERS[family]
@@ -340,7 +417,29 @@ def pose_tolerances() -> tuple[float, float]:
     return ROTATION_TOLERANCE, _BOTTOM_ROW_TOL
 
 
-@nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+@_inline
+def axes_block(params: np.ndarray, at: int, dof: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Copies of the joint axes stored in ``params`` from offset ``at``: ``(z, p, M)``.
+
+    ``z`` (dof, 3) unit joint directions at ``q = 0``, ``p`` (dof, 3) a point on each axis
+    (m) and ``M`` (4, 4) the tool at ``q = 0`` (row-major), stored one after the other as
+    :func:`pack_params` (at ``AT_AXES``) and :func:`pack_axes_vector` (at
+    ``AxesOffsets.directions``) store them.
+    """
+    z = np.empty((dof, 3))
+    p = np.empty((dof, 3))
+    M = np.empty((4, 4))
+    for i in range(dof):
+        for a in range(3):
+            z[i, a] = params[at + 3 * i + a]
+            p[i, a] = params[at + 3 * dof + 3 * i + a]
+    for a in range(4):
+        for b in range(4):
+            M[a, b] = params[at + 6 * dof + 4 * a + b]
+    return z, p, M
+
+
+@_inline
 def dh_row(dh: np.ndarray, i: int) -> tuple[float, float, float, float, float, float, float, float]:
     """Row ``i`` of a packed DH block, the columns of :data:`DH_COLUMNS` in order.
 
@@ -353,7 +452,7 @@ def dh_row(dh: np.ndarray, i: int) -> tuple[float, float, float, float, float, f
     )  # fmt: skip
 
 
-@nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+@_inline
 def store_branch(
     cand: np.ndarray, n: int, q: tuple[float, float, float, float, float, float]
 ) -> int:
@@ -363,7 +462,7 @@ def store_branch(
     return n + 1
 
 
-@nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+@_inline
 def closed_form_tols(tols: np.ndarray) -> tuple[float, float, float, float]:
     """The closed forms' tolerances from the tolerance block (:func:`tolerances`).
 
@@ -405,7 +504,7 @@ def mul3(
     )
 
 
-@nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+@_inline
 def transpose3(A: Rot9) -> Rot9:
     """``A^T`` for a row-major 3x3 9-tuple (no arithmetic: the entries move)."""
     return (A[0], A[3], A[6], A[1], A[4], A[7], A[2], A[5], A[8])

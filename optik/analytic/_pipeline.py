@@ -34,10 +34,11 @@ from __future__ import annotations
 
 import math
 
-import numba as nb
 import numpy as np
 
 from optik._math import _SINCOS_RANGE, _sincos_core, mod_two_pi, pose_defect, sincos
+from optik._numba import inline as _inline
+from optik._numba import jit as _jit
 from optik.analytic._compiled import (
     AT_AXES,
     AT_BASE_INV,
@@ -64,14 +65,13 @@ from optik.analytic._compiled import (
     TOL_ROTATION,
     TOL_VERIFY,
     UR,
+    axes_block,
     mul3tn,
 )
 from optik.analytic.pair_wrist import refine
 from optik.analytic.spherical_wrist import spherical_wrist_candidates
 from optik.analytic.ur import ur_candidates
 
-_jit = nb.njit(cache=True, nogil=True, error_model="numpy")
-_inline = nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
 _TWO_PI = 2.0 * math.pi
 
 Layout = tuple[int, int, int, int, int, int]
@@ -147,16 +147,7 @@ def refine_rows(params: np.ndarray, T: np.ndarray, k: int, rows: np.ndarray, n: 
     and :func:`optik.analytic.pair_wrist.refine` on the robot's own joint axes (the
     product of exponentials, world frame) restores each branch to rounding.
     """
-    z = np.empty((DOF, 3))
-    p = np.empty((DOF, 3))
-    M = np.empty((4, 4))
-    for i in range(DOF):
-        for a in range(3):
-            z[i, a] = params[AT_AXES + 3 * i + a]
-            p[i, a] = params[AT_AXES + 3 * DOF + 3 * i + a]
-    for a in range(4):
-        for b in range(4):
-            M[a, b] = params[AT_AXES + 6 * DOF + 4 * a + b]
+    z, p, M = axes_block(params, AT_AXES, DOF)
     lsq = np.empty((3, DOF, DOF))
     for r in range(n):
         refine(z, p, M, T[k], rows, r, lsq)
@@ -464,6 +455,34 @@ def postprocess_rows(
 
 
 @_inline
+def postprocess_one(
+    params: np.ndarray,
+    layout: Layout,
+    dof: int,
+    held: int,
+    held_value: float,
+    T1: np.ndarray,
+    ref1: np.ndarray,
+    flags: int,
+    rows: np.ndarray,
+    flat: np.ndarray,
+    n: int,
+    pre: np.ndarray,
+    out: np.ndarray,
+) -> int:
+    """:func:`postprocess_rows` of a single call: target ``T1[0]``, reference ``ref1[0]``.
+
+    ``flags`` as :func:`solve` takes them; the rows go to ``out`` (8, dof). Returns their
+    count.
+    """
+    sort, within = flag_bits(flags)
+    return postprocess_rows(
+        params, layout, dof, held, held_value, T1, 0, ref1, 0, sort, within, rows, flat, n,
+        pre, out[None],
+    )  # fmt: skip
+
+
+@_inline
 def input_code(params: np.ndarray, tols: int, T1: np.ndarray, ref: np.ndarray) -> int:
     """The inputs of a single call checked: 0 valid, -1 or -2 as :func:`solve` returns.
 
@@ -492,6 +511,23 @@ def work_rows(dof: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 @_inline
+def batch_work(
+    n: int, dof: int, flags: int
+) -> tuple[bool, bool, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Flags and scratch of a batch of ``n`` targets for ``dof`` joints, made once.
+
+    ``(sort, within, pre, flat, rows, Q, counts)``: the :data:`SORT` and
+    :data:`WITHIN_LIMITS` bits of ``flags``, :func:`work_rows`' scratch, then the outputs
+    ``Q`` (n, 8, dof) and ``counts`` (n,) of a ``solve_batch``.
+    """
+    pre, flat, rows = work_rows(dof)
+    Q = np.empty((n, MAX_BRANCHES, dof))
+    counts = np.zeros(n, dtype=np.int64)
+    sort, within = flag_bits(flags)
+    return sort, within, pre, flat, rows, Q, counts
+
+
+@_inline
 def pad_rows(Q: np.ndarray, k: int, m: int) -> None:
     """Fill the rows of ``Q[k]`` past its ``m`` branches with NaN."""
     for r in range(m, Q.shape[1]):
@@ -503,6 +539,12 @@ SORT = 1
 """Flag of :func:`solve` / :func:`solve_batch`: sort the branches by distance to ``ref``."""
 WITHIN_LIMITS = 2
 """Flag of :func:`solve` / :func:`solve_batch`: drop branches outside the joint limits."""
+
+
+@_inline
+def flag_bits(flags: int) -> tuple[bool, bool]:
+    """``(sort, within)``: the :data:`SORT` and :data:`WITHIN_LIMITS` bits of ``flags``."""
+    return (flags & SORT) != 0, (flags & WITHIN_LIMITS) != 0
 
 
 @_jit
@@ -536,12 +578,9 @@ def solve(params: np.ndarray, T: np.ndarray, ref: np.ndarray, flags: int, out: n
     _transform_target(params, T1, 0, T0)
     dh = params[AT_DH:AT_LOWER].reshape((DOF, NCOL))
     n = robot_candidates(params, dh, T1, 0, T0, ref1, 0, rows)
-    sort = (flags & SORT) != 0
-    within = (flags & WITHIN_LIMITS) != 0
-    return postprocess_rows(
-        params, SIX_JOINT_LAYOUT, DOF, -1, 0.0, T1, 0, ref1, 0, sort, within, rows, flat, n,
-        pre, out[None],
-    )  # fmt: skip
+    return postprocess_one(
+        params, SIX_JOINT_LAYOUT, DOF, -1, 0.0, T1, ref1, flags, rows, flat, n, pre, out
+    )
 
 
 @_jit
@@ -563,13 +602,9 @@ def solve_batch(
     """
     N = T.shape[0]
     shared = ref.shape[0] == 1
-    sort = (flags & SORT) != 0
-    within = (flags & WITHIN_LIMITS) != 0
+    sort, within, pre, flat, rows, Q, counts = batch_work(N, DOF, flags)
     dh = params[AT_DH:AT_LOWER].reshape((DOF, NCOL))
     T0 = np.empty((4, 4))
-    pre, flat, rows = work_rows(DOF)
-    Q = np.empty((N, MAX_BRANCHES, DOF))
-    counts = np.zeros(N, dtype=np.int64)
     for k in range(N):
         kr = 0 if shared else k
         _transform_target(params, T, k, T0)

@@ -27,17 +27,26 @@ from __future__ import annotations
 
 import math
 
-import numba as nb
+import numpy as np
 
 from optik._math import sincos, trig_roots
+from optik._numba import inline as _inline
+from optik._numba import jit as _jit
 
 Vec3 = tuple[float, float, float]
 """A vector (or point) in scalars."""
 Rot9 = tuple[float, float, float, float, float, float, float, float, float]
 """A 3x3 rotation, row-major, in scalars."""
+RootTols = tuple[float, float, float, float]
+"""The tolerances of a root solve, ``(trig_tol, eps, free_tol, reach_tol)``: those of
+:func:`optik._math.trig_roots`, then the relative slack of the tangent root
+(:func:`_roots_or_tangent`)."""
 
-_inline = nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
-_jit = nb.njit(cache=True, nogil=True, error_model="numpy")
+
+@_inline
+def vec_at(a: np.ndarray, i: int) -> Vec3:
+    """Row ``i`` of an (n, 3) array ``a`` as a vector."""
+    return (a[i, 0], a[i, 1], a[i, 2])
 
 
 @_inline
@@ -118,12 +127,8 @@ def apply(R: Rot9, v: Vec3) -> Vec3:
 
 @_inline
 def apply_t(R: Rot9, v: Vec3) -> Vec3:
-    """``R^T v``."""
-    return (
-        R[0] * v[0] + R[3] * v[1] + R[6] * v[2],
-        R[1] * v[0] + R[4] * v[1] + R[7] * v[2],
-        R[2] * v[0] + R[5] * v[1] + R[8] * v[2],
-    )
+    """``R^T v``: :func:`apply` of the transpose (inlined, the tuple costs nothing)."""
+    return apply((R[0], R[3], R[6], R[1], R[4], R[7], R[2], R[5], R[8]), v)
 
 
 @_jit
@@ -218,10 +223,7 @@ def distance_angles(
     centre: Vec3,
     dist2: float,
     ref: float,
-    trig_tol: float,
-    eps: float,
-    free_tol: float,
-    reach_tol: float,
+    roots: RootTols,
 ) -> tuple[int, float, float]:
     """Angles ``t`` with ``|R_line(t) point - centre|^2 = dist2``: ``(count, t_1, t_2)``.
 
@@ -231,7 +233,7 @@ def distance_angles(
     dist2 - |d|^2 - |u|^2`` with ``d = o - centre``, divided by ``|d|^2 + |u|^2``. Both
     ``d.u`` and ``d.(w x u)`` vanish (the distance does not depend on ``t``: ``centre`` or
     ``point`` on the line) -> :func:`optik._math.trig_roots`'s free rule, ``ref``.
-    A distance beyond the reachable range by at most ``reach_tol`` (relative, in the
+    A distance beyond the reachable range by at most ``reach_tol`` of ``roots`` (relative, in the
     normalised equation) gives the tangent angle: axes that meet only to within the
     geometry's tolerance put a stretched arm's target just out of its exact reach.
     """
@@ -243,7 +245,7 @@ def distance_angles(
     a = 2.0 * dot(d, u) / scale
     b = 2.0 * dot(d, v) / scale
     c = (dist2 - scale) / scale
-    return _roots_or_tangent(a, b, c, ref, trig_tol, eps, free_tol, reach_tol)
+    return _roots_or_tangent(a, b, c, ref, roots)
 
 
 @_inline
@@ -264,10 +266,7 @@ def _roots_or_tangent(
     b: float,
     c: float,
     ref: float,
-    trig_tol: float,
-    eps: float,
-    free_tol: float,
-    reach_tol: float,
+    roots: RootTols,
 ) -> tuple[int, float, float]:
     """:func:`optik._math.trig_roots` of ``a cos t + b sin t = c``, or its tangent root.
 
@@ -276,6 +275,7 @@ def _roots_or_tangent(
     geometry's tolerance put a stretched arm's target just out of its exact reach; the
     caller's FK check judges the miss.
     """
+    trig_tol, eps, free_tol, reach_tol = roots
     n, t1, t2 = trig_roots(a, b, c, ref, trig_tol, eps, free_tol)
     r = math.sqrt(a * a + b * b)
     if n == 0 and r > eps and abs(c) <= r * (1.0 + reach_tol):
@@ -293,10 +293,7 @@ def plane_angles(
     h: Vec3,
     height: float,
     ref: float,
-    trig_tol: float,
-    eps: float,
-    free_tol: float,
-    reach_tol: float,
+    roots: RootTols,
 ) -> tuple[int, float, float]:
     """Angles ``t`` with ``h . R_line(t) point = height``: ``(count, t_1, t_2)``.
 
@@ -307,7 +304,7 @@ def plane_angles(
     (coefficients of order 1). Both ``h.u`` and ``h.(w x u)`` vanish (the height does
     not depend on ``t``: ``point`` on the line, or ``h`` along it) -> the free rule of
     :func:`optik._math.trig_roots`, ``ref``. A height beyond the reachable range by at
-    most ``reach_tol`` (relative) gives the tangent angle (:func:`_roots_or_tangent`).
+    most ``reach_tol`` of ``roots`` (relative) gives the tangent angle (:func:`_roots_or_tangent`).
     """
     foot, u, v = _circle(w, on_axis, point)
     rhs = height - dot(h, foot)
@@ -316,7 +313,7 @@ def plane_angles(
         return 1, ref, ref
     a = dot(h, u) / scale
     b = dot(h, v) / scale
-    return _roots_or_tangent(a, b, rhs / scale, ref, trig_tol, eps, free_tol, reach_tol)
+    return _roots_or_tangent(a, b, rhs / scale, ref, roots)
 
 
 @_jit

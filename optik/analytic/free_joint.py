@@ -31,20 +31,23 @@ from __future__ import annotations
 
 from typing import NamedTuple
 
-import numba as nb
 import numpy as np
 
 from optik._checks import FloatArray
+from optik._numba import inline as _inline
+from optik._numba import jit as _jit
 from optik.analytic._compiled import (
     MAX_BRANCHES,
+    axes_offsets,
+    pack_axes_vector,
     tolerance_block,
 )
 from optik.analytic._pipeline import (
-    SORT,
-    WITHIN_LIMITS,
     Layout,
+    batch_work,
     input_code,
     pad_rows,
+    postprocess_one,
     postprocess_rows,
     work_rows,
 )
@@ -53,8 +56,6 @@ from optik.analytic.geometry import Axes, joint_axes, reversed_axes, revolute_ch
 from optik.analytic.pair_wrist import pair_wrist_candidates, structure_reason
 from optik.model import Robot
 
-_jit = nb.njit(cache=True, nogil=True, error_model="numpy")
-
 CHECK_VALUES = (0.0, 2.0, -2.5)
 """Held values (rad) at which the structure is checked (distinct modulo 2 pi)."""
 
@@ -62,18 +63,13 @@ FREE_DOF = 7
 """Joint count of the arms solved around a held joint."""
 
 # Layout of the compiled kernels' parameter vector (:func:`pack_free_params`, flat
-# float64): offsets of each block.
+# float64): the held joint and the form's direction, then the blocks of
+# optik.analytic._compiled.AxesOffsets (limits, chain, axes and tool at q = 0, tolerances).
 AT_HELD = 0  # (1,) the held joint's index
 AT_REVERSE = 1  # (1,) 1.0 when the closed form solves the chain read backwards
-AT_KIND = AT_REVERSE + 1  # (7,) 1.0 for a prismatic joint (none here: the layout's rule)
-AT_LOWER = AT_KIND + FREE_DOF  # (7,) lower limits (rad), -inf allowed
-AT_UPPER = AT_LOWER + FREE_DOF  # (7,) upper limits (rad), +inf allowed
-AT_CHAIN = AT_UPPER + FREE_DOF  # (8, 3, 4) top rows of the robot's chain _K (FK check)
-AT_DIRECTIONS = AT_CHAIN + 12 * (FREE_DOF + 1)  # (7, 3) joint directions at q = 0
-AT_POINTS = AT_DIRECTIONS + 3 * FREE_DOF  # (7, 3) a point on each axis (m)
-AT_TOOL = AT_POINTS + 3 * FREE_DOF  # (4, 4) world pose of the tool at q = 0, row-major
-AT_TOLS = AT_TOOL + 16  # the tolerance block of optik.analytic._compiled
-FREE_LAYOUT: Layout = (AT_KIND, 1, AT_LOWER, AT_UPPER, AT_CHAIN, AT_TOLS)
+_AT = axes_offsets(FREE_DOF, 2)
+AT_KIND, AT_LOWER, AT_UPPER, AT_CHAIN, AT_DIRECTIONS, AT_POINTS, AT_TOOL, AT_TOLS = _AT
+FREE_LAYOUT: Layout = _AT.layout
 """Where :func:`optik.analytic._pipeline.postprocess_rows` finds the robot's data."""
 
 
@@ -153,18 +149,8 @@ def pack_free_params(robot: Robot, plan: FreeJointPlan) -> FloatArray:
     check uses the kinematics of ``Robot.fk``), the joint axes and the tool at ``q = 0``,
     and the tolerances (read from their home modules: numba freezes globals).
     """
-    params = np.zeros(AT_TOLS + len(tolerance_block()))
-    params[AT_HELD] = plan.held
-    params[AT_REVERSE] = 1.0 if plan.reverse else 0.0
-    params[AT_KIND:AT_LOWER] = robot.chain.prismatic
-    params[AT_LOWER:AT_UPPER] = robot.lower
-    params[AT_UPPER:AT_CHAIN] = robot.upper
-    params[AT_CHAIN:AT_DIRECTIONS] = robot.chain.K[:, :3, :].reshape(-1)
-    params[AT_DIRECTIONS:AT_POINTS] = plan.directions.reshape(-1)
-    params[AT_POINTS:AT_TOOL] = plan.points.reshape(-1)
-    params[AT_TOOL:AT_TOLS] = plan.tool.reshape(-1)
-    params[AT_TOLS:] = tolerance_block()
-    return params
+    head = (plan.held, 1.0 if plan.reverse else 0.0)
+    return pack_axes_vector(robot, head, plan.directions, plan.points, plan.tool, tolerance_block())
 
 
 # ---------------------------------------------------------------------- the compiled kernels
@@ -294,7 +280,7 @@ def free_joint_candidates(
     return _candidates_into(params, value, T, ref, cand, _scratch())
 
 
-@nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+@_inline
 def _row3(params: np.ndarray, at: int, i: int) -> Vec3:
     """Row ``i`` of the (7, 3) block of ``params`` at offset ``at``."""
     o = at + 3 * i
@@ -331,8 +317,8 @@ def solve(
         out: (8, 7) output rows.
 
     Returns:
-        The number of branches written (0 to 8); -1 when ``T`` is not a valid pose
-        (:func:`optik._math.pose_defect`), -2 when ``ref`` is not finite.
+        What :func:`optik.analytic._pipeline.solve` returns: the branch count (0 to 8) or
+        its -1 / -2 input codes.
     """
     T1 = T[None]
     code = input_code(params, AT_TOLS, T1, ref)
@@ -345,10 +331,9 @@ def solve(
     ref1[0, k] = value
     pre, flat, rows = work_rows(FREE_DOF)
     n = _candidates_into(params, value, T, ref1[0], rows, _scratch())
-    return postprocess_rows(
-        params, FREE_LAYOUT, FREE_DOF, k, value, T1, 0, ref1, 0, (flags & SORT) != 0,
-        (flags & WITHIN_LIMITS) != 0, rows, flat, n, pre, out[None],
-    )  # fmt: skip
+    return postprocess_one(
+        params, FREE_LAYOUT, FREE_DOF, k, value, T1, ref1, flags, rows, flat, n, pre, out
+    )
 
 
 @_jit
@@ -369,13 +354,9 @@ def solve_batch(
     """
     N = T.shape[0]
     k = int(params[AT_HELD])
-    sort = (flags & SORT) != 0
-    within = (flags & WITHIN_LIMITS) != 0
+    sort, within, pre, flat, rows, Q, counts = batch_work(N, FREE_DOF, flags)
     work = _scratch()
     refs = np.empty((1, FREE_DOF))
-    pre, flat, rows = work_rows(FREE_DOF)
-    Q = np.empty((N, MAX_BRANCHES, FREE_DOF))
-    counts = np.zeros(N, dtype=np.int64)
     for i in range(N):
         kr = 0 if ref.shape[0] == 1 else i
         value = values[0] if values.shape[0] == 1 else values[i]

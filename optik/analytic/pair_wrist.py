@@ -36,11 +36,15 @@ Tolerances are those of the compiled families (:data:`optik.analytic._compiled.T
 
 from __future__ import annotations
 
-import numba as nb
 import numpy as np
 
 from optik._checks import FloatArray
 from optik._math import sincos
+
+# Steps shared by the closed forms are inlined into each: a call per shoulder branch cost
+# 4-15 % of a held-joint solve.
+from optik._numba import inline as _inline
+from optik._numba import jit as _jit
 from optik.analytic._compiled import MAX_BRANCHES, closed_form_tols, mul3, mul3tn
 from optik.analytic._subproblems import (
     Rot9,
@@ -56,6 +60,7 @@ from optik.analytic._subproblems import (
     sp1_angle,
     sp2_angles,
     sub,
+    vec_at,
 )
 from optik.analytic.geometry import (
     ANGLE_TOL,
@@ -65,11 +70,6 @@ from optik.analytic.geometry import (
     point_line_distance,
 )
 
-_jit = nb.njit(cache=True, nogil=True, error_model="numpy")
-# Steps shared by the closed forms, inlined into each: a call per shoulder branch cost
-# 4-15 % of a held-joint solve.
-_inline = nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
-
 REACH_TOL = 1e-9
 """A wrist centre beyond the elbow's reach by at most this (relative) takes the tangent
 elbow (:func:`optik.analytic._subproblems.distance_angles`), and the shoulder's
@@ -77,11 +77,6 @@ subproblem 2 the tangent pair when its gap is below zero by at most ``REACH_TOL 
 (:func:`optik.analytic._subproblems.sp2_angles`): axes that meet only to the geometry's
 tolerance (a URDF angle written to 11 digits; the Panda at q5 = +-pi/2 with q7 held) put
 a double root just out of exact reach. The FK check and the polish judge the rest."""
-
-
-@nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _vec(a: np.ndarray, i: int) -> Vec3:
-    return (a[i, 0], a[i, 1], a[i, 2])
 
 
 @_jit
@@ -111,18 +106,19 @@ def pair_wrist_candidates(
         The number of rows written (0 to 8), in the order of the module docstring.
     """
     trig_tol, eps, free_tol, axis_tol = closed_form_tols(tols)
-    z1, z2, z3, z4, z5 = _vec(z, 0), _vec(z, 1), _vec(z, 2), _vec(z, 3), _vec(z, 4)
-    S = meeting_point(z1, _vec(p, 0), z2, _vec(p, 1))
-    W = meeting_point(z4, _vec(p, 3), z5, _vec(p, 4))
+    z1, z2, z3, z4, z5 = vec_at(z, 0), vec_at(z, 1), vec_at(z, 2), vec_at(z, 3), vec_at(z, 4)
+    S = meeting_point(z1, vec_at(p, 0), z2, vec_at(p, 1))
+    W = meeting_point(z4, vec_at(p, 3), z5, vec_at(p, 4))
     RG, tG = target_frame(T, M)
     GW = apply(RG, W)
     Wt = (GW[0] + tG[0], GW[1] + tG[1], GW[2] + tG[2])
     q = sub(Wt, S)
     dist2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2]
     across = wrist_across(z)
-    p3 = _vec(p, 2)
+    p3 = vec_at(p, 2)
     n = 0
-    n3, e1, e2 = distance_angles(z3, p3, W, S, dist2, ref[2], trig_tol, eps, free_tol, REACH_TOL)
+    roots = (trig_tol, eps, free_tol, REACH_TOL)
+    n3, e1, e2 = distance_angles(z3, p3, W, S, dist2, ref[2], roots)
     for i3 in range(n3):
         t3 = e1 if i3 == 0 else e2
         s3, c3 = sincos(t3)
@@ -156,7 +152,7 @@ def target_frame(T: np.ndarray, M: np.ndarray) -> tuple[Rot9, Vec3]:
 @_inline
 def wrist_across(z: np.ndarray) -> Vec3:
     """A unit direction across axis 6 (``z5 x z6``), for :func:`wrist_branches`."""
-    across = cross(_vec(z, 4), _vec(z, 5))
+    across = cross(vec_at(z, 4), vec_at(z, 5))
     na = norm(across)
     return (across[0] / na, across[1] / na, across[2] / na)
 
@@ -188,7 +184,7 @@ def wrist_branches(
     arguments as :func:`pair_wrist_candidates`'.
     """
     trig_tol, _, _, axis_tol = closed_form_tols(tols)
-    z4, z5, z6 = _vec(z, 3), _vec(z, 4), _vec(z, 5)
+    z4, z5, z6 = vec_at(z, 3), vec_at(z, 4), vec_at(z, 5)
     H = mul3tn(R123, RG)
     n45, ta, tb, tc, td = sp2_angles(z4, z5, z6, apply(H, z6), ref[3], ref[4], trig_tol, axis_tol)
     for i45 in range(n45):
@@ -233,17 +229,17 @@ def _pose_error(
     R: Rot9 = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
     t = (0.0, 0.0, 0.0)
     for i in range(6):
-        w = apply(R, _vec(z, i))
-        c = apply(R, _vec(p, i))
+        w = apply(R, vec_at(z, i))
+        c = apply(R, vec_at(p, i))
         c = (c[0] + t[0], c[1] + t[1], c[2] + t[2])
         for a in range(3):
             J[3 + a, i] = w[a]
         J[0, i] = c[0]
         J[1, i] = c[1]
         J[2, i] = c[2]
-        Ri = rotation(_vec(z, i), q[i])
+        Ri = rotation(vec_at(z, i), q[i])
         # Moving frame: the joint turns about its line through p_i.
-        pi = _vec(p, i)
+        pi = vec_at(p, i)
         Rp = apply(Ri, pi)
         ti = (pi[0] - Rp[0], pi[1] - Rp[1], pi[2] - Rp[2])
         Rti = apply(R, ti)

@@ -30,10 +30,11 @@ its point on its axis, the wrist's ``q_4`` with axes 4 and 6 aligned.
 
 from __future__ import annotations
 
-import numba as nb
 import numpy as np
 
 from optik._math import sincos
+from optik._numba import inline as _inline
+from optik._numba import jit as _jit
 from optik.analytic._compiled import closed_form_tols, mul3
 from optik.analytic._subproblems import (
     Vec3,
@@ -47,10 +48,9 @@ from optik.analytic._subproblems import (
     rotation,
     sp1_angle,
     sub,
+    vec_at,
 )
 from optik.analytic.pair_wrist import REACH_TOL, target_frame, wrist_across, wrist_branches
-
-_jit = nb.njit(cache=True, nogil=True, error_model="numpy")
 
 PARALLEL_12 = 1
 """Arm kind: axes 1 and 2 parallel."""
@@ -58,12 +58,7 @@ PARALLEL_23 = 2
 """Arm kind: axes 2 and 3 parallel."""
 
 
-@nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _vec(a: np.ndarray, i: int) -> Vec3:
-    return (a[i, 0], a[i, 1], a[i, 2])
-
-
-@nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+@_inline
 def _turn(w: Vec3, on_axis: Vec3, t: float, x: Vec3) -> Vec3:
     """``x`` turned by ``t`` (rad) about the line through ``on_axis`` along ``w``."""
     s, c = sincos(t)
@@ -100,24 +95,21 @@ def parallel_arm_candidates(
         (each pair ascending), then the wrist.
     """
     trig_tol, eps, free_tol, axis_tol = closed_form_tols(tols)
-    z1, z2, z3 = _vec(z, 0), _vec(z, 1), _vec(z, 2)
-    p1, p2, p3 = _vec(p, 0), _vec(p, 1), _vec(p, 2)
-    W = meeting_point(_vec(z, 3), _vec(p, 3), _vec(z, 4), _vec(p, 4))
+    roots = (trig_tol, eps, free_tol, REACH_TOL)
+    z1, z2, z3 = vec_at(z, 0), vec_at(z, 1), vec_at(z, 2)
+    p1, p2, p3 = vec_at(p, 0), vec_at(p, 1), vec_at(p, 2)
+    W = meeting_point(vec_at(z, 3), vec_at(p, 3), vec_at(z, 4), vec_at(p, 4))
     RG, tG = target_frame(T, M)
     Wt = axpy(1.0, apply(RG, W), tG)
     across = wrist_across(z)
     n = 0
     if kind == PARALLEL_12:
-        na, a1, a2 = plane_angles(
-            z3, p3, W, z1, dot(z1, Wt), ref[2], trig_tol, eps, free_tol, REACH_TOL
-        )
+        na, a1, a2 = plane_angles(z3, p3, W, z1, dot(z1, Wt), ref[2], roots)
         d = sub(Wt, p1)
         for ia in range(na):
             t3 = a1 if ia == 0 else a2
             X = _turn(z3, p3, t3, W)
-            nb_, b1, b2 = distance_angles(
-                z2, p2, X, p1, dot(d, d), ref[1], trig_tol, eps, free_tol, REACH_TOL
-            )
+            nb_, b1, b2 = distance_angles(z2, p2, X, p1, dot(d, d), ref[1], roots)
             for ib in range(nb_):
                 t2 = b1 if ib == 0 else b2
                 t1 = sp1_angle(z1, sub(_turn(z2, p2, t2, X), p1), d, ref[0], axis_tol)
@@ -127,15 +119,11 @@ def parallel_arm_candidates(
                 )
         return n
     back = (-z1[0], -z1[1], -z1[2])  # R_1(q)^-1 turns by q about -z1
-    na, a1, a2 = plane_angles(
-        back, p1, Wt, z2, dot(z2, W), ref[0], trig_tol, eps, free_tol, REACH_TOL
-    )
+    na, a1, a2 = plane_angles(back, p1, Wt, z2, dot(z2, W), ref[0], roots)
     for ia in range(na):
         t1 = a1 if ia == 0 else a2
         d = sub(_turn(back, p1, t1, Wt), p2)
-        nb_, b1, b2 = distance_angles(
-            z3, p3, W, p2, dot(d, d), ref[2], trig_tol, eps, free_tol, REACH_TOL
-        )
+        nb_, b1, b2 = distance_angles(z3, p3, W, p2, dot(d, d), ref[2], roots)
         for ib in range(nb_):
             t3 = b1 if ib == 0 else b2
             t2 = sp1_angle(z2, sub(_turn(z3, p3, t3, W), p2), d, ref[1], axis_tol)

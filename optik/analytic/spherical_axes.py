@@ -30,21 +30,24 @@ from __future__ import annotations
 
 from typing import NamedTuple
 
-import numba as nb
 import numpy as np
 
 from optik._checks import FloatArray
+from optik._numba import jit as _jit
 from optik.analytic._base import AnalyticFamily, CompiledPipeline, register
 from optik.analytic._compiled import (
     MAX_BRANCHES,
+    axes_block,
+    axes_offsets,
+    pack_axes_vector,
     tolerance_block,
 )
 from optik.analytic._pipeline import (
-    SORT,
-    WITHIN_LIMITS,
     Layout,
+    batch_work,
     input_code,
     pad_rows,
+    postprocess_one,
     postprocess_rows,
     work_rows,
 )
@@ -69,8 +72,6 @@ from optik.analytic.pair_wrist import (
 from optik.analytic.parallel_arm import PARALLEL_12, PARALLEL_23, parallel_arm_candidates
 from optik.model import Robot
 from optik.spatial import invert_transform
-
-_jit = nb.njit(cache=True, nogil=True, error_model="numpy")
 
 INTERSECTING = 3
 """Arm kind: axes 1 and 2 meet (:func:`optik.analytic.pair_wrist.pair_wrist_candidates`)."""
@@ -176,19 +177,14 @@ def _arrays(axes: Axes) -> tuple[FloatArray, FloatArray, FloatArray]:
 
 
 DOF = 6
-# Layout of the compiled kernels' parameter vector (pack_axes_params, flat float64):
-# offsets of each block.
+# Layout of the compiled kernels' parameter vector (pack_axes_params, flat float64): the
+# arm's kind and the form's direction, then the blocks of
+# optik.analytic._compiled.AxesOffsets (limits, chain, axes and tool at q = 0, tolerances).
 AT_ARM = 0  # (1,) the arm's kind
 AT_REVERSE = 1  # (1,) 1.0 when the closed form solves the chain read backwards
-AT_KIND = 2  # (6,) 1.0 for a prismatic joint (none here: the layout's rule)
-AT_LOWER = AT_KIND + DOF  # (6,) lower limits (rad), -inf allowed
-AT_UPPER = AT_LOWER + DOF  # (6,) upper limits (rad), +inf allowed
-AT_CHAIN = AT_UPPER + DOF  # (7, 3, 4) top rows of the robot's chain _K (FK check)
-AT_DIRECTIONS = AT_CHAIN + 12 * (DOF + 1)  # (6, 3) joint directions of the chain solved
-AT_POINTS = AT_DIRECTIONS + 3 * DOF  # (6, 3) a point on each of its axes (m)
-AT_TOOL = AT_POINTS + 3 * DOF  # (4, 4) its tool at q = 0, row-major
-AT_TOLS = AT_TOOL + 16  # the tolerance block of optik.analytic._compiled
-AXES_LAYOUT: Layout = (AT_KIND, 1, AT_LOWER, AT_UPPER, AT_CHAIN, AT_TOLS)
+_AT = axes_offsets(DOF, 2)
+AT_KIND, AT_LOWER, AT_UPPER, AT_CHAIN, AT_DIRECTIONS, AT_POINTS, AT_TOOL, AT_TOLS = _AT
+AXES_LAYOUT: Layout = _AT.layout
 """Where :func:`optik.analytic._pipeline.postprocess_rows` finds the robot's data."""
 
 
@@ -199,18 +195,8 @@ def pack_axes_params(robot: Robot, plan: AxesPlan) -> FloatArray:
         robot: the robot (fits the family).
         plan: its :func:`axes_plan`.
     """
-    params = np.zeros(AT_TOLS + len(plan.tols))
-    params[AT_ARM] = plan.kind
-    params[AT_REVERSE] = 1.0 if plan.reverse else 0.0
-    params[AT_KIND:AT_LOWER] = robot.chain.prismatic
-    params[AT_LOWER:AT_UPPER] = robot.lower
-    params[AT_UPPER:AT_CHAIN] = robot.upper
-    params[AT_CHAIN:AT_DIRECTIONS] = robot.chain.K[:, :3, :].reshape(-1)
-    params[AT_DIRECTIONS:AT_POINTS] = plan.directions.reshape(-1)
-    params[AT_POINTS:AT_TOOL] = plan.points.reshape(-1)
-    params[AT_TOOL:AT_TOLS] = plan.tool.reshape(-1)
-    params[AT_TOLS:] = plan.tols
-    return params
+    head = (plan.kind, 1.0 if plan.reverse else 0.0)
+    return pack_axes_vector(robot, head, plan.directions, plan.points, plan.tool, plan.tols)
 
 
 @_jit
@@ -221,16 +207,7 @@ def _scratch(params: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np
     from ``params``); ``work`` (3, 8, 6): the inverse target (in its first rows), the
     reversed reference and the branches of the chain read backwards.
     """
-    z = np.empty((DOF, 3))
-    p = np.empty((DOF, 3))
-    M = np.empty((4, 4))
-    for i in range(DOF):
-        for a in range(3):
-            z[i, a] = params[AT_DIRECTIONS + 3 * i + a]
-            p[i, a] = params[AT_POINTS + 3 * i + a]
-    for a in range(4):
-        for b in range(4):
-            M[a, b] = params[AT_TOOL + 4 * a + b]
+    z, p, M = axes_block(params, AT_DIRECTIONS, DOF)
     return z, p, M, np.empty((3, MAX_BRANCHES, DOF))
 
 
@@ -269,16 +246,8 @@ def _candidates_into(
 def solve(params: np.ndarray, T: np.ndarray, ref: np.ndarray, flags: int, out: np.ndarray) -> int:
     """Every branch of one target: solve, wrap, filter, verify, sort (``spherical_axes``).
 
-    Args:
-        params: :func:`pack_axes_params`'s vector.
-        T: (4, 4) world target of the tool.
-        ref: (6,) reference configuration (rad).
-        flags: :data:`optik.analytic._pipeline.SORT` and / or ``WITHIN_LIMITS``.
-        out: (8, 6) output rows.
-
-    Returns:
-        The number of branches written (0 to 8); -1 when ``T`` is not a valid pose
-        (:func:`optik._math.pose_defect`), -2 when ``ref`` is not finite.
+    Arguments, flags and return codes of :func:`optik.analytic._pipeline.solve`, on
+    :func:`pack_axes_params`'s vector (``ref`` (6,) in rad, ``out`` (8, 6)).
     """
     T1 = T[None]
     code = input_code(params, AT_TOLS, T1, ref)
@@ -287,10 +256,9 @@ def solve(params: np.ndarray, T: np.ndarray, ref: np.ndarray, flags: int, out: n
     ref1 = ref[None]
     pre, flat, rows = work_rows(DOF)
     n = _candidates_into(params, T, ref, rows, _scratch(params))
-    return postprocess_rows(
-        params, AXES_LAYOUT, DOF, -1, 0.0, T1, 0, ref1, 0, (flags & SORT) != 0,
-        (flags & WITHIN_LIMITS) != 0, rows, flat, n, pre, out[None],
-    )  # fmt: skip
+    return postprocess_one(
+        params, AXES_LAYOUT, DOF, -1, 0.0, T1, ref1, flags, rows, flat, n, pre, out
+    )
 
 
 @_jit
@@ -299,22 +267,12 @@ def solve_batch(
 ) -> tuple[np.ndarray, np.ndarray]:
     """:func:`solve` over validated targets ``T`` (N, 4, 4), serially.
 
-    Args:
-        params: :func:`pack_axes_params`'s vector.
-        T: (N, 4, 4) world targets of the tool, already validated.
-        ref: (1, 6) one reference for every target, or (N, 6) one per target; finite.
-        flags: :data:`optik.analytic._pipeline.SORT` and / or ``WITHIN_LIMITS``.
-
-    Returns:
-        ``Q`` (N, 8, 6): branches, rows past each count filled with NaN; ``counts`` (N,).
+    Arguments and outputs of :func:`optik.analytic._pipeline.solve_batch` (``Q`` (N, 8,
+    6), ``counts`` (N,)), on :func:`pack_axes_params`'s vector.
     """
     N = T.shape[0]
-    sort = (flags & SORT) != 0
-    within = (flags & WITHIN_LIMITS) != 0
+    sort, within, pre, flat, rows, Q, counts = batch_work(N, DOF, flags)
     scratch = _scratch(params)
-    pre, flat, rows = work_rows(DOF)
-    Q = np.empty((N, MAX_BRANCHES, DOF))
-    counts = np.zeros(N, dtype=np.int64)
     for k in range(N):
         kr = 0 if ref.shape[0] == 1 else k
         n = _candidates_into(params, T[k], ref[kr], rows, scratch)

@@ -34,10 +34,10 @@ from __future__ import annotations
 
 import math
 
-import numba as nb
 import numpy as np
 
 from optik._math import sincos, trig_roots
+from optik._numba import jit as _jit
 from optik.analytic import _compiled
 from optik.analytic._base import deg, is_right_angle, opposite, register
 from optik.analytic._compiled import (
@@ -55,8 +55,6 @@ from optik.model import DHJoint
 
 _EPS = 1e-12
 _RADICAND_TOL = 1e-12  # RRP arm: a negative radicand above -tol * max(rho^2, 1) is 0
-
-_jit = nb.njit(cache=True, nogil=True, error_model="numpy")
 
 
 def _zero(*values: float) -> bool:

@@ -28,11 +28,12 @@ from __future__ import annotations
 
 import math
 
-import numba as nb
 import numpy as np
 
 from optik._kernels import Rows12
 from optik._math import sincos, trig_roots, wrap_angle
+from optik._numba import inline as _inline
+from optik._numba import jit as _jit
 from optik.analytic import _compiled
 from optik.analytic._base import deg, opposite, register
 from optik.analytic._compiled import (
@@ -81,10 +82,6 @@ def rows_reason(rows: tuple[DHJoint, ...]) -> str | None:
         if abs(rows[i].a) >= 1e-12:
             return f"a{i + 1} = {rows[i].a:.6g} m, needs 0 ({meaning})"
     return None
-
-
-_jit = nb.njit(cache=True, nogil=True, error_model="numpy")
-_inline = nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
 
 
 # ---------------------------------------------------------------------- the compiled closed form
