@@ -425,3 +425,46 @@ def cholesky_solve(A: np.ndarray, b: np.ndarray, x: np.ndarray, L: np.ndarray) -
         return False
     cholesky_substitute(L, b, x)
     return True
+
+
+@jit
+def householder_lstsq(A: np.ndarray, b: np.ndarray, y: np.ndarray) -> bool:
+    """``y = argmin ||A y - b||`` for ``A`` (f, m), ``f >= m``, by Householder QR.
+
+    ``A`` and ``b`` are overwritten. Returns False on a zero column (rank deficiency
+    found; the caller then takes the full proof).
+    """
+    f, m = A.shape
+    for k in range(m):
+        norm = 0.0
+        for i in range(k, f):
+            norm += A[i, k] * A[i, k]
+        norm = math.sqrt(norm)
+        if norm == 0.0:
+            return False
+        alpha = -norm if A[k, k] >= 0.0 else norm
+        A[k, k] -= alpha
+        vnorm2 = 0.0
+        for i in range(k, f):
+            vnorm2 += A[i, k] * A[i, k]
+        if vnorm2 > 0.0:
+            for j in range(k + 1, m):
+                dot = 0.0
+                for i in range(k, f):
+                    dot += A[i, k] * A[i, j]
+                factor = 2.0 * dot / vnorm2
+                for i in range(k, f):
+                    A[i, j] -= factor * A[i, k]
+            dot = 0.0
+            for i in range(k, f):
+                dot += A[i, k] * b[i]
+            factor = 2.0 * dot / vnorm2
+            for i in range(k, f):
+                b[i] -= factor * A[i, k]
+        A[k, k] = alpha
+    for k in range(m - 1, -1, -1):
+        acc = b[k]
+        for j in range(k + 1, m):
+            acc -= A[k, j] * y[j]
+        y[k] = acc / A[k, k]
+    return True

@@ -47,6 +47,7 @@ import qpsolvers
 
 from optik import _kernels
 from optik._checks import MAX_LENGTH_M, FloatArray
+from optik._math import householder_lstsq
 from optik._numba import inline, jit
 from optik.errors import OptikError
 from optik.limits import Q_CLIP_TOLERANCE
@@ -332,49 +333,6 @@ def fill_step(
 
 
 @jit
-def _householder_lstsq(A: np.ndarray, b: np.ndarray, y: np.ndarray) -> bool:
-    """``y = argmin ||A y - b||`` for ``A`` (f, m), ``f >= m``, by Householder QR.
-
-    ``A`` and ``b`` are overwritten. Returns False on a zero column (rank deficiency
-    found; the caller then takes the full proof).
-    """
-    f, m = A.shape
-    for k in range(m):
-        norm = 0.0
-        for i in range(k, f):
-            norm += A[i, k] * A[i, k]
-        norm = math.sqrt(norm)
-        if norm == 0.0:
-            return False
-        alpha = -norm if A[k, k] >= 0.0 else norm
-        A[k, k] -= alpha
-        vnorm2 = 0.0
-        for i in range(k, f):
-            vnorm2 += A[i, k] * A[i, k]
-        if vnorm2 > 0.0:
-            for j in range(k + 1, m):
-                dot = 0.0
-                for i in range(k, f):
-                    dot += A[i, k] * A[i, j]
-                factor = 2.0 * dot / vnorm2
-                for i in range(k, f):
-                    A[i, j] -= factor * A[i, k]
-            dot = 0.0
-            for i in range(k, f):
-                dot += A[i, k] * b[i]
-            factor = 2.0 * dot / vnorm2
-            for i in range(k, f):
-                b[i] -= factor * A[i, k]
-        A[k, k] = alpha
-    for k in range(m - 1, -1, -1):
-        acc = b[k]
-        for j in range(k + 1, m):
-            acc -= A[k, j] * y[j]
-        y[k] = acc / A[k, k]
-    return True
-
-
-@jit
 def check_step(
     x: np.ndarray,
     buf: np.ndarray,
@@ -460,7 +418,7 @@ def check_step(
                     A[k, r] = J[r, i]
                 b[k] = -g[i]
                 k += 1
-        if not _householder_lstsq(A, b, y):
+        if not householder_lstsq(A, b, y):
             return CHECK_KKT, np.nan
         for i in range(n):
             acc = g[i]
