@@ -34,6 +34,8 @@ from typing import Any
 
 from numba.core import caching
 
+from optik._files import write_atomic
+
 PACKAGE = Path(__file__).resolve().parent
 
 __all__ = [
@@ -210,18 +212,6 @@ def _read_index(path: Path) -> tuple[str, Any, dict[Any, str]]:
     return version, stamp, dict(overloads)
 
 
-def _write_whole(path: Path, data: bytes) -> None:
-    """Write ``path`` whole or not at all (a temporary file renamed into place)."""
-    handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
-    try:
-        with os.fdopen(handle, "wb") as f:
-            f.write(data)
-        os.replace(temporary, path)
-    except BaseException:
-        Path(temporary).unlink(missing_ok=True)
-        raise
-
-
 def _merge_index(source: Path, target_folder: Path) -> int:
     """Add the entries of index ``source`` to the same index in ``target_folder``.
 
@@ -248,13 +238,13 @@ def _merge_index(source: Path, target_folder: Path) -> int:
         while f"{base}.{number}.nbc" in taken or (target_folder / f"{base}.{number}.nbc").exists():
             number += 1
         fresh = f"{base}.{number}.nbc"
-        _write_whole(target_folder / fresh, (source.parent / name).read_bytes())
+        write_atomic(target_folder / fresh, (source.parent / name).read_bytes())
         merged[key] = fresh
         taken.add(fresh)
         added += 1
     if added:
         index = pickle.dumps(version, protocol=-1) + pickle.dumps((stamp, merged), protocol=-1)
-        _write_whole(target, index)
+        write_atomic(target, index)
     return added
 
 

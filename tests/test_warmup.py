@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import os
 import pickle
+import stat
 import subprocess
 import sys
 import textwrap
@@ -113,6 +114,21 @@ def test_a_stale_index_is_replaced_not_extended(toy: Path, tmp_path: Path) -> No
         pickle.load(f)
         assert pickle.loads(f.read())[0] == stamp
     assert _call(root, "5", "int", None) == {"value": 10, "misses": 0, "hits": 1}
+
+
+def test_merged_files_are_readable_by_every_user(toy: Path, tmp_path: Path) -> None:
+    # The wheel ships these files: a private (0600) file would leave other users of a
+    # system-wide install without the kernels.
+    worker = tmp_path / "worker"
+    assert _call(toy.parent, "3", "int", worker)["misses"] == 1
+    old = os.umask(0o022)
+    try:
+        assert merge_caches([worker], toy, toy.parent) == 1
+    finally:
+        os.umask(old)
+    merged = list((toy / "__pycache__").glob("kernels.twice*"))
+    assert len(merged) == 2
+    assert all(stat.S_IMODE(path.stat().st_mode) == 0o644 for path in merged)
 
 
 def test_the_merge_names_the_workers_folders_as_numba_does(toy: Path, tmp_path: Path) -> None:
