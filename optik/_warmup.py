@@ -41,6 +41,7 @@ PACKAGE = Path(__file__).resolve().parent
 __all__ = [
     "FIRST",
     "GROUPS",
+    "GROUPS_ENV",
     "LAST",
     "WarmReport",
     "merge_caches",
@@ -183,11 +184,17 @@ FIRST: tuple[tuple[str, ...], ...] = (
 LAST: tuple[tuple[str, ...], ...] = (("report",), ("closed_form_batches",))
 
 
-def run_groups(names: Sequence[str]) -> None:
-    """Run the calls of :data:`GROUPS` named ``names`` in this process."""
+def _check_groups(names: Sequence[str]) -> Sequence[str]:
+    """``names``, if every one is a group of :data:`GROUPS`; else ValueError."""
     unknown = [name for name in names if name not in GROUPS]
     if unknown:
         raise ValueError(f"unknown warm-up groups {unknown}; known: {sorted(GROUPS)}")
+    return names
+
+
+def run_groups(names: Sequence[str]) -> None:
+    """Run the calls of :data:`GROUPS` named ``names`` in this process."""
+    _check_groups(names)
     for name in names:
         GROUPS[name]()
 
@@ -288,11 +295,28 @@ class WarmReport:
     stages: list[list[tuple[str, ...]]] = field(default_factory=list)
 
 
-def plan_stages(processes: int) -> list[list[tuple[str, ...]]]:
-    """The workers' groups, stage by stage, for ``processes`` workers side by side."""
+#: Environment variable naming the groups to warm (comma-separated; default: all).
+GROUPS_ENV = "OPTIK_WARMUP_GROUPS"
+
+
+def plan_stages(processes: int, groups: Sequence[str] | None = None) -> list[list[tuple[str, ...]]]:
+    """The workers' groups, stage by stage, for ``processes`` workers side by side.
+
+    ``groups`` keeps only those groups (default: every one of :data:`GROUPS`).
+    """
+    keep = set(GROUPS) if groups is None else set(_check_groups(groups))
+    first, last = _only(FIRST, keep), _only(LAST, keep)
     if processes <= 1:
-        return [[tuple(name for stage in (FIRST, LAST) for w in stage for name in w)]]
-    return [_spread(FIRST, processes), _spread(LAST, processes)]
+        stages = [[tuple(name for stage in (first, last) for w in stage for name in w)]]
+    else:
+        stages = [_spread(first, processes), _spread(last, processes)]
+    return [[w for w in stage if w] for stage in stages if any(stage)]
+
+
+def _only(stage: tuple[tuple[str, ...], ...], keep: set[str]) -> tuple[tuple[str, ...], ...]:
+    """``stage``'s workers with only the groups in ``keep``, empty workers dropped."""
+    workers = (tuple(name for name in worker if name in keep) for worker in stage)
+    return tuple(worker for worker in workers if worker)
 
 
 def _spread(stage: tuple[tuple[str, ...], ...], processes: int) -> list[tuple[str, ...]]:
@@ -338,6 +362,7 @@ def warm(
     destination: Path | None = None,
     *,
     processes: int = 2,
+    groups: Sequence[str] | None = None,
     package: Path = PACKAGE,
     log: Callable[[str], None] | None = None,
 ) -> WarmReport:
@@ -354,6 +379,8 @@ def warm(
             environment look: ``NUMBA_CACHE_DIR`` when it is set, else the package's own
             ``__pycache__`` folders).
         processes: worker processes side by side (default 2).
+        groups: the groups of :data:`GROUPS` to run (default: those named in
+            ``$OPTIK_WARMUP_GROUPS``, comma-separated, else all).
         package: the ``optik`` package folder the workers import.
         log: called with a line per finished worker (default: nothing).
 
@@ -363,7 +390,9 @@ def warm(
     Raises:
         RuntimeError: a worker failed (its output is in the message).
     """
-    stages = plan_stages(int(processes))
+    if groups is None:
+        groups = [name for name in os.environ.get(GROUPS_ENV, "").split(",") if name] or None
+    stages = plan_stages(int(processes), groups)
     user_cache = os.environ.get("NUMBA_CACHE_DIR") if destination is None else None
     if destination is None:
         destination = Path(user_cache) if user_cache else package.parent

@@ -152,6 +152,19 @@ def test_every_group_runs_once_whatever_the_number_of_processes(processes: int) 
         assert stages == [list(FIRST), list(LAST)]
 
 
+@pytest.mark.parametrize("processes", [1, 2, 3])
+def test_a_subset_of_groups_runs_those_alone_in_their_stages(processes: int) -> None:
+    stages = plan_stages(processes, ["batch", "closed_forms", "report"])
+    planned = [name for stage in stages for worker in stage for name in worker]
+    assert sorted(planned) == ["batch", "closed_forms", "report"]
+    assert all(worker for stage in stages for worker in stage)
+    if processes > 1:  # the report still runs after what the first stage compiled
+        assert stages[-1] == [("report",)]
+    assert plan_stages(processes, ["kinematics"]) == [[("kinematics",)]]
+    with pytest.raises(ValueError, match="unknown warm-up groups"):
+        plan_stages(processes, ["closed_forms", "no-such-group"])
+
+
 def test_unknown_groups_are_refused() -> None:
     with pytest.raises(ValueError, match="unknown warm-up groups"):
         run_groups(["closed_forms", "no-such-group"])
