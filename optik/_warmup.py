@@ -172,7 +172,7 @@ GROUPS: dict[str, Callable[[], None]] = {
 #: Groups compiled side by side first, a worker each (with two workers): the kernels of
 #: one worker's groups share little with the other's (the closed forms and the ``qp:*``
 #: programs; the damped least squares, its batch and the kinematics), and the two take
-#: about as long (53 and 43 s of CPU each, measured alone).
+#: about as long (about 50 and 40 s of CPU each, measured alone).
 FIRST: tuple[tuple[str, ...], ...] = (
     ("closed_forms", "programs"),
     ("numeric", "batch", "kinematics"),
@@ -180,7 +180,8 @@ FIRST: tuple[tuple[str, ...], ...] = (
 #: Groups run last, side by side, each worker starting from every kernel compiled before:
 #: the report calls nearly every kernel and compiles only what the first stage left (and
 #: its ``casadi:*`` programs' C code, cached outside the package); the closed forms'
-#: batches compile beside it what the report leaves (the drill's family, ~12 s of CPU).
+#: batches beside it find nearly every kernel compiled (a single target's share the
+#: batch's signatures) and compile what is left.
 LAST: tuple[tuple[str, ...], ...] = (("report",), ("closed_form_batches",))
 
 

@@ -127,7 +127,7 @@ def robot_candidates(
         turned = np.empty((1, DOF))
         for j in range(DOF):
             turned[0, j] = params[AT_SENSES + j] * ref[kr, j]
-        n = candidates(family, dh, T0, turned, 0, tols, rows)
+        n = candidates(family, dh, T0, turned, np.int64(0), tols, rows)
         for r in range(n):
             for j in range(DOF):
                 rows[r, j] *= params[AT_SENSES + j]
@@ -429,7 +429,7 @@ def postprocess_rows(
     # 3. Verify each by the robot's own chain (fk_into's arithmetic), dedupe in order.
     for i in range(12):
         pre[0, i] = params[layout[4] + i]
-    depth = 0
+    depth = np.int64(0)  # not the literal 0: one signature of fk_shared
     m = 0
     for r in range(kept):
         depth = fk_shared(params, layout, rows, r, pre, depth)
@@ -476,8 +476,9 @@ def postprocess_one(
     count.
     """
     sort, within = flag_bits(flags)
+    k = np.int64(0)  # not the literal 0: the batch's signatures serve this call too
     return postprocess_rows(
-        params, layout, dof, held, held_value, T1, 0, ref1, 0, sort, within, rows, flat, n,
+        params, layout, dof, held, held_value, T1, k, ref1, k, sort, within, rows, flat, n,
         pre, out[None],
     )  # fmt: skip
 
@@ -490,7 +491,8 @@ def input_code(params: np.ndarray, tols: int, T1: np.ndarray, ref: np.ndarray) -
     tolerances of the block at offset ``tols`` of ``params``), -2 when ``ref`` (dof,) is
     not finite. The caller raises the matching optik error.
     """
-    if pose_defect(T1, 0, params[tols + TOL_ROTATION], params[tols + TOL_BOTTOM_ROW]) != 0:
+    k = np.int64(0)  # not the literal 0: first_bad_pose's signature serves this call too
+    if pose_defect(T1, k, params[tols + TOL_ROTATION], params[tols + TOL_BOTTOM_ROW]) != 0:
         return -1
     for j in range(ref.shape[0]):
         if not math.isfinite(ref[j]):
@@ -575,9 +577,10 @@ def solve(params: np.ndarray, T: np.ndarray, ref: np.ndarray, flags: int, out: n
     ref1 = ref[None]
     T0 = np.empty((4, 4))
     pre, flat, rows = work_rows(DOF)
-    _transform_target(params, T1, 0, T0)
+    k = np.int64(0)  # not the literal 0: the batch's signatures serve this call too
+    _transform_target(params, T1, k, T0)
     dh = params[AT_DH:AT_LOWER].reshape((DOF, NCOL))
-    n = robot_candidates(params, dh, T1, 0, T0, ref1, 0, rows)
+    n = robot_candidates(params, dh, T1, k, T0, ref1, k, rows)
     return postprocess_one(
         params, SIX_JOINT_LAYOUT, DOF, -1, 0.0, T1, ref1, flags, rows, flat, n, pre, out
     )

@@ -186,7 +186,7 @@ def spherical_wrist_candidates(
         s2 = 0.0
         h = d2 + d3 + ca3 * d4
         R3 = dh_rot(1.0, 0.0, ca3, sa3)
-    n = 0
+    n = np.int64(0)  # not the literal 0: one signature of _sw_wrist for every call
     n1, t1a, t1b = trig_roots(wy, -wx, -s1 * h, th1 + ref[kr, 0], trig_tol, eps, free_tol)
     for i1 in range(n1):
         t1 = t1a if i1 == 0 else t1b

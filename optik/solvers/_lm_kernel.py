@@ -378,7 +378,7 @@ def _solve_chunk(c: int, chain: KernelChain, batch: BatchJob, out: BatchOutput) 
     mask = task_features(task)
     for k in range(c * BATCH_CHUNK, min((c + 1) * BATCH_CHUNK, targets.shape[0])):
         own = given[k] if given.shape[0] == targets.shape[0] else given[0]
-        starts = (own, table, 0, restarts, seeds[k])
+        starts = (own, table, np.int64(0), restarts, seeds[k])  # 0 as a value: one _restarts
         q, it, u, good, _, _ = _restarts(
             chain, targets[k], task, mask, starts, max_iter, w_bias, scratch
         )

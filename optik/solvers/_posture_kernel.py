@@ -605,7 +605,7 @@ def posture_search(
     q = np.empty(dof)
     count = 0
     total = 0
-    attempt = 0
+    attempt = np.int64(0)  # not the literal 0: one signature of start_into
     while attempt <= last and count < want:
         start_into(attempt, given, nearest, table_q, lower, upper, seed, q)
         quick = attempt < QUICK_ATTEMPTS
