@@ -121,6 +121,10 @@ def _numeric() -> None:
     optik.solve_ik(robot, targets[1], timeout_s=1.0)
     for solver in ("pinv", "transpose"):
         optik.solve_ik(robot, targets[2], solver=solver, restarts=0, max_iter=5)
+    # The report's reference steps: this worker has time for their kernel.
+    J = robot.jacobian(robot.mid_limits)
+    optik.min_norm(J, J[:, 0])
+    optik.least_squares(J.T, J[0])
 
 
 def _batch() -> None:

@@ -33,7 +33,7 @@ import numpy as np
 
 from optik._checks import FloatArray, check_choice, check_real, finite_array
 from optik._math import log_rotation
-from optik._numba import jit
+from optik._numba import inline, jit
 from optik.errors import OptikError
 
 MODES = ("pose", "position", "orientation", "axis")
@@ -343,7 +343,7 @@ def task_features(task: np.ndarray) -> np.ndarray:
     return mask
 
 
-@jit
+@inline  # two comparisons; and its callers pass the task read-only and writable
 def task_converged(position: float, orientation: float, task: np.ndarray) -> bool:
     """Both judged errors within the task's tolerances."""
     return position <= task[_PTOL] and orientation <= task[_RTOL]

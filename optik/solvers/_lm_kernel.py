@@ -364,7 +364,7 @@ BATCH_CHUNK = 32
 """Targets per unit of a batch's work: one scratch workspace (15 arrays) serves them all."""
 
 
-@jit
+@inline  # its one caller's compile links _restarts anyway: a kernel of its own costs 3 s more
 def _solve_chunk(c: int, chain: KernelChain, batch: BatchJob, out: BatchOutput) -> None:
     """Chunk ``c`` of a batch (:data:`BATCH_CHUNK` targets) in one scratch workspace.
 

@@ -132,7 +132,7 @@ def nearest_seeds(robot: Robot, target: FloatArray, mode: str | Task, count: int
     table = seed_table(robot)
     order = table_order(
         table.features, table.centroids, table.offsets, np.asarray(target, float),
-        as_task(mode).features,
+        _writable_mask(mode),
     )  # fmt: skip
     return table.q[order[:count]]
 
@@ -153,4 +153,13 @@ def start_sequence(
     G = np.asarray(given, dtype=np.float64).reshape(-1, robot.dof)
     lower, upper = (robot.lower, robot.upper) if bounds is None else bounds
     T = np.ascontiguousarray(target, dtype=np.float64)
-    return StartSequence(G, table.kernel_args(), T, as_task(mode).features, lower, upper, seed)
+    return StartSequence(G, table.kernel_args(), T, _writable_mask(mode), lower, upper, seed)
+
+
+def _writable_mask(mode: str | Task) -> FloatArray:
+    """The task's feature mask (12,), as a writable copy.
+
+    The compiled kernels get a writable mask from compiled callers (``task_features``);
+    a read-only one (``Task.features``) would compile them once more for that type.
+    """
+    return as_task(mode).features.copy()
