@@ -18,7 +18,15 @@ from pathlib import Path
 
 import pytest
 
-from optik._warmup import FIRST, GROUPS, LAST, merge_caches, plan_stages, run_groups
+from optik._warmup import (
+    FIRST,
+    GROUPS,
+    LAST,
+    _count_entries,
+    merge_caches,
+    plan_stages,
+    run_groups,
+)
 from optik.cli import main
 
 TOY = textwrap.dedent(
@@ -95,6 +103,9 @@ def test_two_workers_caches_merge_into_one_that_a_fresh_process_loads(
     # Merging again adds nothing and keeps one file per signature.
     assert merge_caches([first, second], toy, root) == 0
     assert sorted(p.name for p in (toy / "__pycache__").glob("kernels.twice*")) == cached
+    # What the warm-up reports as compiled: each worker's signature, and both merged.
+    assert (_count_entries(first), _count_entries(second)) == (1, 1)
+    assert _count_entries(toy / "__pycache__") == 2
 
 
 def test_a_stale_index_is_replaced_not_extended(toy: Path, tmp_path: Path) -> None:

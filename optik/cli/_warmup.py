@@ -18,7 +18,10 @@ def _cmd_warmup(args: argparse.Namespace) -> int:
 
         raise OptikError(f"--processes must be at least 1, got {processes}")
     report = warm(processes=processes, log=lambda line: print(line, file=sys.stderr))
-    print(f"{report.kernels} kernels compiled and cached in {report.seconds:.1f} s")
+    print(
+        f"{report.compiled} kernels compiled in {report.seconds:.1f} s, "
+        f"{report.kernels} of them new to the cache"
+    )
     return EXIT_OK
 
 
