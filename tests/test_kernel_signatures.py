@@ -12,16 +12,15 @@ differ only by literals, or only by read-only flags.
 
 from __future__ import annotations
 
+import json
+import subprocess
 import sys
+from pathlib import Path
 
 import numba
 import numpy as np
 from numba.core import types
 from numba.core.dispatcher import Dispatcher
-
-from optik import solve_ik
-from optik._warmup import run_groups
-from optik.problems import load_problem
 
 #: Kernels called with the task both read-only (``Task.packed``, from Python and the
 #: damped least squares) and writable (the ``qp:*`` programs' packed buffer, whose views
@@ -97,15 +96,39 @@ def test_the_checks_find_a_kernel_compiled_for_a_literal_and_for_a_read_only_arr
     assert any("readonly" in sig for sig in found["callee"])
 
 
+# Run in a fresh process: other tests call kernels directly, with argument types of their
+# own, and the dispatchers of this process would keep those signatures.
+SCRIPT = """
+import json, sys
+sys.path.insert(0, sys.argv[1])
+from test_kernel_signatures import _copies, _optik_kernels
+from optik import solve_ik
+from optik._warmup import run_groups
+from optik.problems import load_problem
+
+run_groups(["closed_forms", "closed_form_batches", "kinematics", "numeric", "batch", "programs"])
+# The posture search (its own compiled kernel), beyond the warm-up's calls.
+robot = load_problem("panda").robot
+result = solve_ik(robot, robot.fk(robot.mid_limits + 0.2), posture=robot.mid_limits)
+kernels = _optik_kernels()
+print(json.dumps({
+    "success": bool(result.success),
+    "kernels": len(kernels),
+    "literal": _copies(kernels, literal=True),
+    "read_only": _copies(kernels, literal=False),
+}))
+"""
+
+
 def test_the_warm_up_calls_compile_no_kernel_twice_for_a_literal_or_a_flag() -> None:
-    run_groups(["closed_forms", "closed_form_batches", "kinematics", "numeric", "batch"])
-    run_groups(["programs"])
-    # The posture search (its own compiled kernel), beyond the warm-up's calls.
-    robot = load_problem("panda").robot
-    target = robot.fk(robot.mid_limits + 0.2)
-    result = solve_ik(robot, target, posture=robot.mid_limits)
-    assert result.success
-    kernels = _optik_kernels()
-    assert len(kernels) > 50  # the walk found the kernels (a module rename would hide them)
-    assert _copies(kernels, literal=True) == {}
-    assert set(_copies(kernels, literal=False)) <= READ_ONLY_COPIES_KEPT
+    done = subprocess.run(
+        [sys.executable, "-c", SCRIPT, str(Path(__file__).parent)],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    found = json.loads(done.stdout.strip().splitlines()[-1])
+    assert found["success"]
+    assert found["kernels"] > 50  # the walk found the kernels (a module rename would hide them)
+    assert found["literal"] == {}
+    assert set(found["read_only"]) <= READ_ONLY_COPIES_KEPT
