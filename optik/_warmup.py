@@ -176,7 +176,7 @@ GROUPS: dict[str, Callable[[], None]] = {
 #: Groups compiled side by side first, a worker each (with two workers): the kernels of
 #: one worker's groups share little with the other's (the closed forms and the ``qp:*``
 #: programs; the damped least squares, its batch and the kinematics), and the two take
-#: about as long (about 50 and 40 s of CPU each, measured alone).
+#: about as long (about 47 and 38 s of CPU each, side by side on two cores).
 FIRST: tuple[tuple[str, ...], ...] = (
     ("closed_forms", "programs"),
     ("numeric", "batch", "kinematics"),
