@@ -22,6 +22,7 @@ from optik._warmup import (
     FIRST,
     GROUPS,
     LAST,
+    WarmReport,
     _count_entries,
     merge_caches,
     plan_stages,
@@ -184,6 +185,22 @@ def test_unknown_groups_are_refused() -> None:
 def test_the_command_refuses_fewer_than_one_process(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["warmup", "--processes", "0"]) == 2
     assert "--processes must be at least 1" in capsys.readouterr().err
+
+
+def test_the_command_says_how_many_kernels_it_compiled_and_how_many_were_new(
+    capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # A cache that held all but one kernel: 71 compiled, 1 new (it printed "1 kernels
+    # compiled and cached"). The warm-up itself is stood in for: it takes a minute.
+    import optik._warmup
+
+    def warm(**options: object) -> WarmReport:
+        assert options["processes"] == 3
+        return WarmReport(kernels=1, seconds=57.06, stages=[], compiled=71)
+
+    monkeypatch.setattr(optik._warmup, "warm", warm)
+    assert main(["warmup", "--processes", "3"]) == 0
+    assert capsys.readouterr().out == "71 kernels compiled in 57.1 s, 1 of them new to the cache\n"
 
 
 def test_a_merge_into_a_numba_cache_dir_serves_processes_that_use_it(
