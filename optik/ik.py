@@ -12,7 +12,10 @@ family that solves full poses solves the free roll (:mod:`optik.analytic.roll`):
 answers are the local minima of the distance to ``q0`` along each branch's continuation
 over a grid of rolls, refined, nearest first; there an empty grid proves nothing, and
 the numeric search runs instead (from the grid's branches clipped into the limits).
-Without a family,
+A seven-joint arm with one joint frozen, whose other six have a closed form around it
+(:func:`optik.analytic.free_joint_reason`), is treated as a family: its branches with that
+joint held are the answers, and none is a proof (inside the plain limits only: with a
+``limit_margin`` they start the search). Without a family,
 the solver starts from ``q0`` when given, then from the entries of a seeded table of
 configurations whose poses are nearest the target (:mod:`optik.solvers._seeds`), then from
 deterministic seeded draws uniform inside the limits, until ``restarts`` or
@@ -49,7 +52,7 @@ from optik._ik_options import (
     check_q0,
     query_bounds,
 )
-from optik.analytic import AnalyticFamily, analytic_ik, family_of
+from optik.analytic import AnalyticFamily, analytic_ik, family_of, free_joint_reason
 from optik.analytic.roll import axis_branches, grid_branches, solves_axis_task
 from optik.errors import OptikError
 
@@ -62,6 +65,7 @@ from optik.ik_batch import (
     IKBatchResult,
     solve_ik_batch,
 )
+from optik.limits import LIMIT_TOLERANCE
 from optik.model import Robot
 from optik.poses import as_target_pose
 from optik.posture import check_joint_weights, posture_answers, refine_posture
@@ -190,29 +194,45 @@ ROLL_STARTS = 8
 """Grid branches outside the limits (clipped into them) that start the numeric search
 when the roll's closed form finds no answer inside them."""
 
+FROZEN_MATCH_TOLERANCE = 1e-9
+"""How far (rad or m) a closed-form branch's frozen joint may lie from the frozen value
+and still be taken as holding it (then set to it exactly): the rounding of a joint
+recovered from a pose, which grows near a singularity."""
+
 
 def _closed_form_proof(
-    robot: Robot, query: IKQuery, q_start: FloatArray, start_time: float, seed: int
+    robot: Robot,
+    query: IKQuery,
+    q_start: FloatArray,
+    start_time: float,
+    seed: int,
+    held: tuple[str, float] | None = None,
 ) -> IKResult:
     """The result when the closed form finds no branch inside the limits, cross-checked.
 
     Before ``unreachable`` or ``outside_limits`` is reported, a short ``dls`` run
-    (:data:`CROSS_CHECK_RESTARTS`, from the out-of-limit branches clipped into the limits,
-    then the seed table) looks for an answer the closed form missed at a degenerate pose;
-    if it finds a verified one, that answer is returned.
+    (:data:`CROSS_CHECK_RESTARTS`, from the out-of-limit branches clipped into the query's
+    box, then the seed table) looks for an answer the closed form missed at a degenerate
+    pose; if it finds a verified one, that answer is returned. ``held``: the frozen joint
+    ``(name, value)`` of a seven-joint arm's closed form (:func:`_held_joint`).
     """
-    outside = analytic_ik(robot, query.target, query.mode, q_ref=q_start, within_limits=False)
-    given = [np.clip(q, robot.lower, robot.upper) for q in outside] or [q_start]
+    name, value = (None, None) if held is None else held
+    outside = analytic_ik(
+        robot, query.target, query.mode, q_ref=q_start, within_limits=False,
+        free_joint=name, free_value=value,
+    )  # fmt: skip
+    given = [np.clip(q, query.lower, query.upper) for q in outside] or [q_start]
     numeric = get_solver(AUTO_NUMERIC_SOLVER)
     sequence = start_sequence(robot, query.target, query.spec, given, seed)
     run = numeric.run(query, sequence, numeric.default_max_iter, CROSS_CHECK_RESTARTS, math.inf)
     if verify_one(robot, run.q, query.target, query.spec)[3]:
         return _from_run(query, start_time, numeric.name, run)
     status = "outside_limits" if outside else "unreachable"
+    form = "closed form" if held is None else f"closed form with {held[0]!r} at {held[1]:g}"
     reason = (
-        "closed form: every branch lies outside the joint limits"
+        f"{form}: every branch lies outside the joint limits"
         if outside
-        else "closed form: no branch reaches the target"
+        else f"{form}: no branch reaches the target"
     )
     reason += f" (a {numeric.name} cross-check found no answer either)"
     q = outside[0] if outside else q_start
@@ -556,7 +576,7 @@ def _plan(
     ):
         branches = analytic_ik(robot, T_target, task.mode, q_ref=q_start)
         if bounds is not None:
-            branches = [b for b in branches if np.all(b >= bounds[0]) and np.all(b <= bounds[1])]
+            branches = _into_box(branches, bounds)
             # The closed form cannot prove anything about the narrowed box: search it.
             if not branches:
                 given = analytic_ik(robot, T_target, task.mode, q_ref=q_start) or [q_start]
@@ -564,6 +584,26 @@ def _plan(
         if not branches:
             return plan([], [], _closed_form_proof(robot, query, q_start, start_time, int(seed)))
         return plan(branches, branches)
+    held = _held_joint(robot, bounds) if warm_start == "analytic" else None
+    if held is not None and task.is_pose_or_position and task.mode == "pose":
+        assert bounds is not None  # a held joint is a frozen one
+        name, value = held
+        given = analytic_ik(
+            robot, T_target, "pose", q_ref=q_start, free_joint=name, free_value=value
+        )
+        narrowed = float(limit_margin) > 0.0  # frozen joints aside, only a margin narrows
+        branches = _into_box(given, bounds) if narrowed else given
+        if branches:
+            return plan(branches, branches)
+        if narrowed:
+            # A margin narrows the box: the closed form proves nothing about it.
+            given = given or analytic_ik(
+                robot, T_target, "pose", q_ref=q_start, within_limits=False,
+                free_joint=name, free_value=value,
+            )  # fmt: skip
+            return plan([np.clip(b, bounds[0], bounds[1]) for b in given], [])
+        proof = _closed_form_proof(robot, query, q_start, start_time, int(seed), held)
+        return plan([], [], proof)
     # No closed form: the reach sphere still proves a target unreachable.
     centre, radius = robot.reach_sphere
     # math.dist is exact in the range (no overflow: a target 1e155 m away is beyond).
@@ -578,6 +618,43 @@ def _plan(
         )
         return plan([], [], early)
     return plan(starts_given, [])
+
+
+def _held_joint(
+    robot: Robot, bounds: tuple[FloatArray, FloatArray] | None
+) -> tuple[str, float] | None:
+    """The frozen joint ``(name, value)`` whose closed form solves the other six, if any.
+
+    A seven-joint arm with exactly one joint frozen, when the six others fit the
+    held-joint form (:func:`optik.analytic.free_joint_reason`), e.g. the Panda's joint 7.
+    """
+    if bounds is None or robot.dof != 7 or family_of(robot) is not None:
+        return None
+    frozen = np.flatnonzero(bounds[0] == bounds[1])
+    if len(frozen) != 1:
+        return None
+    name = robot.joint_names[int(frozen[0])]
+    if free_joint_reason(robot, name):
+        return None
+    return name, float(bounds[0][frozen[0]])
+
+
+def _into_box(
+    branches: list[FloatArray], bounds: tuple[FloatArray, FloatArray]
+) -> list[FloatArray]:
+    """The closed-form branches inside the box ``bounds``, snapped onto it, in order.
+
+    A branch recovers a frozen joint's value only to rounding: it counts as holding it
+    within :data:`FROZEN_MATCH_TOLERANCE` and is then given the value exactly; other
+    joints keep :data:`~optik.limits.LIMIT_TOLERANCE`.
+    """
+    if not branches:
+        return []
+    lower, upper = bounds
+    slack = np.where(lower == upper, FROZEN_MATCH_TOLERANCE, LIMIT_TOLERANCE)
+    rows = np.array(branches)
+    inside = ((rows >= lower - slack) & (rows <= upper + slack)).all(axis=1)
+    return list(np.clip(rows[inside], lower, upper))
 
 
 def _distinct(

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from optik.analytic import family_of
+from optik.analytic import family_of, free_joint_reason
 from optik.errors import URDFError
 from optik.model import Robot
 from optik.urdf import _parent_joints, _read_root
@@ -118,12 +118,18 @@ def joints_text(robot: Robot) -> str:
 
 
 def robot_text(robot: Robot) -> str:
-    """The joints and the closed-form family of a robot (see :func:`joints_text`)."""
+    """The joints and the closed-form family of a robot (see :func:`joints_text`).
+
+    A seven-joint arm without a family gets one more line: the joints around which, held
+    (``frozen`` in :func:`optik.solve_ik`), the six others have a closed form.
+    """
     family = family_of(robot)
-    return "\n".join(
-        [
-            f"joints ({robot.dof}; q order; revolute in rad, prismatic in m):",
-            joints_text(robot),
-            f"closed-form family: {family.name if family else 'none (numeric solvers)'}",
-        ]
-    )
+    lines = [
+        f"joints ({robot.dof}; q order; revolute in rad, prismatic in m):",
+        joints_text(robot),
+        f"closed-form family: {family.name if family else 'none (numeric solvers)'}",
+    ]
+    if family is None and robot.dof == 7:
+        held = [name for name in robot.joint_names if not free_joint_reason(robot, name)]
+        lines.append(f"closed form with one joint frozen: {', '.join(held) or 'none'}")
+    return "\n".join(lines)

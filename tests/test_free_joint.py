@@ -186,9 +186,11 @@ def test_numeric_solutions_with_the_joint_frozen_are_among_the_branches(iiwa: Ro
         for seed in range(5):
             q0 = rng.uniform(iiwa.lower, iiwa.upper)
             q0[2] = q[2]
+            # warm_start="q0": from q0 alone (the closed form would start it on a branch)
             res = solve_ik(
-                iiwa, target, q0=q0, seed=seed, frozen={name: q[2]}, tol=1e-10, solver="dls"
-            )
+                iiwa, target, q0=q0, seed=seed, frozen={name: q[2]}, tol=1e-10, solver="dls",
+                warm_start="q0",
+            )  # fmt: skip
             if not res.success:
                 continue
             found += 1

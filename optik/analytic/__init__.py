@@ -81,6 +81,7 @@ __all__ = [
     "detect_family",
     "explain_family",
     "family_of",
+    "free_joint_reason",
     "match_families",
     "wrap_into_limits",
 ]
@@ -332,6 +333,26 @@ def _free_plan(robot: Robot, k: int) -> free_joint.FreeJointPlan:
     if k not in plans:
         plans[k] = free_joint.free_joint_plan(robot, k)
     return plans[k]
+
+
+def free_joint_reason(robot: Robot, joint: str) -> str:
+    """Why ``robot`` with ``joint`` held has no closed form; ``""`` when it has one.
+
+    A seven-joint arm whose other six joints fit the held-joint form
+    (:mod:`optik.analytic.free_joint`) gets ``""``: :func:`analytic_ik` with
+    ``free_joint=joint`` then returns every branch, and :func:`optik.solve_ik` with that
+    joint frozen answers with them.
+
+    Args:
+        robot: the robot.
+        joint: the name of one of its joints.
+
+    Raises:
+        OptikError: ``robot`` is not a Robot, or ``joint`` is not one of its joints.
+    """
+    _check_robot(robot)
+    k = _held_index(robot, joint, 0.0)
+    return _free_plan(robot, k).reason
 
 
 def _held_index(robot: Robot, free_joint: Any, free_value: Any) -> int:
