@@ -236,28 +236,31 @@ def ur_candidates(
         n_wrist = 1 if s5_mag < wrist_tol else 2
         for iw in range(n_wrist):
             sign = 1.0 if iw == 0 else -1.0
-            if n_wrist == 2:
+            singular = n_wrist == 1
+            if singular:
+                # Wrist singular (axes 4 and 6 aligned): q6 is free. It takes the
+                # reference, unless the elbow then cannot reach; then the q6 whose elbow
+                # reach is the middle of the elbow's range (nearest the reference of the
+                # two): the second pass of the loop below.
+                t5 = math.atan2(0.0, c5)
+                sn5t, c5t = sincos(t5)
+                t6 = th6 + ref[kr, 5]
+                sn6t, c6t = sincos(t6)
+            else:
                 t5 = math.atan2(sign * s5_mag, c5)
                 t6 = math.atan2(-sign * T16[9], sign * T16[8])
                 theta5 = th5 + (t5 - th5)
                 theta6 = th6 + (t6 - th6)
                 c5t, sn5t = cos_sin(theta5, t5, c5, sign * s5_mag)
                 c6t, sn6t = cos_sin(theta6, t6, sign * T16[8], -sign * T16[9])
+            # One call site of the inlined elbow (each site is compiled anew).
+            for attempt in range(2):
+                before = n
                 n = _ur_elbow(dh, T16, t1, t5, t6, c5t, sn5t, c6t, sn6t, ref, kr, tols, cand, n)
-                continue
-            # Wrist singular (axes 4 and 6 aligned): q6 is free. It takes the reference,
-            # unless the elbow then cannot reach; then the q6 whose elbow reach is the
-            # middle of the elbow's range (nearest the reference of the two).
-            t5 = math.atan2(0.0, c5)
-            sn5t, c5t = sincos(t5)
-            t6 = th6 + ref[kr, 5]
-            sn6t, c6t = sincos(t6)
-            before = n
-            n = _ur_elbow(dh, T16, t1, t5, t6, c5t, sn5t, c6t, sn6t, ref, kr, tols, cand, n)
-            if n == before:
+                if n != before or not singular or attempt == 1:
+                    break
                 t6 = _ur_reachable_q6(dh, T16, c5t, sn5t, t6)
                 sn6t, c6t = sincos(t6)
-                n = _ur_elbow(dh, T16, t1, t5, t6, c5t, sn5t, c6t, sn6t, ref, kr, tols, cand, n)
     return n
 
 
