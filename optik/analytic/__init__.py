@@ -335,23 +335,23 @@ def _free_plan(robot: Robot, k: int) -> free_joint.FreeJointPlan:
     return plans[k]
 
 
-def free_joint_reason(robot: Robot, joint: str) -> str:
-    """Why ``robot`` with ``joint`` held has no closed form; ``""`` when it has one.
+def free_joint_reason(robot: Robot, free_joint: str) -> str:
+    """Why ``robot`` with joint ``free_joint`` held has no closed form; ``""`` if it has one.
 
     A seven-joint arm whose other six joints fit the held-joint form
-    (:mod:`optik.analytic.free_joint`) gets ``""``: :func:`analytic_ik` with
-    ``free_joint=joint`` then returns every branch, and :func:`optik.solve_ik` with that
-    joint frozen answers with them.
+    (:mod:`optik.analytic.free_joint`) gets ``""``: :func:`analytic_ik` with this
+    ``free_joint`` then returns every branch, and :func:`optik.solve_ik` with that joint
+    frozen answers with them.
 
     Args:
         robot: the robot.
-        joint: the name of one of its joints.
+        free_joint: the name of one of its joints.
 
     Raises:
-        OptikError: ``robot`` is not a Robot, or ``joint`` is not one of its joints.
+        OptikError: ``robot`` is not a Robot, or ``free_joint`` is not one of its joints.
     """
     _check_robot(robot)
-    k = _held_index(robot, joint, 0.0)
+    k = _held_index(robot, free_joint, 0.0)
     return _free_plan(robot, k).reason
 
 
