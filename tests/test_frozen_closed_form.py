@@ -42,9 +42,13 @@ def _reaches(robot: Robot, q: np.ndarray, T: np.ndarray, tol: float = FK_TOL) ->
 
 def test_free_joint_reason_names_the_joints_with_a_closed_form(iiwa: Robot) -> None:
     assert free_joint_reason(PANDA, Q7) == ""
-    assert free_joint_reason(iiwa, "lbr_iiwa_joint_3") == ""
+    # The iiwa: joints 1, 3, 5, 7; not the elbow, nor 2 or 6 (held at 0 they align two
+    # of the other axes: a degenerate six).
+    held = [n for n in iiwa.joint_names if not free_joint_reason(iiwa, n)]
+    assert held == [f"lbr_iiwa_joint_{k}" for k in (1, 3, 5, 7)]
+    assert "does not change the distance" in free_joint_reason(iiwa, "lbr_iiwa_joint_4")
+    assert "are parallel" in free_joint_reason(iiwa, "lbr_iiwa_joint_2")
     assert "the other six joints" in free_joint_reason(PANDA, "panda_joint3")
-    assert free_joint_reason(iiwa, "lbr_iiwa_joint_4")  # the elbow: no form around it
     puma = load_problem("puma560").robot
     assert free_joint_reason(puma, puma.joint_names[0])  # six joints: nothing to hold
     with pytest.raises(OptikError, match="free_joint must name a joint"):

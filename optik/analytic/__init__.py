@@ -192,8 +192,9 @@ def analytic_ik(
             they are kept (still wrapped into the limits where a 2 pi shift allows).
         free_joint: for a seven-joint arm, the name of the joint held at ``free_value``;
             the other six are solved in closed form (:mod:`optik.analytic.free_joint`:
-            a spherical-shoulder, spherical-wrist arm such as the KUKA iiwa, holding any
-            joint but the elbow; the Franka Panda holding joint 7). Pose mode only.
+            a spherical-shoulder, spherical-wrist arm such as the KUKA iiwa, holding
+            joint 1, 3, 5 or 7; the Franka Panda holding joint 7; see
+            :func:`free_joint_reason`). Pose mode only.
         free_value: the held joint's value (rad), inside its limits; required with
             ``free_joint``. ``q_ref``'s entry for the held joint is not used.
 
