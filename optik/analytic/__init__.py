@@ -43,6 +43,7 @@ from optik.analytic import spherical_axes  # noqa: F401
 
 # isort: split
 # After the families: the pipeline imports two of them, which would register them first.
+from optik._clock import one_time_setup
 from optik.analytic import _pipeline, free_joint
 from optik.analytic._base import (
     FAMILIES,
@@ -332,7 +333,8 @@ def _free_plan(robot: Robot, k: int) -> free_joint.FreeJointPlan:
     """The cached :func:`optik.analytic.free_joint.free_joint_plan` of joint ``k``."""
     plans = robot.cached(_free_joint_plans)
     if k not in plans:
-        plans[k] = free_joint.free_joint_plan(robot, k)
+        with one_time_setup():  # a robot's setup, as Robot.cached builds: no timeout counts it
+            plans[k] = free_joint.free_joint_plan(robot, k)
     return plans[k]
 
 
