@@ -557,6 +557,28 @@ def _plan(
             deadline, start_time, early, samples or [],
         )  # fmt: skip
 
+    def closed_form(mode: str, provable: bool, held: tuple[str, float] | None = None) -> _Plan:
+        """The closed form's branches inside the box (nearest ``q0`` first) as the answers.
+
+        Without one: a proof when ``provable`` (:func:`_closed_form_proof`), else the
+        numeric search from the branches (those outside the limits too) clipped into the
+        box. ``held``: the frozen joint of a seven-joint arm's form (:func:`_held_joint`).
+        """
+        name, value = (None, None) if held is None else held
+        found = analytic_ik(robot, T_target, mode, q_ref=q_start, free_joint=name, free_value=value)
+        branches = found if bounds is None else _into_box(found, bounds)
+        if branches:
+            return plan(branches, branches)
+        if provable:
+            proof = _closed_form_proof(robot, query, q_start, start_time, int(seed), held)
+            return plan([], [], proof)
+        lower, upper = bounds if bounds is not None else (robot.lower, robot.upper)
+        given = found or analytic_ik(
+            robot, T_target, mode, q_ref=q_start, within_limits=False,
+            free_joint=name, free_value=value,
+        ) or [q_start]  # fmt: skip
+        return plan([np.clip(b, lower, upper) for b in given], [])
+
     family = family_of(robot) if warm_start == "analytic" else None
     starts_given = [q_start] if q0 is not None else []
     if family is not None and solves_axis_task(family, task):
@@ -574,36 +596,12 @@ def _plan(
     elif (
         family is not None and task.is_pose_or_position and _family_solves(robot, family, task.mode)
     ):
-        branches = analytic_ik(robot, T_target, task.mode, q_ref=q_start)
-        if bounds is not None:
-            branches = _into_box(branches, bounds)
-            # The closed form cannot prove anything about the narrowed box: search it.
-            if not branches:
-                given = analytic_ik(robot, T_target, task.mode, q_ref=q_start) or [q_start]
-                return plan([np.clip(b, bounds[0], bounds[1]) for b in given], [])
-        if not branches:
-            return plan([], [], _closed_form_proof(robot, query, q_start, start_time, int(seed)))
-        return plan(branches, branches)
-    held = _held_joint(robot, bounds) if warm_start == "analytic" else None
+        # Frozen joints or a margin narrow the box: the branch set proves nothing about it.
+        return closed_form(task.mode, provable=bounds is None)
+    held = _held_joint(robot, bounds) if family is None and warm_start == "analytic" else None
     if held is not None and task.is_pose_or_position and task.mode == "pose":
-        assert bounds is not None  # a held joint is a frozen one
-        name, value = held
-        given = analytic_ik(
-            robot, T_target, "pose", q_ref=q_start, free_joint=name, free_value=value
-        )
-        narrowed = float(limit_margin) > 0.0  # frozen joints aside, only a margin narrows
-        branches = _into_box(given, bounds) if narrowed else given
-        if branches:
-            return plan(branches, branches)
-        if narrowed:
-            # A margin narrows the box: the closed form proves nothing about it.
-            given = given or analytic_ik(
-                robot, T_target, "pose", q_ref=q_start, within_limits=False,
-                free_joint=name, free_value=value,
-            )  # fmt: skip
-            return plan([np.clip(b, bounds[0], bounds[1]) for b in given], [])
-        proof = _closed_form_proof(robot, query, q_start, start_time, int(seed), held)
-        return plan([], [], proof)
+        # Complete for the held value inside the limits; a margin narrows the others.
+        return closed_form("pose", provable=float(limit_margin) == 0.0, held=held)
     # No closed form: the reach sphere still proves a target unreachable.
     centre, radius = robot.reach_sphere
     # math.dist is exact in the range (no overflow: a target 1e155 m away is beyond).
@@ -625,10 +623,11 @@ def _held_joint(
 ) -> tuple[str, float] | None:
     """The frozen joint ``(name, value)`` whose closed form solves the other six, if any.
 
-    A seven-joint arm with exactly one joint frozen, when the six others fit the
-    held-joint form (:func:`optik.analytic.free_joint_reason`), e.g. the Panda's joint 7.
+    A seven-joint arm (without a family of its own) with exactly one joint frozen, when
+    the six others fit the held-joint form (:func:`optik.analytic.free_joint_reason`),
+    e.g. the Panda's joint 7.
     """
-    if bounds is None or robot.dof != 7 or family_of(robot) is not None:
+    if bounds is None or robot.dof != 7:
         return None
     frozen = np.flatnonzero(bounds[0] == bounds[1])
     if len(frozen) != 1:
