@@ -52,7 +52,7 @@ from optik.analytic._base import (
     is_right_angle,
     table_target,
 )
-from optik.analytic.geometry import DHModel, joint_axes
+from optik.analytic.geometry import DHModel, joint_axes, wrist_centre
 from optik.errors import AnalyticIKError
 from optik.limits import LIMIT_TOLERANCE
 from optik.spatial import ROTATION_TOLERANCE, invert_transform
@@ -98,8 +98,8 @@ AT_CHAIN = AT_MID + DOF  # (7, 3, 4) top rows of the robot's chain transforms _K
 AT_REFINE = AT_CHAIN + 12 * (DOF + 1)  # (1,) 1.0 when the table is not exact (refine)
 AT_FLIPPED = AT_REFINE + 1  # (1,) 1.0 when a table variable is -q (a sense of -1)
 AT_SENSES = AT_FLIPPED + 1  # (6,) table variable = sense * q (DHModel.senses)
-AT_AXES = AT_SENSES + DOF  # (6, 3) joint directions, (6, 3) points, (4, 4) tool at q = 0
-AT_TOLS = AT_AXES + 2 * 3 * DOF + 16  # tolerances, in the order of _TOL_NAMES
+AT_WRIST = AT_SENSES + DOF  # (3,) where axes 4, 5, 6 meet, in the tool's frame (m), or NaN
+AT_TOLS = AT_WRIST + 3  # tolerances, in the order of _TOL_NAMES
 _TOL_NAMES = (
     "TRIG_TOL",  # optik.trig: trig equation tangent / degenerate tests
     "SINGULAR_EPS",  # optik.analytic._base: a = b = 0 in angles()
@@ -127,7 +127,7 @@ PARAMS_LAYOUT: dict[str, tuple[int, tuple[int, ...]]] = {
     "refine": (AT_REFINE, (1,)),
     "flipped": (AT_FLIPPED, (1,)),
     "senses": (AT_SENSES, (DOF,)),
-    "axes": (AT_AXES, (2 * 3 * DOF + 16,)),
+    "wrist": (AT_WRIST, (3,)),
     "tolerances": (AT_TOLS, (len(_TOL_NAMES),)),
 }
 """Name -> (offset, shape) of each block of ``params``."""
@@ -169,8 +169,9 @@ def pack_params(robot: Robot, family: int) -> FloatArray:
     :data:`PARAMS_LAYOUT`): the family id, packed DH rows, limits, base and tool
     inverses, mid-limits, the robot's own chain transforms ``_K`` (the FK check uses the
     kinematics of ``Robot.fk``, not the DH rows), the senses of the table's variables
-    (``DHModel.senses``), for a table that is not exact (``DHModel.exact``) the joint
-    axes that refine each branch, and the tolerances. The caller caches it
+    (``DHModel.senses``), the wrist centre in the tool's frame (a spherical wrist: the
+    Newton step of a table that is not exact, ``DHModel.exact``, is solved around it,
+    :mod:`optik.analytic._newton`), and the tolerances. The caller caches it
     per robot (a :class:`~optik.Robot` does not change after construction;
     ``Robot.with_limits`` starts a fresh cache).
 
@@ -196,13 +197,10 @@ def pack_params(robot: Robot, family: int) -> FloatArray:
     params[AT_REFINE] = 0.0 if model.exact else 1.0
     senses = np.array(model.senses or (1.0,) * DOF)
     params[AT_FLIPPED] = 1.0 if np.any(senses < 0.0) else 0.0
-    params[AT_SENSES:AT_AXES] = senses
-    params[AT_AXES:AT_TOLS] = 0.0
-    if not model.exact:
-        axes = joint_axes(robot)
-        params[AT_AXES:AT_TOLS] = np.concatenate(
-            [axes.directions.reshape(-1), axes.points.reshape(-1), axes.tool.reshape(-1)]
-        )
+    params[AT_SENSES:AT_WRIST] = senses
+    params[AT_WRIST:AT_TOLS] = np.nan
+    if family == SPHERICAL_WRIST:
+        params[AT_WRIST:AT_TOLS] = wrist_centre(joint_axes(robot))
     params[AT_TOLS:] = tolerance_block()
     return params
 
@@ -252,9 +250,9 @@ class AxesOffsets(NamedTuple):
     tols: int
 
     @property
-    def layout(self) -> tuple[int, int, int, int, int, int]:
+    def layout(self) -> tuple[int, int, int, int, int, int, int]:
         """Where :func:`optik.analytic._pipeline.postprocess_rows` finds the robot's data."""
-        return (self.kind, 1, self.lower, self.upper, self.chain, self.tols)
+        return (self.kind, 1, self.lower, self.upper, self.chain, self.tols, -1)
 
 
 def axes_offsets(dof: int, head: int) -> AxesOffsets:
@@ -372,7 +370,7 @@ class CompiledFamily(AnalyticFamily):
         In the robot's variables (a table's ``-q``, ``DHModel.senses``, turned back). For a
         table that is not exact (``DHModel.exact``), the branches of the ideal arm, before
         the Newton step the pipeline gives each
-        (:func:`optik.analytic._pipeline.refine_rows`).
+        (:func:`optik.analytic._pipeline.postprocess_rows`).
 
         Args:
             robot: the robot.
@@ -383,7 +381,7 @@ class CompiledFamily(AnalyticFamily):
         model = self.model(robot)
         T = table_target(robot, model, T_0_target)
         params = params_of(robot, self.kernel)
-        senses = params[AT_SENSES:AT_AXES]
+        senses = params[AT_SENSES:AT_WRIST]
         out = np.empty((MAX_BRANCHES, DOF))
         # The class's attribute: a compiled function read from an instance binds to it.
         n = type(self).closed_form(
@@ -423,8 +421,7 @@ def axes_block(params: np.ndarray, at: int, dof: int) -> tuple[np.ndarray, np.nd
 
     ``z`` (dof, 3) unit joint directions at ``q = 0``, ``p`` (dof, 3) a point on each axis
     (m) and ``M`` (4, 4) the tool at ``q = 0`` (row-major), stored one after the other as
-    :func:`pack_params` (at ``AT_AXES``) and :func:`pack_axes_vector` (at
-    ``AxesOffsets.directions``) store them.
+    :func:`pack_axes_vector` stores them (at ``AxesOffsets.directions``).
     """
     z = np.empty((dof, 3))
     p = np.empty((dof, 3))

@@ -40,7 +40,6 @@ from optik._math import _SINCOS_RANGE, _sincos_core, mod_two_pi, pose_defect, si
 from optik._numba import inline as _inline
 from optik._numba import jit as _jit
 from optik.analytic._compiled import (
-    AT_AXES,
     AT_BASE_INV,
     AT_CHAIN,
     AT_DH,
@@ -52,6 +51,7 @@ from optik.analytic._compiled import (
     AT_TOLS,
     AT_TOOL_INV,
     AT_UPPER,
+    AT_WRIST,
     COL_PRISMATIC,
     COS_ROWS,
     DOF,
@@ -65,22 +65,26 @@ from optik.analytic._compiled import (
     TOL_ROTATION,
     TOL_VERIFY,
     UR,
-    axes_block,
     mul3tn,
 )
-from optik.analytic.pair_wrist import refine
+from optik.analytic._newton import newton_step, newton_work_size, pose_residual, restore_row
+from optik.analytic.pair_wrist import REFINE_MAX_STEP, REFINE_TRUSTED_STEP
 from optik.analytic.spherical_wrist import spherical_wrist_candidates
 from optik.analytic.ur import ur_candidates
 
 _TWO_PI = 2.0 * math.pi
 
-Layout = tuple[int, int, int, int, int, int]
+Layout = tuple[int, int, int, int, int, int, int]
 """Where the post-processing finds a robot's data in its parameter vector: offsets of
 joint ``j``'s prismatic flag (``kind + kind_stride * j``), the lower and upper limits,
-the chain's top rows (``dof + 1`` blocks of 12) and the tolerance block, in that order:
-``(kind, kind_stride, lower, upper, chain, tolerances)``. The six-joint families use
-:data:`SIX_JOINT_LAYOUT`; :mod:`optik.analytic.free_joint` has its own."""
-SIX_JOINT_LAYOUT: Layout = (AT_DH + COL_PRISMATIC, NCOL, AT_LOWER, AT_UPPER, AT_CHAIN, AT_TOLS)
+the chain's top rows (``dof + 1`` blocks of 12), the tolerance block and the wrist
+centre (the point where axes 4, 5 and 6 meet, in the tool's frame; NaN where they do
+not, offset -1 where the vector has no such entry), in that order:
+``(kind, kind_stride, lower, upper, chain, tolerances, wrist)``. The six-joint families
+use :data:`SIX_JOINT_LAYOUT`; :mod:`optik.analytic.free_joint` has its own."""
+SIX_JOINT_LAYOUT: Layout = (
+    AT_DH + COL_PRISMATIC, NCOL, AT_LOWER, AT_UPPER, AT_CHAIN, AT_TOLS, AT_WRIST
+)  # fmt: skip
 """The :data:`Layout` of :func:`optik.analytic._compiled.pack_params`."""
 
 
@@ -106,8 +110,6 @@ def candidates(
 def robot_candidates(
     params: np.ndarray,
     dh: np.ndarray,
-    T: np.ndarray,
-    k: int,
     T0: np.ndarray,
     ref: np.ndarray,
     kr: int,
@@ -116,10 +118,10 @@ def robot_candidates(
     """Raw branches of the robot's family, in the robot's joint variables, into ``rows``.
 
     :func:`candidates` on the table (``dh``, the (6, 8) block of ``params``; flange
-    target ``T0`` in its frame 0); a table
-    variable that is ``-q`` (``params[AT_FLIPPED]``) has its reference and branches
-    turned, and a table that is not exact has each branch refined towards the world
-    target ``T[k]`` (:func:`refine_rows`).
+    target ``T0`` in its frame 0); a table variable that is ``-q``
+    (``params[AT_FLIPPED]``) has its reference and branches turned. A table that is not
+    exact (``params[AT_REFINE]``) gives the branches of the ideal arm: the
+    post-processing refines them (:func:`postprocess_rows`).
     """
     family = int(params[AT_FAMILY])
     tols = params[AT_TOLS:]
@@ -131,26 +133,8 @@ def robot_candidates(
         for r in range(n):
             for j in range(DOF):
                 rows[r, j] *= params[AT_SENSES + j]
-    else:
-        n = candidates(family, dh, T0, ref, kr, tols, rows)
-    if params[AT_REFINE] != 0.0:
-        refine_rows(params, T, k, rows, n)
-    return n
-
-
-@_jit
-def refine_rows(params: np.ndarray, T: np.ndarray, k: int, rows: np.ndarray, n: int) -> None:
-    """One Newton step of each raw branch ``rows[:n]`` towards ``T[k]`` on the robot's axes.
-
-    For a table that is not exact (``params[AT_REFINE]``, see
-    :data:`optik.analytic.geometry.NEAR_FK_TOL`): the closed form solved the ideal arm,
-    and :func:`optik.analytic.pair_wrist.refine` on the robot's own joint axes (the
-    product of exponentials, world frame) restores each branch to rounding.
-    """
-    z, p, M = axes_block(params, AT_AXES, DOF)
-    lsq = np.empty((3, DOF, DOF))
-    for r in range(n):
-        refine(z, p, M, T[k], rows, r, lsq)
+        return n
+    return candidates(family, dh, T0, ref, kr, tols, rows)
 
 
 @_inline
@@ -365,6 +349,70 @@ def _sort_by_distance(
 
 
 @_inline
+def _row_sines(rows: np.ndarray, r: int, dof: int) -> None:
+    """Sines and cosines of ``rows[r]`` into its rows of the scratch block."""
+    for j in range(dof):
+        rows[SIN_ROWS + r, j], rows[COS_ROWS + r, j] = sincos(rows[r, j])
+
+
+@_inline
+def _inside(params: np.ndarray, layout: Layout, dof: int, rows: np.ndarray, r: int) -> bool:
+    """Whether ``rows[r]`` lies inside the limits (with their tolerance)."""
+    tol = params[layout[5] + TOL_LIMIT]
+    for j in range(dof):
+        v = rows[r, j]
+        if not (v >= params[layout[2] + j] - tol and v <= params[layout[3] + j] + tol):
+            return False
+    return True
+
+
+@_inline
+def _refine_row(
+    params: np.ndarray,
+    layout: Layout,
+    dof: int,
+    held: int,
+    T: np.ndarray,
+    k: int,
+    rows: np.ndarray,
+    r: int,
+    pre: np.ndarray,
+    depth: int,
+    verify_tol: float,
+    work: np.ndarray,
+) -> int:
+    """One Newton step of ``rows[r]`` towards ``T[k]``, its FK in ``pre`` (:mod:`._newton`).
+
+    The step is kept when it lowers the residual (the caller then checks the limits on
+    the row as moved). A small step (:data:`optik.analytic.pair_wrist.REFINE_TRUSTED_STEP`) from a
+    row already within half the FK check's tolerance is kept without a second FK: ``pre``
+    keeps the unmoved row's pose, which passes the check, and the moved row's residual is
+    at most the unmoved one's plus a second-order term (about 1e-16). Otherwise the moved
+    row's pose replaces it in ``pre`` (or the row goes back). Returns the FK depth valid
+    in ``pre`` (:func:`fk_shared`).
+    """
+    before = pose_residual(pre, dof, T, k, work)
+    if before == 0.0:
+        return depth
+    wrist = layout[6]
+    if wrist >= 0 and not math.isfinite(params[wrist]):
+        wrist = -1
+    moved = newton_step(params, layout[0], layout[1], dof, held, wrist, pre, rows, r, work)
+    if moved == 0.0:
+        return depth
+    if moved <= REFINE_TRUSTED_STEP and before <= 0.5 * verify_tol:
+        return depth
+    _row_sines(rows, r, dof)
+    start = np.int64(0)  # not the literal 0: one signature of fk_shared
+    depth = fk_shared(params, layout, rows, r, pre, start)
+    if pose_residual(pre, dof, T, k, work) < before:
+        return depth
+    restore_row(dof, rows, r, work)
+    _row_sines(rows, r, dof)
+    return fk_shared(params, layout, rows, r, pre, start)
+
+
+@_inline
 def postprocess_rows(
     params: np.ndarray,
     layout: Layout,
@@ -382,6 +430,8 @@ def postprocess_rows(
     n: int,
     pre: np.ndarray,
     Q: np.ndarray,
+    refine: bool,
+    work: np.ndarray,
 ) -> int:
     """Wrap, filter by the limits, verify by FK, dedupe and sort ``rows[:n]`` into ``Q[k]``.
 
@@ -391,11 +441,16 @@ def postprocess_rows(
     of the tool and ``ref[kr]`` the reference; ``rows`` (24, dof) holds the raw branches
     in its first 8 rows (wrapped and compacted in place), then their sines and cosines,
     and ``flat`` is the same memory seen flat; ``pre`` (dof + 2, 12) is FK scratch.
-    Inlined: callers pass ``layout``, ``dof`` and ``held`` as constants where they can.
-    Returns the number of rows written to ``Q[k]``.
+    With ``refine`` (a closed form of the ideal arm, :mod:`optik.analytic._newton`) each
+    row takes one Newton step on the chain before its check (:func:`_refine_row`);
+    ``work`` is that step's scratch. Inlined: callers pass ``layout``, ``dof``, ``held``
+    and ``refine`` as constants where they can. Returns the number of rows written to
+    ``Q[k]``.
     """
     tols = layout[5]
-    limit_tol = params[tols + TOL_LIMIT]
+    # Rows the Newton step may still move are filtered again once moved: first with the
+    # step's bound as slack, so that a branch on a limit is not lost to its rounding.
+    limit_tol = params[tols + TOL_LIMIT] + (REFINE_MAX_STEP if refine else 0.0)
     verify_tol = params[tols + TOL_VERIFY]
     dup_tol = params[tols + TOL_DUPLICATE]
     lower = layout[2]
@@ -433,6 +488,12 @@ def postprocess_rows(
     m = 0
     for r in range(kept):
         depth = fk_shared(params, layout, rows, r, pre, depth)
+        if refine:
+            depth = _refine_row(
+                params, layout, dof, held, T, k, rows, r, pre, depth, verify_tol, work
+            )
+            if within and not _inside(params, layout, dof, rows, r):
+                continue
         if not _pose_verified(pre, dof, T, k, verify_tol):
             continue
         duplicate = False
@@ -469,6 +530,8 @@ def postprocess_one(
     n: int,
     pre: np.ndarray,
     out: np.ndarray,
+    refine: bool,
+    work: np.ndarray,
 ) -> int:
     """:func:`postprocess_rows` of a single call: target ``T1[0]``, reference ``ref1[0]``.
 
@@ -479,7 +542,7 @@ def postprocess_one(
     k = np.int64(0)  # not the literal 0: the batch's signatures serve this call too
     return postprocess_rows(
         params, layout, dof, held, held_value, T1, k, ref1, k, sort, within, rows, flat, n,
-        pre, out[None],
+        pre, out[None], refine, work,
     )  # fmt: skip
 
 
@@ -501,32 +564,34 @@ def input_code(params: np.ndarray, tols: int, T1: np.ndarray, ref: np.ndarray) -
 
 
 @_inline
-def work_rows(dof: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Scratch of :func:`postprocess_rows` for ``dof`` joints: ``(pre, flat, rows)``.
+def work_rows(dof: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Scratch of :func:`postprocess_rows` for ``dof`` joints: ``(pre, flat, rows, work)``.
 
     ``pre`` (dof + 2, 12) for the FK, ``rows`` (24, dof) for the raw branches and their
-    sines and cosines, ``flat`` the same memory seen flat. Made once per call or batch.
+    sines and cosines, ``flat`` the same memory seen flat, ``work`` the Newton step's
+    (:func:`optik.analytic._newton.newton_work_size`). Made once per call or batch.
     """
     pre = np.empty((dof + 2, 12))
     flat = np.empty(3 * MAX_BRANCHES * dof)
-    return pre, flat, flat.reshape((3 * MAX_BRANCHES, dof))
+    work = np.empty(newton_work_size(dof))
+    return pre, flat, flat.reshape((3 * MAX_BRANCHES, dof)), work
 
 
 @_inline
 def batch_work(
     n: int, dof: int, flags: int
-) -> tuple[bool, bool, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+) -> tuple[bool, bool, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Flags and scratch of a batch of ``n`` targets for ``dof`` joints, made once.
 
-    ``(sort, within, pre, flat, rows, Q, counts)``: the :data:`SORT` and
+    ``(sort, within, pre, flat, rows, work, Q, counts)``: the :data:`SORT` and
     :data:`WITHIN_LIMITS` bits of ``flags``, :func:`work_rows`' scratch, then the outputs
     ``Q`` (n, 8, dof) and ``counts`` (n,) of a ``solve_batch``.
     """
-    pre, flat, rows = work_rows(dof)
+    pre, flat, rows, work = work_rows(dof)
     Q = np.empty((n, MAX_BRANCHES, dof))
     counts = np.zeros(n, dtype=np.int64)
     sort, within = flag_bits(flags)
-    return sort, within, pre, flat, rows, Q, counts
+    return sort, within, pre, flat, rows, work, Q, counts
 
 
 @_inline
@@ -576,14 +641,16 @@ def solve(params: np.ndarray, T: np.ndarray, ref: np.ndarray, flags: int, out: n
     # Scratch (a reshape is a C call: the per-pose path indexes instead), then the steps.
     ref1 = ref[None]
     T0 = np.empty((4, 4))
-    pre, flat, rows = work_rows(DOF)
+    pre, flat, rows, work = work_rows(DOF)
     k = np.int64(0)  # not the literal 0: the batch's signatures serve this call too
     _transform_target(params, T1, k, T0)
     dh = params[AT_DH:AT_LOWER].reshape((DOF, NCOL))
-    n = robot_candidates(params, dh, T1, k, T0, ref1, k, rows)
+    n = robot_candidates(params, dh, T0, ref1, k, rows)
+    refine = params[AT_REFINE] != 0.0
     return postprocess_one(
-        params, SIX_JOINT_LAYOUT, DOF, -1, 0.0, T1, ref1, flags, rows, flat, n, pre, out
-    )
+        params, SIX_JOINT_LAYOUT, DOF, -1, 0.0, T1, ref1, flags, rows, flat, n, pre, out,
+        refine, work,
+    )  # fmt: skip
 
 
 @_jit
@@ -605,16 +672,17 @@ def solve_batch(
     """
     N = T.shape[0]
     shared = ref.shape[0] == 1
-    sort, within, pre, flat, rows, Q, counts = batch_work(N, DOF, flags)
+    sort, within, pre, flat, rows, work, Q, counts = batch_work(N, DOF, flags)
     dh = params[AT_DH:AT_LOWER].reshape((DOF, NCOL))
+    refine = params[AT_REFINE] != 0.0
     T0 = np.empty((4, 4))
     for k in range(N):
         kr = 0 if shared else k
         _transform_target(params, T, k, T0)
-        n = robot_candidates(params, dh, T, k, T0, ref, kr, rows)
+        n = robot_candidates(params, dh, T0, ref, kr, rows)
         counts[k] = postprocess_rows(
             params, SIX_JOINT_LAYOUT, DOF, -1, 0.0, T, k, ref, kr, sort, within, rows, flat,
-            n, pre, Q,
+            n, pre, Q, refine, work,
         )  # fmt: skip
         pad_rows(Q, k, counts[k])
     return Q, counts

@@ -329,11 +329,12 @@ def solve(
     for j in range(FREE_DOF):
         ref1[0, j] = ref[j]
     ref1[0, k] = value
-    pre, flat, rows = work_rows(FREE_DOF)
+    pre, flat, rows, newton = work_rows(FREE_DOF)
     n = _candidates_into(params, value, T, ref1[0], rows, _scratch())
     return postprocess_one(
-        params, FREE_LAYOUT, FREE_DOF, k, value, T1, ref1, flags, rows, flat, n, pre, out
-    )
+        params, FREE_LAYOUT, FREE_DOF, k, value, T1, ref1, flags, rows, flat, n, pre, out,
+        False, newton,
+    )  # fmt: skip
 
 
 @_jit
@@ -354,7 +355,7 @@ def solve_batch(
     """
     N = T.shape[0]
     k = int(params[AT_HELD])
-    sort, within, pre, flat, rows, Q, counts = batch_work(N, FREE_DOF, flags)
+    sort, within, pre, flat, rows, newton, Q, counts = batch_work(N, FREE_DOF, flags)
     work = _scratch()
     refs = np.empty((1, FREE_DOF))
     for i in range(N):
@@ -366,7 +367,7 @@ def solve_batch(
         n = _candidates_into(params, value, T[i], refs[0], rows, work)
         counts[i] = postprocess_rows(
             params, FREE_LAYOUT, FREE_DOF, k, value, T, i, refs, 0, sort, within, rows, flat,
-            n, pre, Q,
+            n, pre, Q, False, newton,
         )  # fmt: skip
         pad_rows(Q, i, counts[i])
     return Q, counts

@@ -166,6 +166,26 @@ def line_distance(z1: FloatArray, p1: FloatArray, z2: FloatArray, p2: FloatArray
     return abs(float(r @ c)) / sn
 
 
+def wrist_centre(axes: Axes) -> FloatArray:
+    """(3,) where axes 4 and 5 meet, in the tool's frame at ``q = 0`` (m).
+
+    The midpoint of the two lines' common normal (axes that meet only to within the
+    tolerances meet there best); NaN when they are parallel. Fixed in the last link, so
+    ``fk(q) @ (c, 1)`` is the wrist centre at any ``q``.
+    """
+    z4, z5 = axes.directions[3], axes.directions[4]
+    p4, p5 = axes.points[3], axes.points[4]
+    k = float(z4 @ z5)
+    den = 1.0 - k * k
+    if den <= ANGLE_TOL * ANGLE_TOL:
+        return np.full(3, np.nan)
+    r = p5 - p4
+    a, b = float(r @ z4), float(r @ z5)
+    world = 0.5 * (p4 + (a - k * b) / den * z4 + p5 + (k * a - b) / den * z5)
+    R, t = axes.tool[:3, :3], axes.tool[:3, 3]
+    return np.asarray(R.T @ (world - t), dtype=np.float64)
+
+
 def point_line_distance(z: FloatArray, p: FloatArray, x: FloatArray) -> float:
     """Distance (m) of point ``x`` from the line through ``p`` along the unit ``z``."""
     r = x - p

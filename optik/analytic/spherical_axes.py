@@ -254,11 +254,12 @@ def solve(params: np.ndarray, T: np.ndarray, ref: np.ndarray, flags: int, out: n
     if code != 0:
         return code
     ref1 = ref[None]
-    pre, flat, rows = work_rows(DOF)
+    pre, flat, rows, newton = work_rows(DOF)
     n = _candidates_into(params, T, ref, rows, _scratch(params))
     return postprocess_one(
-        params, AXES_LAYOUT, DOF, -1, 0.0, T1, ref1, flags, rows, flat, n, pre, out
-    )
+        params, AXES_LAYOUT, DOF, -1, 0.0, T1, ref1, flags, rows, flat, n, pre, out,
+        False, newton,
+    )  # fmt: skip
 
 
 @_jit
@@ -271,14 +272,14 @@ def solve_batch(
     6), ``counts`` (N,)), on :func:`pack_axes_params`'s vector.
     """
     N = T.shape[0]
-    sort, within, pre, flat, rows, Q, counts = batch_work(N, DOF, flags)
+    sort, within, pre, flat, rows, newton, Q, counts = batch_work(N, DOF, flags)
     scratch = _scratch(params)
     for k in range(N):
         kr = 0 if ref.shape[0] == 1 else k
         n = _candidates_into(params, T[k], ref[kr], rows, scratch)
         counts[k] = postprocess_rows(
             params, AXES_LAYOUT, DOF, -1, 0.0, T, k, ref, kr, sort, within, rows, flat, n,
-            pre, Q,
+            pre, Q, False, newton,
         )  # fmt: skip
         pad_rows(Q, k, counts[k])
     return Q, counts
