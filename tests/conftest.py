@@ -229,6 +229,37 @@ def fd_jacobian(robot: Robot, q: np.ndarray, h: float = 1e-6) -> np.ndarray:
     return J
 
 
+def newton_reference(
+    robot: Robot, rows: list[np.ndarray], target: np.ndarray, held: int | None = None
+) -> list[np.ndarray]:
+    """Each row after the closed forms' Newton step, in numpy on ``Robot.fk``/``jacobian``.
+
+    The damped least-squares step (``optik.analytic._newton.REFINE_DAMPING``), with the
+    column of ``held`` left out; kept when every component is at most ``REFINE_MAX_STEP``
+    and the residual (position error, axial vector of ``R_T R^T``) does not grow.
+    """
+    from optik.analytic._newton import REFINE_DAMPING, REFINE_MAX_STEP
+
+    def residual(q: np.ndarray) -> np.ndarray:
+        T = robot.fk(q)
+        E = target[:3, :3] @ T[:3, :3].T
+        axial = 0.5 * np.array([E[2, 1] - E[1, 2], E[0, 2] - E[2, 0], E[1, 0] - E[0, 1]])
+        return np.concatenate([target[:3, 3] - T[:3, 3], axial])
+
+    out = []
+    for q in rows:
+        e = residual(q)
+        J = robot.jacobian(q)
+        if held is not None:
+            J[:, held] = 0.0
+        A = J.T @ J + REFINE_DAMPING**2 * np.eye(robot.dof)
+        dq = np.linalg.solve(A, J.T @ e)
+        moved = q + dq
+        keep = np.max(np.abs(dq)) <= REFINE_MAX_STEP
+        out.append(moved if keep and np.linalg.norm(residual(moved)) <= np.linalg.norm(e) else q)
+    return out
+
+
 # ---------------------------------------------------------------------------- comparison runs
 class Interrupt(Exception):
     """Raised from an ``on_row`` callback to stop a run as a kill would."""

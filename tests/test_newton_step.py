@@ -17,8 +17,8 @@ from conftest import fd_jacobian, robot_of
 
 from optik import Robot
 from optik.analytic import FAMILIES, _compiled, _newton, _pipeline, analytic_ik, analytic_ik_batch
+from optik.analytic._newton import REFINE_DAMPING
 from optik.analytic.geometry import joint_axes, point_line_distance, wrist_centre
-from optik.analytic.pair_wrist import REFINE_DAMPING
 from optik.limits import LIMIT_TOLERANCE
 
 LAYOUT = _pipeline.SIX_JOINT_LAYOUT
@@ -200,3 +200,26 @@ def test_kinova_branches_reach_rounding_and_stay_inside_the_limits() -> None:
         for b in branches:
             assert tight_lower[1] - LIMIT_TOLERANCE <= b[1] <= tight_upper[1] + LIMIT_TOLERANCE
             assert np.max(np.abs(tight.fk(b) - tight.fk(q))) < 1e-9
+
+
+def test_a_branch_at_rounding_takes_no_step_and_one_off_by_1e_10_is_restored(
+    rng: np.random.Generator,
+) -> None:
+    """``_refine_row``: a row whose residual is at rounding is left bit for bit; a row
+    1e-10 off its target is brought to rounding (checked on ``Robot.fk``)."""
+    robot = robot_of("puma560")
+    verify = float(_compiled.tolerance_block()[_compiled.TOL_VERIFY])
+    for _ in range(10):
+        q = rng.uniform(robot.lower, robot.upper)
+        for offset, moved in ((0.0, False), (1e-10, True)):
+            target = robot.fk(q + offset)
+            params, pre, rows = _prefixes(robot, q)
+            work = np.empty(_newton.newton_work_size(6))
+            depth = np.int64(6)
+            args = (params, LAYOUT, 6, -1, target[None], 0, rows, 0, pre, depth, verify, work)
+            _pipeline._refine_row(*args)
+            if not moved:
+                assert np.array_equal(rows[0], q)
+                continue
+            assert not np.array_equal(rows[0], q)
+            assert np.linalg.norm(_residual(robot, rows[0], target)) < 1e-14

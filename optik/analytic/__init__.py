@@ -494,6 +494,7 @@ def _free_joint_fallback(
     # Branches exist, all outside the limits. At a singularity a free angle took the
     # reference and pushed a dependent one out: other references for the free angles.
     found: list[FloatArray] = []
+    trials: list[FloatArray] = []
     for fraction in _FREE_RETRIES:
         trial = np.where(
             np.isfinite(robot.lower + robot.upper),
@@ -501,10 +502,18 @@ def _free_joint_fallback(
             ref,
         )
         trial[k] = value
+        trials.append(trial)
         found += _free_joint_raw(plan, value, T_target, trial)
     if np.array_equal(np.array(found), np.array(raw * len(_FREE_RETRIES)), equal_nan=True):
         return []  # no angle took the reference: the same candidates, outside the limits
-    return _finish(robot, found, T_target, "pose", ref, sort, within, held)
+    # Each reference's branches as the compiled call gives them (the Newton step taken,
+    # verified), none dropped by the limits yet: the numpy steps judge them together.
+    out = np.empty((_compiled.MAX_BRANCHES, free_joint.FREE_DOF))
+    refined: list[FloatArray] = []
+    for trial in trials:
+        n = free_joint.solve(plan.params, T_target, trial, value, 0, out)
+        refined += [out[i].copy() for i in range(max(n, 0))]
+    return _finish(robot, refined, T_target, "pose", ref, sort, within, held)
 
 
 _FREE_RETRIES = (0.5, 0.25, 0.75, 0.1, 0.9)

@@ -15,12 +15,12 @@ Two ways to solve for the step:
   a fifth of the cost of the other);
 - otherwise, or where a block is near singular: the damped normal equations
   ``(J^T J + lambda^2 I) dq = J^T e`` (:func:`_damped_step`,
-  :data:`optik.analytic.pair_wrist.REFINE_DAMPING`: directions of ``J`` with singular
+  :data:`REFINE_DAMPING`: directions of ``J`` with singular
   values far below ``lambda`` are not moved, so a free angle keeps its reference).
 
 Either leaves the linearised residual no larger than it was (``||e - J dq|| <= ||e||``;
 the wrist step misses it only by the axes' miss times the step), and a step is applied
-only when every component is at most :data:`optik.analytic.pair_wrist.REFINE_MAX_STEP`
+only when every component is at most :data:`REFINE_MAX_STEP`
 (a larger one means an ill-posed system).
 """
 
@@ -29,7 +29,22 @@ from __future__ import annotations
 import numpy as np
 
 from optik._numba import inline as _inline
-from optik.analytic.pair_wrist import REFINE_DAMPING, REFINE_MAX_STEP
+
+REFINE_DAMPING = 1e-6
+"""Damping of :func:`_damped_step` (the Jacobian's scale is 1 m or 1): directions of the
+Jacobian with singular values far below it (at a singularity) are not moved, so a free
+angle keeps its reference."""
+REFINE_MAX_STEP = 1e-4
+"""Largest correction (rad or m) :func:`newton_step` applies: a larger one means an
+ill-posed system, and the closed form's values are kept."""
+REFINE_TRUSTED_STEP = 1e-8
+"""A correction up to this (rad or m) from a branch within half the FK check's tolerance
+is kept without a second FK (:func:`optik.analytic._pipeline.postprocess_rows`): the
+step never raises the linearised residual, and the rest is second order (about 1e-16)."""
+
+REFINE_ROUNDING = 1e-14
+"""A branch whose residual (2-norm, m and rad) is at most this is at rounding already (an
+exact closed form's branches are, to a few 1e-16): it takes no step."""
 
 RESIDUAL = 0
 """Offset of the residual ``e`` (6,) in the scratch of :func:`newton_step`."""

@@ -67,8 +67,15 @@ from optik.analytic._compiled import (
     UR,
     mul3tn,
 )
-from optik.analytic._newton import newton_step, newton_work_size, pose_residual, restore_row
-from optik.analytic.pair_wrist import REFINE_MAX_STEP, REFINE_TRUSTED_STEP
+from optik.analytic._newton import (
+    REFINE_MAX_STEP,
+    REFINE_ROUNDING,
+    REFINE_TRUSTED_STEP,
+    newton_step,
+    newton_work_size,
+    pose_residual,
+    restore_row,
+)
 from optik.analytic.spherical_wrist import spherical_wrist_candidates
 from optik.analytic.ur import ur_candidates
 
@@ -367,6 +374,32 @@ def _inside(params: np.ndarray, layout: Layout, dof: int, rows: np.ndarray, r: i
 
 
 @_inline
+def _rewrap_moved(
+    params: np.ndarray,
+    layout: Layout,
+    dof: int,
+    held: int,
+    held_value: float,
+    rows: np.ndarray,
+    r: int,
+    ref: np.ndarray,
+    kr: int,
+) -> None:
+    """Wrap ``rows[r]`` again when a Newton step took an angle more than pi from ``ref``.
+
+    The step moves a wrapped row by at most ``REFINE_MAX_STEP``: only an angle at the
+    half-turn from the reference can change its nearest representative, and testing
+    for it costs a comparison per joint where the wrap costs a remainder.
+    """
+    for j in range(dof):
+        if abs(rows[r, j] - ref[kr, j]) > math.pi and params[layout[0] + layout[1] * j] == 0.0:
+            _wrap_row(params, layout, rows, r, ref, kr)
+            if held >= 0:
+                rows[r, held] = held_value
+            return
+
+
+@_inline
 def _refine_row(
     params: np.ndarray,
     layout: Layout,
@@ -383,8 +416,9 @@ def _refine_row(
 ) -> int:
     """One Newton step of ``rows[r]`` towards ``T[k]``, its FK in ``pre`` (:mod:`._newton`).
 
+    A row already at rounding (:data:`optik.analytic._newton.REFINE_ROUNDING`) is left.
     The step is kept when it lowers the residual (the caller then checks the limits on
-    the row as moved). A small step (:data:`optik.analytic.pair_wrist.REFINE_TRUSTED_STEP`) from a
+    the row as moved). A small step (:data:`optik.analytic._newton.REFINE_TRUSTED_STEP`) from a
     row already within half the FK check's tolerance is kept without a second FK: ``pre``
     keeps the unmoved row's pose, which passes the check, and the moved row's residual is
     at most the unmoved one's plus a second-order term (about 1e-16). Otherwise the moved
@@ -392,7 +426,7 @@ def _refine_row(
     in ``pre`` (:func:`fk_shared`).
     """
     before = pose_residual(pre, dof, T, k, work)
-    if before == 0.0:
+    if before <= REFINE_ROUNDING:
         return depth
     wrist = layout[6]
     if wrist >= 0 and not math.isfinite(params[wrist]):
@@ -492,6 +526,7 @@ def postprocess_rows(
             depth = _refine_row(
                 params, layout, dof, held, T, k, rows, r, pre, depth, verify_tol, work
             )
+            _rewrap_moved(params, layout, dof, held, held_value, rows, r, ref, kr)
             if within and not _inside(params, layout, dof, rows, r):
                 continue
         if not _pose_verified(pre, dof, T, k, verify_tol):

@@ -155,20 +155,18 @@ def pack_free_params(robot: Robot, plan: FreeJointPlan) -> FloatArray:
 
 # ---------------------------------------------------------------------- the compiled kernels
 @_jit
-def _scratch() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def _scratch() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Scratch of :func:`_candidates_into`, allocated once per call or batch.
 
-    ``(axes, frames, refs, lsq, six)``: ``axes`` (4, 6, 3) the six axes' directions and
+    ``(axes, frames, refs, six)``: ``axes`` (4, 6, 3) the six axes' directions and
     points, then the same read backwards; ``frames`` (3, 4, 4) the tool at ``q = 0``, its
     inverse and the inverse target; ``refs`` (2, 6) the six references, then reversed;
-    ``lsq`` (3, 6, 6) :func:`optik.analytic.pair_wrist.refine`'s; ``six`` (8, 6) the
-    six-joint branches.
+    ``six`` (8, 6) the six-joint branches.
     """
     return (
         np.empty((4, 6, 3)),
         np.empty((3, 4, 4)),
         np.empty((2, 6)),
-        np.empty((3, 6, 6)),
         np.empty((MAX_BRANCHES, 6)),
     )
 
@@ -180,7 +178,7 @@ def _candidates_into(
     T: np.ndarray,
     ref: np.ndarray,
     cand: np.ndarray,
-    work: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+    work: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
 ) -> int:
     """Raw seven-joint branches (the held joint at ``value``) of world target ``T`` (4, 4).
 
@@ -190,7 +188,7 @@ def _candidates_into(
     free angles' references, ``cand`` (>= 8, 7) receives the rows and ``work`` is
     :func:`_scratch`. Returns the number of rows written.
     """
-    axes, frames, refs, lsq, six = work
+    axes, frames, refs, six = work
     k = int(params[AT_HELD])
     z = axes[0]
     p = axes[1]
@@ -227,7 +225,7 @@ def _candidates_into(
     M[3, 3] = 1.0
     tols = params[AT_TOLS:]
     if params[AT_REVERSE] == 0.0:
-        n = pair_wrist_candidates(z, p, M, T, r6, tols, six, lsq)
+        n = pair_wrist_candidates(z, p, M, T, r6, tols, six)
     else:
         # Read backwards: axes seen from the tool at q = 0, reversed, in reverse order;
         # target T^-1, home M^-1.
@@ -246,7 +244,7 @@ def _candidates_into(
                 pr[i, a] = (
                     Mi[a, 0] * p[src, 0] + Mi[a, 1] * p[src, 1] + Mi[a, 2] * p[src, 2] + Mi[a, 3]
                 )
-        n = pair_wrist_candidates(zr, pr, Mi, Ti, rr, tols, six, lsq)
+        n = pair_wrist_candidates(zr, pr, Mi, Ti, rr, tols, six)
         for r in range(n):
             for i in range(3):
                 six[r, i], six[r, 5 - i] = six[r, 5 - i], six[r, i]
@@ -333,7 +331,7 @@ def solve(
     n = _candidates_into(params, value, T, ref1[0], rows, _scratch())
     return postprocess_one(
         params, FREE_LAYOUT, FREE_DOF, k, value, T1, ref1, flags, rows, flat, n, pre, out,
-        False, newton,
+        True, newton,
     )  # fmt: skip
 
 
@@ -367,7 +365,7 @@ def solve_batch(
         n = _candidates_into(params, value, T[i], refs[0], rows, work)
         counts[i] = postprocess_rows(
             params, FREE_LAYOUT, FREE_DOF, k, value, T, i, refs, 0, sort, within, rows, flat,
-            n, pre, Q, False, newton,
+            n, pre, Q, True, newton,
         )  # fmt: skip
         pad_rows(Q, i, counts[i])
     return Q, counts

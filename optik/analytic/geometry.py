@@ -36,10 +36,10 @@ random configurations to :data:`FK_TOL`. When the snapped table misses that proo
 reproduces ``Robot.fk`` to :data:`NEAR_FK_TOL` (axes in an ideal relation only to
 within the tolerances, e.g. a URDF angle written to 11 digits: 1.57079632679), it is
 kept and marked ``exact=False``: a family solves the ideal arm, and each branch then
-takes one Newton step on the robot's own joint axes
-(:func:`optik.analytic.pair_wrist.refine`), which restores it to rounding before the
-FK check. Beyond that, the table of the unsnapped values is returned instead, and
-proved the same way, so the families see (and name) the relation that is not exact.
+takes one Newton step on the robot's own chain (:mod:`optik.analytic._newton`, inside
+the FK check), which restores it to rounding. Beyond that, the table of the unsnapped
+values is returned instead, and proved the same way, so the families see (and name) the
+relation that is not exact.
 
 Tolerances are relative to the arm's size ``L`` (:func:`arm_size`: the summed distances
 between consecutive joint points at ``q = 0``, at least 1 mm): :data:`ANGLE_TOL` (rad) for

@@ -88,7 +88,6 @@ def pair_wrist_candidates(
     ref: np.ndarray,
     tols: np.ndarray,
     cand: np.ndarray,
-    lsq: np.ndarray,
 ) -> int:
     """Raw branches of the pair-elbow-wrist closed form into ``cand`` (>= 8, 6).
 
@@ -100,7 +99,6 @@ def pair_wrist_candidates(
         ref: (6,) reference angles for free joints (rad).
         tols: the tolerance block of :mod:`optik.analytic._compiled`.
         cand: output rows (joint angles, rad, not wrapped).
-        lsq: (3, 6, 6) scratch of :func:`refine` (the caller allocates it once).
 
     Returns:
         The number of rows written (0 to 8), in the order of the module docstring.
@@ -131,7 +129,7 @@ def pair_wrist_candidates(
             t1 = ta1 if i12 == 0 else ta2
             t2 = tb1 if i12 == 0 else tb2
             R123 = mul3(mul3(rotation(z1, t1), rotation(z2, t2)), R3)
-            n = wrist_branches(z, p, M, T, RG, R123, (t1, t2, t3), across, ref, tols, cand, n, lsq)
+            n = wrist_branches(z, RG, R123, (t1, t2, t3), across, ref, tols, cand, n)
     return n
 
 
@@ -160,9 +158,6 @@ def wrist_across(z: np.ndarray) -> Vec3:
 @_inline
 def wrist_branches(
     z: np.ndarray,
-    p: np.ndarray,
-    M: np.ndarray,
-    T: np.ndarray,
     RG: Rot9,
     R123: Rot9,
     arm: Vec3,
@@ -171,7 +166,6 @@ def wrist_branches(
     tols: np.ndarray,
     cand: np.ndarray,
     n: int,
-    lsq: np.ndarray,
 ) -> int:
     """The spherical wrist's branches (axes 4-6 through one point) after the arm's angles.
 
@@ -180,8 +174,8 @@ def wrist_branches(
     subproblem 2 on axis 6's direction (which ``R_6`` fixes), ``q_6`` by subproblem 1 on
     ``across`` (:func:`wrist_across`) from the residual rotation, so ``q_6`` absorbs any
     rounding of ``q_4``. Writes up to two rows ``(q_1, ..., q_6)`` of ``cand`` from row
-    ``n`` on (each refined by :func:`refine`); returns the new row count. The other
-    arguments as :func:`pair_wrist_candidates`'.
+    ``n`` on; returns the new row count. The other arguments as
+    :func:`pair_wrist_candidates`'.
     """
     trig_tol, _, _, axis_tol = closed_form_tols(tols)
     z4, z5, z6 = vec_at(z, 3), vec_at(z, 4), vec_at(z, 5)
@@ -199,142 +193,8 @@ def wrist_branches(
             cand[n, 3] = t4
             cand[n, 4] = t5
             cand[n, 5] = t6
-            refine(z, p, M, T, cand, n, lsq)
             n += 1
     return n
-
-
-REFINE_DAMPING = 1e-6
-"""Damping of :func:`refine`'s least-squares step (the Jacobian's scale is 1 m or 1):
-directions of the Jacobian with singular values far below it (at a singularity) are not
-moved, so a free angle keeps its reference."""
-REFINE_MAX_STEP = 1e-4
-"""Largest correction (rad) :func:`refine` applies: a larger one means an ill-posed
-system, and the closed form's values are kept."""
-REFINE_TRUSTED_STEP = 1e-8
-"""A correction up to this (rad) is kept without recomputing the error: the damped step
-never raises the linearised error, and the rest is second order (about 1e-16)."""
-
-
-@_jit
-def _pose_error(
-    z: np.ndarray, p: np.ndarray, M: np.ndarray, T: np.ndarray, q: np.ndarray, J: np.ndarray
-) -> tuple[float, float, float, float, float, float]:
-    """``T``'s position and small-angle orientation error against ``fk(q)``; ``J`` (6, 6).
-
-    The product of exponentials ``R_1(q_1) ... R_6(q_6) M``; ``J`` receives the world
-    Jacobian at the tool point (rows: linear, then angular velocity). The orientation
-    error is the axial vector of the skew part of ``R_T R^T`` (exact to second order).
-    """
-    R: Rot9 = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
-    t = (0.0, 0.0, 0.0)
-    for i in range(6):
-        w = apply(R, vec_at(z, i))
-        c = apply(R, vec_at(p, i))
-        c = (c[0] + t[0], c[1] + t[1], c[2] + t[2])
-        for a in range(3):
-            J[3 + a, i] = w[a]
-        J[0, i] = c[0]
-        J[1, i] = c[1]
-        J[2, i] = c[2]
-        Ri = rotation(vec_at(z, i), q[i])
-        # Moving frame: the joint turns about its line through p_i.
-        pi = vec_at(p, i)
-        Rp = apply(Ri, pi)
-        ti = (pi[0] - Rp[0], pi[1] - Rp[1], pi[2] - Rp[2])
-        Rti = apply(R, ti)
-        t = (t[0] + Rti[0], t[1] + Rti[1], t[2] + Rti[2])
-        R = mul3(R, Ri)
-    RM = (M[0, 0], M[0, 1], M[0, 2], M[1, 0], M[1, 1], M[1, 2], M[2, 0], M[2, 1], M[2, 2])
-    Rq = mul3(R, RM)
-    tq = apply(R, (M[0, 3], M[1, 3], M[2, 3]))
-    tq = (tq[0] + t[0], tq[1] + t[1], tq[2] + t[2])
-    for i in range(6):
-        # Linear velocity of the tool point: w x (tool - point on the turned axis).
-        w = (J[3, i], J[4, i], J[5, i])
-        v = cross(w, (tq[0] - J[0, i], tq[1] - J[1, i], tq[2] - J[2, i]))
-        J[0, i] = v[0]
-        J[1, i] = v[1]
-        J[2, i] = v[2]
-    RT = (T[0, 0], T[0, 1], T[0, 2], T[1, 0], T[1, 1], T[1, 2], T[2, 0], T[2, 1], T[2, 2])
-    E = mul3(RT, (Rq[0], Rq[3], Rq[6], Rq[1], Rq[4], Rq[7], Rq[2], Rq[5], Rq[8]))
-    return (
-        T[0, 3] - tq[0],
-        T[1, 3] - tq[1],
-        T[2, 3] - tq[2],
-        0.5 * (E[7] - E[5]),
-        0.5 * (E[2] - E[6]),
-        0.5 * (E[3] - E[1]),
-    )
-
-
-@_jit
-def refine(
-    z: np.ndarray,
-    p: np.ndarray,
-    M: np.ndarray,
-    T: np.ndarray,
-    cand: np.ndarray,
-    r: int,
-    lsq: np.ndarray,
-) -> None:
-    """One Newton step of ``cand[r]`` towards ``T`` on the product of exponentials.
-
-    Axes that meet only to within the geometry's tolerances (a URDF angle written to 11
-    digits) make the closed form exact to about 1e-12; near a singularity that error is
-    magnified in the joints that the singularity couples. One damped least-squares step
-    (:data:`REFINE_DAMPING`) restores the branch to rounding. It is kept only when it is
-    small (:data:`REFINE_MAX_STEP`) and lowers the error (checked unless it is tiny,
-    :data:`REFINE_TRUSTED_STEP`). ``lsq`` (3, 6, 6) is scratch:
-    the Jacobian, the normal matrix, and the configuration and step in its last block.
-    """
-    J = lsq[0]
-    A = lsq[1]
-    q = lsq[2, 0]
-    b = lsq[2, 1]
-    for i in range(6):
-        q[i] = cand[r, i]
-    e = _pose_error(z, p, M, T, q, J)
-    before = max(abs(e[0]), abs(e[1]), abs(e[2]), abs(e[3]), abs(e[4]), abs(e[5]))
-    if before == 0.0:
-        return
-    # Damped normal equations (J^T J + lambda^2 I) dq = J^T e, solved by Gaussian
-    # elimination (the matrix is symmetric positive definite: no pivoting needed).
-    for i in range(6):
-        acc = 0.0
-        for m in range(6):
-            acc += J[m, i] * e[m]
-        b[i] = acc
-        for j in range(6):
-            acc = 0.0
-            for m in range(6):
-                acc += J[m, i] * J[m, j]
-            A[i, j] = acc
-        A[i, i] += REFINE_DAMPING * REFINE_DAMPING
-    for col in range(6):
-        for row in range(col + 1, 6):
-            f = A[row, col] / A[col, col]
-            for j in range(col, 6):
-                A[row, j] -= f * A[col, j]
-            b[row] -= f * b[col]
-    for col in range(5, -1, -1):
-        acc = b[col]
-        for j in range(col + 1, 6):
-            acc -= A[col, j] * b[j]
-        b[col] = acc / A[col, col]
-    step = 0.0
-    for i in range(6):
-        if not abs(b[i]) <= REFINE_MAX_STEP:
-            return
-        step = max(step, abs(b[i]))
-        q[i] += b[i]
-    if step > REFINE_TRUSTED_STEP:
-        e = _pose_error(z, p, M, T, q, J)
-        after = max(abs(e[0]), abs(e[1]), abs(e[2]), abs(e[3]), abs(e[4]), abs(e[5]))
-        if not after < before:
-            return
-    for i in range(6):
-        cand[r, i] = q[i]
 
 
 # ---------------------------------------------------------------------- the structure

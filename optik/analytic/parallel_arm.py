@@ -22,8 +22,8 @@ and the wrist centre's target ``W_t = G W``:
   up to two ``q_3``), and ``q_2`` turns ``R_3 W`` onto ``X`` (subproblem 1).
 
 The wrist follows as in :func:`optik.analytic.pair_wrist.wrist_branches`. Up to
-2 x 2 x 2 = 8 branches, each refined by one Newton step on the axes
-(:func:`optik.analytic.pair_wrist.refine`). At a singularity a free angle takes the
+2 x 2 x 2 = 8 branches (each refined by one Newton step on the robot's chain in the
+post-processing, :mod:`optik.analytic._newton`). At a singularity a free angle takes the
 reference: ``q_1`` with ``W_t`` on axis 1 (:data:`PARALLEL_23`), the distance angle with
 its point on its axis, the wrist's ``q_4`` with axes 4 and 6 aligned.
 """
@@ -75,7 +75,6 @@ def parallel_arm_candidates(
     kind: int,
     tols: np.ndarray,
     cand: np.ndarray,
-    lsq: np.ndarray,
 ) -> int:
     """Raw branches of the parallel-arm, spherical-wrist closed form into ``cand`` (>= 8, 6).
 
@@ -88,7 +87,6 @@ def parallel_arm_candidates(
         kind: :data:`PARALLEL_12` or :data:`PARALLEL_23`.
         tols: the tolerance block of :mod:`optik.analytic._compiled`.
         cand: output rows (joint angles, rad, not wrapped).
-        lsq: (3, 6, 6) scratch of :func:`optik.analytic.pair_wrist.refine`.
 
     Returns:
         The number of rows written (0 to 8): the first arm angle solved, then the second
@@ -114,9 +112,7 @@ def parallel_arm_candidates(
                 t2 = b1 if ib == 0 else b2
                 t1 = sp1_angle(z1, sub(_turn(z2, p2, t2, X), p1), d, ref[0], axis_tol)
                 R123 = mul3(mul3(rotation(z1, t1), rotation(z2, t2)), rotation(z3, t3))
-                n = wrist_branches(
-                    z, p, M, T, RG, R123, (t1, t2, t3), across, ref, tols, cand, n, lsq
-                )
+                n = wrist_branches(z, RG, R123, (t1, t2, t3), across, ref, tols, cand, n)
         return n
     back = (-z1[0], -z1[1], -z1[2])  # R_1(q)^-1 turns by q about -z1
     na, a1, a2 = plane_angles(back, p1, Wt, z2, dot(z2, W), ref[0], roots)
@@ -128,7 +124,7 @@ def parallel_arm_candidates(
             t3 = b1 if ib == 0 else b2
             t2 = sp1_angle(z2, sub(_turn(z3, p3, t3, W), p2), d, ref[1], axis_tol)
             R123 = mul3(mul3(rotation(z1, t1), rotation(z2, t2)), rotation(z3, t3))
-            n = wrist_branches(z, p, M, T, RG, R123, (t1, t2, t3), across, ref, tols, cand, n, lsq)
+            n = wrist_branches(z, RG, R123, (t1, t2, t3), across, ref, tols, cand, n)
     return n
 
 

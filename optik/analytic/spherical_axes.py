@@ -258,7 +258,7 @@ def solve(params: np.ndarray, T: np.ndarray, ref: np.ndarray, flags: int, out: n
     n = _candidates_into(params, T, ref, rows, _scratch(params))
     return postprocess_one(
         params, AXES_LAYOUT, DOF, -1, 0.0, T1, ref1, flags, rows, flat, n, pre, out,
-        False, newton,
+        True, newton,
     )  # fmt: skip
 
 
@@ -279,7 +279,7 @@ def solve_batch(
         n = _candidates_into(params, T[k], ref[kr], rows, scratch)
         counts[k] = postprocess_rows(
             params, AXES_LAYOUT, DOF, -1, 0.0, T, k, ref, kr, sort, within, rows, flat, n,
-            pre, Q, False, newton,
+            pre, Q, True, newton,
         )  # fmt: skip
         pad_rows(Q, k, counts[k])
     return Q, counts
@@ -301,10 +301,9 @@ def axes_candidates(
     Arguments as :func:`optik.analytic.parallel_arm.parallel_arm_candidates` (world
     frame; ``T`` the tool's target); returns the number of rows written.
     """
-    lsq = np.empty((3, DOF, DOF))
     if kind == INTERSECTING:
-        return pair_wrist_candidates(z, p, M, T, ref, tols, cand, lsq)
-    return parallel_arm_candidates(z, p, M, T, ref, kind, tols, cand, lsq)
+        return pair_wrist_candidates(z, p, M, T, ref, tols, cand)
+    return parallel_arm_candidates(z, p, M, T, ref, kind, tols, cand)
 
 
 @register
