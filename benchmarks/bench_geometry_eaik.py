@@ -1,6 +1,7 @@
 """Branches of the closed forms found from a maker's URDF, against EAIK on the same file.
 
-Run: ``python benchmarks/bench_geometry_eaik.py [--poses 200] [--seed 0]``
+Run: ``python benchmarks/bench_geometry_eaik.py [--poses 200] [--seed 0] [--batch 20000]
+[--repeat 7]``
 
 Needs ``example-robot-data`` (the ``test`` extra: the makers' URDFs) and EAIK
 (``pip install eaik``, the ``bench`` extra). For the UR3, UR5 and UR10 of
@@ -12,7 +13,13 @@ kinematics (EAIK's end frame need not be optik's ``tool0``), and compares:
   FK-verified to 1e-9) against EAIK's exact (not least-squares) solutions;
 - whether each optik branch equals one of EAIK's after wrapping angles (1e-9), and the
   largest such difference;
-- the time per pose of each (medians over the poses, one process, same poses).
+- the time per pose of each (medians over the poses, one process, same poses);
+- batched, ``--batch`` poses (default 20,000): ``analytic_ik_batch`` (every branch in
+  the limits) against EAIK's ``IK_batched(..., num_worker_threads=1)`` on the same
+  configurations' poses (each in its own end frame), alternating, best of ``--repeat``
+  runs by the CPU time of the process (``time.process_time``: EAIK solves in a worker
+  thread even with one, which the caller's thread time would miss; other processes on a
+  shared machine only ever add wall time), as poses per second.
 
 No assertions: the figures are reported.
 """
@@ -25,11 +32,12 @@ import math
 import statistics
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from optik import Robot
-from optik.analytic import analytic_ik, explain_family, family_of
+from optik.analytic import analytic_ik, analytic_ik_batch, explain_family, family_of
 
 ARMS = (
     ("ur3", "ur_description/urdf/ur3_robot.urdf", "base_link", "tool0"),
@@ -55,7 +63,9 @@ def wrapped(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.max(np.abs(np.remainder(a - b + math.pi, 2 * math.pi) - math.pi)))
 
 
-def compare(label: str, path: Path, base: str, tip: str, n: int, seed: int) -> None:
+def compare(
+    label: str, path: Path, base: str, tip: str, n: int, seed: int, batch: int, repeat: int
+) -> None:
     """Print the comparison for one arm."""
     from eaik.IK_URDF import UrdfRobot
 
@@ -105,6 +115,28 @@ def compare(label: str, path: Path, base: str, tip: str, n: int, seed: int) -> N
         f"  optik branches equal to an EAIK one (1e-9): {matched} / {total}, max diff {worst:.1e}"
     )
     print(f"  optik analytic_ik per pose: median {1e6 * statistics.median(t_optik):.1f} us")
+    if batch > 0:
+        compare_batches(robot, eaik_robot, rng.uniform(lower, upper, (batch, robot.dof)), repeat)
+
+
+def compare_batches(robot: Robot, eaik_robot: Any, Q: np.ndarray, repeat: int) -> None:
+    """Print poses per second of ``analytic_ik_batch`` and EAIK's ``IK_batched``."""
+    T = robot.fk(Q)
+    T_eaik = [eaik_robot.fwdKin(q) for q in Q]
+    analytic_ik_batch(robot, T[:10])
+    eaik_robot.IK_batched(T_eaik[:10], num_worker_threads=1)
+    calls = {
+        "optik analytic_ik_batch": lambda: analytic_ik_batch(robot, T),
+        "EAIK IK_batched (1 thread)": lambda: eaik_robot.IK_batched(T_eaik, num_worker_threads=1),
+    }
+    best = dict.fromkeys(calls, math.inf)
+    for _ in range(repeat):
+        for name, call in calls.items():
+            t0 = time.process_time()
+            call()
+            best[name] = min(best[name], time.process_time() - t0)
+    for name, seconds in best.items():
+        print(f"  {name}: {len(Q) / seconds:,.0f} poses/s (best of {repeat}, process CPU time)")
 
 
 def main() -> None:
@@ -112,10 +144,12 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--poses", type=int, default=200)
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--batch", type=int, default=20_000, help="poses per batch (0: none)")
+    parser.add_argument("--repeat", type=int, default=7, help="timed batch runs (best)")
     args = parser.parse_args()
     root = robots_dir()
     for label, rel, base, tip in ARMS:
-        compare(label, root / rel, base, tip, args.poses, args.seed)
+        compare(label, root / rel, base, tip, args.poses, args.seed, args.batch, args.repeat)
 
 
 if __name__ == "__main__":

@@ -66,7 +66,8 @@ def pose_residual(pre: np.ndarray, dof: int, T: np.ndarray, k: int, work: np.nda
     ``pre[dof]`` holds the top three rows of the pose, row-major (as
     :func:`optik.analytic._pipeline.fk_shared` leaves them). The residual is the position
     error ``p_T - p`` (m), then the axial vector of the skew part of ``R_T R^T`` (rad, the
-    rotation error to second order), both in the world frame. Returns its 2-norm.
+    rotation error to second order), both in the world frame. Returns its squared
+    2-norm (comparisons need no square root).
     """
     d = dof
     work[RESIDUAL] = T[k, 0, 3] - pre[d, 3]
@@ -85,7 +86,7 @@ def pose_residual(pre: np.ndarray, dof: int, T: np.ndarray, k: int, work: np.nda
     acc = 0.0
     for i in range(6):
         acc += work[RESIDUAL + i] * work[RESIDUAL + i]
-    return np.sqrt(acc)
+    return acc
 
 
 @_inline
@@ -155,11 +156,12 @@ def _cramer(
     cax, cay, caz = cy * az - cz * ay, cz * ax - cx * az, cx * ay - cy * ax
     abx, aby, abz = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
     det = ax * bcx + ay * bcy + az * bcz
-    scale = np.sqrt(
+    # Squared, to spare the square root: det^2 against (condition |a| |b| |c|)^2.
+    scale2 = (
         (ax * ax + ay * ay + az * az) * (bx * bx + by * by + bz * bz)
         * (cx * cx + cy * cy + cz * cz)
     )  # fmt: skip
-    if not abs(det) >= BLOCK_CONDITION * scale or scale == 0.0:
+    if not det * det >= BLOCK_CONDITION * BLOCK_CONDITION * scale2 or scale2 == 0.0:
         return 0.0, 0.0, 0.0, False
     inverse = 1.0 / det
     return (

@@ -425,8 +425,8 @@ def _refine_row(
     row's pose replaces it in ``pre`` (or the row goes back). Returns the FK depth valid
     in ``pre`` (:func:`fk_shared`).
     """
-    before = pose_residual(pre, dof, T, k, work)
-    if before <= REFINE_ROUNDING:
+    before = pose_residual(pre, dof, T, k, work)  # squared, as every comparison here
+    if before <= REFINE_ROUNDING * REFINE_ROUNDING:
         return depth
     wrist = layout[6]
     if wrist >= 0 and not math.isfinite(params[wrist]):
@@ -434,7 +434,7 @@ def _refine_row(
     moved = newton_step(params, layout[0], layout[1], dof, held, wrist, pre, rows, r, work)
     if moved == 0.0:
         return depth
-    if moved <= REFINE_TRUSTED_STEP and before <= 0.5 * verify_tol:
+    if moved <= REFINE_TRUSTED_STEP and before <= 0.25 * verify_tol * verify_tol:
         return depth
     _row_sines(rows, r, dof)
     start = np.int64(0)  # not the literal 0: one signature of fk_shared
