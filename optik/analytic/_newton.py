@@ -11,8 +11,8 @@ the Jacobian is a cross product per joint.
 Two ways to solve for the step:
 
 - a six-joint arm whose axes 4, 5 and 6 meet: the Newton step referred to the wrist
-  centre, where the Jacobian is block triangular (:func:`_wrist_step`, two 3 x 3 solves,
-  a fifth of the cost of the other);
+  centre, where the Jacobian is block triangular (:func:`_wrist_step`, two 3 x 3 solves
+  by Cramer's rule instead of six normal equations);
 - otherwise, or where a block is near singular: the damped normal equations
   ``(J^T J + lambda^2 I) dq = J^T e`` (:func:`_damped_step`,
   :data:`REFINE_DAMPING`: directions of ``J`` with singular

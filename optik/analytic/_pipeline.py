@@ -8,6 +8,9 @@ For a family with a compiled closed form (:class:`optik.analytic._compiled.Compi
 2. drop non-finite rows; shift revolute angles by multiples of 2 pi into the limits,
    nearest ``q_ref`` (the rule of :func:`optik.analytic.wrap_into_limits`);
 3. drop out-of-limit rows (tolerance :data:`optik.limits.LIMIT_TOLERANCE`), unless asked;
+   a closed form of the ideal arm (a table that is not exact, ``spherical_axes``, a held
+   joint) gives each row one Newton step inside step 4 first (:mod:`optik.analytic._newton`),
+   and the limits are applied to the row as moved;
 4. verify each row by forward kinematics: the robot's own chain ``_K`` (the kinematics of
    ``Robot.fk``, not the DH rows) multiplied out with the arithmetic of
    :func:`optik._kernels.fk_into`, expression for expression (:func:`_fk_shared`; rows
@@ -19,10 +22,12 @@ For a family with a compiled closed form (:class:`optik.analytic._compiled.Compi
 6. with a caller's ``q_ref``, a stable sort by the Euclidean distance to it.
 
 Every step gives what the numpy steps of :func:`optik.analytic.analytic_ik` give on the
-same raw branches (a test checks it row for row). One deliberate difference: sines and
-cosines come from inline fdlibm kernels (:func:`optik._math.sincos`, at most 1 ulp and
-2e-16 from libm's) rather than libm calls, which cost more than the rest of the FK check;
-the FK check then agrees with ``Robot.fk`` to a few 1e-16, far below the 1e-9 it enforces.
+same raw branches (a test checks it row for row; after a Newton step, against the same
+step in numpy, which agrees to rounding times the Jacobian's condition). One deliberate
+difference: sines and cosines come from inline fdlibm kernels (:func:`optik._math.sincos`,
+at most 1 ulp and 2e-16 from libm's) rather than libm calls, which cost more than the rest
+of the FK check; the FK check then agrees with ``Robot.fk`` to a few 1e-16, far below the
+1e-9 it enforces.
 
 The robot comes as its parameter vector (:func:`optik.analytic._compiled.pack_params`).
 Hot paths index arrays rather than slicing or reshaping them per pose (a reshape is a C
@@ -400,6 +405,15 @@ def _rewrap_moved(
 
 
 @_inline
+def _runtime(layout: Layout) -> Layout:
+    """``layout`` with run-time entries: a constant tuple is typed by its values."""
+    return (
+        np.int64(layout[0]), np.int64(layout[1]), np.int64(layout[2]), np.int64(layout[3]),
+        np.int64(layout[4]), np.int64(layout[5]), np.int64(layout[6]),
+    )  # fmt: skip
+
+
+@_jit
 def _refine_row(
     params: np.ndarray,
     layout: Layout,
@@ -523,9 +537,13 @@ def postprocess_rows(
     for r in range(kept):
         depth = fk_shared(params, layout, rows, r, pre, depth)
         if refine:
+            # A call, not inlined, with run-time (not literal) arguments: its code is
+            # typed and compiled once, not in each of the six pipelines that inline
+            # this function (the install compiles them all).
             depth = _refine_row(
-                params, layout, dof, held, T, k, rows, r, pre, depth, verify_tol, work
-            )
+                params, _runtime(layout), np.int64(dof), np.int64(held), T, k, rows, r, pre,
+                depth, verify_tol, work,
+            )  # fmt: skip
             _rewrap_moved(params, layout, dof, held, held_value, rows, r, ref, kr)
             if within and not _inside(params, layout, dof, rows, r):
                 continue
