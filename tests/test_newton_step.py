@@ -205,8 +205,8 @@ def test_kinova_branches_reach_rounding_and_stay_inside_the_limits() -> None:
 def test_a_branch_at_rounding_takes_no_step_and_one_off_by_1e_10_is_restored(
     rng: np.random.Generator,
 ) -> None:
-    """``_refine_row``: a row whose residual is at rounding is left bit for bit; a row
-    1e-10 off its target is brought to rounding (checked on ``Robot.fk``)."""
+    """A row whose residual is at rounding takes no step (the pipeline does not call
+    ``_refine_row``); a row 1e-10 off its target is brought to rounding (``Robot.fk``)."""
     robot = robot_of("puma560")
     verify = float(_compiled.tolerance_block()[_compiled.TOL_VERIFY])
     for _ in range(10):
@@ -216,10 +216,13 @@ def test_a_branch_at_rounding_takes_no_step_and_one_off_by_1e_10_is_restored(
             params, pre, rows = _prefixes(robot, q)
             work = np.empty(_newton.newton_work_size(6))
             depth = np.int64(6)
-            args = (params, LAYOUT, 6, -1, target[None], 0, rows, 0, pre, depth, verify, work)
-            _pipeline._refine_row(*args)
+            ref = q[None].copy()
+            squared = _newton.pose_residual(pre, 6, target[None], 0, work)
             if not moved:
-                assert np.array_equal(rows[0], q)
+                assert squared <= _newton.REFINE_ROUNDING**2  # the pipeline calls no step
                 continue
+            args = (params, LAYOUT, 6, -1, 0.0, target[None], 0, ref, 0, True, rows, 0, pre)
+            _, keep = _pipeline._refine_row(*args, depth, verify, work)
+            assert keep
             assert not np.array_equal(rows[0], q)
             assert np.linalg.norm(_residual(robot, rows[0], target)) < 1e-14

@@ -29,6 +29,7 @@ from __future__ import annotations
 import numpy as np
 
 from optik._numba import inline as _inline
+from optik._numba import jit as _jit
 
 REFINE_DAMPING = 1e-6
 """Damping of :func:`_damped_step` (the Jacobian's scale is 1 m or 1): directions of the
@@ -131,7 +132,7 @@ volume of its unit columns): below it the block is near singular (an elbow, shou
 wrist singularity) and the damped step of the whole Jacobian takes over."""
 
 
-@_inline
+@_jit
 def _cramer(
     ax: float,
     ay: float,

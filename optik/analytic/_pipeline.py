@@ -360,7 +360,7 @@ def _sort_by_distance(
             scratch[at + p + 1] = key
 
 
-@_inline
+@_jit
 def _row_sines(rows: np.ndarray, r: int, dof: int) -> None:
     """Sines and cosines of ``rows[r]`` into its rows of the scratch block."""
     for j in range(dof):
@@ -419,6 +419,44 @@ def _refine_row(
     layout: Layout,
     dof: int,
     held: int,
+    held_value: float,
+    T: np.ndarray,
+    k: int,
+    ref: np.ndarray,
+    kr: int,
+    within: bool,
+    rows: np.ndarray,
+    r: int,
+    pre: np.ndarray,
+    depth: int,
+    verify_tol: float,
+    work: np.ndarray,
+) -> tuple[int, bool]:
+    """One Newton step of ``rows[r]`` towards ``T[k]``, its FK in ``pre`` (:mod:`._newton`).
+
+    For a row not at rounding (:data:`optik.analytic._newton.REFINE_ROUNDING`), its
+    residual in ``work[:6]`` (:func:`optik.analytic._newton.pose_residual`).
+    The step is kept when it lowers the residual (the caller then checks the limits on
+    the row as moved). A small step (:data:`optik.analytic._newton.REFINE_TRUSTED_STEP`) from a
+    row already within half the FK check's tolerance is kept without a second FK: ``pre``
+    keeps the unmoved row's pose, which passes the check, and the moved row's residual is
+    at most the unmoved one's plus a second-order term (about 1e-16). Otherwise the moved
+    row's pose replaces it in ``pre`` (or the row goes back). A moved row is wrapped again
+    where the step took an angle past the half-turn from ``ref[kr]``, and, ``within``,
+    checked against the limits. Returns the FK depth valid in ``pre``
+    (:func:`fk_shared`) and whether the row stays (inside the limits).
+    """
+    depth = _newton_row(params, layout, dof, held, T, k, rows, r, pre, depth, verify_tol, work)
+    _rewrap_moved(params, layout, dof, held, held_value, rows, r, ref, kr)
+    return depth, not within or _inside(params, layout, dof, rows, r)
+
+
+@_inline
+def _newton_row(
+    params: np.ndarray,
+    layout: Layout,
+    dof: int,
+    held: int,
     T: np.ndarray,
     k: int,
     rows: np.ndarray,
@@ -428,20 +466,13 @@ def _refine_row(
     verify_tol: float,
     work: np.ndarray,
 ) -> int:
-    """One Newton step of ``rows[r]`` towards ``T[k]``, its FK in ``pre`` (:mod:`._newton`).
+    """:func:`_refine_row`'s step, its checks and the FK it leaves: the new depth.
 
-    A row already at rounding (:data:`optik.analytic._newton.REFINE_ROUNDING`) is left.
-    The step is kept when it lowers the residual (the caller then checks the limits on
-    the row as moved). A small step (:data:`optik.analytic._newton.REFINE_TRUSTED_STEP`) from a
-    row already within half the FK check's tolerance is kept without a second FK: ``pre``
-    keeps the unmoved row's pose, which passes the check, and the moved row's residual is
-    at most the unmoved one's plus a second-order term (about 1e-16). Otherwise the moved
-    row's pose replaces it in ``pre`` (or the row goes back). Returns the FK depth valid
-    in ``pre`` (:func:`fk_shared`).
+    The row's residual is in ``work[:6]`` (:func:`optik.analytic._newton.pose_residual`).
     """
-    before = pose_residual(pre, dof, T, k, work)  # squared, as every comparison here
-    if before <= REFINE_ROUNDING * REFINE_ROUNDING:
-        return depth
+    before = 0.0  # squared, as every comparison here
+    for i in range(6):
+        before += work[i] * work[i]
     wrist = layout[6]
     if wrist >= 0 and not math.isfinite(params[wrist]):
         wrist = -1
@@ -535,17 +566,21 @@ def postprocess_rows(
     depth = np.int64(0)  # not the literal 0: one signature of fk_shared
     m = 0
     for r in range(kept):
-        depth = fk_shared(params, layout, rows, r, pre, depth)
+        depth = fk_shared(params, _runtime(layout), rows, r, pre, depth)
         if refine:
-            # A call, not inlined, with run-time (not literal) arguments: its code is
-            # typed and compiled once, not in each of the six pipelines that inline
-            # this function (the install compiles them all).
-            depth = _refine_row(
-                params, _runtime(layout), np.int64(dof), np.int64(held), T, k, rows, r, pre,
-                depth, verify_tol, work,
-            )  # fmt: skip
-            _rewrap_moved(params, layout, dof, held, held_value, rows, r, ref, kr)
-            if within and not _inside(params, layout, dof, rows, r):
+            # A row already at rounding takes no step (an exact closed form's rows all),
+            # but it passed the limits with the step's slack: the strict test here.
+            if pose_residual(pre, dof, T, k, work) > REFINE_ROUNDING * REFINE_ROUNDING:
+                # A call, not inlined, with run-time (not literal) arguments: its code is
+                # typed and compiled once, not in each of the six pipelines that inline
+                # this function (the install compiles them all).
+                depth, keep = _refine_row(
+                    params, _runtime(layout), np.int64(dof), np.int64(held), held_value, T,
+                    k, ref, kr, within, rows, r, pre, depth, verify_tol, work,
+                )  # fmt: skip
+                if not keep:
+                    continue
+            elif within and not _inside(params, layout, dof, rows, r):
                 continue
         if not _pose_verified(pre, dof, T, k, verify_tol):
             continue
