@@ -229,34 +229,43 @@ def fd_jacobian(robot: Robot, q: np.ndarray, h: float = 1e-6) -> np.ndarray:
     return J
 
 
+def pose_residual_reference(robot: Robot, q: np.ndarray, target: np.ndarray) -> np.ndarray:
+    """(6,) position error ``p_T - p`` (m), then the axial vector of ``R_T R(q)^T``'s skew part."""
+    T = robot.fk(q)
+    E = target[:3, :3] @ T[:3, :3].T
+    axial = 0.5 * np.array([E[2, 1] - E[1, 2], E[0, 2] - E[2, 0], E[1, 0] - E[0, 1]])
+    return np.concatenate([target[:3, 3] - T[:3, 3], axial])
+
+
+def damped_step_reference(J: np.ndarray, e: np.ndarray) -> np.ndarray:
+    """numpy's solve of ``(J^T J + lambda^2 I) dq = J^T e`` (``REFINE_DAMPING``)."""
+    from optik.analytic._newton import REFINE_DAMPING
+
+    return np.linalg.solve(J.T @ J + REFINE_DAMPING**2 * np.eye(J.shape[1]), J.T @ e)
+
+
 def newton_reference(
     robot: Robot, rows: list[np.ndarray], target: np.ndarray, held: int | None = None
 ) -> list[np.ndarray]:
     """Each row after the closed forms' Newton step, in numpy on ``Robot.fk``/``jacobian``.
 
-    The damped least-squares step (``optik.analytic._newton.REFINE_DAMPING``), with the
-    column of ``held`` left out; kept when every component is at most ``REFINE_MAX_STEP``
-    and the residual (position error, axial vector of ``R_T R^T``) does not grow.
+    The damped least-squares step (:func:`damped_step_reference`), with the column of
+    ``held`` left out; kept when every component is at most ``REFINE_MAX_STEP`` and the
+    residual (:func:`pose_residual_reference`) does not grow.
     """
-    from optik.analytic._newton import REFINE_DAMPING, REFINE_MAX_STEP
-
-    def residual(q: np.ndarray) -> np.ndarray:
-        T = robot.fk(q)
-        E = target[:3, :3] @ T[:3, :3].T
-        axial = 0.5 * np.array([E[2, 1] - E[1, 2], E[0, 2] - E[2, 0], E[1, 0] - E[0, 1]])
-        return np.concatenate([target[:3, 3] - T[:3, 3], axial])
+    from optik.analytic._newton import REFINE_MAX_STEP
 
     out = []
     for q in rows:
-        e = residual(q)
+        e = pose_residual_reference(robot, q, target)
         J = robot.jacobian(q)
         if held is not None:
             J[:, held] = 0.0
-        A = J.T @ J + REFINE_DAMPING**2 * np.eye(robot.dof)
-        dq = np.linalg.solve(A, J.T @ e)
+        dq = damped_step_reference(J, e)
         moved = q + dq
         keep = np.max(np.abs(dq)) <= REFINE_MAX_STEP
-        out.append(moved if keep and np.linalg.norm(residual(moved)) <= np.linalg.norm(e) else q)
+        grows = np.linalg.norm(pose_residual_reference(robot, moved, target)) > np.linalg.norm(e)
+        out.append(moved if keep and not grows else q)
     return out
 
 

@@ -13,11 +13,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import fd_jacobian, robot_of
+from conftest import damped_step_reference, fd_jacobian, pose_residual_reference, robot_of
 
 from optik import Robot
 from optik.analytic import FAMILIES, _compiled, _newton, _pipeline, analytic_ik, analytic_ik_batch
-from optik.analytic._newton import REFINE_DAMPING
 from optik.analytic.geometry import joint_axes, point_line_distance, wrist_centre
 from optik.limits import LIMIT_TOLERANCE
 
@@ -57,14 +56,6 @@ def _prefixes(robot: Robot, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.n
     return params, pre, rows
 
 
-def _residual(robot: Robot, q: np.ndarray, target: np.ndarray) -> np.ndarray:
-    """Position error, then the axial vector of the skew part of ``R_T R(q)^T``."""
-    T = robot.fk(q)
-    E = target[:3, :3] @ T[:3, :3].T
-    axial = 0.5 * np.array([E[2, 1] - E[1, 2], E[0, 2] - E[2, 0], E[1, 0] - E[0, 1]])
-    return np.concatenate([target[:3, 3] - T[:3, 3], axial])
-
-
 def _step(
     robot: Robot, q: np.ndarray, target: np.ndarray, held: int = -1, wrist: bool = True
 ) -> tuple[np.ndarray, float]:
@@ -79,10 +70,6 @@ def _step(
     return rows[0] - q, largest
 
 
-def _damped(J: np.ndarray, e: np.ndarray) -> np.ndarray:
-    return np.linalg.solve(J.T @ J + REFINE_DAMPING**2 * np.eye(J.shape[1]), J.T @ e)
-
-
 @pytest.mark.parametrize("name", ["puma560", "stanford_arm"])
 def test_residual_and_jacobian_match_fk(name: str, rng: np.random.Generator) -> None:
     """The residual equals numpy's on ``Robot.fk``; the Jacobian central differences."""
@@ -93,7 +80,7 @@ def test_residual_and_jacobian_match_fk(name: str, rng: np.random.Generator) -> 
         params, pre, _ = _prefixes(robot, q)
         work = np.empty(_newton.newton_work_size(6))
         squared = _newton.pose_residual(pre, 6, target[None], 0, work)
-        expected = _residual(robot, q, target)
+        expected = pose_residual_reference(robot, q, target)
         np.testing.assert_allclose(work[:6], expected, rtol=0, atol=1e-15)
         assert squared == pytest.approx(float(expected @ expected), rel=1e-12)
         jac = 6 + 2 * 6
@@ -109,7 +96,9 @@ def test_damped_step_is_numpys_damped_least_squares(name: str, rng: np.random.Ge
         q = rng.uniform(robot.lower, robot.upper)
         target = robot.fk(q + rng.normal(scale=1e-6, size=6))
         dq, largest = _step(robot, q, target, wrist=False)
-        expected = _damped(robot.jacobian(q), _residual(robot, q, target))
+        expected = damped_step_reference(
+            robot.jacobian(q), pose_residual_reference(robot, q, target)
+        )
         np.testing.assert_allclose(dq, expected, rtol=1e-7, atol=1e-16)
         assert largest == pytest.approx(float(np.max(np.abs(dq))), rel=1e-9)
 
@@ -122,7 +111,12 @@ def test_held_joint_stays_and_the_others_solve_without_it(rng: np.random.Generat
     assert dq[2] == 0.0
     J = robot.jacobian(q)
     J[:, 2] = 0.0
-    np.testing.assert_allclose(dq, _damped(J, _residual(robot, q, target)), rtol=1e-7, atol=1e-16)
+    np.testing.assert_allclose(
+        dq,
+        damped_step_reference(J, pose_residual_reference(robot, q, target)),
+        rtol=1e-7,
+        atol=1e-16,
+    )
 
 
 @pytest.mark.parametrize("name", ["puma560", "stanford_arm"])
@@ -134,7 +128,7 @@ def test_wrist_centre_step_is_the_newton_step(name: str, rng: np.random.Generato
         q[4] = math.copysign(max(abs(q[4]), 0.3), q[4])  # away from the wrist singularity
         target = robot.fk(q + rng.normal(scale=1e-6, size=6))
         dq, _ = _step(robot, q, target)
-        expected = np.linalg.solve(robot.jacobian(q), _residual(robot, q, target))
+        expected = np.linalg.solve(robot.jacobian(q), pose_residual_reference(robot, q, target))
         np.testing.assert_allclose(dq, expected, rtol=1e-7, atol=1e-16)
 
 
@@ -148,8 +142,8 @@ def test_aligned_wrist_falls_back_to_the_damped_step(rng: np.random.Generator) -
     target = robot.fk(q + delta)
     dq, largest = _step(robot, q, target)
     assert 0.0 < largest <= 10 * float(np.max(np.abs(delta)))
-    before = np.linalg.norm(_residual(robot, q, target))
-    after = np.linalg.norm(_residual(robot, q + dq, target))
+    before = np.linalg.norm(pose_residual_reference(robot, q, target))
+    after = np.linalg.norm(pose_residual_reference(robot, q + dq, target))
     assert after < 1e-3 * before
 
 
@@ -225,4 +219,4 @@ def test_a_branch_at_rounding_takes_no_step_and_one_off_by_1e_10_is_restored(
             _, keep = _pipeline._refine_row(*args, depth, verify, work)
             assert keep
             assert not np.array_equal(rows[0], q)
-            assert np.linalg.norm(_residual(robot, rows[0], target)) < 1e-14
+            assert np.linalg.norm(pose_residual_reference(robot, rows[0], target)) < 1e-14

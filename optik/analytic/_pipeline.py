@@ -368,9 +368,10 @@ def _row_sines(rows: np.ndarray, r: int, dof: int) -> None:
 
 
 @_inline
-def _inside(params: np.ndarray, layout: Layout, dof: int, rows: np.ndarray, r: int) -> bool:
-    """Whether ``rows[r]`` lies inside the limits (with their tolerance)."""
-    tol = params[layout[5] + TOL_LIMIT]
+def _inside(
+    params: np.ndarray, layout: Layout, dof: int, rows: np.ndarray, r: int, tol: float
+) -> bool:
+    """Whether ``rows[r]`` lies inside the limits, each widened by ``tol``."""
     for j in range(dof):
         v = rows[r, j]
         if not (v >= params[layout[2] + j] - tol and v <= params[layout[3] + j] + tol):
@@ -448,7 +449,7 @@ def _refine_row(
     """
     depth = _newton_row(params, layout, dof, held, T, k, rows, r, pre, depth, verify_tol, work)
     _rewrap_moved(params, layout, dof, held, held_value, rows, r, ref, kr)
-    return depth, not within or _inside(params, layout, dof, rows, r)
+    return depth, not within or _inside(params, layout, dof, rows, r, params[layout[5] + TOL_LIMIT])
 
 
 @_inline
@@ -529,11 +530,10 @@ def postprocess_rows(
     tols = layout[5]
     # Rows the Newton step may still move are filtered again once moved: first with the
     # step's bound as slack, so that a branch on a limit is not lost to its rounding.
-    limit_tol = params[tols + TOL_LIMIT] + (REFINE_MAX_STEP if refine else 0.0)
+    strict_tol = params[tols + TOL_LIMIT]
+    limit_tol = strict_tol + (REFINE_MAX_STEP if refine else 0.0)
     verify_tol = params[tols + TOL_VERIFY]
     dup_tol = params[tols + TOL_DUPLICATE]
-    lower = layout[2]
-    upper = layout[3]
     # 1. Finite rows, wrapped, inside the limits (when asked): compacted to rows[:kept].
     kept = 0
     for r in range(n):
@@ -546,14 +546,8 @@ def postprocess_rows(
         _wrap_row(params, layout, rows, r, ref, kr)
         if held >= 0:
             rows[r, held] = held_value
-        if within:
-            inside = True
-            for j in range(dof):
-                v = rows[r, j]
-                if not (v >= params[lower + j] - limit_tol and v <= params[upper + j] + limit_tol):
-                    inside = False
-            if not inside:
-                continue
+        if within and not _inside(params, layout, dof, rows, r, limit_tol):
+            continue
         if kept != r:
             for j in range(dof):
                 rows[kept, j] = rows[r, j]
@@ -580,7 +574,7 @@ def postprocess_rows(
                 )  # fmt: skip
                 if not keep:
                     continue
-            elif within and not _inside(params, layout, dof, rows, r):
+            elif within and not _inside(params, layout, dof, rows, r, strict_tol):
                 continue
         if not _pose_verified(pre, dof, T, k, verify_tol):
             continue
