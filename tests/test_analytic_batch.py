@@ -284,6 +284,19 @@ def test_empty_batch() -> None:
     assert batch.counts.shape == (0,)
 
 
+def _python_family_targets(robot: Robot, rng: np.random.Generator) -> np.ndarray:
+    """Configurations for a family run in Python: random ones inside the limits, random
+    ones anywhere in [-pi, pi] (some reachable only outside the limits), and each joint
+    at 0 and pi in turn (the planar arm stretched and folded onto its base)."""
+    Q = [random_q(robot, rng, 40), rng.uniform(-math.pi, math.pi, (20, robot.dof))]
+    for j in range(robot.dof):
+        for value in (0.0, math.pi):
+            q = robot.mid_limits.copy()
+            q[j] = value
+            Q.append(q[None])
+    return np.concatenate(Q)
+
+
 @pytest.mark.parametrize(
     ("name", "mode"),
     [
@@ -294,24 +307,33 @@ def test_empty_batch() -> None:
         ("dobot_magician", "pose"),
     ],
 )
-def test_python_families_fall_back_to_per_target_calls(
+def test_python_families_batch_equals_per_target_calls(
     name: str, mode: str, rng: np.random.Generator
 ) -> None:
+    """The batched checks (one wrap, limit test and FK over every row) give each target
+    exactly what analytic_ik gives it alone: reachable, reachable only outside the
+    limits (the polish then runs and finds none), singular, beyond reach."""
     robot = robot_of(name)
     family = family_of(robot)
     assert family is not None and not family.kernel
-    Q = random_q(robot, rng, 50)
+    Q = _python_family_targets(robot, rng)
     T = robot.fk(Q)
+    T[-1, :3, 3] = robot.reach_sphere[0] + 10.0 * robot.reach_sphere[1]  # beyond reach
     targets = T if mode == "pose" else T[:, :3, 3]
+    ref = random_q(robot, rng)
     runs: list[tuple[dict[str, Any], Callable[[int], dict[str, Any]]]] = [
         ({}, lambda k: {}),
         ({"q_ref": Q}, lambda k: {"q_ref": Q[k]}),
+        ({"q_ref": ref}, lambda k: {"q_ref": ref}),
+        ({"within_limits": False}, lambda k: {"within_limits": False}),
     ]
     for kwargs, single in runs:
         batch = analytic_ik_batch(robot, targets, mode=mode, **kwargs)
         assert batch.q.shape[0] == len(Q) and batch.q.shape[2] == robot.dof
         for k in range(len(Q)):
             _assert_same(batch, k, analytic_ik(robot, targets[k], mode=mode, **single(k)))
+        assert batch.counts[-1] == 0  # beyond reach
+        assert np.all(batch.counts[:40] >= 1)  # inside the limits: found
     if mode == "position":  # a batch of 4x4 poses is accepted, its translations used
         batch = analytic_ik_batch(robot, T, mode=mode)
         np.testing.assert_array_equal(

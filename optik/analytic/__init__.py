@@ -55,7 +55,14 @@ from optik.analytic._base import (
     match_families,
 )
 from optik.analytic._polish import near_solution, polish
-from optik.analytic._steps import _beyond_reach, _finish, _verified, wrap_into_limits
+from optik.analytic._steps import (
+    _beyond_reach,
+    _finish,
+    _verified,
+    beyond_reach_rows,
+    finish_batch,
+    wrap_into_limits,
+)
 from optik.errors import AnalyticIKError, OptikError, ShapeError
 from optik.limits import LIMIT_TOLERANCE
 from optik.model import DECLARED_FAMILY_CHECKS, Robot
@@ -622,7 +629,8 @@ def analytic_ik_batch(
 
     For a family with a compiled pipeline (``spherical_wrist``, ``ur``) the whole batch is
     one call of :func:`optik.analytic._pipeline.solve_batch` (serial, one core); other
-    families loop over :func:`analytic_ik` in Python. Either way target ``i`` gets exactly
+    families run their closed form per target in Python and its checks once over the
+    batch (numpy). Either way target ``i`` gets exactly
     the branches, in the same order, that ``analytic_ik(robot, targets[i], mode,
     q_ref_i, within_limits)`` returns.
 
@@ -681,11 +689,7 @@ def analytic_ik_batch(
         raise AnalyticIKError(
             f"robot {robot.name!r}: position-only closed forms need a tool without offset"
         )
-    results = []
-    for k in range(N):
-        target = T[k] if mode == "pose" else T[k, :3, 3]
-        ref_k = None if refs is None else refs[0 if len(refs) == 1 else k]
-        results.append(analytic_ik(robot, target, mode, ref_k, within_limits))
+    results = _python_family_batch(robot, family, T, mode, refs, within_limits)
     width = max([_compiled.MAX_BRANCHES, *(len(r) for r in results)])
     Q = np.full((N, width, dof), math.nan)
     counts = np.zeros(N, dtype=np.int64)
@@ -694,6 +698,37 @@ def analytic_ik_batch(
         if branches:
             Q[k, : len(branches)] = branches
     return AnalyticBatch(Q, counts)
+
+
+def _python_family_batch(
+    robot: Robot,
+    family: AnalyticFamily,
+    T: FloatArray,
+    mode: str,
+    refs: FloatArray | None,
+    within_limits: bool,
+) -> list[list[FloatArray]]:
+    """:func:`analytic_ik` of each target of ``T`` (N, 4, 4) for a family run in Python.
+
+    The closed form runs per target; its rows' wrap, limits and FK check run once over
+    the batch (:func:`optik.analytic._steps.finish_batch`), which gives each target the
+    branches :func:`analytic_ik` gives it alone, in the same order.
+    """
+    N = T.shape[0]
+    R = np.broadcast_to(robot.mid_limits if refs is None else refs, (N, robot.dof))
+    inverse_base = invert_transform(robot.T_world_base)
+    inverse_tool = invert_transform(robot.T_flange_tool)
+    beyond = beyond_reach_rows(robot, T).tolist()
+    raws = [
+        [] if beyond[k] else family.candidates(robot, inverse_base @ T[k] @ inverse_tool, mode, ref)
+        for k, ref in enumerate(R)
+    ]
+    sort = refs is not None
+    results = finish_batch(robot, raws, T, mode, R, sort, within_limits)
+    for k in range(N):
+        if not results[k] and not beyond[k]:
+            results[k] = _degenerate(robot, family, T[k], mode, R[k], sort, within_limits, raws[k])
+    return results
 
 
 def _batch_refs(robot: Robot, q_ref: Any, N: int) -> FloatArray | None:

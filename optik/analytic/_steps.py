@@ -43,13 +43,19 @@ def wrap_into_limits(Q: FloatArray, robot: Robot, q_ref: FloatArray) -> FloatArr
 
 
 def _beyond_reach(robot: Robot, T_target: FloatArray) -> bool:
-    """Whether one coordinate alone puts the target outside the reach sphere.
+    """Whether one coordinate alone puts the target (4, 4) outside the reach sphere.
 
     Sound (the distance is at least the largest coordinate difference) and free of
     squares, so a target 1e155 m away is ruled out without an overflow.
     """
+    return bool(beyond_reach_rows(robot, T_target[None])[0])
+
+
+def beyond_reach_rows(robot: Robot, T_targets: FloatArray) -> NDArray[np.bool_]:
+    """:func:`_beyond_reach` of each target of ``T_targets`` (N, 4, 4): (N,) bool."""
     centre, radius = robot.reach_sphere
-    return bool(np.max(np.abs(T_target[:3, 3] - centre)) > radius * (1 + 1e-9) + 1e-12)
+    reach = radius * (1 + 1e-9) + 1e-12
+    return np.asarray(np.max(np.abs(T_targets[:, :3, 3] - centre), axis=1) > reach)
 
 
 def _finish(
@@ -65,39 +71,71 @@ def _finish(
     """Wrap, filter by the limits, verify by FK, dedupe and sort raw branches (numpy).
 
     The steps of the compiled pipeline (:func:`optik.analytic._pipeline.solve`), for the
-    families that run in Python. ``held = (index, value)``: that joint keeps exactly
-    ``value`` (no 2 pi shift).
+    families that run in Python: :func:`finish_batch` of one target. ``held = (index,
+    value)``: that joint keeps exactly ``value`` (no 2 pi shift).
     """
-    if not raw:
-        return []
-    Q = np.array(raw, dtype=float)
-    Q = wrap_into_limits(Q[np.all(np.isfinite(Q), axis=1)], robot, ref)
+    return finish_batch(robot, [raw], T_target[None], mode, ref[None], sort, within_limits, held)[0]
+
+
+def finish_batch(
+    robot: Robot,
+    raws: list[list[FloatArray]],
+    T_targets: FloatArray,
+    mode: str,
+    refs: FloatArray,
+    sort: bool,
+    within_limits: bool,
+    held: tuple[int, float] | None = None,
+) -> list[list[FloatArray]]:
+    """:func:`_finish` of many targets: each step once over every target's rows.
+
+    ``raws[k]`` are the raw branches (dof,) of target ``T_targets[k]`` (4, 4), with the
+    reference ``refs[k]`` (dof,). The wrap, the limits and the FK check are elementwise
+    (numpy, one compiled FK over all rows), so target ``k`` gets exactly the branches
+    :func:`_finish` gives it alone; the dedupe and the sort then run per target.
+    """
+    counts = [len(raw) for raw in raws]
+    finished: list[list[FloatArray]] = [[] for _ in raws]
+    if not any(counts):
+        return finished
+    Q = np.array([q for raw in raws for q in raw], dtype=float)
+    owner = np.repeat(np.arange(len(raws)), counts)
+    keep = np.all(np.isfinite(Q), axis=1)
+    Q, owner = Q[keep], owner[keep]
+    # One target (every single call): its reference and pose broadcast, not gathered.
+    single = len(raws) == 1
+    Q = wrap_into_limits(Q, robot, refs[0] if single else refs[owner])
     if held is not None:
         Q[:, held[0]] = held[1]
     if within_limits:
-        Q = Q[np.asarray(robot.within_limits(Q), dtype=bool).reshape(-1)]
+        keep = np.asarray(robot.within_limits(Q), dtype=bool).reshape(-1)
+        Q, owner = Q[keep], owner[keep]
     if len(Q) == 0:
-        return []
-    branches: list[FloatArray] = []
-    for q in Q[_verified(robot, Q, T_target, mode)]:
+        return finished
+    keep = _verified(robot, Q, T_targets[0] if single else T_targets[owner], mode)
+    for q, k in zip(Q[keep], owner[keep].tolist(), strict=True):
+        branches = finished[k]
         if any(np.max(np.abs(q - other)) < DUPLICATE_TOLERANCE for other in branches):
             continue
         branches.append(q)
     if sort:
-        branches.sort(key=lambda q: float(np.linalg.norm(q - ref)))
-    return branches
+        for ref, branches in zip(refs, finished, strict=True):
+            if len(branches) > 1:
+                branches.sort(key=lambda q: float(np.linalg.norm(q - ref)))
+    return finished
 
 
 def _verified(robot: Robot, Q: FloatArray, T_target: FloatArray, mode: str) -> NDArray[np.bool_]:
-    """(k,) whether each row of ``Q`` (k, dof) reaches ``T_target`` by ``Robot.fk``.
+    """(k,) whether each row of ``Q`` (k, dof) reaches its target by ``Robot.fk``.
 
-    Position error (m) and, in pose mode, the rotation angle (rad) within
-    :data:`VERIFY_TOLERANCE`; a row with a NaN is not verified.
+    ``T_target`` is one target (4, 4) for every row or one per row (k, 4, 4). Position
+    error (m) and, in pose mode, the rotation angle (rad) within :data:`VERIFY_TOLERANCE`;
+    a row with a NaN is not verified.
     """
     T = robot.fk(Q)
-    good = np.linalg.norm(T[:, :3, 3] - T_target[:3, 3], axis=1) <= VERIFY_TOLERANCE
+    good = np.linalg.norm(T[:, :3, 3] - T_target[..., :3, 3], axis=1) <= VERIFY_TOLERANCE
     if mode == "pose":
-        R_rel = np.swapaxes(T[:, :3, :3], 1, 2) @ T_target[:3, :3]
+        R_rel = np.swapaxes(T[:, :3, :3], 1, 2) @ T_target[..., :3, :3]
         angle = np.asarray(rotation_angle(R_rel), dtype=float).reshape(-1)
         good &= angle <= VERIFY_TOLERANCE
     return np.asarray(good, dtype=bool)
