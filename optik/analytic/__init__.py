@@ -272,14 +272,24 @@ def analytic_ik(
         raise AnalyticIKError(
             f"robot {robot.name!r}: position-only closed forms need a tool without offset"
         )
-    T_0_flange = (
-        invert_transform(robot.T_world_base) @ T_target @ invert_transform(robot.T_flange_tool)
-    )
-    raw = family.candidates(robot, T_0_flange, mode, ref)
+    inverse_base, inverse_tool = robot.cached(_frame_inverses)
+    raw = family.candidates(robot, inverse_base @ T_target @ inverse_tool, mode, ref)
     branches = _finish(robot, raw, T_target, mode, ref, sort, within_limits)
     if branches:
         return branches
     return _degenerate(robot, family, T_target, mode, ref, sort, within_limits, raw)
+
+
+def _frame_inverses(robot: Robot) -> tuple[FloatArray, FloatArray]:
+    """``(T_world_base^-1, T_flange_tool^-1)`` (4, 4) each, kept per robot.
+
+    A world target ``T`` is the flange pose ``T_world_base^-1 @ T @ T_flange_tool^-1`` in
+    frame 0.
+    """
+    inverses = invert_transform(robot.T_world_base), invert_transform(robot.T_flange_tool)
+    for inverse in inverses:
+        inverse.flags.writeable = False
+    return inverses
 
 
 def _degenerate(
@@ -300,10 +310,8 @@ def _degenerate(
     if _beyond_reach(robot, T_target):
         return []
     if raw is None:
-        T_0_flange = (
-            invert_transform(robot.T_world_base) @ T_target @ invert_transform(robot.T_flange_tool)
-        )
-        raw = family.candidates(robot, T_0_flange, mode, ref)
+        inverse_base, inverse_tool = robot.cached(_frame_inverses)
+        raw = family.candidates(robot, inverse_base @ T_target @ inverse_tool, mode, ref)
     starts = [*raw, ref]
     polished = polish(robot, T_target, mode, starts, 0.1 * VERIFY_TOLERANCE)
     return _finish(robot, polished, T_target, mode, ref, sort, within_limits)
@@ -716,8 +724,7 @@ def _python_family_batch(
     """
     N = T.shape[0]
     R = np.broadcast_to(robot.mid_limits if refs is None else refs, (N, robot.dof))
-    inverse_base = invert_transform(robot.T_world_base)
-    inverse_tool = invert_transform(robot.T_flange_tool)
+    inverse_base, inverse_tool = robot.cached(_frame_inverses)
     beyond = beyond_reach_rows(robot, T).tolist()
     raws = [
         [] if beyond[k] else family.candidates(robot, inverse_base @ T[k] @ inverse_tool, mode, ref)

@@ -26,10 +26,8 @@ def wrap_into_limits(Q: FloatArray, robot: Robot, q_ref: FloatArray) -> FloatArr
     inside its limits stays at the representative nearest ``q_ref``.
     """
     two_pi = 2.0 * math.pi
-    revolute = np.array([j.kind == "revolute" for j in robot.joints])
+    revolute, lower, upper = robot.cached(_wrap_bounds)
     base = q_ref + np.remainder(Q - q_ref + math.pi, two_pi) - math.pi
-    lower = np.where(np.isfinite(robot.lower), robot.lower, -np.inf)
-    upper = np.where(np.isfinite(robot.upper), robot.upper, np.inf)
     # Representatives base + 2 pi k inside [lower, upper]: k in [k_min, k_max].
     with np.errstate(invalid="ignore"):
         k_min = np.ceil((lower - base) / two_pi - 1e-12)
@@ -40,6 +38,20 @@ def wrap_into_limits(Q: FloatArray, robot: Robot, q_ref: FloatArray) -> FloatArr
     k = np.where(k_min > k_max, 0.0, k)
     k = np.where(np.isfinite(k), k, 0.0)
     return np.where(revolute, base + two_pi * k, Q)
+
+
+def _wrap_bounds(robot: Robot) -> tuple[NDArray[np.bool_], FloatArray, FloatArray]:
+    """What :func:`wrap_into_limits` reads of the robot, kept per robot.
+
+    ``(revolute, lower, upper)`` (dof,) each: which joints are revolute, and the limits
+    with a limit that is not finite read as none.
+    """
+    revolute = np.array([j.kind == "revolute" for j in robot.joints])
+    lower = np.where(np.isfinite(robot.lower), robot.lower, -np.inf)
+    upper = np.where(np.isfinite(robot.upper), robot.upper, np.inf)
+    for array in (revolute, lower, upper):
+        array.flags.writeable = False
+    return revolute, lower, upper
 
 
 def _beyond_reach(robot: Robot, T_target: FloatArray) -> bool:
