@@ -52,7 +52,13 @@ from optik._ik_options import (
     check_q0,
     query_bounds,
 )
-from optik.analytic import AnalyticFamily, analytic_ik, family_of, free_joint_reason
+from optik.analytic import (
+    AnalyticFamily,
+    analytic_ik,
+    family_of,
+    free_joint_reason,
+    places_tool_point,
+)
 from optik.analytic.roll import axis_branches, grid_branches, solves_axis_task
 from optik.errors import OptikError
 
@@ -180,14 +186,14 @@ form can miss the one-parameter family of solutions that passes through them."""
 
 
 def _family_solves(robot: Robot, family: AnalyticFamily, mode: str) -> bool:
-    """Whether the closed form applies (position-only closed forms place the flange).
+    """Whether the closed form applies to ``mode`` on ``robot``.
 
-    The mode must be one the family solves, and for position-only IK the tool must have
-    no offset.
+    The mode must be one the family solves, and for position-only IK the family must
+    reach the tool point (:func:`optik.analytic.places_tool_point`).
     """
     if mode not in family.modes:
         return False
-    return mode != "position" or not np.any(np.abs(robot.T_flange_tool[:3, 3]) > 0.0)
+    return mode != "position" or places_tool_point(family, robot)
 
 
 ROLL_STARTS = 8

@@ -53,6 +53,7 @@ from optik.analytic._base import (
     FamilyMatch,
     explain_family,
     match_families,
+    places_tool_point,
 )
 from optik.analytic._polish import near_solution, polish
 from optik.analytic._steps import (
@@ -91,6 +92,7 @@ __all__ = [
     "family_of",
     "free_joint_reason",
     "match_families",
+    "places_tool_point",
     "wrap_into_limits",
 ]
 
@@ -268,7 +270,7 @@ def analytic_ik(
     ref = robot.mid_limits if q_ref is None else _check_ref(robot, q_ref)
     if _beyond_reach(robot, T_target):
         return []  # a proof, before the family's arithmetic could overflow (1e155 m)
-    if mode == "position" and np.any(np.abs(robot.T_flange_tool[:3, 3]) > 0.0):
+    if mode == "position" and not places_tool_point(family, robot):
         raise AnalyticIKError(
             f"robot {robot.name!r}: position-only closed forms need a tool without offset"
         )
@@ -693,7 +695,7 @@ def analytic_ik_batch(
                 Q[row, b] = q
             counts[row] = min(len(found), Q.shape[1])
         return AnalyticBatch(Q, counts)
-    if mode == "position" and np.any(np.abs(robot.T_flange_tool[:3, 3]) > 0.0):
+    if mode == "position" and not places_tool_point(family, robot):
         raise AnalyticIKError(
             f"robot {robot.name!r}: position-only closed forms need a tool without offset"
         )

@@ -54,6 +54,10 @@ class AnalyticFamily(ABC):
     modes: tuple[str, ...] = ("pose",)
     kernel: ClassVar[int] = 0
     """Id of the family's compiled pipeline (0: none, the family runs in Python)."""
+    tool_point: ClassVar[bool] = False
+    """Whether position mode solves for the tool point itself, so any tool offset is
+    allowed; the others place the flange, so their position mode needs a tool without
+    an offset (:func:`places_tool_point`)."""
 
     @abstractmethod
     def fits(self, robot: Robot) -> bool:
@@ -190,6 +194,19 @@ def explain_family(robot: Robot) -> str:
         status = f"fits ({m.source})" if m.fits and m.source else "fits" if m.fits else m.reason
         lines.append(f"  {m.family}: {status}")
     return "\n".join(lines)
+
+
+def places_tool_point(family: AnalyticFamily, robot: Robot) -> bool:
+    """Whether ``family``'s position mode reaches ``robot``'s tool point.
+
+    A family that solves for the tool point (``tool_point``) does for any tool; the
+    others place the flange, which is the tool point only when the tool has no offset.
+
+    Args:
+        family: a closed-form family.
+        robot: the robot (its tool transform is read).
+    """
+    return family.tool_point or not np.any(np.abs(robot.T_flange_tool[:3, 3]) > 0.0)
 
 
 def register(family_cls: type[AnalyticFamily]) -> type[AnalyticFamily]:

@@ -1,53 +1,157 @@
-"""Planar two-link arm (seed 003): both elbow branches in closed form.
+"""Two parallel revolute axes (seed 003's planar arm): both elbow branches, from the axes.
 
-With link lengths ``a1, a2`` and the target ``(x, y)`` in the arm's plane,
-``x^2 + y^2 = a1^2 + a2^2 + 2 a1 a2 cos q2`` is the trig equation
-``(2 a1 a2) cos q2 + 0 sin q2 = x^2 + y^2 - a1^2 - a2^2`` (two elbow branches), and
-``q1 = atan2(y, x) - atan2(a2 sin q2, a1 + a2 cos q2)`` (free, kept at its reference,
-when ``a1 = a2`` and the arm folds onto the base).
+Found from the joint axes at ``q = 0`` (:func:`optik.analytic.geometry.joint_axes`), so
+an arm loaded from URDF, modified DH or standard DH fits alike: two revolute joints
+without coupling whose axes are parallel (within :data:`~optik.analytic.geometry.ANGLE_TOL`)
+and distinct (more than ``LENGTH_TOL`` times the arm's size apart). The tool point then
+moves in a plane perpendicular to the axes. With ``z`` the direction of axis 1, ``A`` the
+in-plane vector from axis 1 to axis 2, ``B`` the in-plane vector from axis 2 to the tool
+point at ``q = 0`` and ``X`` the target's in-plane offset from axis 1,
+``X = R(q1) (A + R(s q2) B)`` (``R`` turns about ``z``; ``s = +-1`` when axis 2 is
+written the same way or the other way), so with ``phi = s q2``::
+
+    |X|^2 = |A|^2 + |B|^2 + 2 (A . B) cos phi - 2 z . (A x B) sin phi
+
+the trig equation ``a cos phi + b sin phi = c`` (two elbow branches), and ``q1`` is the
+angle about ``z`` from ``V = A + R(phi) B`` to ``X`` (free, kept at its reference, when the
+arm folds onto axis 1). For the DH arm of seed 003 (``A = (a1, 0, 0)``,
+``B = (a2, 0, 0)``) this is ``(2 a1 a2) cos q2 = x^2 + y^2 - a1^2 - a2^2`` and
+``q1 = atan2(y, x) - atan2(a2 sin q2, a1 + a2 cos q2)``.
+
+The target's offset along the axes and, in pose mode, its orientation are checked by the
+caller's FK: a target off the plane gets no branch.
 """
 
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
 from optik._checks import FloatArray
-from optik.analytic._base import AnalyticFamily, angles, dh_rows, register
+from optik.analytic._base import AnalyticFamily, angles, register
+from optik.analytic.geometry import ANGLE_TOL, LENGTH_TOL, joint_axes, revolute_chain_reason
 from optik.model import Robot
+
+
+class PlanarPlan(NamedTuple):
+    """The plane of a two-joint arm, from its axes at ``q = 0``, in the robot's frame 0.
+
+    Coordinates in the plane are along ``e1`` (towards axis 2) and ``e2 = z x e1``, with
+    ``z`` the direction of axis 1 and the origin on axis 1; frame 0 is the world frame
+    with the robot's base transform removed (where :meth:`Planar2R.candidates` gets its
+    targets). Plain floats: the closed form runs on them without numpy.
+
+    Attributes:
+        reason: ``""`` when the axes are parallel and distinct, else why not (one line).
+        sense: +1 or -1: axis 2's direction is ``sense * z``.
+        e1: the first in-plane direction (3 floats, frame 0).
+        e2: the second (3 floats).
+        offset: the in-plane coordinates of axis 1 (2 floats, m).
+        A: the in-plane vector from axis 1 to axis 2 (2 floats, m): ``(|A|, 0)``.
+        B: the in-plane vector from axis 2 to the tool point at ``q = 0`` (2 floats, m).
+        tool: the tool point in the flange frame (3 floats, m): the tool's offset.
+        trig: ``(2 A.B, -2 z.(A x B), |A|^2 + |B|^2)``: the trig equation's coefficients
+            and the constant of its right-hand side.
+        folded: ``|X|`` (m) at or below which the arm is folded onto axis 1.
+    """
+
+    reason: str
+    sense: float = 1.0
+    e1: tuple[float, float, float] = (1.0, 0.0, 0.0)
+    e2: tuple[float, float, float] = (0.0, 1.0, 0.0)
+    offset: tuple[float, float] = (0.0, 0.0)
+    A: tuple[float, float] = (0.0, 0.0)
+    B: tuple[float, float] = (0.0, 0.0)
+    tool: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    trig: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    folded: float = 0.0
+
+
+def planar_plan(robot: Robot) -> PlanarPlan:
+    """The plane and in-plane vectors of a two-revolute-joint arm, or why it has none."""
+    reason = revolute_chain_reason(robot, 2)
+    if reason is not None:
+        return PlanarPlan(reason)
+    axes = joint_axes(robot)
+    z, z2 = axes.directions
+    tilt = float(np.linalg.norm(np.cross(z, z2)))
+    if tilt > ANGLE_TOL:
+        degrees = math.degrees(math.asin(min(tilt, 1.0)))
+        return PlanarPlan(f"axes 1 and 2 are not parallel ({degrees:.6g} deg)")
+    between = axes.points[1] - axes.points[0]
+    A = between - (between @ z) * z
+    length = float(np.linalg.norm(A))
+    if length <= LENGTH_TOL * axes.size:
+        return PlanarPlan("axes 1 and 2 coincide")
+    e1 = A / length
+    e2 = np.cross(z, e1)
+    B = axes.tool[:3, 3] - axes.points[1]
+    # Into frame 0: directions turn by the base's rotation, the origin also moves.
+    base = robot.T_world_base
+    to_0 = base[:3, :3].T
+    e1_0, e2_0 = to_0 @ e1, to_0 @ e2
+    origin_0 = to_0 @ (axes.points[0] - base[:3, 3])
+    tool = robot.T_flange_tool[:3, 3]
+    bx, by = float(B @ e1), float(B @ e2)
+    return PlanarPlan(
+        "",
+        1.0 if float(z @ z2) > 0.0 else -1.0,
+        (float(e1_0[0]), float(e1_0[1]), float(e1_0[2])),
+        (float(e2_0[0]), float(e2_0[1]), float(e2_0[2])),
+        (float(e1_0 @ origin_0), float(e2_0 @ origin_0)),
+        (length, 0.0),
+        (bx, by),
+        (float(tool[0]), float(tool[1]), float(tool[2])),
+        (2.0 * length * bx, -2.0 * length * by, length * length + bx * bx + by * by),
+        1e-12 * max(length, math.hypot(bx, by), 1.0),
+    )
 
 
 @register
 class Planar2R(AnalyticFamily):
-    """Two parallel revolute joints (standard DH, ``alpha = 0``)."""
+    """Two revolute joints with parallel, distinct axes (any source: DH, modified DH, URDF)."""
 
     name = "planar_2r"
     modes = ("position", "pose")
+    tool_point = True
 
     def fits(self, robot: Robot) -> bool:
-        """Two revolute DH joints with parallel axes and no coupling."""
-        rows = dh_rows(robot)
-        return (
-            robot.convention == "dh"
-            and robot.dof == 2
-            and len(rows) == 2
-            and all(r.kind == "revolute" and r.mimic is None and r.alpha == 0.0 for r in rows)
-        )
+        """Two uncoupled revolute joints with parallel, distinct axes."""
+        return not robot.cached(planar_plan).reason
+
+    def explain(self, robot: Robot) -> str | None:
+        """Why the axes are not those of a planar arm, or ``None`` when they are."""
+        return robot.cached(planar_plan).reason or None
 
     def candidates(
         self, robot: Robot, T_0_target: FloatArray, mode: str, q_ref: FloatArray
     ) -> list[FloatArray]:
-        """Both elbow branches; the pose's orientation is checked by the caller's FK."""
-        r1, r2 = dh_rows(robot)
-        x, y = float(T_0_target[0, 3]), float(T_0_target[1, 3])
-        a1, a2 = r1.a, r2.a
+        """Both elbow branches; the plane and orientation are checked by the caller's FK."""
+        plan = robot.cached(planar_plan)
+        # The tool point in frame 0 (the flange target carries the tool's offset).
+        row0, row1, row2 = T_0_target[:3].tolist()
+        tx, ty, tz = plan.tool
+        px = row0[0] * tx + row0[1] * ty + row0[2] * tz + row0[3]
+        py = row1[0] * tx + row1[1] * ty + row1[2] * tz + row1[3]
+        pz = row2[0] * tx + row2[1] * ty + row2[2] * tz + row2[3]
+        e1, e2 = plan.e1, plan.e2
+        x = e1[0] * px + e1[1] * py + e1[2] * pz - plan.offset[0]
+        y = e2[0] * px + e2[1] * py + e2[2] * pz - plan.offset[1]
+        ax = plan.A[0]
+        bx, by = plan.B
+        a, b, c0 = plan.trig
+        folded = math.hypot(x, y) <= plan.folded
         out = []
-        for t2 in angles(2.0 * a1 * a2, 0.0, x * x + y * y - a1 * a1 - a2 * a2, float(q_ref[1])):
-            if math.hypot(x, y) <= 1e-12 * max(a1, a2, 1.0):
-                # Folded onto the base axis (a1 = a2): every shoulder angle works.
-                t1 = r1.theta + float(q_ref[0])
+        for phi in angles(a, b, x * x + y * y - c0, plan.sense * float(q_ref[1])):
+            if folded:
+                # Folded onto axis 1 (|A| = |B|): every angle of joint 1 works.
+                q1 = float(q_ref[0])
             else:
-                t1 = math.atan2(y, x) - math.atan2(a2 * math.sin(t2), a1 + a2 * math.cos(t2))
-            out.append(np.array([t1 - r1.theta, t2 - r2.theta]))
+                cos_phi, sin_phi = math.cos(phi), math.sin(phi)
+                vx = ax + cos_phi * bx - sin_phi * by
+                vy = sin_phi * bx + cos_phi * by
+                q1 = math.atan2(vx * y - vy * x, vx * x + vy * y)
+            out.append(np.array([q1, plan.sense * phi]))
         return out
