@@ -84,6 +84,16 @@ def _check_round_trips(robot: Robot, n: int, seed: int) -> None:
                 if mode == "pose":
                     assert np.max(np.abs(F[:3, :3] - T[:3, :3])) < 1e-10
             assert min(_wrapped(b, q) for b in branches) < 1e-9, (mode, q)
+            # The closed form itself, before any wrap, filter or polish: every raw branch
+            # reaches the target.
+            T_0 = np.linalg.inv(robot.T_world_base) @ T @ np.linalg.inv(robot.T_flange_tool)
+            raw = optik.analytic.FAMILIES["planar_2r"].candidates(
+                robot, T_0, mode, robot.mid_limits
+            )
+            assert len(raw) >= 1
+            for b in raw:
+                F = robot.fk(b)
+                assert np.linalg.norm(F[:3, 3] - T[:3, 3]) < 1e-10, (mode, q, b)
 
 
 def test_urdf_arm_in_a_tilted_plane_gets_both_elbow_branches(tmp_path: Path) -> None:

@@ -1,79 +1,253 @@
-"""The spherical RRP arm of seed 000 (jumbo drilling boom), derived from its A-matrices.
+"""Revolute, revolute, prismatic arms (seed 000's jumbo boom), from the joint axes.
 
-With ``0A1 = DH(q1, 0, a1, +90)``, ``1A2 = DH(q2, 0, 0, -90)``, ``2A3 = DH(0, d3, 0, +90)``
-the product gives (see docs/errata.md for the printed form)::
+Found from the joint axes at ``q = 0`` (:func:`optik.analytic.geometry.joint_axes`), so
+an arm loaded from URDF, modified DH or standard DH fits alike: three joints without
+coupling, revolute, revolute, prismatic, with axis 2 not parallel to axis 1 and the
+prismatic direction ``u`` perpendicular to axis 2 (both within
+:data:`~optik.analytic.geometry.ANGLE_TOL`). Axes 1 and 2 may meet or be skew, at any
+angle; the tool point may sit anywhere.
 
-    p = (-c1 (s2 d3 - a1), -s1 (s2 d3 - a1), c2 d3)
-    R = [[c1 c2, -c1 s2,  s1],
-         [s1 c2, -s1 s2, -c1],
-         [s2,     c2,     0 ]]
+Turning about axis 2 and sliding along ``u`` keep the tool point's height along axis 2,
+``h2 = z2 . (P0 - p1)`` (``P0`` the tool point at ``q = 0``, ``p1`` a point on axis 1), so
+the first joint must bring axis 2 to the height of the target ``x``:
+``(R1(q1) z2) . (x - p1) = h2``, a trig equation ``a cos q1 + b sin q1 = c`` (two
+branches; ``q1`` free, at its reference, for a target on axis 1). With ``x`` turned back,
+``y = R1(q1)^-1 (x - p1) + p1``, the rest is planar, in the plane of axis 2's normal
+through ``y``: in coordinates along ``u`` and ``n = z2 x u`` about axis 2's point ``p2``,
+the tool's line is ``(s0 + q3, h)`` (``s0, h`` those of ``P0 - p2``), and it must turn onto
+``Y`` (those of ``y - p2``): ``s = +-sqrt(|Y|^2 - h^2)`` (two branches), ``q3 = s - s0`` and
+``q2`` the angle from ``(s, h)`` to ``Y``: up to four branches, two of them usually with the
+boom retracted through its pivot, outside the limits.
 
-Position only (eq. 26-34): ``s1 px - c1 py = 0`` gives two ``q1``;
-``s2 pz + (c1 px + s1 py - a1) c2 = 0`` gives two ``q2`` for each; then
-``d3 = (a1 - c1 px - s1 py) s2 + pz c2``: four branches. Full pose (eq. 35-42, corrected):
-``q1 = atan2(Ax, -Ay)``, ``q2 = atan2(Nz, Oz)``, ``d3`` as above: one branch.
+Seed 000's arm (``0A1 = DH(q1, 0, a1, +90)``, ``1A2 = DH(q2, 0, 0, -90)``,
+``2A3 = DH(0, d3, 0, +90)``, see docs/errata.md) has axis 1 vertical, axis 2 horizontal
+at the distance ``a1`` and the boom through axis 2 (``h = 0``): its position branches
+are the seed's eq. 27, 33 and 34, ``s1 px - c1 py = 0``,
+``s2 pz + (c1 px + s1 py - a1) c2 = 0``, ``d3 = (a1 - c1 px - s1 py) s2 + pz c2``; in pose
+mode the caller's FK keeps the one of the target's orientation (the corrected eq. 35-42).
 """
 
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
 from optik._checks import FloatArray
-from optik.analytic._base import AnalyticFamily, angles, dh_rows, is_right_angle, register
+from optik.analytic._base import AnalyticFamily, angles, register
+from optik.analytic.geometry import ANGLE_TOL, joint_axes
 from optik.model import Robot
+
+Vector = tuple[float, float, float]
+
+
+class RRPPlan(NamedTuple):
+    """An RRP arm's axes at ``q = 0`` in a frame on axis 1 (``z`` along it, origin on it).
+
+    ``to_axis`` maps a point of the robot's frame 0 (the world frame with the base
+    transform removed, where :meth:`SphericalRRP.candidates` gets its targets) into that
+    frame. Plain floats: the closed form runs on them without numpy.
+
+    Attributes:
+        reason: ``""`` when the joints have the structure, else why not (one line).
+        to_axis: rows of the rotation, then the offset (12 floats): ``x' = R x + t``.
+        z2: axis 2's direction (3 floats, axis-1 frame).
+        height: ``z2 . (P0 - p1)``, the height (m) the first joint must match.
+        p2: a point on axis 2 (3 floats, m).
+        u: the prismatic direction (3 floats).
+        n: ``z2 x u`` (3 floats).
+        s0: the tool point's coordinate along ``u`` from ``p2`` at ``q = 0`` (m).
+        h: its coordinate along ``n`` (m).
+        tool: the tool point in the flange frame (3 floats, m).
+        flange_z2: the vector (flange frame) that the tool's orientation turns into
+            ``R1(q1) z2`` (3 floats): ``z2`` seen from the tool at ``q = 0``.
+        flange_u: the same for ``u``, which it turns into ``R1(q1) R2(q2) u``.
+    """
+
+    reason: str
+    to_axis: tuple[float, ...] = ()
+    z2: Vector = (0.0, 0.0, 1.0)
+    height: float = 0.0
+    p2: Vector = (0.0, 0.0, 0.0)
+    u: Vector = (1.0, 0.0, 0.0)
+    n: Vector = (0.0, 1.0, 0.0)
+    s0: float = 0.0
+    h: float = 0.0
+    tool: Vector = (0.0, 0.0, 0.0)
+    flange_z2: Vector = (0.0, 0.0, 1.0)
+    flange_u: Vector = (1.0, 0.0, 0.0)
+
+
+def _floats(v: FloatArray) -> Vector:
+    return float(v[0]), float(v[1]), float(v[2])
+
+
+def _structure_reason(robot: Robot) -> str | None:
+    """Why ``robot`` is not three uncoupled joints R, R, P, or ``None``."""
+    chain = robot.chain
+    if robot.dof != 3:
+        return f"{robot.dof} joints (the family takes 3)"
+    if chain.n != 3 or not chain.identity:
+        return "coupled (mimic) joints"
+    kinds = "".join("P" if p else "R" for p in chain.prismatic.tolist())
+    if kinds != "RRP":
+        return f"joints {kinds}: the family takes RRP"
+    return None
+
+
+def rrp_plan(robot: Robot) -> RRPPlan:
+    """The axes of an RRP arm in a frame on axis 1, or why it does not fit the family."""
+    reason = _structure_reason(robot)
+    if reason is not None:
+        return RRPPlan(reason)
+    axes = joint_axes(robot)
+    z1, z2, u = axes.directions
+    p1, p2, tool_point = axes.points[0], axes.points[1], axes.tool[:3, 3]
+    if float(np.linalg.norm(np.cross(z1, z2))) <= ANGLE_TOL:
+        return RRPPlan("axes 1 and 2 are parallel: the first joint cannot set the height")
+    off = float(u @ z2)
+    if abs(off) > ANGLE_TOL:
+        degrees = math.degrees(math.asin(min(abs(off), 1.0)))
+        return RRPPlan(f"the prismatic direction is {degrees:.6g} deg off the normal of axis 2")
+    # A frame with z on axis 1 and its origin at p1, expressed from frame 0.
+    x_axis = np.cross(z1, z2)
+    x_axis /= np.linalg.norm(x_axis)
+    R_world = np.stack([x_axis, np.cross(z1, x_axis), z1])  # rows: world -> axis frame
+    base = robot.T_world_base
+    R = R_world @ base[:3, :3]  # frame 0 -> axis frame
+    t = R_world @ (base[:3, 3] - p1)
+
+    def into(v: FloatArray) -> FloatArray:
+        return np.asarray(R_world @ v, dtype=np.float64)
+
+    z2_a, u_a, p2_a = into(z2), into(u), into(p2 - p1)
+    n_a = np.cross(z2_a, u_a)
+    w = into(tool_point - p2)
+    # R(q) = R1 R2 R(0) (world), so R(q) R(0)^T z2 = R1 z2 and R(q) R(0)^T u = R1 R2 u; the
+    # flange's rotation is R(q) times the tool's inverse.
+    to_flange = robot.T_flange_tool[:3, :3] @ axes.tool[:3, :3].T
+    return RRPPlan(
+        "",
+        tuple(float(v) for v in [*R.ravel(), *t]),
+        _floats(z2_a),
+        float(z2 @ (tool_point - p1)),
+        _floats(p2_a),
+        _floats(u_a),
+        _floats(n_a),
+        float(w @ u_a),
+        float(w @ n_a),
+        _floats(robot.T_flange_tool[:3, 3]),
+        _floats(to_flange @ z2),
+        _floats(to_flange @ u),
+    )
 
 
 @register
 class SphericalRRP(AnalyticFamily):
-    """Seed 000's spherical arm: revolute, revolute, prismatic."""
+    """Revolute, revolute, prismatic (seed 000's boom), from the axes (any source).
+
+    Axes 1 and 2 not parallel, the slide normal to axis 2 (module docstring).
+    """
 
     name = "spherical_rrp"
     modes = ("position", "pose")
+    tool_point = True
 
     def fits(self, robot: Robot) -> bool:
-        """The exact DH structure of seed 000, section III (any ``a1``)."""
-        rows = dh_rows(robot)
-        if robot.convention != "dh" or robot.dof != 3 or len(rows) != 3:
-            return False
-        r1, r2, r3 = rows
-        return (
-            [r.kind for r in rows] == ["revolute", "revolute", "prismatic"]
-            and all(r.mimic is None for r in rows)
-            and (is_right_angle(r1.alpha), is_right_angle(r2.alpha), is_right_angle(r3.alpha))
-            == (1, -1, 1)
-            and r1.d == 0.0
-            and r1.theta == 0.0
-            and r2.a == 0.0
-            and r2.d == 0.0
-            and r2.theta == 0.0
-            and r3.a == 0.0
-            and r3.theta == 0.0
-        )
+        """Three uncoupled joints R, R, P with the structure of the module docstring."""
+        return not robot.cached(rrp_plan).reason
+
+    def explain(self, robot: Robot) -> str | None:
+        """Why the joints do not have the structure, or ``None`` when they do."""
+        return robot.cached(rrp_plan).reason or None
 
     def candidates(
         self, robot: Robot, T_0_target: FloatArray, mode: str, q_ref: FloatArray
     ) -> list[FloatArray]:
-        """Four position branches (eq. 27, 33, 34) or the unique pose branch (35-42)."""
-        r1, _, r3 = dh_rows(robot)
-        a1 = r1.a
-        px, py, pz = (float(v) for v in T_0_target[:3, 3])
+        """Up to four position branches; the orientation is checked by the caller's FK."""
+        plan = robot.cached(rrp_plan)
+        # The tool point in frame 0 (the flange target carries the tool's offset), then in
+        # the axis-1 frame.
+        rows = T_0_target[:3].tolist()
+        row0, row1, row2 = rows
+        tx, ty, tz = plan.tool
+        px = row0[0] * tx + row0[1] * ty + row0[2] * tz + row0[3]
+        py = row1[0] * tx + row1[1] * ty + row1[2] * tz + row1[3]
+        pz = row2[0] * tx + row2[1] * ty + row2[2] * tz + row2[3]
+        r = plan.to_axis
+        x = r[0] * px + r[1] * py + r[2] * pz + r[9]
+        y = r[3] * px + r[4] * py + r[5] * pz + r[10]
+        z = r[6] * px + r[7] * py + r[8] * pz + r[11]
+        zx, zy, zz = plan.z2
+        p2x, p2y, p2z = plan.p2
+        ux, uy, uz = plan.u
+        nx, ny, nz = plan.n
+        h = plan.h
         if mode == "pose":
-            R = T_0_target[:3, :3]
-            q1s: tuple[float, ...] = (math.atan2(R[0, 2], -R[1, 2]),)
-        else:
-            q1s = angles(-py, px, 0.0, float(q_ref[0]))
+            return [self._pose_branch(plan, rows, x, y, z)]
         out = []
-        for q1 in q1s:
+        # (R1 z2) . x = c (zx x + zy y) + s (zx y - zy x) + zz z = height
+        for q1 in angles(zx * x + zy * y, zx * y - zy * x, plan.height - zz * z, float(q_ref[0])):
             c1, s1 = math.cos(q1), math.sin(q1)
-            if mode == "pose":
-                R = T_0_target[:3, :3]
-                q2s: tuple[float, ...] = (math.atan2(R[2, 0], R[2, 1]),)
-            else:
-                q2s = angles(c1 * px + s1 * py - a1, pz, 0.0, float(q_ref[1]))
-            for q2 in q2s:
-                c2, s2 = math.cos(q2), math.sin(q2)
-                d3 = (a1 - c1 * px - s1 * py) * s2 + pz * c2
-                out.append(np.array([q1, q2, d3 - r3.d]))
+            # The target turned back by q1 about axis 1, from axis 2's point.
+            dx = c1 * x + s1 * y - p2x
+            dy = -s1 * x + c1 * y - p2y
+            dz = z - p2z
+            yu = ux * dx + uy * dy + uz * dz
+            yn = nx * dx + ny * dy + nz * dz
+            square = yu * yu + yn * yn
+            disc = square - h * h
+            if disc < -1e-12 * max(square, h * h, 1.0):
+                continue
+            root = math.sqrt(max(disc, 0.0))
+            for s in (root, -root) if root > 0.0 else (0.0,):
+                if abs(s) + abs(h) <= 1e-12 * max(math.sqrt(square), 1.0):
+                    # The tool's line passes through axis 2 at the target: q2 is free.
+                    q2 = float(q_ref[1])
+                else:
+                    q2 = math.atan2(s * yn - h * yu, s * yu + h * yn)
+                out.append(np.array([q1, q2, s - plan.s0]))
         return out
+
+    @staticmethod
+    def _pose_branch(
+        plan: RRPPlan, rows: list[list[float]], x: float, y: float, z: float
+    ) -> FloatArray:
+        """The one branch of a pose (seed 000's eq. 35-42, from the axes).
+
+        ``q1`` from where the orientation takes axis 2, ``q2`` from where it takes ``u``,
+        ``q3`` from the position (``x, y, z``: the tool point in the axis-1 frame);
+        ``rows``: the flange target's first three rows (frame 0).
+        """
+        r = plan.to_axis
+        (f00, f01, f02, _), (f10, f11, f12, _), (f20, f21, f22, _) = rows
+        # The flange's rotation applied to flange_z2 and flange_u, then into the axis frame.
+        m0, m1, m2 = plan.flange_z2
+        a0 = f00 * m0 + f01 * m1 + f02 * m2
+        a1 = f10 * m0 + f11 * m1 + f12 * m2
+        a2 = f20 * m0 + f21 * m1 + f22 * m2
+        gx = r[0] * a0 + r[1] * a1 + r[2] * a2
+        gy = r[3] * a0 + r[4] * a1 + r[5] * a2
+        m0, m1, m2 = plan.flange_u
+        a0 = f00 * m0 + f01 * m1 + f02 * m2
+        a1 = f10 * m0 + f11 * m1 + f12 * m2
+        a2 = f20 * m0 + f21 * m1 + f22 * m2
+        wx = r[0] * a0 + r[1] * a1 + r[2] * a2
+        wy = r[3] * a0 + r[4] * a1 + r[5] * a2
+        wz = r[6] * a0 + r[7] * a1 + r[8] * a2
+        zx, zy, _ = plan.z2
+        q1 = math.atan2(zx * gy - zy * gx, zx * gx + zy * gy)
+        c1, s1 = math.cos(q1), math.sin(q1)
+        vx, vy = c1 * wx + s1 * wy, -s1 * wx + c1 * wy
+        ux, uy, uz = plan.u
+        nx, ny, nz = plan.n
+        q2 = math.atan2(nx * vx + ny * vy + nz * wz, ux * vx + uy * vy + uz * wz)
+        p2x, p2y, p2z = plan.p2
+        dx = c1 * x + s1 * y - p2x
+        dy = -s1 * x + c1 * y - p2y
+        dz = z - p2z
+        yu = ux * dx + uy * dy + uz * dz
+        yn = nx * dx + ny * dy + nz * dz
+        s = math.cos(q2) * yu + math.sin(q2) * yn
+        return np.array([q1, q2, s - plan.s0])
