@@ -101,6 +101,54 @@ def robot_of(name: str) -> Robot:
     return load(name).robot
 
 
+def joint_distance(robot: Robot, a: Any, b: Any) -> float:
+    """Largest joint difference of two configurations, revolute ones wrapped to (-pi, pi]."""
+    d = np.asarray(a, dtype=float) - np.asarray(b, dtype=float)
+    revolute = np.array([j.kind == "revolute" for j in robot.joints])
+    d[revolute] = np.arctan2(np.sin(d[revolute]), np.cos(d[revolute]))
+    return float(np.max(np.abs(d)))
+
+
+def assert_closed_form_round_trips(
+    robot: Robot, family: Any, n: int, seed: int, most: dict[str, int]
+) -> None:
+    """On ``n`` seeded in-limit configurations, in pose and position mode: every branch of
+    ``analytic_ik`` reaches its pose (1e-10), the configuration the pose came from is one
+    of them, at most ``most[mode]`` are returned, and every raw branch of ``family``'s
+    closed form (before any wrap, filter or polish) reaches the target's position."""
+    from optik import analytic_ik
+
+    rng = np.random.default_rng(seed)
+    for q in rng.uniform(robot.lower, robot.upper, (n, robot.dof)):
+        T = robot.fk(q)
+        for mode, target in (("pose", T), ("position", T[:3, 3])):
+            branches = analytic_ik(robot, target, mode=mode)
+            assert 1 <= len(branches) <= most[mode]
+            for b in branches:
+                F = robot.fk(b)
+                assert np.linalg.norm(F[:3, 3] - T[:3, 3]) < 1e-10
+                if mode == "pose":
+                    assert np.max(np.abs(F[:3, :3] - T[:3, :3])) < 1e-10
+            assert min(joint_distance(robot, b, q) for b in branches) < 1e-9, (mode, q)
+            T_0 = np.linalg.inv(robot.T_world_base) @ T @ np.linalg.inv(robot.T_flange_tool)
+            raw = family.candidates(robot, T_0, mode, robot.mid_limits)
+            assert len(raw) >= 1
+            for b in raw:
+                F = robot.fk(b)
+                assert np.linalg.norm(F[:3, 3] - T[:3, 3]) < 1e-10, (mode, q, b)
+
+
+def assert_batch_equals_single(robot: Robot, targets: np.ndarray, mode: str) -> None:
+    """``analytic_ik_batch`` gives every target the branches ``analytic_ik`` gives it."""
+    from optik import analytic_ik, analytic_ik_batch
+
+    batch = analytic_ik_batch(robot, targets, mode=mode)
+    for k in range(len(targets)):
+        single = analytic_ik(robot, targets[k], mode=mode)
+        assert batch.counts[k] == len(single) >= 1
+        np.testing.assert_array_equal(batch.q[k, : len(single)], np.array(single))
+
+
 def random_q(robot: Robot, rng: np.random.Generator, n: int | None = None) -> np.ndarray:
     """Configurations inside the limits: uniform over a finite range, [-pi, pi] if unbounded.
 

@@ -7,15 +7,17 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import assert_batch_equals_single, assert_closed_form_round_trips, joint_distance
 from scipy.spatial.transform import Rotation
 
 import optik
-from optik import Robot, analytic_ik, analytic_ik_batch, load_problem, solve_ik
+from optik import Robot, analytic_ik, load_problem, solve_ik
 from optik.analytic import explain_family, family_of
 from optik.analytic.geometry import joint_axes
 from optik.errors import AnalyticIKError
 
 LIMIT = math.radians(170.0)
+PLANAR = optik.analytic.FAMILIES["planar_2r"]
 
 
 def _origin(T: np.ndarray) -> str:
@@ -64,36 +66,8 @@ def _write(tmp_path: Path, text: str) -> Path:
     return path
 
 
-def _wrapped(a: np.ndarray, b: np.ndarray) -> float:
-    d = np.asarray(a) - np.asarray(b)
-    return float(np.max(np.abs(np.arctan2(np.sin(d), np.cos(d)))))
-
-
 def _check_round_trips(robot: Robot, n: int, seed: int) -> None:
-    """Every branch reaches its pose (1e-10); the configuration the pose came from is one."""
-    rng = np.random.default_rng(seed)
-    Q = rng.uniform(robot.lower, robot.upper, (n, 2))
-    for q in Q:
-        T = robot.fk(q)
-        for mode, target in (("pose", T), ("position", T[:3, 3])):
-            branches = analytic_ik(robot, target, mode=mode)
-            assert 1 <= len(branches) <= 2
-            for b in branches:
-                F = robot.fk(b)
-                assert np.linalg.norm(F[:3, 3] - T[:3, 3]) < 1e-10
-                if mode == "pose":
-                    assert np.max(np.abs(F[:3, :3] - T[:3, :3])) < 1e-10
-            assert min(_wrapped(b, q) for b in branches) < 1e-9, (mode, q)
-            # The closed form itself, before any wrap, filter or polish: every raw branch
-            # reaches the target.
-            T_0 = np.linalg.inv(robot.T_world_base) @ T @ np.linalg.inv(robot.T_flange_tool)
-            raw = optik.analytic.FAMILIES["planar_2r"].candidates(
-                robot, T_0, mode, robot.mid_limits
-            )
-            assert len(raw) >= 1
-            for b in raw:
-                F = robot.fk(b)
-                assert np.linalg.norm(F[:3, 3] - T[:3, 3]) < 1e-10, (mode, q, b)
+    assert_closed_form_round_trips(robot, PLANAR, n, seed, {"pose": 2, "position": 2})
 
 
 def test_urdf_arm_in_a_tilted_plane_gets_both_elbow_branches(tmp_path: Path) -> None:
@@ -109,7 +83,7 @@ def test_urdf_arm_in_a_tilted_plane_gets_both_elbow_branches(tmp_path: Path) -> 
     assert len(analytic_ik(robot, robot.fk(q))) == 1
     res = solve_ik(robot, robot.fk(q), solver="auto")
     assert res.success and res.solver == "analytic"
-    assert _wrapped(res.q, q) < 1e-9
+    assert joint_distance(robot, res.q, q) < 1e-9
 
 
 def test_second_axis_written_either_way(tmp_path: Path) -> None:
@@ -174,16 +148,12 @@ def test_seed_003_arm_equals_the_textbook_formulas() -> None:
         got = analytic_ik(robot, [x, y, 0.0], mode="position", within_limits=False)
         assert len(got) == 2
         for e in expected:
-            assert min(_wrapped(g, e) for g in got) < 1e-12
+            assert min(joint_distance(robot, g, e) for g in got) < 1e-12
 
 
 def test_batch_equals_single_calls(tmp_path: Path) -> None:
     robot = Robot.from_urdf(_urdf(tmp_path), "world", "tip")
     rng = np.random.default_rng(6)
     T = robot.fk(rng.uniform(robot.lower, robot.upper, (50, 2)))
-    for mode, targets in (("pose", T), ("position", T[:, :3, 3])):
-        batch = analytic_ik_batch(robot, targets, mode=mode)
-        for k in range(50):
-            single = analytic_ik(robot, targets[k], mode=mode)
-            assert batch.counts[k] == len(single) >= 1
-            np.testing.assert_array_equal(batch.q[k, : len(single)], np.array(single))
+    assert_batch_equals_single(robot, T, "pose")
+    assert_batch_equals_single(robot, T[:, :3, 3], "position")

@@ -7,9 +7,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import assert_batch_equals_single, assert_closed_form_round_trips, joint_distance
 
 import optik
-from optik import Robot, analytic_ik, analytic_ik_batch, load_problem, solve_ik
+from optik import Robot, analytic_ik, load_problem, solve_ik
 from optik.analytic import FAMILIES, family_of
 from optik.errors import AnalyticIKError
 
@@ -48,35 +49,8 @@ def _urdf(
     return path
 
 
-def _wrapped(a: np.ndarray, b: np.ndarray) -> float:
-    d = np.asarray(a) - np.asarray(b)
-    d[:2] = np.arctan2(np.sin(d[:2]), np.cos(d[:2]))  # the slide is not an angle
-    return float(np.max(np.abs(d)))
-
-
 def _check_round_trips(robot: Robot, n: int, seed: int) -> None:
-    """Every branch reaches its pose (1e-10); the configuration the pose came from is one;
-    in pose mode it is the only one."""
-    rng = np.random.default_rng(seed)
-    for q in rng.uniform(robot.lower, robot.upper, (n, 3)):
-        T = robot.fk(q)
-        for mode, target in (("pose", T), ("position", T[:3, 3])):
-            branches = analytic_ik(robot, target, mode=mode)
-            assert 1 <= len(branches) <= (1 if mode == "pose" else 4)
-            for b in branches:
-                F = robot.fk(b)
-                assert np.linalg.norm(F[:3, 3] - T[:3, 3]) < 1e-10
-                if mode == "pose":
-                    assert np.max(np.abs(F[:3, :3] - T[:3, :3])) < 1e-10
-            assert min(_wrapped(b, q) for b in branches) < 1e-9, (mode, q)
-            # The closed form itself, before any wrap, filter or polish: every raw branch
-            # reaches the target.
-            T_0 = np.linalg.inv(robot.T_world_base) @ T @ np.linalg.inv(robot.T_flange_tool)
-            raw = RRP.candidates(robot, T_0, mode, robot.mid_limits)
-            assert len(raw) >= 1
-            for b in raw:
-                F = robot.fk(b)
-                assert np.linalg.norm(F[:3, 3] - T[:3, 3]) < 1e-10, (mode, q, b)
+    assert_closed_form_round_trips(robot, RRP, n, seed, {"pose": 1, "position": 4})
 
 
 def test_urdf_arm_with_skew_axes_and_an_offset_slide(tmp_path: Path) -> None:
@@ -85,7 +59,7 @@ def test_urdf_arm_with_skew_axes_and_an_offset_slide(tmp_path: Path) -> None:
     _check_round_trips(robot, 200, seed=1)
     q = np.array([0.4, -0.9, 0.8])
     res = solve_ik(robot, robot.fk(q), solver="auto")
-    assert res.success and res.solver == "analytic" and _wrapped(res.q, q) < 1e-9
+    assert res.success and res.solver == "analytic" and joint_distance(robot, res.q, q) < 1e-9
     # Position only: two first-joint angles, two slide positions each, with the limits off.
     found = analytic_ik(robot, robot.fk(q)[:3, 3], mode="position", within_limits=False)
     assert len(found) == 4
@@ -113,13 +87,13 @@ def test_jumbo_arm_equals_seed_000_formulas() -> None:
         got = analytic_ik(robot, T[:3, 3], mode="position", within_limits=False)
         assert len(got) == 4
         for e in expected:
-            assert min(_wrapped(g, e) for g in got) < 1e-9
+            assert min(joint_distance(robot, g, e) for g in got) < 1e-9
         R = T[:3, :3]
         t1 = math.atan2(R[0, 2], -R[1, 2])
         t2 = math.atan2(R[2, 0], R[2, 1])
         d3 = (a1 - math.cos(t1) * px - math.sin(t1) * py) * math.sin(t2) + pz * math.cos(t2)
         (pose,) = analytic_ik(robot, T)
-        assert _wrapped(pose, np.array([t1, t2, d3])) < 1e-9
+        assert joint_distance(robot, pose, np.array([t1, t2, d3])) < 1e-9
 
 
 def test_modified_dh_jumbo_arm_fits() -> None:
@@ -186,12 +160,8 @@ def test_batch_equals_single_calls(tmp_path: Path) -> None:
     robot = Robot.from_urdf(_urdf(tmp_path), "world", "tip")
     rng = np.random.default_rng(4)
     T = robot.fk(rng.uniform(robot.lower, robot.upper, (50, 3)))
-    for mode, targets in (("pose", T), ("position", T[:, :3, 3])):
-        batch = analytic_ik_batch(robot, targets, mode=mode)
-        for k in range(50):
-            single = analytic_ik(robot, targets[k], mode=mode)
-            assert batch.counts[k] == len(single) >= 1
-            np.testing.assert_array_equal(batch.q[k, : len(single)], np.array(single))
+    assert_batch_equals_single(robot, T, "pose")
+    assert_batch_equals_single(robot, T[:, :3, 3], "position")
 
 
 def test_off_reach_target_has_no_branch(tmp_path: Path) -> None:
