@@ -38,8 +38,11 @@ from optik.analytic import (  # noqa: F401  (importing a family registers it: th
 )
 
 # isort: split
-# The family found from the joint axes alone, after the DH families: detected last.
+# The families found from the joint axes alone, after the DH families: detected last.
 from optik.analytic import spherical_axes  # noqa: F401
+
+# isort: split
+from optik.analytic import rrp_wrist  # noqa: F401
 
 # isort: split
 # After the families: the pipeline imports two of them, which would register them first.

@@ -36,7 +36,7 @@ import numpy as np
 
 from optik._checks import FloatArray
 from optik.analytic._base import AnalyticFamily, angles, register
-from optik.analytic.geometry import ANGLE_TOL, joint_axes
+from optik.analytic.geometry import ANGLE_TOL, Axes, joint_axes
 from optik.model import Robot
 
 Vector = tuple[float, float, float]
@@ -53,13 +53,14 @@ class RRPPlan(NamedTuple):
         reason: ``""`` when the joints have the structure, else why not (one line).
         to_axis: rows of the rotation, then the offset (12 floats): ``x' = R x + t``.
         z2: axis 2's direction (3 floats, axis-1 frame).
-        height: ``z2 . (P0 - p1)``, the height (m) the first joint must match.
+        height: ``z2 . (P0 - p1)``, the height (m) the first joint must match (``P0``:
+            the placed point at ``q = 0``, the tool point or a wrist centre, :func:`arm_plan`).
         p2: a point on axis 2 (3 floats, m).
         u: the prismatic direction (3 floats).
         n: ``z2 x u`` (3 floats).
-        s0: the tool point's coordinate along ``u`` from ``p2`` at ``q = 0`` (m).
+        s0: the placed point's coordinate along ``u`` from ``p2`` at ``q = 0`` (m).
         h: its coordinate along ``n`` (m).
-        tool: the tool point in the flange frame (3 floats, m).
+        tool: the placed point in the flange frame (3 floats, m).
         flange_z2: the vector (flange frame) that the tool's orientation turns into
             ``R1(q1) z2`` (3 floats): ``z2`` seen from the tool at ``q = 0``.
         flange_u: the same for ``u``, which it turns into ``R1(q1) R2(q2) u``.
@@ -102,8 +103,18 @@ def rrp_plan(robot: Robot) -> RRPPlan:
     if reason is not None:
         return RRPPlan(reason)
     axes = joint_axes(robot)
-    z1, z2, u = axes.directions
-    p1, p2, tool_point = axes.points[0], axes.points[1], axes.tool[:3, 3]
+    return arm_plan(robot, axes, axes.tool[:3, 3])
+
+
+def arm_plan(robot: Robot, axes: Axes, point: FloatArray) -> RRPPlan:
+    """The plan that places ``point`` (world, at ``q = 0``) with joints 1 to 3 (R, R, P).
+
+    ``point`` moves with joints 1 to 3 only: the tool point of a three-joint arm, or the
+    centre of a spherical wrist (:mod:`optik.analytic.rrp_wrist`). Its place in the
+    flange frame goes into ``tool``, so the target's flange pose places it.
+    """
+    z1, z2, u = axes.directions[:3]
+    p1, p2 = axes.points[0], axes.points[1]
     if float(np.linalg.norm(np.cross(z1, z2))) <= ANGLE_TOL:
         return RRPPlan("axes 1 and 2 are parallel: the first joint cannot set the height")
     off = float(u @ z2)
@@ -123,24 +134,80 @@ def rrp_plan(robot: Robot) -> RRPPlan:
 
     z2_a, u_a, p2_a = into(z2), into(u), into(p2 - p1)
     n_a = np.cross(z2_a, u_a)
-    w = into(tool_point - p2)
-    # R(q) = R1 R2 R(0) (world), so R(q) R(0)^T z2 = R1 z2 and R(q) R(0)^T u = R1 R2 u; the
-    # flange's rotation is R(q) times the tool's inverse.
+    w = into(point - p2)
+    # R(q) = R1 R2 R(0) (world) for the three joints, so R(q) R(0)^T z2 = R1 z2 and
+    # R(q) R(0)^T u = R1 R2 u; the flange's rotation is R(q) times the tool's inverse.
     to_flange = robot.T_flange_tool[:3, :3] @ axes.tool[:3, :3].T
+    in_flange = robot.T_flange_tool @ np.linalg.inv(axes.tool) @ np.append(point, 1.0)
     return RRPPlan(
         "",
         tuple(float(v) for v in [*R.ravel(), *t]),
         _floats(z2_a),
-        float(z2 @ (tool_point - p1)),
+        float(z2 @ (point - p1)),
         _floats(p2_a),
         _floats(u_a),
         _floats(n_a),
         float(w @ u_a),
         float(w @ n_a),
-        _floats(robot.T_flange_tool[:3, 3]),
+        _floats(in_flange),
         _floats(to_flange @ z2),
         _floats(to_flange @ u),
     )
+
+
+def placed_point(plan: RRPPlan, rows: list[list[float]]) -> tuple[float, float, float]:
+    """The point the plan places, in the axis-1 frame, for a flange target's ``rows``.
+
+    ``rows``: the first three rows of the flange target in frame 0 (``T[:3].tolist()``).
+    """
+    row0, row1, row2 = rows
+    tx, ty, tz = plan.tool
+    px = row0[0] * tx + row0[1] * ty + row0[2] * tz + row0[3]
+    py = row1[0] * tx + row1[1] * ty + row1[2] * tz + row1[3]
+    pz = row2[0] * tx + row2[1] * ty + row2[2] * tz + row2[3]
+    r = plan.to_axis
+    return (
+        r[0] * px + r[1] * py + r[2] * pz + r[9],
+        r[3] * px + r[4] * py + r[5] * pz + r[10],
+        r[6] * px + r[7] * py + r[8] * pz + r[11],
+    )
+
+
+def arm_branches(
+    plan: RRPPlan, x: float, y: float, z: float, q_ref: FloatArray
+) -> list[tuple[float, float, float]]:
+    """Up to four ``(q1, q2, q3)`` placing the plan's point at ``(x, y, z)`` (axis-1 frame).
+
+    ``q_ref`` (at least 2 entries) gives the free joints' values at singularities.
+    """
+    zx, zy, zz = plan.z2
+    p2x, p2y, p2z = plan.p2
+    ux, uy, uz = plan.u
+    nx, ny, nz = plan.n
+    h = plan.h
+    out = []
+    # (R1 z2) . x = c (zx x + zy y) + s (zx y - zy x) + zz z = height
+    for q1 in angles(zx * x + zy * y, zx * y - zy * x, plan.height - zz * z, float(q_ref[0])):
+        c1, s1 = math.cos(q1), math.sin(q1)
+        # The target turned back by q1 about axis 1, from axis 2's point.
+        dx = c1 * x + s1 * y - p2x
+        dy = -s1 * x + c1 * y - p2y
+        dz = z - p2z
+        yu = ux * dx + uy * dy + uz * dz
+        yn = nx * dx + ny * dy + nz * dz
+        square = yu * yu + yn * yn
+        disc = square - h * h
+        if disc < -1e-12 * max(square, h * h, 1.0):
+            continue
+        root = math.sqrt(max(disc, 0.0))
+        for s in (root, -root) if root > 0.0 else (0.0,):
+            if abs(s) + abs(h) <= 1e-12 * max(math.sqrt(square), 1.0):
+                # The line passes through axis 2 at the target: q2 is free.
+                q2 = float(q_ref[1])
+            else:
+                q2 = math.atan2(s * yn - h * yu, s * yu + h * yn)
+            out.append((q1, q2, s - plan.s0))
+    return out
 
 
 @register
@@ -167,48 +234,11 @@ class SphericalRRP(AnalyticFamily):
     ) -> list[FloatArray]:
         """Up to four position branches; the orientation is checked by the caller's FK."""
         plan = robot.cached(rrp_plan)
-        # The tool point in frame 0 (the flange target carries the tool's offset), then in
-        # the axis-1 frame.
         rows = T_0_target[:3].tolist()
-        row0, row1, row2 = rows
-        tx, ty, tz = plan.tool
-        px = row0[0] * tx + row0[1] * ty + row0[2] * tz + row0[3]
-        py = row1[0] * tx + row1[1] * ty + row1[2] * tz + row1[3]
-        pz = row2[0] * tx + row2[1] * ty + row2[2] * tz + row2[3]
-        r = plan.to_axis
-        x = r[0] * px + r[1] * py + r[2] * pz + r[9]
-        y = r[3] * px + r[4] * py + r[5] * pz + r[10]
-        z = r[6] * px + r[7] * py + r[8] * pz + r[11]
-        zx, zy, zz = plan.z2
-        p2x, p2y, p2z = plan.p2
-        ux, uy, uz = plan.u
-        nx, ny, nz = plan.n
-        h = plan.h
+        x, y, z = placed_point(plan, rows)
         if mode == "pose":
             return [self._pose_branch(plan, rows, x, y, z)]
-        out = []
-        # (R1 z2) . x = c (zx x + zy y) + s (zx y - zy x) + zz z = height
-        for q1 in angles(zx * x + zy * y, zx * y - zy * x, plan.height - zz * z, float(q_ref[0])):
-            c1, s1 = math.cos(q1), math.sin(q1)
-            # The target turned back by q1 about axis 1, from axis 2's point.
-            dx = c1 * x + s1 * y - p2x
-            dy = -s1 * x + c1 * y - p2y
-            dz = z - p2z
-            yu = ux * dx + uy * dy + uz * dz
-            yn = nx * dx + ny * dy + nz * dz
-            square = yu * yu + yn * yn
-            disc = square - h * h
-            if disc < -1e-12 * max(square, h * h, 1.0):
-                continue
-            root = math.sqrt(max(disc, 0.0))
-            for s in (root, -root) if root > 0.0 else (0.0,):
-                if abs(s) + abs(h) <= 1e-12 * max(math.sqrt(square), 1.0):
-                    # The tool's line passes through axis 2 at the target: q2 is free.
-                    q2 = float(q_ref[1])
-                else:
-                    q2 = math.atan2(s * yn - h * yu, s * yu + h * yn)
-                out.append(np.array([q1, q2, s - plan.s0]))
-        return out
+        return [np.array(q) for q in arm_branches(plan, x, y, z, q_ref)]
 
     @staticmethod
     def _pose_branch(
