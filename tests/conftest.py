@@ -151,6 +151,29 @@ def assert_batch_equals_single(robot: Robot, targets: np.ndarray, mode: str) -> 
         np.testing.assert_array_equal(batch.q[k, : len(single)], np.array(single))
 
 
+def as_modified_dh(dh: Robot) -> Robot:
+    """A standard-DH robot rebuilt from modified (Craig) DH rows: each row's twist and
+    length move to the next row, the last row's to the tool; the same FK, base and tool."""
+    assert dh.dh is not None
+    rows, prev = [], None
+    for i, r in enumerate(dh.dh):
+        rows.append(
+            {
+                "alpha": prev.alpha if prev else 0.0,
+                "a": prev.a if prev else 0.0,
+                "theta": r.theta,
+                "d": r.d,
+                "kind": r.kind,
+                "lower": float(dh.lower[i]),
+                "upper": float(dh.upper[i]),
+            }
+        )
+        prev = r
+    last = dh.dh[-1]
+    tool = dh_matrix(last.a, last.alpha, 0.0, 0.0) @ dh.T_flange_tool
+    return Robot.from_mdh(rows, name=f"{dh.name}_mdh", base=dh.T_world_base, tool=tool)
+
+
 def random_q(robot: Robot, rng: np.random.Generator, n: int | None = None) -> np.ndarray:
     """Configurations inside the limits: uniform over a finite range, [-pi, pi] if unbounded.
 

@@ -7,7 +7,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import assert_batch_equals_single, assert_closed_form_round_trips, joint_distance
+from conftest import (
+    as_modified_dh,
+    assert_batch_equals_single,
+    assert_closed_form_round_trips,
+    joint_distance,
+)
 
 import optik
 from optik import Robot, analytic_ik, load_problem, solve_ik
@@ -98,24 +103,7 @@ def test_jumbo_arm_equals_seed_000_formulas() -> None:
 
 def test_modified_dh_jumbo_arm_fits() -> None:
     jumbo = load_problem("jumbo_spherical_arm").robot
-    assert jumbo.dh is not None
-    rows, prev = [], None
-    for i, r in enumerate(jumbo.dh):
-        rows.append(
-            {
-                "alpha": prev.alpha if prev else 0.0,
-                "a": prev.a if prev else 0.0,
-                "theta": r.theta,
-                "d": r.d,
-                "kind": r.kind,
-                "lower": float(jumbo.lower[i]),
-                "upper": float(jumbo.upper[i]),
-            }
-        )
-        prev = r
-    tool = np.eye(4)
-    tool[:3, :3] = np.array([[1.0, 0, 0], [0, 0, -1], [0, 1, 0]])  # the last row's alpha
-    mdh = Robot.from_mdh(rows, tool=tool)
+    mdh = as_modified_dh(jumbo)
     q = np.array([0.3, -0.4, 3.0])
     assert np.allclose(mdh.fk(q), jumbo.fk(q), atol=1e-12)
     assert family_of(mdh) is RRP

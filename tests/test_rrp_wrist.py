@@ -7,7 +7,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import assert_batch_equals_single, assert_closed_form_round_trips, joint_distance
+from conftest import (
+    as_modified_dh,
+    assert_batch_equals_single,
+    assert_closed_form_round_trips,
+    joint_distance,
+)
 from scipy.spatial.transform import Rotation
 
 from optik import Robot, analytic_ik, load_problem, solve_ik
@@ -115,23 +120,7 @@ def _check_raw_branches_reach_the_pose(robot: Robot, n: int, seed: int) -> None:
 
 def test_modified_dh_stanford_arm_fits() -> None:
     dh = load_problem("stanford_arm").robot
-    assert dh.dh is not None
-    rows, prev = [], None
-    for i, r in enumerate(dh.dh):
-        rows.append(
-            {
-                "alpha": prev.alpha if prev else 0.0,
-                "a": prev.a if prev else 0.0,
-                "theta": r.theta,
-                "d": r.d,
-                "kind": r.kind,
-                "lower": float(dh.lower[i]),
-                "upper": float(dh.upper[i]),
-            }
-        )
-        prev = r
-    last = dh.dh[-1]
-    mdh = Robot.from_mdh(rows, base=dh.T_world_base, tool=_dh(0.0, 0.0, last.a, last.alpha))
+    mdh = as_modified_dh(dh)
     q = dh.mid_limits + 0.3
     assert np.allclose(mdh.fk(q), dh.fk(q), atol=1e-12)
     assert family_of(mdh) is WRIST

@@ -127,6 +127,23 @@ def revolute_chain_reason(robot: Robot, dof: int) -> str | None:
     return None
 
 
+def joint_kinds_reason(robot: Robot, kinds: str) -> str | None:
+    """Why ``robot`` is not a plain chain of joints of ``kinds``, or ``None``.
+
+    ``kinds`` spells the joints in order, ``"R"`` (revolute) or ``"P"`` (prismatic) each,
+    e.g. ``"RRP"``.
+    """
+    chain = robot.chain
+    if robot.dof != len(kinds):
+        return f"{robot.dof} joints (the family takes {len(kinds)})"
+    if chain.n != len(kinds) or not chain.identity:
+        return "coupled (mimic) joints"
+    found = "".join("P" if p else "R" for p in chain.prismatic.tolist())
+    if found != kinds:
+        return f"joints {found}: the family takes {kinds}"
+    return None
+
+
 def joint_axes(robot: Robot) -> Axes:
     """Each chain joint's axis (direction, point) at ``q = 0``, world frame."""
     K = robot.chain.K

@@ -28,7 +28,13 @@ import numpy as np
 
 from optik._checks import FloatArray
 from optik.analytic._base import AnalyticFamily, register
-from optik.analytic.geometry import ANGLE_TOL, LENGTH_TOL, joint_axes, point_line_distance
+from optik.analytic.geometry import (
+    ANGLE_TOL,
+    LENGTH_TOL,
+    joint_axes,
+    joint_kinds_reason,
+    point_line_distance,
+)
 from optik.analytic.spherical_rrp import RRPPlan, arm_branches, arm_plan, placed_point
 from optik.model import Robot
 
@@ -52,21 +58,9 @@ class WristPlan(NamedTuple):
     normal6: tuple[float, float, float] = (0.0, 0.0, 1.0)
 
 
-def _structure_reason(robot: Robot) -> str | None:
-    chain = robot.chain
-    if robot.dof != 6:
-        return f"{robot.dof} joints (the family takes 6)"
-    if chain.n != 6 or not chain.identity:
-        return "coupled (mimic) joints"
-    kinds = "".join("P" if p else "R" for p in chain.prismatic.tolist())
-    if kinds != "RRPRRR":
-        return f"joints {kinds}: the family takes RRPRRR"
-    return None
-
-
 def wrist_plan(robot: Robot) -> WristPlan:
     """The plan of an RRP arm with a spherical wrist, or why ``robot`` does not fit."""
-    reason = _structure_reason(robot)
+    reason = joint_kinds_reason(robot, "RRPRRR")
     if reason is not None:
         return WristPlan(reason)
     axes = joint_axes(robot)

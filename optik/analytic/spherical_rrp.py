@@ -36,7 +36,7 @@ import numpy as np
 
 from optik._checks import FloatArray
 from optik.analytic._base import AnalyticFamily, angles, register
-from optik.analytic.geometry import ANGLE_TOL, Axes, joint_axes
+from optik.analytic.geometry import ANGLE_TOL, Axes, joint_axes, joint_kinds_reason
 from optik.model import Robot
 
 Vector = tuple[float, float, float]
@@ -84,22 +84,9 @@ def _floats(v: FloatArray) -> Vector:
     return float(v[0]), float(v[1]), float(v[2])
 
 
-def _structure_reason(robot: Robot) -> str | None:
-    """Why ``robot`` is not three uncoupled joints R, R, P, or ``None``."""
-    chain = robot.chain
-    if robot.dof != 3:
-        return f"{robot.dof} joints (the family takes 3)"
-    if chain.n != 3 or not chain.identity:
-        return "coupled (mimic) joints"
-    kinds = "".join("P" if p else "R" for p in chain.prismatic.tolist())
-    if kinds != "RRP":
-        return f"joints {kinds}: the family takes RRP"
-    return None
-
-
 def rrp_plan(robot: Robot) -> RRPPlan:
     """The axes of an RRP arm in a frame on axis 1, or why it does not fit the family."""
-    reason = _structure_reason(robot)
+    reason = joint_kinds_reason(robot, "RRP")
     if reason is not None:
         return RRPPlan(reason)
     axes = joint_axes(robot)
