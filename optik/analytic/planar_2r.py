@@ -133,9 +133,12 @@ class Planar2R(AnalyticFamily):
         # The tool point in frame 0 (the flange target carries the tool's offset).
         row0, row1, row2 = T_0_target[:3].tolist()
         tx, ty, tz = plan.tool
-        px = row0[0] * tx + row0[1] * ty + row0[2] * tz + row0[3]
-        py = row1[0] * tx + row1[1] * ty + row1[2] * tz + row1[3]
-        pz = row2[0] * tx + row2[1] * ty + row2[2] * tz + row2[3]
+        if tx or ty or tz:
+            px = row0[0] * tx + row0[1] * ty + row0[2] * tz + row0[3]
+            py = row1[0] * tx + row1[1] * ty + row1[2] * tz + row1[3]
+            pz = row2[0] * tx + row2[1] * ty + row2[2] * tz + row2[3]
+        else:
+            px, py, pz = row0[3], row1[3], row2[3]
         e1, e2 = plan.e1, plan.e2
         x = e1[0] * px + e1[1] * py + e1[2] * pz - plan.offset[0]
         y = e2[0] * px + e2[1] * py + e2[2] * pz - plan.offset[1]

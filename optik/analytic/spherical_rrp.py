@@ -149,9 +149,12 @@ def placed_point(plan: RRPPlan, rows: list[list[float]]) -> tuple[float, float, 
     """
     row0, row1, row2 = rows
     tx, ty, tz = plan.tool
-    px = row0[0] * tx + row0[1] * ty + row0[2] * tz + row0[3]
-    py = row1[0] * tx + row1[1] * ty + row1[2] * tz + row1[3]
-    pz = row2[0] * tx + row2[1] * ty + row2[2] * tz + row2[3]
+    if tx or ty or tz:
+        px = row0[0] * tx + row0[1] * ty + row0[2] * tz + row0[3]
+        py = row1[0] * tx + row1[1] * ty + row1[2] * tz + row1[3]
+        pz = row2[0] * tx + row2[1] * ty + row2[2] * tz + row2[3]
+    else:
+        px, py, pz = row0[3], row1[3], row2[3]
     r = plan.to_axis
     return (
         r[0] * px + r[1] * py + r[2] * pz + r[9],
@@ -197,6 +200,24 @@ def arm_branches(
     return out
 
 
+def _flange_vector(plan: RRPPlan, rows: list[list[float]], m: Vector) -> Vector:
+    """``m`` (flange frame) turned by the flange target's rotation, in the axis-1 frame.
+
+    ``rows``: the flange target's first three rows (frame 0).
+    """
+    (f00, f01, f02, _), (f10, f11, f12, _), (f20, f21, f22, _) = rows
+    m0, m1, m2 = m
+    a0 = f00 * m0 + f01 * m1 + f02 * m2
+    a1 = f10 * m0 + f11 * m1 + f12 * m2
+    a2 = f20 * m0 + f21 * m1 + f22 * m2
+    r = plan.to_axis
+    return (
+        r[0] * a0 + r[1] * a1 + r[2] * a2,
+        r[3] * a0 + r[4] * a1 + r[5] * a2,
+        r[6] * a0 + r[7] * a1 + r[8] * a2,
+    )
+
+
 @register
 class SphericalRRP(AnalyticFamily):
     """Revolute, revolute, prismatic (seed 000's boom), from the axes (any source).
@@ -237,22 +258,8 @@ class SphericalRRP(AnalyticFamily):
         ``q3`` from the position (``x, y, z``: the tool point in the axis-1 frame);
         ``rows``: the flange target's first three rows (frame 0).
         """
-        r = plan.to_axis
-        (f00, f01, f02, _), (f10, f11, f12, _), (f20, f21, f22, _) = rows
-        # The flange's rotation applied to flange_z2 and flange_u, then into the axis frame.
-        m0, m1, m2 = plan.flange_z2
-        a0 = f00 * m0 + f01 * m1 + f02 * m2
-        a1 = f10 * m0 + f11 * m1 + f12 * m2
-        a2 = f20 * m0 + f21 * m1 + f22 * m2
-        gx = r[0] * a0 + r[1] * a1 + r[2] * a2
-        gy = r[3] * a0 + r[4] * a1 + r[5] * a2
-        m0, m1, m2 = plan.flange_u
-        a0 = f00 * m0 + f01 * m1 + f02 * m2
-        a1 = f10 * m0 + f11 * m1 + f12 * m2
-        a2 = f20 * m0 + f21 * m1 + f22 * m2
-        wx = r[0] * a0 + r[1] * a1 + r[2] * a2
-        wy = r[3] * a0 + r[4] * a1 + r[5] * a2
-        wz = r[6] * a0 + r[7] * a1 + r[8] * a2
+        gx, gy, _ = _flange_vector(plan, rows, plan.flange_z2)
+        wx, wy, wz = _flange_vector(plan, rows, plan.flange_u)
         zx, zy, _ = plan.z2
         q1 = math.atan2(zx * gy - zy * gx, zx * gx + zy * gy)
         c1, s1 = math.cos(q1), math.sin(q1)
