@@ -157,3 +157,29 @@ def test_batch_equals_single_calls(tmp_path: Path) -> None:
     T = robot.fk(rng.uniform(robot.lower, robot.upper, (50, 2)))
     assert_batch_equals_single(robot, T, "pose")
     assert_batch_equals_single(robot, T[:, :3, 3], "position")
+
+
+@pytest.mark.parametrize(
+    ("rows", "q2"),
+    [
+        ([{"a": 0.5, "role": "arm"}, {"a": 0.5, "role": "arm"}], math.pi),  # folded
+        ([{"a": 0.5, "role": "arm"}, {"a": 0.5, "role": "arm"}], math.pi - 1e-9),
+        ([{"a": 0.5, "role": "arm"}, {"a": 0.5, "role": "arm"}], 1e-7),  # stretched
+        ([{"a": 0.5, "role": "arm"}, {"a": 0.0, "d": 0.1, "role": "arm"}], None),  # tool on axis 2
+    ],
+)
+def test_pose_mode_sets_the_joint_the_position_leaves_free(rows: list, q2: float | None) -> None:
+    """Folded (joint 1 free), a hair from folded or stretched (ill-conditioned) or with the
+    tool on axis 2 (joint 2 free): the orientation sets the joint, so every pose of the
+    sweep gets its branch, and the raw closed form reaches the whole pose."""
+    robot = Robot.from_dh(rows)
+    rng = np.random.default_rng(7)
+    Q = rng.uniform(robot.lower, robot.upper, (40, 2))
+    if q2 is not None:
+        Q[:, 1] = q2
+    for q in Q:
+        T = robot.fk(q)
+        branches = analytic_ik(robot, T, within_limits=False)
+        assert any(np.max(np.abs(robot.fk(b) - T)) < 1e-9 for b in branches), q
+        raw = PLANAR.candidates(robot, T, "pose", robot.mid_limits)
+        assert min(float(np.max(np.abs(robot.fk(b) - T)[:3, :3])) for b in raw) < 1e-12

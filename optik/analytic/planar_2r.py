@@ -18,8 +18,12 @@ arm folds onto axis 1). For the DH arm of seed 003 (``A = (a1, 0, 0)``,
 ``B = (a2, 0, 0)``) this is ``(2 a1 a2) cos q2 = x^2 + y^2 - a1^2 - a2^2`` and
 ``q1 = atan2(y, x) - atan2(a2 sin q2, a1 + a2 cos q2)``.
 
-The target's offset along the axes and, in pose mode, its orientation are checked by the
-caller's FK: a target off the plane gets no branch.
+In pose mode the orientation gives the tool's turn about the axes, ``q1 + s q2``, and
+``q1 = turn - phi``: the orientation exact, and ``q1`` right where the position leaves it
+free (the arm folded onto axis 1) or loses its digits (a hair from folded or stretched);
+with the tool point on axis 2, ``phi = turn - q1`` instead (the position leaves ``q2``
+free). The target's offset along the axes is checked by the caller's FK: a target off
+the plane gets no branch.
 """
 
 from __future__ import annotations
@@ -55,6 +59,10 @@ class PlanarPlan(NamedTuple):
         trig: ``(2 A.B, -2 z.(A x B), |A|^2 + |B|^2)``: the trig equation's coefficients
             and the constant of its right-hand side.
         folded: ``|X|`` (m) at or below which the arm is folded onto axis 1.
+        flange_e1: the vector (flange frame) that the target's flange rotation turns
+            into ``R(q1 + s q2) e1`` (3 floats): the tool's turn about the axes.
+        tool_on_axis2: the tool point lies on axis 2 (``B = 0``): only the orientation
+            sets joint 2.
     """
 
     reason: str
@@ -67,6 +75,8 @@ class PlanarPlan(NamedTuple):
     tool: tuple[float, float, float] = (0.0, 0.0, 0.0)
     trig: tuple[float, float, float] = (0.0, 0.0, 0.0)
     folded: float = 0.0
+    flange_e1: tuple[float, float, float] = (1.0, 0.0, 0.0)
+    tool_on_axis2: bool = False
 
 
 def planar_plan(robot: Robot) -> PlanarPlan:
@@ -95,6 +105,8 @@ def planar_plan(robot: Robot) -> PlanarPlan:
     origin_0 = to_0 @ (axes.points[0] - base[:3, 3])
     tool = robot.T_flange_tool[:3, 3]
     bx, by = float(B @ e1), float(B @ e2)
+    # R_f R_ft = R(q1 + s q2) R_tool(0) in frame 0, so R_f (R_ft R_tool(0)^T e1) turns e1.
+    flange_e1 = robot.T_flange_tool[:3, :3] @ (to_0 @ axes.tool[:3, :3]).T @ e1_0
     return PlanarPlan(
         "",
         1.0 if float(z @ z2) > 0.0 else -1.0,
@@ -106,6 +118,8 @@ def planar_plan(robot: Robot) -> PlanarPlan:
         (float(tool[0]), float(tool[1]), float(tool[2])),
         (2.0 * length * bx, -2.0 * length * by, length * length + bx * bx + by * by),
         1e-12 * max(length, math.hypot(bx, by), 1.0),
+        (float(flange_e1[0]), float(flange_e1[1]), float(flange_e1[2])),
+        math.hypot(bx, by) <= 1e-12 * max(length, 1.0),
     )
 
 
@@ -128,7 +142,7 @@ class Planar2R(AnalyticFamily):
     def candidates(
         self, robot: Robot, T_0_target: FloatArray, mode: str, q_ref: FloatArray
     ) -> list[FloatArray]:
-        """Both elbow branches; the plane and orientation are checked by the caller's FK."""
+        """Both elbow branches (in pose mode with the orientation's turn); checked by FK."""
         plan = robot.cached(planar_plan)
         # The tool point in frame 0 (the flange target carries the tool's offset).
         row0, row1, row2 = T_0_target[:3].tolist()
@@ -146,8 +160,21 @@ class Planar2R(AnalyticFamily):
         bx, by = plan.B
         a, b, c0 = plan.trig
         folded = math.hypot(x, y) <= plan.folded
+        s = plan.sense
+        if mode == "pose":
+            # The tool's turn about the axes, q1 + s q2, from the orientation: it sets the
+            # joint the position leaves free or ill-conditioned (folded, or the tool on
+            # axis 2) and keeps both branches' orientation exact.
+            (f00, f01, f02, _), (f10, f11, f12, _), (f20, f21, f22, _) = row0, row1, row2
+            m0, m1, m2 = plan.flange_e1
+            g0 = f00 * m0 + f01 * m1 + f02 * m2
+            g1 = f10 * m0 + f11 * m1 + f12 * m2
+            g2 = f20 * m0 + f21 * m1 + f22 * m2
+            turn = math.atan2(
+                e2[0] * g0 + e2[1] * g1 + e2[2] * g2, e1[0] * g0 + e1[1] * g1 + e1[2] * g2
+            )
         out = []
-        for phi in angles(a, b, x * x + y * y - c0, plan.sense * float(q_ref[1])):
+        for phi in angles(a, b, x * x + y * y - c0, s * float(q_ref[1])):
             if folded:
                 # Folded onto axis 1 (|A| = |B|): every angle of joint 1 works.
                 q1 = float(q_ref[0])
@@ -156,5 +183,10 @@ class Planar2R(AnalyticFamily):
                 vx = ax + cos_phi * bx - sin_phi * by
                 vy = sin_phi * bx + cos_phi * by
                 q1 = math.atan2(vx * y - vy * x, vx * x + vy * y)
-            out.append(np.array([q1, plan.sense * phi]))
+            if mode == "pose":
+                if plan.tool_on_axis2:
+                    phi = turn - q1
+                else:
+                    q1 = turn - phi
+            out.append(np.array([q1, s * phi]))
         return out
