@@ -158,3 +158,39 @@ def test_off_reach_target_has_no_branch(tmp_path: Path) -> None:
     T[:3, 3] += 10.0
     assert analytic_ik(robot, T[:3, 3], mode="position") == []
     assert optik.solve_ik(robot, T, solver="auto").status == "unreachable"
+
+
+def test_random_rrp_arms_reach_every_pose() -> None:
+    """Random DH arms of the structure (any first twist, the slide normal to axis 2, any
+    offsets and tool point): each fits, and each in-limit pose gets its branch."""
+    rng = np.random.default_rng(5)
+    for _ in range(10):
+        rows = [
+            {
+                "a": rng.uniform(-0.5, 0.5),
+                "alpha": rng.uniform(0.2, 2.9) * rng.choice([-1, 1]),
+                "d": rng.uniform(-0.5, 0.5),
+                "theta": rng.uniform(-3, 3),
+                "role": "arm",
+            },
+            {
+                "a": rng.uniform(-0.5, 0.5),
+                "alpha": rng.choice([-1, 1]) * math.pi / 2,
+                "d": rng.uniform(-0.5, 0.5),
+                "theta": rng.uniform(-3, 3),
+                "role": "arm",
+            },
+            {
+                "kind": "prismatic",
+                "a": rng.uniform(-0.3, 0.3),
+                "alpha": rng.uniform(-3, 3),
+                "theta": rng.uniform(-3, 3),
+                "lower": 0.1,
+                "upper": 2.0,
+            },
+        ]
+        tool = np.eye(4)
+        tool[:3, 3] = rng.uniform(-0.2, 0.2, 3)
+        robot = Robot.from_dh(rows, tool=tool)
+        assert family_of(robot) is RRP
+        assert_closed_form_round_trips(robot, RRP, 20, seed=6, most={"pose": 1, "position": 4})

@@ -147,3 +147,28 @@ def test_batch_equals_single_calls(tmp_path: Path) -> None:
     robot = Robot.from_urdf(path, "l0", "tip")
     rng = np.random.default_rng(7)
     assert_batch_equals_single(robot, robot.fk(rng.uniform(dh.lower, dh.upper, (40, 6))), "pose")
+
+
+def test_random_rrp_arms_with_any_spherical_wrist_reach_every_pose() -> None:
+    """Random DH arms: an RRP arm, then three wrist axes through one point at any twists
+    (which the DH family's right angles do not take): each fits, each pose gets its
+    branch, and every raw branch reaches the whole pose."""
+    rng = np.random.default_rng(6)
+    for _ in range(8):
+        twist = [float(rng.uniform(0.2, 2.9) * rng.choice([-1, 1])) for _ in range(3)]
+        rows = [
+            {"a": rng.uniform(-0.5, 0.5), "alpha": twist[0], "d": rng.uniform(-0.5, 0.5),
+             "theta": rng.uniform(-3, 3), "role": "arm"},
+            {"a": rng.uniform(-0.5, 0.5), "alpha": rng.choice([-1, 1]) * math.pi / 2,
+             "d": rng.uniform(-0.5, 0.5), "theta": rng.uniform(-3, 3), "role": "arm"},
+            {"kind": "prismatic", "alpha": twist[1], "theta": rng.uniform(-3, 3),
+             "lower": 0.1, "upper": 2.0},
+            {"alpha": twist[2], "theta": rng.uniform(-3, 3), "role": "wrist"},
+            {"alpha": rng.uniform(0.2, 2.9), "theta": rng.uniform(-3, 3), "role": "wrist"},
+            {"a": rng.uniform(-0.1, 0.1), "alpha": rng.uniform(-3, 3),
+             "d": rng.uniform(0, 0.2), "theta": rng.uniform(-3, 3), "role": "wrist"},
+        ]  # fmt: skip
+        robot = Robot.from_dh(rows)
+        assert family_of(robot) is WRIST
+        assert_closed_form_round_trips(robot, WRIST, 20, seed=7, most={"pose": 8})
+        _check_raw_branches_reach_the_pose(robot, 20, seed=8)
