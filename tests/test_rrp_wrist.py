@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 
@@ -172,3 +173,23 @@ def test_random_rrp_arms_with_any_spherical_wrist_reach_every_pose() -> None:
         assert family_of(robot) is WRIST
         assert_closed_form_round_trips(robot, WRIST, 20, seed=7, most={"pose": 8})
         _check_raw_branches_reach_the_pose(robot, 20, seed=8)
+
+
+def test_cli_names_the_family_and_solves_with_it(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`optik robot` prints the family found from the axes; `optik solve` answers with it."""
+    from optik.cli import main
+
+    path, dh = _random_urdf(tmp_path, "stanford_arm", seed=1)
+    assert main(["robot", str(path)]) == 0
+    assert capsys.readouterr().out.rstrip().endswith("closed-form family: rrp_wrist")
+    q = dh.mid_limits + 0.2
+    T = dh.fk(q)
+    rpy = Rotation.from_matrix(T[:3, :3]).as_euler("xyz")
+    argv = ["solve", "--urdf", str(path), "--base", "l0", "--tip", "tip", "--position"]
+    argv += [repr(float(v)) for v in T[:3, 3]] + ["--rpy"] + [repr(float(v)) for v in rpy]
+    assert main([*argv, "--json"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert result["solver"] == "analytic" and result["success"]
+    assert joint_distance(dh, np.array(result["q"]), q) < 1e-6
