@@ -209,6 +209,35 @@ def places_tool_point(family: AnalyticFamily, robot: Robot) -> bool:
     return family.tool_point or not np.any(np.abs(robot.T_flange_tool[:3, 3]) > 0.0)
 
 
+Vector3 = tuple[float, float, float]
+
+
+def flange_turn(rows: list[list[float]], v: Vector3) -> Vector3:
+    """``R v``: the vector ``v`` (flange frame) turned by the target's rotation ``R``.
+
+    ``rows``: the flange target's first three rows (``T[:3].tolist()``); plain floats, for
+    the families that run per target in Python.
+    """
+    (r00, r01, r02, _), (r10, r11, r12, _), (r20, r21, r22, _) = rows
+    x, y, z = v
+    return (
+        r00 * x + r01 * y + r02 * z,
+        r10 * x + r11 * y + r12 * z,
+        r20 * x + r21 * y + r22 * z,
+    )
+
+
+def flange_point(rows: list[list[float]], offset: Vector3) -> Vector3:
+    """``R offset + t``: the point ``offset`` of the flange frame (m) at the target.
+
+    ``rows`` as :func:`flange_turn`'s; a zero ``offset`` gives the translation as it is.
+    """
+    if not (offset[0] or offset[1] or offset[2]):
+        return rows[0][3], rows[1][3], rows[2][3]
+    x, y, z = flange_turn(rows, offset)
+    return x + rows[0][3], y + rows[1][3], z + rows[2][3]
+
+
 def register(family_cls: type[AnalyticFamily]) -> type[AnalyticFamily]:
     """Class decorator adding a family to the registry under its ``name``."""
     instance = family_cls()

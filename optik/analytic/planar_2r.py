@@ -34,7 +34,7 @@ from typing import NamedTuple
 import numpy as np
 
 from optik._checks import FloatArray
-from optik.analytic._base import AnalyticFamily, angles, register
+from optik.analytic._base import AnalyticFamily, angles, flange_point, flange_turn, register
 from optik.analytic.geometry import ANGLE_TOL, LENGTH_TOL, joint_axes, revolute_chain_reason
 from optik.model import Robot
 
@@ -145,14 +145,8 @@ class Planar2R(AnalyticFamily):
         """Both elbow branches (in pose mode with the orientation's turn); checked by FK."""
         plan = robot.cached(planar_plan)
         # The tool point in frame 0 (the flange target carries the tool's offset).
-        row0, row1, row2 = T_0_target[:3].tolist()
-        tx, ty, tz = plan.tool
-        if tx or ty or tz:
-            px = row0[0] * tx + row0[1] * ty + row0[2] * tz + row0[3]
-            py = row1[0] * tx + row1[1] * ty + row1[2] * tz + row1[3]
-            pz = row2[0] * tx + row2[1] * ty + row2[2] * tz + row2[3]
-        else:
-            px, py, pz = row0[3], row1[3], row2[3]
+        rows = T_0_target[:3].tolist()
+        px, py, pz = flange_point(rows, plan.tool)
         e1, e2 = plan.e1, plan.e2
         x = e1[0] * px + e1[1] * py + e1[2] * pz - plan.offset[0]
         y = e2[0] * px + e2[1] * py + e2[2] * pz - plan.offset[1]
@@ -165,11 +159,7 @@ class Planar2R(AnalyticFamily):
             # The tool's turn about the axes, q1 + s q2, from the orientation: it sets the
             # joint the position leaves free or ill-conditioned (folded, or the tool on
             # axis 2) and keeps both branches' orientation exact.
-            (f00, f01, f02, _), (f10, f11, f12, _), (f20, f21, f22, _) = row0, row1, row2
-            m0, m1, m2 = plan.flange_e1
-            g0 = f00 * m0 + f01 * m1 + f02 * m2
-            g1 = f10 * m0 + f11 * m1 + f12 * m2
-            g2 = f20 * m0 + f21 * m1 + f22 * m2
+            g0, g1, g2 = flange_turn(rows, plan.flange_e1)
             turn = math.atan2(
                 e2[0] * g0 + e2[1] * g1 + e2[2] * g2, e1[0] * g0 + e1[1] * g1 + e1[2] * g2
             )

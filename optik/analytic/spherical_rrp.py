@@ -35,7 +35,7 @@ from typing import NamedTuple
 import numpy as np
 
 from optik._checks import FloatArray
-from optik.analytic._base import AnalyticFamily, angles, register
+from optik.analytic._base import AnalyticFamily, angles, flange_point, flange_turn, register
 from optik.analytic.geometry import ANGLE_TOL, Axes, joint_axes, joint_kinds_reason
 from optik.model import Robot
 
@@ -147,14 +147,7 @@ def placed_point(plan: RRPPlan, rows: list[list[float]]) -> tuple[float, float, 
 
     ``rows``: the first three rows of the flange target in frame 0 (``T[:3].tolist()``).
     """
-    row0, row1, row2 = rows
-    tx, ty, tz = plan.tool
-    if tx or ty or tz:
-        px = row0[0] * tx + row0[1] * ty + row0[2] * tz + row0[3]
-        py = row1[0] * tx + row1[1] * ty + row1[2] * tz + row1[3]
-        pz = row2[0] * tx + row2[1] * ty + row2[2] * tz + row2[3]
-    else:
-        px, py, pz = row0[3], row1[3], row2[3]
+    px, py, pz = flange_point(rows, plan.tool)
     r = plan.to_axis
     return (
         r[0] * px + r[1] * py + r[2] * pz + r[9],
@@ -185,13 +178,14 @@ def arm_branches(
         dz = z - p2z
         yu = ux * dx + uy * dy + uz * dz
         yn = nx * dx + ny * dy + nz * dz
-        square = yu * yu + yn * yn
-        disc = square - h * h
-        if disc < -1e-12 * max(square, h * h, 1.0):
+        # s^2 = |Y|^2 - h^2, formed as a product so that a tangent keeps its digits.
+        r = math.hypot(yu, yn)
+        disc = (r - abs(h)) * (r + abs(h))
+        if disc < -1e-12 * max(r * r, 1.0):
             continue
         root = math.sqrt(max(disc, 0.0))
         for s in (root, -root) if root > 0.0 else (0.0,):
-            if abs(s) + abs(h) <= 1e-12 * max(math.sqrt(square), 1.0):
+            if abs(s) + abs(h) <= 1e-12 * max(r, 1.0):
                 # The line passes through axis 2 at the target: q2 is free.
                 q2 = float(q_ref[1])
             else:
@@ -205,11 +199,7 @@ def _flange_vector(plan: RRPPlan, rows: list[list[float]], m: Vector) -> Vector:
 
     ``rows``: the flange target's first three rows (frame 0).
     """
-    (f00, f01, f02, _), (f10, f11, f12, _), (f20, f21, f22, _) = rows
-    m0, m1, m2 = m
-    a0 = f00 * m0 + f01 * m1 + f02 * m2
-    a1 = f10 * m0 + f11 * m1 + f12 * m2
-    a2 = f20 * m0 + f21 * m1 + f22 * m2
+    a0, a1, a2 = flange_turn(rows, m)
     r = plan.to_axis
     return (
         r[0] * a0 + r[1] * a1 + r[2] * a2,
