@@ -75,8 +75,10 @@ def _cmd_view(args: argparse.Namespace) -> int:
                 f"{problem.name}: plan of {summary['waypoints']} waypoints, "
                 f"{summary['flagged']} flagged"
             )
-        print(f"optik view: {problem.name} at {viewer.url} (Ctrl-C stops)", flush=True)
         try:
+            # Printed inside the try: a Ctrl-C sent as soon as the URL is read can land
+            # before the wait begins, and it stops as cleanly there.
+            print(f"optik view: {problem.name} at {viewer.url} (Ctrl-C stops)", flush=True)
             while not stop.wait(timeout=0.5):  # a short wait keeps Ctrl-C responsive
                 pass
         except KeyboardInterrupt:
