@@ -24,6 +24,7 @@ from optik.analytic import _finish, analytic_ik, analytic_ik_batch, family_of
 from optik.analytic.geometry import joint_axes
 from optik.analytic.parallel_arm import PARALLEL_12, PARALLEL_23
 from optik.analytic.spherical_axes import (
+    GENERAL,
     INTERSECTING,
     _candidates_into,
     _scratch,
@@ -57,6 +58,31 @@ ARMS = {
         INTERSECTING,
         False,
         "6R-SPHERICAL_FIRST_TWO_INTERSECTING",
+    ),
+    "general arm": (
+        [(0.1, 60.0, 0.4, 0.2), (0.5, 40.0, 0.1, 0.1), (0.05, 75.0, 0.0, -0.3), *WRIST],
+        GENERAL,
+        False,
+        "6R-SPHERICAL_NO_PARALLEL_NO_INTERSECTING",
+    ),
+    "second two intersecting": (
+        [(0.1, 60.0, 0.4, 0.2), (0.0, 40.0, 0.1, 0.1), (0.05, 75.0, 0.0, -0.3), *WRIST],
+        GENERAL,
+        False,
+        "6R-SPHERICAL_SECOND_TWO_INTERSECTING",
+    ),
+    "spherical shoulder, general arm": (
+        [
+            (0.0, 90.0, 0.3, 0.0),
+            (0.0, -90.0, 0.0, 0.2),
+            (0.3, 70.0, 0.4, 0.1),
+            (0.4, 35.0, 0.1, 0.3),
+            (0.2, 50.0, 0.05, 0.0),
+            (0.0, 0.0, 0.1, 0.0),
+        ],
+        GENERAL,
+        True,
+        "6R-SPHERICAL_NO_PARALLEL_NO_INTERSECTING",
     ),
     "spherical shoulder": (
         [
@@ -144,6 +170,15 @@ def _eaik(robot: Robot) -> tuple[HPRobot, np.ndarray]:
     return HPRobot(axes.directions, np.diff(points, axis=0)), axes.tool[:3, :3]
 
 
+def _reaching(fk: Callable[[np.ndarray], np.ndarray], T: np.ndarray, Q: list) -> list[np.ndarray]:
+    """The distinct rows of ``Q`` (1e-6 apart, wrapped) whose FK is within 1e-8 of ``T``."""
+    found: list[np.ndarray] = []
+    for x in map(np.asarray, Q):
+        if np.abs(fk(x) - T).max() < 1e-8 and all(_wrapped(x, f) > 1e-6 for f in found):
+            found.append(x)
+    return found
+
+
 @pytest.mark.parametrize("arm", sorted(ARMS))
 def test_every_branch_of_eaik_and_the_source(arm: str) -> None:
     """200 random poses: EAIK's class and branch count, each branch one of EAIK's (1e-9),
@@ -168,7 +203,12 @@ def test_every_branch_of_eaik_and_the_source(arm: str) -> None:
         target = T.copy()
         target[:3, :3] = T[:3, :3] @ R0.T
         sol = solver.IK(target)
-        exact = [np.asarray(x) for x, ls in zip(sol.Q, sol.is_LS, strict=True) if not ls]
+        if kind == GENERAL:
+            # EAIK flags every branch of its quartic classes least-squares (is_LS), exact
+            # or not: its reference there is the distinct branches that reach the pose.
+            exact = _reaching(fk, T, sol.Q)
+        else:
+            exact = [np.asarray(x) for x, ls in zip(sol.Q, sol.is_LS, strict=True) if not ls]
         assert len(branches) == len(exact), q
         for b in branches:
             assert min(_wrapped(b, e) for e in exact) < 1e-9, q
@@ -279,16 +319,26 @@ def test_solve_ik_answers_with_the_closed_form() -> None:
 
 
 def test_what_does_not_fit_says_why() -> None:
-    """Neither axes 1-2 nor 2-3 in a subproblem relation, no spherical joint, seven
-    joints; a declared family that does not fit fails when the robot is built."""
-    skew = [(0.1, 60.0, 0.4, 0.0), (0.5, 30.0, 0.1, 0.0), (0.05, 75.0, 0.0, 0.0), *WRIST]
-    robot = Robot.from_dh(_rows(skew), name="skew")
+    """An elbow axis through the wrist centre (general or meeting shoulder), no spherical
+    joint, seven joints; a declared family that does not fit fails when it is built."""
+    stuck = [
+        (0.1, 60.0, 0.4, 0.0),
+        (0.5, 30.0, 0.1, 0.0),
+        (0.0, 75.0, 0.0, 0.0),  # axis 3 through o3, and the wrist centre is o3 (d4 = 0)
+        (0.0, -90.0, 0.0, 0.0),
+        *WRIST[1:],
+    ]
+    robot = Robot.from_dh(_rows(stuck), name="stuck")
     assert family_of(robot) is None
     reason = axes_plan(robot).reason
-    assert "do not meet" in reason and "neither axes 1 (j1), 2 (j2) nor 2 (j2), 3 (j3)" in reason
+    assert reason.startswith("axis 3 (j3) passes through the wrist centre")
     assert "read backwards" in reason
     with pytest.raises(AnalyticIKError, match="does not fit family 'spherical_axes'"):
-        Robot.from_dh(_rows(skew), name="skew", analytic="spherical_axes")
+        Robot.from_dh(_rows(stuck), name="stuck", analytic="spherical_axes")
+    meeting = [(0.0, 60.0, 0.4, 0.0), (0.0, 30.0, 0.0, 0.0), (0.05, 75.0, 0.0, 0.0), *WRIST]
+    reason = axes_plan(Robot.from_dh(_rows(meeting))).reason
+    assert "passes through the point of axes 1 and 2" in reason
+    assert "neither axes 1 (j1), 2 (j2) nor 2 (j2), 3 (j3) are parallel" in reason
     ur5 = load_problem(next(p for p in builtin_problems() if p.stem == "ur5")).robot
     assert "misses the point of axes 4" in axes_plan(ur5).reason
     panda = load_problem(next(p for p in builtin_problems() if p.stem == "panda")).robot

@@ -237,7 +237,7 @@ def distance_angles(
     normalised equation) gives the tangent angle: axes that meet only to within the
     geometry's tolerance put a stretched arm's target just out of its exact reach.
     """
-    foot, u, v = _circle(w, on_axis, point)
+    foot, u, v = circle(w, on_axis, point)
     d = sub(foot, centre)
     scale = dot(d, d) + dot(u, u)
     if not scale > 0.0:
@@ -249,7 +249,7 @@ def distance_angles(
 
 
 @_inline
-def _circle(w: Vec3, on_axis: Vec3, point: Vec3) -> tuple[Vec3, Vec3, Vec3]:
+def circle(w: Vec3, on_axis: Vec3, point: Vec3) -> tuple[Vec3, Vec3, Vec3]:
     """The circle ``point`` runs on about a line: ``(o, u, w x u)``.
 
     ``o`` is the foot of ``point`` on the line through ``on_axis`` with unit direction
@@ -306,7 +306,7 @@ def plane_angles(
     :func:`optik._math.trig_roots`, ``ref``. A height beyond the reachable range by at
     most ``reach_tol`` of ``roots`` (relative) gives the tangent angle (:func:`_roots_or_tangent`).
     """
-    foot, u, v = _circle(w, on_axis, point)
+    foot, u, v = circle(w, on_axis, point)
     rhs = height - dot(h, foot)
     scale = norm(u) + abs(rhs)
     if not scale > 0.0:

@@ -10,10 +10,13 @@ Paden–Kahan subproblems solve:
 - axes 1 and 2 are parallel (:data:`optik.analytic.parallel_arm.PARALLEL_12`; "first two
   parallel");
 - axes 2 and 3 are parallel (:data:`optik.analytic.parallel_arm.PARALLEL_23`; "second
-  two parallel": the Puma and the UR-less industrial arms with any twists and offsets).
+  two parallel": the Puma and the UR-less industrial arms with any twists and offsets);
+- none of these, with axis 3 missing the wrist centre (:data:`GENERAL`,
+  :mod:`optik.analytic.general_arm`; "no parallel, no intersecting"): one quartic.
 
 Or the same read backwards (:func:`optik.analytic.geometry.reversed_axes`): a spherical
-shoulder (axes 1, 2 and 3 through one point) and an arm among axes 4 to 6. Tolerances are
+shoulder (axes 1, 2 and 3 through one point) and an arm among axes 4 to 6. A robot that
+both readings fit takes the one in order, unless only the other avoids the quartic. Tolerances are
 those of the geometry (:data:`optik.analytic.geometry.ANGLE_TOL`, ``LENGTH_TOL`` times the
 arm's size). It is registered after the DH families: a robot that ``spherical_wrist`` or
 ``ur`` fits keeps that family; this one covers the twists, offsets and joint orders they
@@ -52,6 +55,7 @@ from optik.analytic._pipeline import (
     work_rows,
 )
 from optik.analytic.free_joint import inverse_into
+from optik.analytic.general_arm import general_arm_candidates
 from optik.analytic.geometry import (
     ANGLE_TOL,
     LENGTH_TOL,
@@ -64,6 +68,7 @@ from optik.analytic.geometry import (
 )
 from optik.analytic.pair_wrist import (
     axis_label,
+    meet_reason,
     meeting,
     pair_wrist_candidates,
     structure_reason,
@@ -75,10 +80,13 @@ from optik.spatial import invert_transform
 
 INTERSECTING = 3
 """Arm kind: axes 1 and 2 meet (:func:`optik.analytic.pair_wrist.pair_wrist_candidates`)."""
+GENERAL = 4
+"""Arm kind: none of the others (:func:`optik.analytic.general_arm.general_arm_candidates`)."""
 KIND_NAMES = {
     INTERSECTING: "axes 1 and 2 meet",
     PARALLEL_12: "axes 1 and 2 parallel",
     PARALLEL_23: "axes 2 and 3 parallel",
+    GENERAL: "general arm (a quartic)",
 }
 """What each arm kind means, for messages and docs."""
 
@@ -87,8 +95,8 @@ class AxesPlan(NamedTuple):
     """How a six-joint robot is solved by ``spherical_axes`` (:func:`axes_plan`).
 
     Attributes:
-        kind: the arm's kind (:data:`INTERSECTING`, ``PARALLEL_12``, ``PARALLEL_23``),
-            0 when the robot does not fit.
+        kind: the arm's kind (:data:`INTERSECTING`, ``PARALLEL_12``, ``PARALLEL_23``,
+            :data:`GENERAL`), 0 when the robot does not fit.
         reverse: whether the closed form solves the chain read backwards.
         directions: (6, 3) unit joint directions at ``q = 0`` of the chain as solved.
         points: (6, 3) a point on each of its axes (m).
@@ -139,10 +147,14 @@ def arm_kind(axes: Axes, names: tuple[str, ...]) -> tuple[int, str]:
         if point_line_distance(z[2], p[2], W) <= tol:
             return 0, f"axis {a3} passes through the wrist centre: it does not move it"
         return kind, ""
-    # Axes 1 and 2 not parallel (else the loop returned): they fail the pair's test.
-    return 0, (
-        f"{structure_reason(axes, names)}, and neither axes {a1}, {a2} nor {a2}, {a3} are parallel"
-    )
+    # Neither pair parallel (else the loop returned).
+    if meet_reason(axes, names, 0, 1) is None:
+        # Axes 1 and 2 meet, but axis 3 passes through their point or the wrist centre.
+        neither = f"neither axes {a1}, {a2} nor {a2}, {a3} are parallel"
+        return 0, f"{structure_reason(axes, names)}, and {neither}"
+    if point_line_distance(z[2], p[2], W) <= tol:
+        return 0, f"axis {a3} passes through the wrist centre: it does not move it"
+    return GENERAL, ""
 
 
 def axes_plan(robot: Robot) -> AxesPlan:
@@ -158,13 +170,14 @@ def axes_plan(robot: Robot) -> AxesPlan:
         return none._replace(reason=reason)
     axes = joint_axes(robot)
     names = robot.chain_names
-    kind, why = arm_kind(axes, names)
-    if kind:
-        return AxesPlan(kind, False, *_arrays(axes), tolerance_block(), "")
     back = reversed_axes(axes)
-    kind, why_back = arm_kind(back, names[::-1])
-    if kind:
-        return AxesPlan(kind, True, *_arrays(back), tolerance_block(), "")
+    kind, why = arm_kind(axes, names)
+    kind_back, why_back = arm_kind(back, names[::-1])
+    # The quartic only where neither reading has an arm of subproblems.
+    if kind and not (kind == GENERAL and kind_back not in (0, GENERAL)):
+        return AxesPlan(kind, False, *_arrays(axes), tolerance_block(), "")
+    if kind_back:
+        return AxesPlan(kind_back, True, *_arrays(back), tolerance_block(), "")
     return none._replace(reason=f"{why}; read backwards: {why_back}")
 
 
@@ -303,6 +316,8 @@ def axes_candidates(
     """
     if kind == INTERSECTING:
         return pair_wrist_candidates(z, p, M, T, ref, tols, cand)
+    if kind == GENERAL:
+        return general_arm_candidates(z, p, M, T, ref, tols, cand)
     return parallel_arm_candidates(z, p, M, T, ref, kind, tols, cand)
 
 
@@ -362,6 +377,7 @@ class SphericalAxes(AnalyticFamily):
 
 
 __all__ = [
+    "GENERAL",
     "INTERSECTING",
     "AxesPlan",
     "SphericalAxes",

@@ -1,0 +1,285 @@
+"""Six revolute axes: a spherical wrist after a general arm, by one quartic (from the axes).
+
+The structure (in the product of exponentials of the joint axes at ``q = 0``,
+:func:`optik.analytic.geometry.joint_axes`: ``fk(q) = R_1(q_1) ... R_6(q_6) M``): axes
+4, 5 and 6 meet at the wrist centre ``W``, and the arm's axes have none of the relations
+the other arm kinds use — axes 1 and 2 neither meet nor are parallel, axes 2 and 3 are not
+parallel — and axis 3 misses ``W`` (EAIK's "spherical, no parallel, no intersecting").
+Pieper's problem: with ``G = T M^-1`` and the wrist centre's target ``W_t = G W``,
+
+``R_2(q_2) X(q_3) = Y(q_1)``, ``X(q_3) = R_3(q_3) W``, ``Y(q_1) = R_1(-q_1) W_t``:
+
+both points run on circles (``X = x_0 + x_c cos q_3 + x_s sin q_3``, ``Y`` alike), and
+``R_2`` turns one onto the other exactly when they have the same height along axis 2 and
+the same distance from its point ``p_2``. Both conditions are linear in ``u_1 = (cos
+q_1, sin q_1)`` and in ``u_3 = (cos q_3, sin q_3)``: ``A u_1 = b_0 + B u_3`` with 2x2
+matrices ``A`` (of the target) and ``B`` (of the arm). Eliminating ``q_1`` without
+dividing, ``|adj(A) (b_0 + B u_3)|^2 = det(A)^2``, leaves a trig polynomial of degree 2
+in ``q_3``, that is a quartic: its roots are the eigenvalues of the companion matrix of
+``z^2 f`` in ``z = e^{i q_3}`` that lie on the unit circle (:func:`trig2_roots`), each
+polished by Newton's method; then ``q_1`` is the angle of ``adj(A) (b_0 + B u_3)`` times
+the sign of ``det A``. Near axis 1 ``A`` shrinks and that quartic's roots pair up (their
+gap is ``det A``, squared), so there ``q_3`` is eliminated instead (``B`` stays regular
+when axes 2 and 3 are skew): whichever keeps the roots further apart
+(:func:`_separation`). Then ``q_2`` turns ``X`` onto ``Y`` (subproblem 1), and the wrist
+follows as in :func:`optik.analytic.pair_wrist.wrist_branches`.
+
+Up to 4 x 2 = 8 branches, the quartic's angle ascending, then the wrist; each is
+refined by one Newton step on the robot's chain and checked by FK in the
+post-processing. At a singularity a free angle takes the reference: ``q_1`` with ``W_t`` on
+axis 1 (then ``q_3`` puts ``X`` at ``W_t``'s height along axis 2; ``det A`` vanishes
+there and only there), the wrist's ``q_4`` with axes 4 and 6 aligned.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from optik._math import sincos, trig_roots
+from optik._numba import jit as _jit
+from optik.analytic._compiled import closed_form_tols, mul3
+from optik.analytic._subproblems import (
+    Vec3,
+    apply,
+    axpy,
+    circle,
+    dot,
+    meeting_point,
+    plane_angles,
+    rotation,
+    sp1_angle,
+    sub,
+    vec_at,
+)
+from optik.analytic.pair_wrist import REACH_TOL, target_frame, wrist_across, wrist_branches
+
+CIRCLE_TOL = 1e-6
+"""A companion eigenvalue within this of the unit circle (``| |z| - 1 |``) is a root
+``q_3 = arg z``: a double root (a stretched or folded arm) splits into a pair about
+``sqrt(eps)`` off the circle, which this keeps; a root kept wrongly gives a branch the
+FK check rejects."""
+_NEWTON_STEPS = 3
+_TINY = 1e-300
+Mat2 = tuple[float, float, float, float]
+"""A 2x2 matrix ``((m0, m1), (m2, m3))``, row-major, in scalars."""
+Vec2 = tuple[float, float]
+
+
+@_jit
+def trig2_roots(k: np.ndarray, trig_tol: float, out: np.ndarray) -> int:
+    """Real roots ``t`` (rad) of ``k0 + k1 cos t + k2 sin t + k3 cos 2t + k4 sin 2t = 0``.
+
+    ``k`` (5,) not all zero (the caller scales them to order 1); up to four roots go to
+    ``out`` (>= 4,), ascending, in ``(-pi, pi]``. The second harmonic negligible
+    (``|k3|, |k4| <= 1e-14 max|k|``): the first-degree equation's roots
+    (:func:`optik._math.trig_roots` with ``trig_tol``, no free rule). Otherwise the
+    eigenvalues ``z`` of the companion matrix of ``z^2 f(t)``, ``z = e^{it}`` (a quartic), within
+    :data:`CIRCLE_TOL` of the unit circle, each polished by Newton's method on ``f``
+    (a step is kept only when it lowers ``|f|``). Returns the count.
+    """
+    scale = 0.0
+    for i in range(5):
+        scale = max(scale, abs(k[i]))
+    if not scale > 0.0:
+        return 0
+    if abs(k[3]) <= 1e-14 * scale and abs(k[4]) <= 1e-14 * scale:
+        n, t1, t2 = trig_roots(k[1], k[2], -k[0], 0.0, trig_tol, -1.0, 0.0)
+        out[0] = t1
+        out[1] = t2
+        return n
+    # z^2 f = a4 z^4 + a3 z^3 + a2 z^2 + conj(a3) z + conj(a4).
+    a4 = complex(0.5 * k[3], -0.5 * k[4])
+    a3 = complex(0.5 * k[1], -0.5 * k[2])
+    coeffs = (a3 / a4, complex(k[0], 0.0) / a4, a3.conjugate() / a4, a4.conjugate() / a4)
+    companion = np.zeros((4, 4), dtype=np.complex128)
+    for i in range(4):
+        companion[0, i] = -coeffs[i]
+    for i in range(3):
+        companion[i + 1, i] = 1.0
+    n = 0
+    for z in np.linalg.eigvals(companion):
+        if abs(abs(z) - 1.0) > CIRCLE_TOL:
+            continue
+        t = _polished(k, math.atan2(z.imag, z.real))
+        at = n
+        while at > 0 and out[at - 1] > t:  # insertion: ascending
+            out[at] = out[at - 1]
+            at -= 1
+        out[at] = t
+        n += 1
+    return n
+
+
+@_jit
+def _trig2(k: np.ndarray, t: float) -> tuple[float, float]:
+    """``f(t)`` of :func:`trig2_roots` and its derivative."""
+    s, c = sincos(t)
+    s2, c2 = 2.0 * s * c, c * c - s * s
+    f = k[0] + k[1] * c + k[2] * s + k[3] * c2 + k[4] * s2
+    df = -k[1] * s + k[2] * c - 2.0 * k[3] * s2 + 2.0 * k[4] * c2
+    return f, df
+
+
+@_jit
+def _polished(k: np.ndarray, t: float) -> float:
+    """``t`` after up to :data:`_NEWTON_STEPS` Newton steps on ``f``, each lowering ``|f|``."""
+    f, df = _trig2(k, t)
+    for _ in range(_NEWTON_STEPS):
+        if not abs(df) > _TINY or f == 0.0:
+            break
+        step = t - f / df
+        f_new, df_new = _trig2(k, step)
+        if not abs(f_new) < abs(f):
+            break
+        t, f, df = step, f_new, df_new
+    return math.atan2(math.sin(t), math.cos(t))
+
+
+@_jit
+def general_arm_candidates(
+    z: np.ndarray,
+    p: np.ndarray,
+    M: np.ndarray,
+    T: np.ndarray,
+    ref: np.ndarray,
+    tols: np.ndarray,
+    cand: np.ndarray,
+) -> int:
+    """Raw branches of the general arm and spherical wrist into ``cand`` (>= 8, 6).
+
+    Args:
+        z: (6, 3) unit joint directions at ``q = 0`` (world frame).
+        p: (6, 3) a point on each axis (m).
+        M: (4, 4) world pose of the tool at ``q = 0``.
+        T: (4, 4) world target of the tool.
+        ref: (6,) reference angles for free joints (rad).
+        tols: the tolerance block of :mod:`optik.analytic._compiled`.
+        cand: output rows (joint angles, rad, not wrapped).
+
+    Returns:
+        The number of rows written (0 to 8), in the order of the module docstring.
+    """
+    trig_tol, eps, free_tol, axis_tol = closed_form_tols(tols)
+    z1, z2, z3 = vec_at(z, 0), vec_at(z, 1), vec_at(z, 2)
+    p1, p2, p3 = vec_at(p, 0), vec_at(p, 1), vec_at(p, 2)
+    W = meeting_point(vec_at(z, 3), vec_at(p, 3), vec_at(z, 4), vec_at(p, 4))
+    RG, tG = target_frame(T, M)
+    Wt = axpy(1.0, apply(RG, W), tG)
+    across = wrist_across(z)
+    back = (-z1[0], -z1[1], -z1[2])  # R_1(q)^-1 turns by q about -z1
+    x0, xc, xs = circle(z3, p3, W)
+    y0, yc, ys = circle(back, p1, Wt)
+    dx, dy = sub(x0, p2), sub(y0, p2)
+    size = max(math.sqrt(dot(dx, dx) + dot(xc, xc)), math.sqrt(dot(dy, dy) + dot(yc, yc)))
+    n = 0
+    if not math.sqrt(dot(yc, yc)) > axis_tol * size:
+        # W_t on axis 1: q_1 free; X must reach W_t's height along axis 2.
+        roots = (trig_tol, eps, free_tol, REACH_TOL)
+        count, e1, e2 = plane_angles(z3, p3, W, z2, dot(z2, Wt), ref[2], roots)
+        for i3 in range(count):
+            t3 = e1 if i3 == 0 else e2
+            n = _branch(z, p, RG, Wt, ref[0], t3, across, ref, tols, cand, n)
+        return n
+    # The height (row 1, / size) and squared distance (row 2, / size^2) conditions:
+    # A (cos q_1, sin q_1) = b0 + B (cos q_3, sin q_3), B's columns b1, b2.
+    inv, inv2 = 1.0 / size, 1.0 / (size * size)
+    A = (dot(z2, yc) * inv, dot(z2, ys) * inv, 2.0 * dot(dy, yc) * inv2, 2.0 * dot(dy, ys) * inv2)
+    spread = dot(dx, dx) + dot(xc, xc) - dot(dy, dy) - dot(yc, yc)
+    b0 = (dot(z2, sub(x0, y0)) * inv, spread * inv2)
+    B = (dot(z2, xc) * inv, dot(z2, xs) * inv, 2.0 * dot(dx, xc) * inv2, 2.0 * dot(dx, xs) * inv2)
+    minus_b0 = (-b0[0], -b0[1])
+    angles = np.empty((2, 4))
+    # Eliminate the angle whose matrix keeps the quartic's roots apart: near axis 1 (A
+    # small) q_3's quartic has near-double roots, q_1's (B constant, regular when axes 2
+    # and 3 are skew) does not.
+    if _separation(B, minus_b0, A) > _separation(A, b0, B):
+        count = _eliminate(B, minus_b0, A, trig_tol, angles)  # roots q_1, partners q_3
+        for i in range(count):
+            n = _branch(z, p, RG, Wt, angles[0, i], angles[1, i], across, ref, tols, cand, n)
+    else:
+        count = _eliminate(A, b0, B, trig_tol, angles)  # roots q_3, partners q_1
+        for i in range(count):
+            n = _branch(z, p, RG, Wt, angles[1, i], angles[0, i], across, ref, tols, cand, n)
+    return n
+
+
+@_jit
+def _branch(
+    z: np.ndarray,
+    p: np.ndarray,
+    RG: tuple[float, float, float, float, float, float, float, float, float],
+    Wt: Vec3,
+    t1: float,
+    t3: float,
+    across: Vec3,
+    ref: np.ndarray,
+    tols: np.ndarray,
+    cand: np.ndarray,
+    n: int,
+) -> int:
+    """``q_2`` turning ``X(q_3)`` onto ``Y(q_1)`` about axis 2, then the wrist's rows."""
+    axis_tol = closed_form_tols(tols)[3]
+    z1, z2, z3 = vec_at(z, 0), vec_at(z, 1), vec_at(z, 2)
+    p1, p2, p3 = vec_at(p, 0), vec_at(p, 1), vec_at(p, 2)
+    W = meeting_point(vec_at(z, 3), vec_at(p, 3), vec_at(z, 4), vec_at(p, 4))
+    X = axpy(1.0, apply(rotation(z3, t3), sub(W, p3)), p3)
+    Y = axpy(1.0, apply(rotation(z1, -t1), sub(Wt, p1)), p1)
+    t2 = sp1_angle(z2, sub(X, p2), sub(Y, p2), ref[1], axis_tol)
+    R123 = mul3(mul3(rotation(z1, t1), rotation(z2, t2)), rotation(z3, t3))
+    return wrist_branches(z, RG, R123, (t1, t2, t3), across, ref, tols, cand, n)
+
+
+@_jit
+def _separation(M: Mat2, v0: Vec2, N: Mat2) -> float:
+    """How far apart :func:`_eliminate`'s roots stay: ``|det M| / (|adj M| (|v0| + |N|))``.
+
+    At a root ``|adj(M) (v0 + N u)| = |det M|``; the smaller this ratio, the closer the
+    quartic comes to a double root there (its value squared is what separates them).
+    """
+    adj = math.sqrt(M[0] * M[0] + M[1] * M[1] + M[2] * M[2] + M[3] * M[3])
+    n2 = N[0] * N[0] + N[1] * N[1] + N[2] * N[2] + N[3] * N[3]
+    rest = math.sqrt(_dot2(v0, v0)) + math.sqrt(n2)
+    return abs(M[0] * M[3] - M[1] * M[2]) / max(adj * rest, _TINY)
+
+
+@_jit
+def _eliminate(M: Mat2, v0: Vec2, N: Mat2, trig_tol: float, angles: np.ndarray) -> int:
+    """The angle pairs ``(b, a)`` of ``M (cos a, sin a) = v0 + N (cos b, sin b)``.
+
+    The roots ``b`` of ``|adj(M) (v0 + N u_b)|^2 = det(M)^2`` go to ``angles[0]``
+    (ascending), each ``a`` (the angle of ``adj(M) (v0 + N u_b)`` times the sign of
+    ``det M``) to ``angles[1]``. Returns the count (0 to 4).
+    """
+    det = M[0] * M[3] - M[1] * M[2]
+    m0 = _adj(M, v0)
+    m1 = _adj(M, (N[0], N[2]))
+    m2 = _adj(M, (N[1], N[3]))
+    k = np.empty(5)
+    k[0] = 0.5 * (_dot2(m1, m1) + _dot2(m2, m2)) + _dot2(m0, m0) - det * det
+    k[1] = 2.0 * _dot2(m0, m1)
+    k[2] = 2.0 * _dot2(m0, m2)
+    k[3] = 0.5 * (_dot2(m1, m1) - _dot2(m2, m2))
+    k[4] = _dot2(m1, m2)
+    count = trig2_roots(k, trig_tol, angles[0])
+    sign = 1.0 if det >= 0.0 else -1.0
+    for i in range(count):
+        s, c = sincos(angles[0, i])
+        w = (m0[0] + m1[0] * c + m2[0] * s, m0[1] + m1[1] * c + m2[1] * s)
+        angles[1, i] = math.atan2(sign * w[1], sign * w[0])
+    return count
+
+
+@_jit
+def _adj(A: Mat2, b: Vec2) -> Vec2:
+    """``adj(A) b`` for ``A = ((A0, A1), (A2, A3))``."""
+    return (A[3] * b[0] - A[1] * b[1], A[0] * b[1] - A[2] * b[0])
+
+
+@_jit
+def _dot2(a: Vec2, b: Vec2) -> float:
+    return a[0] * b[0] + a[1] * b[1]
+
+
+__all__ = ["CIRCLE_TOL", "general_arm_candidates", "trig2_roots"]
