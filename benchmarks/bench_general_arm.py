@@ -1,16 +1,19 @@
-"""The quartic arm of ``spherical_axes`` (a spherical wrist after a general arm) against EAIK.
+"""The general arms of ``spherical_axes`` (a spherical wrist after skew axes) against EAIK.
 
 Run: ``python benchmarks/bench_general_arm.py [--poses 500] [--seed 0] [--batch 20000]
 [--repeat 7]``
 
-Needs EAIK (``pip install eaik``, the ``bench`` extra). Two arms of EAIK's quartic classes
-("spherical, no parallel, no intersecting" and "spherical, second two intersecting"),
-built from standard DH rows with a moved base and tool; EAIK gets the same joint axes
+Needs EAIK (``pip install eaik``, the ``bench`` extra). Two arms whose axes 1 and 2 are
+skew, built from standard DH rows with a moved base and tool: EAIK's "spherical, no
+parallel, no intersecting" (optik's quartic, :mod:`optik.analytic.general_arm`) and
+"spherical, second two intersecting" (subproblems,
+:func:`optik.analytic.pair_wrist.second_pair_candidates`); EAIK gets the same joint axes
 (``HPRobot``). For random configurations it compares, pose by pose and interleaved:
 
 - the branches: optik's ``analytic_ik(..., within_limits=False)`` against EAIK's
-  distinct solutions that reach the pose (1e-8; EAIK flags every branch of these classes
-  least-squares, exact or not), their counts and the largest difference after wrapping;
+  distinct solutions that reach the pose (1e-8; EAIK flags every branch of its quartic
+  class least-squares, exact or not), their counts and the largest difference after
+  wrapping;
 - the time per pose of each (medians, ``time.perf_counter``);
 - batched: ``analytic_ik_batch`` against ``IK_batched(..., num_worker_threads=1)``, best
   of ``--repeat`` runs by process CPU time (``bench_geometry_eaik.compare_batches``).

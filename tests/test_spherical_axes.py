@@ -26,6 +26,7 @@ from optik.analytic.parallel_arm import PARALLEL_12, PARALLEL_23
 from optik.analytic.spherical_axes import (
     GENERAL,
     INTERSECTING,
+    SECOND_PAIR,
     _candidates_into,
     _scratch,
     axes_plan,
@@ -67,7 +68,7 @@ ARMS = {
     ),
     "second two intersecting": (
         [(0.1, 60.0, 0.4, 0.2), (0.0, 40.0, 0.1, 0.1), (0.05, 75.0, 0.0, -0.3), *WRIST],
-        GENERAL,
+        SECOND_PAIR,
         False,
         "6R-SPHERICAL_SECOND_TWO_INTERSECTING",
     ),

@@ -3,8 +3,9 @@
 The structure (in the product of exponentials of the joint axes at ``q = 0``,
 :func:`optik.analytic.geometry.joint_axes`: ``fk(q) = R_1(q_1) ... R_6(q_6) M``): axes
 4, 5 and 6 meet at the wrist centre ``W``, and the arm's axes have none of the relations
-the other arm kinds use — axes 1 and 2 neither meet nor are parallel, axes 2 and 3 are not
-parallel — and axis 3 misses ``W`` (EAIK's "spherical, no parallel, no intersecting").
+the other arm kinds use — axes 1 and 2 neither meet nor are parallel, nor do axes 2 and 3
+— and axis 3 misses ``W`` (EAIK's "spherical, no parallel, no intersecting"; it solves
+axes 2 and 3 meeting too, where ``B`` is singular).
 Pieper's problem: with ``G = T M^-1`` and the wrist centre's target ``W_t = G W``,
 
 ``R_2(q_2) X(q_3) = Y(q_1)``, ``X(q_3) = R_3(q_3) W``, ``Y(q_1) = R_1(-q_1) W_t``:

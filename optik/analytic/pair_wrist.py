@@ -53,6 +53,7 @@ from optik.analytic._subproblems import (
     apply_t,
     cross,
     distance_angles,
+    dot,
     meeting_point,
     norm,
     rotate,
@@ -129,6 +130,52 @@ def pair_wrist_candidates(
             t1 = ta1 if i12 == 0 else ta2
             t2 = tb1 if i12 == 0 else tb2
             R123 = mul3(mul3(rotation(z1, t1), rotation(z2, t2)), R3)
+            n = wrist_branches(z, RG, R123, (t1, t2, t3), across, ref, tols, cand, n)
+    return n
+
+
+@_jit
+def second_pair_candidates(
+    z: np.ndarray,
+    p: np.ndarray,
+    M: np.ndarray,
+    T: np.ndarray,
+    ref: np.ndarray,
+    tols: np.ndarray,
+    cand: np.ndarray,
+) -> int:
+    """Raw branches with axes 2 and 3 meeting at ``S`` (not axes 1 and 2) into ``cand``.
+
+    ``R_2 R_3`` fix ``S``, so ``|R_1(q_1)^-1 W_t - S| = |W - S|``: a distance condition
+    on ``q_1`` alone (subproblem 3 about axis 1, up to two), then ``R_2 R_3 (W - S) =
+    R_1^-1 W_t - S`` by subproblem 2 (up to two pairs), then the wrist. Up to 8 rows:
+    ``q_1`` ascending, the pairs, the wrist. Arguments as :func:`pair_wrist_candidates`.
+    """
+    trig_tol, eps, free_tol, axis_tol = closed_form_tols(tols)
+    z1, z2, z3, z4, z5 = vec_at(z, 0), vec_at(z, 1), vec_at(z, 2), vec_at(z, 3), vec_at(z, 4)
+    p1 = vec_at(p, 0)
+    S = meeting_point(z2, vec_at(p, 1), z3, vec_at(p, 2))
+    W = meeting_point(z4, vec_at(p, 3), z5, vec_at(p, 4))
+    RG, tG = target_frame(T, M)
+    GW = apply(RG, W)
+    Wt = (GW[0] + tG[0], GW[1] + tG[1], GW[2] + tG[2])
+    P = sub(W, S)
+    across = wrist_across(z)
+    back = (-z1[0], -z1[1], -z1[2])  # R_1(q)^-1 turns by q about -z1
+    roots = (trig_tol, eps, free_tol, REACH_TOL)
+    n1, e1, e2 = distance_angles(back, p1, Wt, S, dot(P, P), ref[0], roots)
+    n = 0
+    for i1 in range(n1):
+        t1 = e1 if i1 == 0 else e2
+        s1, c1 = sincos(t1)
+        Y = rotate(back, s1, c1, sub(Wt, p1))
+        Q = sub((Y[0] + p1[0], Y[1] + p1[1], Y[2] + p1[2]), S)
+        n23, ta2, tb3, tc2, td3 = sp2_angles(z2, z3, P, Q, ref[1], ref[2], REACH_TOL, axis_tol)
+        R1 = rotation(z1, t1)
+        for i23 in range(n23):
+            t2 = ta2 if i23 == 0 else tc2
+            t3 = tb3 if i23 == 0 else td3
+            R123 = mul3(mul3(R1, rotation(z2, t2)), rotation(z3, t3))
             n = wrist_branches(z, RG, R123, (t1, t2, t3), across, ref, tols, cand, n)
     return n
 
@@ -272,6 +319,7 @@ __all__ = [
     "axes_tuple",
     "meet_reason",
     "pair_wrist_candidates",
+    "second_pair_candidates",
     "structure_reason",
     "target_frame",
     "wrist_across",

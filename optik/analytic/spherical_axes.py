@@ -11,6 +11,8 @@ Paden–Kahan subproblems solve:
   parallel");
 - axes 2 and 3 are parallel (:data:`optik.analytic.parallel_arm.PARALLEL_23`; "second
   two parallel": the Puma and the UR-less industrial arms with any twists and offsets);
+- axes 2 and 3 meet (:data:`SECOND_PAIR`,
+  :func:`optik.analytic.pair_wrist.second_pair_candidates`; "second two intersecting");
 - none of these, with axis 3 missing the wrist centre (:data:`GENERAL`,
   :mod:`optik.analytic.general_arm`; "no parallel, no intersecting"): one quartic.
 
@@ -71,6 +73,7 @@ from optik.analytic.pair_wrist import (
     meet_reason,
     meeting,
     pair_wrist_candidates,
+    second_pair_candidates,
     structure_reason,
     wrist_reason,
 )
@@ -82,10 +85,13 @@ INTERSECTING = 3
 """Arm kind: axes 1 and 2 meet (:func:`optik.analytic.pair_wrist.pair_wrist_candidates`)."""
 GENERAL = 4
 """Arm kind: none of the others (:func:`optik.analytic.general_arm.general_arm_candidates`)."""
+SECOND_PAIR = 5
+"""Arm kind: axes 2 and 3 meet (:func:`optik.analytic.pair_wrist.second_pair_candidates`)."""
 KIND_NAMES = {
     INTERSECTING: "axes 1 and 2 meet",
     PARALLEL_12: "axes 1 and 2 parallel",
     PARALLEL_23: "axes 2 and 3 parallel",
+    SECOND_PAIR: "axes 2 and 3 meet",
     GENERAL: "general arm (a quartic)",
 }
 """What each arm kind means, for messages and docs."""
@@ -96,7 +102,7 @@ class AxesPlan(NamedTuple):
 
     Attributes:
         kind: the arm's kind (:data:`INTERSECTING`, ``PARALLEL_12``, ``PARALLEL_23``,
-            :data:`GENERAL`), 0 when the robot does not fit.
+            :data:`SECOND_PAIR`, :data:`GENERAL`), 0 when the robot does not fit.
         reverse: whether the closed form solves the chain read backwards.
         directions: (6, 3) unit joint directions at ``q = 0`` of the chain as solved.
         points: (6, 3) a point on each of its axes (m).
@@ -154,6 +160,8 @@ def arm_kind(axes: Axes, names: tuple[str, ...]) -> tuple[int, str]:
         return 0, f"{structure_reason(axes, names)}, and {neither}"
     if point_line_distance(z[2], p[2], W) <= tol:
         return 0, f"axis {a3} passes through the wrist centre: it does not move it"
+    if meet_reason(axes, names, 1, 2) is None:
+        return SECOND_PAIR, ""
     return GENERAL, ""
 
 
@@ -316,6 +324,8 @@ def axes_candidates(
     """
     if kind == INTERSECTING:
         return pair_wrist_candidates(z, p, M, T, ref, tols, cand)
+    if kind == SECOND_PAIR:
+        return second_pair_candidates(z, p, M, T, ref, tols, cand)
     if kind == GENERAL:
         return general_arm_candidates(z, p, M, T, ref, tols, cand)
     return parallel_arm_candidates(z, p, M, T, ref, kind, tols, cand)
@@ -379,6 +389,7 @@ class SphericalAxes(AnalyticFamily):
 __all__ = [
     "GENERAL",
     "INTERSECTING",
+    "SECOND_PAIR",
     "AxesPlan",
     "SphericalAxes",
     "arm_kind",
