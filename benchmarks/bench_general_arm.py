@@ -1,19 +1,20 @@
-"""The general arms of ``spherical_axes`` (a spherical wrist after skew axes) against EAIK.
+"""The arms found from the axes with any twists (a quartic or skew axes) against EAIK.
 
 Run: ``python benchmarks/bench_general_arm.py [--poses 500] [--seed 0] [--batch 20000]
 [--repeat 7]``
 
-Needs EAIK (``pip install eaik``, the ``bench`` extra). Two arms whose axes 1 and 2 are
-skew, built from standard DH rows with a moved base and tool: EAIK's "spherical, no
-parallel, no intersecting" (optik's quartic, :mod:`optik.analytic.general_arm`) and
-"spherical, second two intersecting" (subproblems,
-:func:`optik.analytic.pair_wrist.second_pair_candidates`); EAIK gets the same joint axes
-(``HPRobot``). For random configurations it compares, pose by pose and interleaved:
+Needs EAIK (``pip install eaik``, the ``bench`` extra). Three arms built from standard
+DH rows with a moved base and tool: EAIK's "spherical, no parallel, no intersecting"
+(optik's quartic, :mod:`optik.analytic.general_arm`), "spherical, second two
+intersecting" (subproblems, :func:`optik.analytic.pair_wrist.second_pair_candidates`) and
+"three inner parallel" with twists of 50-70 deg (the ``three_inner`` family, a quartic
+too); EAIK gets the same joint axes (``HPRobot``). For random configurations it
+compares, pose by pose and interleaved:
 
 - the branches: optik's ``analytic_ik(..., within_limits=False)`` against EAIK's
-  distinct solutions that reach the pose (1e-8; EAIK flags every branch of its quartic
-  class least-squares, exact or not), their counts and the largest difference after
-  wrapping;
+  distinct solutions that reach the pose (1e-8; EAIK flags every branch of its
+  "no parallel, no intersecting" class least-squares, exact or not), their counts and
+  the largest difference after wrapping;
 - the time per pose of each (medians, ``time.perf_counter``);
 - batched: ``analytic_ik_batch`` against ``IK_batched(..., num_worker_threads=1)``, best
   of ``--repeat`` runs by process CPU time (``bench_geometry_eaik.compare_batches``).
@@ -49,6 +50,14 @@ ARMS = {
         (0.0, 40.0, 0.1, 0.1),
         (0.05, 75.0, 0.0, -0.3),
         *WRIST,
+    ],
+    "three inner parallel": [
+        (0.1, 60.0, 0.3, 0.2),
+        (0.4, 0.0, 0.1, 0.1),
+        (0.35, 0.0, 0.05, -0.3),
+        (0.05, 70.0, 0.1, 0.0),
+        (0.03, -50.0, 0.1, 0.3),
+        (0.0, 0.0, 0.1, 0.0),
     ],
 }
 """Standard DH rows (a m, alpha deg, d m, theta rad)."""

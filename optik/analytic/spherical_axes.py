@@ -78,6 +78,7 @@ from optik.analytic.pair_wrist import (
     wrist_reason,
 )
 from optik.analytic.parallel_arm import PARALLEL_12, PARALLEL_23, parallel_arm_candidates
+from optik.analytic.three_inner import three_inner_candidates
 from optik.model import Robot
 from optik.spatial import invert_transform
 
@@ -87,6 +88,9 @@ GENERAL = 4
 """Arm kind: none of the others (:func:`optik.analytic.general_arm.general_arm_candidates`)."""
 SECOND_PAIR = 5
 """Arm kind: axes 2 and 3 meet (:func:`optik.analytic.pair_wrist.second_pair_candidates`)."""
+THREE_INNER = 6
+"""Not a wrist's arm: axes 2, 3, 4 parallel (:mod:`optik.analytic.three_inner`), family
+``three_inner``."""
 KIND_NAMES = {
     INTERSECTING: "axes 1 and 2 meet",
     PARALLEL_12: "axes 1 and 2 parallel",
@@ -328,6 +332,8 @@ def axes_candidates(
         return second_pair_candidates(z, p, M, T, ref, tols, cand)
     if kind == GENERAL:
         return general_arm_candidates(z, p, M, T, ref, tols, cand)
+    if kind == THREE_INNER:
+        return three_inner_candidates(z, p, M, T, ref, tols, cand)
     return parallel_arm_candidates(z, p, M, T, ref, kind, tols, cand)
 
 
@@ -336,14 +342,16 @@ class SphericalAxes(AnalyticFamily):
     """Six revolute joints: a spherical wrist (or shoulder) and an arm of subproblems."""
 
     name = "spherical_axes"
+    plan = staticmethod(axes_plan)
+    """How the family solves a robot (an :class:`AxesPlan`, cached per robot)."""
 
     def fits(self, robot: Robot) -> bool:
         """Whether ``robot``'s joint axes have the structure (module docstring)."""
-        return robot.cached(axes_plan).kind != 0
+        return robot.cached(self.plan).kind != 0
 
     def explain(self, robot: Robot) -> str | None:
         """Why the axes do not have the structure, or ``None`` when they do."""
-        return robot.cached(axes_plan).reason or None
+        return robot.cached(self.plan).reason or None
 
     def compiled(self, robot: Robot) -> CompiledPipeline | None:
         """:func:`solve` and :func:`solve_batch` on the robot's parameter vector.
@@ -351,13 +359,13 @@ class SphericalAxes(AnalyticFamily):
         Args:
             robot: the robot (fits this family).
         """
-        params = pack_axes_params(robot, robot.cached(axes_plan))
+        params = pack_axes_params(robot, robot.cached(self.plan))
         return CompiledPipeline(solve, solve_batch, params, robot.mid_limits)
 
     def candidates(
         self, robot: Robot, T_0_target: FloatArray, mode: str, q_ref: FloatArray
     ) -> list[FloatArray]:
-        """Up to 8 raw branches: the arm's two angles, two each, then the wrist.
+        """Up to 8 raw branches, in the order of the arm kind's closed form.
 
         Args:
             robot: the robot (fits this family).
@@ -365,7 +373,7 @@ class SphericalAxes(AnalyticFamily):
             mode: ``"pose"``.
             q_ref: (6,) reference for the angles a singularity leaves free.
         """
-        plan = robot.cached(axes_plan)
+        plan = robot.cached(self.plan)
         T = robot.T_world_base @ T_0_target @ robot.T_flange_tool
         ref = np.asarray(q_ref, dtype=np.float64)
         if plan.reverse:
@@ -386,14 +394,88 @@ class SphericalAxes(AnalyticFamily):
         return [np.array(row) for row in rows]
 
 
+# ---------------------------------------------------------------------- three inner parallel
+def _inner_reason(axes: Axes, names: tuple[str, ...]) -> str | None:
+    """Why six axes are not three inner parallel ones of :mod:`.three_inner`, or ``None``."""
+    z, p = axes.directions, axes.points
+    label = [axis_label(names, i) for i in range(6)]
+    for i in (2, 3):
+        if not _parallel(axes, 1, i):
+            return f"axes {label[1]} and {label[i]} are not parallel"
+    for i, j in ((1, 2), (2, 3), (1, 3)):
+        if line_distance(z[i], p[i], z[j], p[j]) <= LENGTH_TOL * axes.size:
+            return f"axes {label[i]} and {label[j]} are one line"
+    for i in (0, 4):
+        if _parallel(axes, i, 1):
+            return f"axis {label[i]} is parallel to axes 2-4 too"
+    if _parallel(axes, 4, 5):
+        return f"axes {label[4]} and {label[5]} are parallel"
+    return None
+
+
+def _inner_arrays(axes: Axes) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """The kernel's arrays, with axis 6's point moved off axis 5 by the arm's size.
+
+    The heights condition of :mod:`.three_inner` turns axis 6's point about axis 5; the
+    point where the two axes come closest would not move.
+    """
+    z, p, tool = _arrays(axes)
+    z5, z6 = z[4], z[5]
+    w = p[5] - p[4]
+    b = float(z5 @ z6)
+    closest = (b * float(z5 @ w) - float(z6 @ w)) / (1.0 - b * b)
+    p = p.copy()
+    p[5] = p[5] + (closest + axes.size) * z6
+    return z, p, tool
+
+
+def inner_plan(robot: Robot) -> AxesPlan:
+    """Whether (and how) ``three_inner`` solves ``robot``: in order, else read backwards.
+
+    Args:
+        robot: the robot.
+    """
+    empty = np.empty((0, 3))
+    none = AxesPlan(0, False, empty, empty, np.eye(4), np.empty(0), "")
+    reason = revolute_chain_reason(robot, 6)
+    if reason is not None:
+        return none._replace(reason=reason)
+    axes = joint_axes(robot)
+    names = robot.chain_names
+    why = _inner_reason(axes, names)
+    if why is None:
+        return AxesPlan(THREE_INNER, False, *_inner_arrays(axes), tolerance_block(), "")
+    back = reversed_axes(axes)
+    why_back = _inner_reason(back, names[::-1])
+    if why_back is None:
+        return AxesPlan(THREE_INNER, True, *_inner_arrays(back), tolerance_block(), "")
+    return none._replace(reason=f"{why}; read backwards: {why_back}")
+
+
+@register
+class ThreeInnerAxes(SphericalAxes):
+    """Six revolute joints with axes 2, 3, 4 parallel (or 3, 4, 5), any other twists.
+
+    The compiled pipeline of ``spherical_axes`` with the arm kind :data:`THREE_INNER`
+    (:mod:`optik.analytic.three_inner`); detected after ``ur``, which keeps the arms with
+    its right angles.
+    """
+
+    name = "three_inner"
+    plan = staticmethod(inner_plan)
+
+
 __all__ = [
     "GENERAL",
     "INTERSECTING",
     "SECOND_PAIR",
+    "THREE_INNER",
     "AxesPlan",
     "SphericalAxes",
+    "ThreeInnerAxes",
     "arm_kind",
     "axes_plan",
+    "inner_plan",
     "pack_axes_params",
     "solve",
     "solve_batch",

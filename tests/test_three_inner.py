@@ -1,0 +1,159 @@
+"""The ``three_inner`` family: axes 2, 3 and 4 (or 3, 4 and 5) parallel, any other twists.
+
+Arms written as URDF text from joint axes and offsets (EAIK's ``H``, ``P`` form), with
+random directions, so that no DH family fits. References independent of the closed form:
+EAIK on the same ``H``, ``P`` (its class, and its distinct branches that reach the pose),
+a product-of-exponentials FK written here with scipy's rotations, and the configuration
+each pose came from.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from conftest import assert_batch_equals_single, assert_closed_form_round_trips
+from eaik.IK_HP import HPRobot
+from scipy.spatial.transform import Rotation
+
+from optik import Robot, load_problem, solve_ik
+from optik.analytic import analytic_ik, family_of
+from optik.analytic.spherical_axes import THREE_INNER, inner_plan
+
+
+def _arm(seed: int, first: int, sense: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+    """Random ``H`` (6, 3) and ``P`` (7, 3): axes ``first .. first + 2`` (0-based) parallel,
+    the middle one written with ``sense``."""
+    rng = np.random.default_rng(seed)
+    H = rng.normal(size=(6, 3))
+    H /= np.linalg.norm(H, axis=1, keepdims=True)
+    H[first + 1] = sense * H[first]
+    H[first + 2] = H[first]
+    return H, rng.normal(size=(7, 3)) * 0.3
+
+
+def _urdf(H: np.ndarray, P: np.ndarray, path: Path) -> Robot:
+    """The chain as URDF text: every link frame aligned with the base at ``q = 0``."""
+
+    def xyz(v: np.ndarray) -> str:
+        return " ".join(repr(float(x)) for x in v)
+
+    links = "".join(f'<link name="l{i}"/>' for i in range(8))
+    joints = "".join(
+        f'<joint name="j{i + 1}" type="revolute"><parent link="l{i}"/>'
+        f'<child link="l{i + 1}"/><origin xyz="{xyz(P[i])}"/><axis xyz="{xyz(H[i])}"/>'
+        '<limit lower="-3.1" upper="3.1" effort="1" velocity="1"/></joint>'
+        for i in range(6)
+    )
+    tool = (
+        '<joint name="tool" type="fixed"><parent link="l6"/><child link="l7"/>'
+        f'<origin xyz="{xyz(P[6])}"/></joint>'
+    )
+    path.write_text(f'<robot name="arm">{links}{joints}{tool}</robot>')
+    return Robot.from_urdf(path, "l0", "l7")
+
+
+def _poe_fk(H: np.ndarray, P: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """``R_1(q_1) ... R_6(q_6) M`` with each ``R_i`` a turn about axis ``i`` (written out)."""
+    points = np.cumsum(P[:6], axis=0)
+    T = np.eye(4)
+    for h, point, qi in zip(H, points, q, strict=True):
+        turn = np.eye(4)
+        turn[:3, :3] = Rotation.from_rotvec(h * qi).as_matrix()
+        turn[:3, 3] = point - turn[:3, :3] @ point
+        T = T @ turn
+    M = np.eye(4)
+    M[:3, 3] = P.sum(axis=0)
+    return T @ M
+
+
+def _wrapped(a: np.ndarray, b: np.ndarray) -> float:
+    return float(np.max(np.abs(np.remainder(a - b + math.pi, 2 * math.pi) - math.pi)))
+
+
+@pytest.mark.parametrize(("seed", "first"), [(1, 1), (2, 1), (3, 2), (4, 2)])
+def test_every_branch_of_eaik_and_the_source(seed: int, first: int, tmp_path: Path) -> None:
+    """100 random poses: EAIK's class, the same number of branches as EAIK's that reach the
+    pose, each within 1e-9 of one of them (1e-7 where EAIK's misses its pose by more than
+    1e-13), each within 1e-10 of its pose by the FK written here, the source among them.
+    Axes 3, 4, 5 parallel are solved read backwards."""
+    H, P = _arm(seed, first)
+    robot = _urdf(H, P, tmp_path / "arm.urdf")
+    family = family_of(robot)
+    assert family is not None and family.name == "three_inner"
+    plan = inner_plan(robot)
+    assert (plan.kind, plan.reverse) == (THREE_INNER, first == 2)
+    eaik = HPRobot(H, P)
+    assert eaik.getKinematicFamily() == "6R-THREE_INNER_PARALLEL"
+    rng = np.random.default_rng(seed)
+    counts = []
+    for q in rng.uniform(-math.pi, math.pi, (100, 6)):
+        T = _poe_fk(H, P, q)
+        branches = analytic_ik(robot, T, within_limits=False)
+        for b in branches:
+            assert np.abs(_poe_fk(H, P, b) - T).max() < 1e-10
+        assert min(_wrapped(b, q) for b in branches) < 1e-8, q
+        reaching: list[np.ndarray] = []
+        for x in map(np.asarray, eaik.IK(T).Q):
+            if np.abs(_poe_fk(H, P, x) - T).max() < 1e-8 and all(
+                _wrapped(x, r) > 1e-6 for r in reaching
+            ):
+                reaching.append(x)
+        assert len(branches) == len(reaching), q
+        for b in branches:
+            distance, r = min((_wrapped(b, r), i) for i, r in enumerate(reaching))
+            # Near a singularity EAIK's own branch misses the pose (5e-13 to 1e-11, ours
+            # 1e-15), which moves its angles by up to a few 1e-9: then 1e-7.
+            eaik_miss = np.abs(_poe_fk(H, P, reaching[r]) - T).max()
+            assert distance < (1e-9 if eaik_miss < 1e-13 else 1e-7), q
+        counts.append(len(branches))
+    assert max(counts) >= 4  # more than one root of the quartic
+
+
+def test_an_axis_written_the_other_way(tmp_path: Path) -> None:
+    """Axis 3 written opposite to axes 2 and 4 (EAIK finds no branch there): every pose
+    still gets branches that reach it, the source among them."""
+    H, P = _arm(5, 1, sense=-1.0)
+    robot = _urdf(H, P, tmp_path / "arm.urdf")
+    assert family_of(robot) is not None and family_of(robot).name == "three_inner"
+    rng = np.random.default_rng(5)
+    for q in rng.uniform(-math.pi, math.pi, (100, 6)):
+        T = _poe_fk(H, P, q)
+        branches = analytic_ik(robot, T, within_limits=False)
+        for b in branches:
+            assert np.abs(_poe_fk(H, P, b) - T).max() < 1e-10
+        assert min(_wrapped(b, q) for b in branches) < 1e-8, q
+
+
+def test_round_trips_batches_and_solve_ik(tmp_path: Path) -> None:
+    """In-limit poses: the shared round-trip check (raw closed form included), batches equal
+    single calls, and ``solve_ik`` answers with the closed form."""
+    H, P = _arm(6, 1)
+    robot = _urdf(H, P, tmp_path / "arm.urdf")
+    family = family_of(robot)
+    assert family is not None
+    assert_closed_form_round_trips(robot, family, 40, seed=6, most={"pose": 8})
+    rng = np.random.default_rng(7)
+    Q = rng.uniform(robot.lower, robot.upper, (30, 6))
+    assert_batch_equals_single(robot, np.stack([robot.fk(q) for q in Q]), "pose")
+    result = solve_ik(robot, robot.fk(Q[0]))
+    assert result.success and result.solver == "analytic"
+    assert np.abs(robot.fk(result.q) - robot.fk(Q[0])).max() < 1e-9
+
+
+def test_the_ur_keeps_its_family_and_what_does_not_fit_says_why(tmp_path: Path) -> None:
+    """The UR5's right angles keep ``ur`` (detected first); four parallel axes, or axes 2
+    and 3 on one line, do not fit, with the reason, in order and read backwards."""
+    ur5 = load_problem("ur5").robot
+    assert family_of(ur5) is not None and family_of(ur5).name == "ur"
+    assert inner_plan(ur5).kind == THREE_INNER
+    H, P = _arm(8, 1)
+    H[0] = H[1]
+    reason = inner_plan(_urdf(H, P, tmp_path / "four.urdf")).reason
+    assert "axis 1 (j1) is parallel to axes 2-4 too" in reason and "read backwards" in reason
+    H, P = _arm(9, 1)
+    P[2] = H[1] * 0.2  # axis 3 on axis 2's line
+    reason = inner_plan(_urdf(H, P, tmp_path / "line.urdf")).reason
+    assert reason.startswith("axes 2 (j2) and 3 (j3) are one line")
