@@ -3,13 +3,14 @@
 Run: ``python benchmarks/bench_general_arm.py [--poses 500] [--seed 0] [--batch 20000]
 [--repeat 7]``
 
-Needs EAIK (``pip install eaik``, the ``bench`` extra). Three arms built from standard
-DH rows with a moved base and tool: EAIK's "spherical, no parallel, no intersecting"
+Needs EAIK (``pip install eaik``, the ``bench`` extra). Four arms built from standard DH
+rows with a moved base and tool: EAIK's "spherical, no parallel, no intersecting"
 (optik's quartic, :mod:`optik.analytic.general_arm`), "spherical, second two
-intersecting" (subproblems, :func:`optik.analytic.pair_wrist.second_pair_candidates`) and
-"three inner parallel" with twists of 50-70 deg (the ``three_inner`` family, a quartic
-too); EAIK gets the same joint axes (``HPRobot``). For random configurations it
-compares, pose by pose and interleaved:
+intersecting" (subproblems, :func:`optik.analytic.pair_wrist.second_pair_candidates`),
+"three inner parallel" with twists of 50-70 deg (the ``three_parallel`` family, a quartic
+too) and "three parallel, two intersecting" (``three_parallel``, subproblems); EAIK gets
+the same joint axes (``HPRobot``). For random configurations it compares, pose by pose
+and interleaved:
 
 - the branches: optik's ``analytic_ik(..., within_limits=False)`` against EAIK's
   distinct solutions that reach the pose (1e-8; EAIK flags every branch of its
@@ -57,6 +58,14 @@ ARMS = {
         (0.35, 0.0, 0.05, -0.3),
         (0.05, 70.0, 0.1, 0.0),
         (0.03, -50.0, 0.1, 0.3),
+        (0.0, 0.0, 0.1, 0.0),
+    ],
+    "three parallel, two intersecting": [
+        (0.4, 0.0, 0.3, 0.2),
+        (0.35, 0.0, 0.1, 0.1),
+        (0.05, 65.0, 0.05, -0.3),
+        (0.1, 55.0, 0.2, 0.0),
+        (0.0, -60.0, 0.0, 0.3),
         (0.0, 0.0, 0.1, 0.0),
     ],
 }

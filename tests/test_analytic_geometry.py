@@ -183,7 +183,7 @@ def test_near_miss_axes_are_solved_on_the_ideal_arm_then_refined() -> None:
 @needs_erd
 def test_axes_off_by_more_than_the_tolerance_are_declined_with_the_reason() -> None:
     """A wrist tilted by 1e-6 rad (a URDF angle written to 6 digits): no UR table, but
-    axes 2, 3, 4 stay parallel, so ``three_inner`` (any twists) solves it exactly."""
+    axes 2, 3, 4 stay parallel, so ``three_parallel`` (any twists) solves it exactly."""
     text = _ur_path("ur5").read_text()
     head, tail = text.split('<joint name="wrist_2_joint"', 1)
     tail = tail.replace('rpy="0.0 0.0 0.0"', 'rpy="1e-6 0.0 0.0"', 1)
@@ -191,7 +191,7 @@ def test_axes_off_by_more_than_the_tolerance_are_declined_with_the_reason() -> N
     reason = FAMILIES["ur"].explain(robot) or ""
     assert reason.startswith("alpha") and "needs" in reason and "perpendicular" in reason
     family = family_of(robot)
-    assert family is not None and family.name == "three_inner"
+    assert family is not None and family.name == "three_parallel"
     assert_closed_form_round_trips(robot, family, 30, seed=3, most={"pose": 8})
 
 

@@ -78,7 +78,7 @@ from optik.analytic.pair_wrist import (
     wrist_reason,
 )
 from optik.analytic.parallel_arm import PARALLEL_12, PARALLEL_23, parallel_arm_candidates
-from optik.analytic.three_inner import three_inner_candidates
+from optik.analytic.three_parallel import three_inner_candidates, three_outer_candidates
 from optik.model import Robot
 from optik.spatial import invert_transform
 
@@ -89,8 +89,11 @@ GENERAL = 4
 SECOND_PAIR = 5
 """Arm kind: axes 2 and 3 meet (:func:`optik.analytic.pair_wrist.second_pair_candidates`)."""
 THREE_INNER = 6
-"""Not a wrist's arm: axes 2, 3, 4 parallel (:mod:`optik.analytic.three_inner`), family
-``three_inner``."""
+"""Not a wrist's arm: axes 2, 3, 4 parallel (family ``three_parallel``,
+:func:`optik.analytic.three_parallel.three_inner_candidates`)."""
+THREE_OUTER = 7
+"""Not a wrist's arm: axes 1, 2, 3 parallel, axes 5 and 6 meeting (family
+``three_parallel``, :func:`optik.analytic.three_parallel.three_outer_candidates`)."""
 KIND_NAMES = {
     INTERSECTING: "axes 1 and 2 meet",
     PARALLEL_12: "axes 1 and 2 parallel",
@@ -334,6 +337,8 @@ def axes_candidates(
         return general_arm_candidates(z, p, M, T, ref, tols, cand)
     if kind == THREE_INNER:
         return three_inner_candidates(z, p, M, T, ref, tols, cand)
+    if kind == THREE_OUTER:
+        return three_outer_candidates(z, p, M, T, ref, tols, cand)
     return parallel_arm_candidates(z, p, M, T, ref, kind, tols, cand)
 
 
@@ -394,17 +399,26 @@ class SphericalAxes(AnalyticFamily):
         return [np.array(row) for row in rows]
 
 
-# ---------------------------------------------------------------------- three inner parallel
-def _inner_reason(axes: Axes, names: tuple[str, ...]) -> str | None:
-    """Why six axes are not three inner parallel ones of :mod:`.three_inner`, or ``None``."""
+# ---------------------------------------------------------------------- three parallel axes
+def _parallel_run_reason(axes: Axes, names: tuple[str, ...], first: int) -> str | None:
+    """Why axes ``first .. first + 2`` (0-based) are not three parallel, distinct lines."""
     z, p = axes.directions, axes.points
     label = [axis_label(names, i) for i in range(6)]
-    for i in (2, 3):
-        if not _parallel(axes, 1, i):
-            return f"axes {label[1]} and {label[i]} are not parallel"
-    for i, j in ((1, 2), (2, 3), (1, 3)):
+    for i in (first + 1, first + 2):
+        if not _parallel(axes, first, i):
+            return f"axes {label[first]} and {label[i]} are not parallel"
+    for i, j in ((first, first + 1), (first + 1, first + 2), (first, first + 2)):
         if line_distance(z[i], p[i], z[j], p[j]) <= LENGTH_TOL * axes.size:
             return f"axes {label[i]} and {label[j]} are one line"
+    return None
+
+
+def _inner_reason(axes: Axes, names: tuple[str, ...]) -> str | None:
+    """Why six axes are not three inner parallel ones (``three_inner_candidates``)."""
+    why = _parallel_run_reason(axes, names, 1)
+    if why is not None:
+        return why
+    label = [axis_label(names, i) for i in range(6)]
     for i in (0, 4):
         if _parallel(axes, i, 1):
             return f"axis {label[i]} is parallel to axes 2-4 too"
@@ -413,11 +427,28 @@ def _inner_reason(axes: Axes, names: tuple[str, ...]) -> str | None:
     return None
 
 
+def _outer_reason(axes: Axes, names: tuple[str, ...]) -> str | None:
+    """Why six axes are not three outer parallel ones (``three_outer_candidates``)."""
+    why = _parallel_run_reason(axes, names, 0)
+    if why is not None:
+        return why
+    label = [axis_label(names, i) for i in range(6)]
+    if _parallel(axes, 3, 0):
+        return f"axis {label[3]} is parallel to axes 1-3 too"
+    why = meet_reason(axes, names, 4, 5)
+    if why is not None:
+        return why
+    C = meeting(axes, 4, 5)
+    if point_line_distance(axes.directions[3], axes.points[3], C) <= LENGTH_TOL * axes.size:
+        return f"axis {label[3]} passes through the point of axes {label[4]}, {label[5]}"
+    return None
+
+
 def _inner_arrays(axes: Axes) -> tuple[FloatArray, FloatArray, FloatArray]:
     """The kernel's arrays, with axis 6's point moved off axis 5 by the arm's size.
 
-    The heights condition of :mod:`.three_inner` turns axis 6's point about axis 5; the
-    point where the two axes come closest would not move.
+    The heights condition of ``three_inner_candidates`` turns axis 6's point about axis
+    5; the point where the two axes come closest would not move.
     """
     z, p, tool = _arrays(axes)
     z5, z6 = z[4], z[5]
@@ -429,8 +460,11 @@ def _inner_arrays(axes: Axes) -> tuple[FloatArray, FloatArray, FloatArray]:
     return z, p, tool
 
 
-def inner_plan(robot: Robot) -> AxesPlan:
-    """Whether (and how) ``three_inner`` solves ``robot``: in order, else read backwards.
+def parallel_plan(robot: Robot) -> AxesPlan:
+    """Whether (and how) ``three_parallel`` solves ``robot``.
+
+    In this order: axes 2-4 parallel, the same read backwards (axes 3-5), axes 1-3
+    parallel with axes 5, 6 meeting, the same read backwards (axes 4-6, axes 1, 2 meeting).
 
     Args:
         robot: the robot.
@@ -441,28 +475,37 @@ def inner_plan(robot: Robot) -> AxesPlan:
     if reason is not None:
         return none._replace(reason=reason)
     axes = joint_axes(robot)
-    names = robot.chain_names
-    why = _inner_reason(axes, names)
-    if why is None:
-        return AxesPlan(THREE_INNER, False, *_inner_arrays(axes), tolerance_block(), "")
     back = reversed_axes(axes)
-    why_back = _inner_reason(back, names[::-1])
-    if why_back is None:
-        return AxesPlan(THREE_INNER, True, *_inner_arrays(back), tolerance_block(), "")
-    return none._replace(reason=f"{why}; read backwards: {why_back}")
+    names = robot.chain_names
+    whys = []
+    for kind, test, arrays in (
+        (THREE_INNER, _inner_reason, _inner_arrays),
+        (THREE_OUTER, _outer_reason, _arrays),
+    ):
+        for reverse, seen, order in ((False, axes, names), (True, back, names[::-1])):
+            why = test(seen, order)
+            if why is None:
+                return AxesPlan(kind, reverse, *arrays(seen), tolerance_block(), "")
+            whys.append(why)
+    inner, inner_back, outer, outer_back = whys
+    return none._replace(
+        reason=f"{inner}; read backwards: {inner_back}; "
+        f"as outer axes: {outer}; read backwards: {outer_back}"
+    )
 
 
 @register
-class ThreeInnerAxes(SphericalAxes):
-    """Six revolute joints with axes 2, 3, 4 parallel (or 3, 4, 5), any other twists.
+class ThreeParallelAxes(SphericalAxes):
+    """Six revolute joints with three parallel axes and any other twists.
 
-    The compiled pipeline of ``spherical_axes`` with the arm kind :data:`THREE_INNER`
-    (:mod:`optik.analytic.three_inner`); detected after ``ur``, which keeps the arms with
-    its right angles.
+    Axes 2-4 or 3-5 parallel, or 1-3 (4-6) parallel beside a meeting pair 5, 6 (1, 2). The
+    compiled pipeline of ``spherical_axes`` with the arm kinds :data:`THREE_INNER`
+    and :data:`THREE_OUTER` (:mod:`optik.analytic.three_parallel`); detected after
+    ``ur``, which keeps the arms with its right angles.
     """
 
-    name = "three_inner"
-    plan = staticmethod(inner_plan)
+    name = "three_parallel"
+    plan = staticmethod(parallel_plan)
 
 
 __all__ = [
@@ -470,13 +513,14 @@ __all__ = [
     "INTERSECTING",
     "SECOND_PAIR",
     "THREE_INNER",
+    "THREE_OUTER",
     "AxesPlan",
     "SphericalAxes",
-    "ThreeInnerAxes",
+    "ThreeParallelAxes",
     "arm_kind",
     "axes_plan",
-    "inner_plan",
     "pack_axes_params",
+    "parallel_plan",
     "solve",
     "solve_batch",
 ]

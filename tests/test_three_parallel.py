@@ -1,4 +1,7 @@
-"""The ``three_inner`` family: axes 2, 3 and 4 (or 3, 4 and 5) parallel, any other twists.
+"""The ``three_parallel`` family: three parallel axes, any other twists.
+
+Inner: axes 2, 3 and 4 (or 3, 4 and 5) parallel; outer: axes 1, 2 and 3 parallel with axes
+5 and 6 meeting (or the same read backwards).
 
 Arms written as URDF text from joint axes and offsets (EAIK's ``H``, ``P`` form), with
 random directions, so that no DH family fits. References independent of the closed form:
@@ -20,18 +23,23 @@ from scipy.spatial.transform import Rotation
 
 from optik import Robot, load_problem, solve_ik
 from optik.analytic import analytic_ik, family_of
-from optik.analytic.spherical_axes import THREE_INNER, inner_plan
+from optik.analytic.spherical_axes import THREE_INNER, THREE_OUTER, parallel_plan
 
 
-def _arm(seed: int, first: int, sense: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+def _arm(
+    seed: int, first: int, sense: float = 1.0, meet: int | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """Random ``H`` (6, 3) and ``P`` (7, 3): axes ``first .. first + 2`` (0-based) parallel,
-    the middle one written with ``sense``."""
+    the middle one written with ``sense``; axes ``meet`` and ``meet + 1`` meeting."""
     rng = np.random.default_rng(seed)
     H = rng.normal(size=(6, 3))
     H /= np.linalg.norm(H, axis=1, keepdims=True)
     H[first + 1] = sense * H[first]
     H[first + 2] = H[first]
-    return H, rng.normal(size=(7, 3)) * 0.3
+    P = rng.normal(size=(7, 3)) * 0.3
+    if meet is not None:
+        P[meet + 1] = 0.0  # the next axis starts at this one's point
+    return H, P
 
 
 def _urdf(H: np.ndarray, P: np.ndarray, path: Path) -> Robot:
@@ -73,20 +81,33 @@ def _wrapped(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.max(np.abs(np.remainder(a - b + math.pi, 2 * math.pi) - math.pi)))
 
 
-@pytest.mark.parametrize(("seed", "first"), [(1, 1), (2, 1), (3, 2), (4, 2)])
-def test_every_branch_of_eaik_and_the_source(seed: int, first: int, tmp_path: Path) -> None:
+ARMS = {
+    "inner": (1, 1, None, THREE_INNER, False, "6R-THREE_INNER_PARALLEL"),
+    "inner, other geometry": (2, 1, None, THREE_INNER, False, "6R-THREE_INNER_PARALLEL"),
+    "inner 3-5": (3, 2, None, THREE_INNER, True, "6R-THREE_INNER_PARALLEL"),
+    "inner 3-5, other geometry": (4, 2, None, THREE_INNER, True, "6R-THREE_INNER_PARALLEL"),
+    "outer": (11, 0, 4, THREE_OUTER, False, "6R-THREE_PARALLEL_TWO_INTERSECTING"),
+    "outer 4-6": (12, 3, 0, THREE_OUTER, True, "6R-THREE_PARALLEL_TWO_INTERSECTING"),
+}
+"""seed, first parallel axis (0-based), meeting pair's first axis, kind, read backwards,
+EAIK's class."""
+
+
+@pytest.mark.parametrize("arm", sorted(ARMS))
+def test_every_branch_of_eaik_and_the_source(arm: str, tmp_path: Path) -> None:
     """100 random poses: EAIK's class, the same number of branches as EAIK's that reach the
     pose, each within 1e-9 of one of them (1e-7 where EAIK's misses its pose by more than
     1e-13), each within 1e-10 of its pose by the FK written here, the source among them.
-    Axes 3, 4, 5 parallel are solved read backwards."""
-    H, P = _arm(seed, first)
+    Axes 3, 4, 5 (or 4, 5, 6) parallel are solved read backwards."""
+    seed, first, meet, kind, reverse, eaik_class = ARMS[arm]
+    H, P = _arm(seed, first, meet=meet)
     robot = _urdf(H, P, tmp_path / "arm.urdf")
     family = family_of(robot)
-    assert family is not None and family.name == "three_inner"
-    plan = inner_plan(robot)
-    assert (plan.kind, plan.reverse) == (THREE_INNER, first == 2)
+    assert family is not None and family.name == "three_parallel"
+    plan = parallel_plan(robot)
+    assert (plan.kind, plan.reverse) == (kind, reverse)
     eaik = HPRobot(H, P)
-    assert eaik.getKinematicFamily() == "6R-THREE_INNER_PARALLEL"
+    assert eaik.getKinematicFamily() == eaik_class
     rng = np.random.default_rng(seed)
     counts = []
     for q in rng.uniform(-math.pi, math.pi, (100, 6)):
@@ -117,7 +138,7 @@ def test_an_axis_written_the_other_way(tmp_path: Path) -> None:
     still gets branches that reach it, the source among them."""
     H, P = _arm(5, 1, sense=-1.0)
     robot = _urdf(H, P, tmp_path / "arm.urdf")
-    assert family_of(robot) is not None and family_of(robot).name == "three_inner"
+    assert family_of(robot) is not None and family_of(robot).name == "three_parallel"
     rng = np.random.default_rng(5)
     for q in rng.uniform(-math.pi, math.pi, (100, 6)):
         T = _poe_fk(H, P, q)
@@ -127,10 +148,11 @@ def test_an_axis_written_the_other_way(tmp_path: Path) -> None:
         assert min(_wrapped(b, q) for b in branches) < 1e-8, q
 
 
-def test_round_trips_batches_and_solve_ik(tmp_path: Path) -> None:
+@pytest.mark.parametrize(("first", "meet"), [(1, None), (0, 4), (3, 0)])
+def test_round_trips_batches_and_solve_ik(first: int, meet: int | None, tmp_path: Path) -> None:
     """In-limit poses: the shared round-trip check (raw closed form included), batches equal
     single calls, and ``solve_ik`` answers with the closed form."""
-    H, P = _arm(6, 1)
+    H, P = _arm(6, first, meet=meet)
     robot = _urdf(H, P, tmp_path / "arm.urdf")
     family = family_of(robot)
     assert family is not None
@@ -148,12 +170,16 @@ def test_the_ur_keeps_its_family_and_what_does_not_fit_says_why(tmp_path: Path) 
     and 3 on one line, do not fit, with the reason, in order and read backwards."""
     ur5 = load_problem("ur5").robot
     assert family_of(ur5) is not None and family_of(ur5).name == "ur"
-    assert inner_plan(ur5).kind == THREE_INNER
+    assert parallel_plan(ur5).kind == THREE_INNER
     H, P = _arm(8, 1)
     H[0] = H[1]
-    reason = inner_plan(_urdf(H, P, tmp_path / "four.urdf")).reason
-    assert "axis 1 (j1) is parallel to axes 2-4 too" in reason and "read backwards" in reason
+    reason = parallel_plan(_urdf(H, P, tmp_path / "four.urdf")).reason
+    assert reason.startswith("axis 1 (j1) is parallel to axes 2-4 too; read backwards")
+    assert "as outer axes" in reason
     H, P = _arm(9, 1)
     P[2] = H[1] * 0.2  # axis 3 on axis 2's line
-    reason = inner_plan(_urdf(H, P, tmp_path / "line.urdf")).reason
+    reason = parallel_plan(_urdf(H, P, tmp_path / "line.urdf")).reason
     assert reason.startswith("axes 2 (j2) and 3 (j3) are one line")
+    H, P = _arm(10, 0)  # axes 1-3 parallel, but axes 5 and 6 do not meet
+    reason = parallel_plan(_urdf(H, P, tmp_path / "apart.urdf")).reason
+    assert "as outer axes: axes 5 (j5) and 6 (j6) do not meet" in reason

@@ -1,0 +1,254 @@
+"""Six revolute axes with three parallel ones, any twists elsewhere (from the axes).
+
+Two of EAIK's classes without the UR's right angles (``ur`` takes those), in the product
+of exponentials of the joint axes at ``q = 0`` (:func:`optik.analytic.geometry.joint_axes`,
+``fk(q) = R_1(q_1) ... R_6(q_6) M``, ``G = T M^-1``). Three parallel axes (direction ``h``,
+distinct lines) turn about ``h`` and shift across it: together they keep the
+``h``-component of every direction and the height along ``h`` of every point.
+
+**Inner** (:func:`three_inner_candidates`; "three inner parallel"): axes 2, 3 and 4
+parallel, axes 1 and 5 not parallel to ``h``, axis 6 not parallel to axis 5. Two
+conditions tie ``q_5`` to ``q_1`` alone:
+
+- directions: ``h . R_5(q_5) z_6 = h . R_1(q_1)^-1 R_G z_6``;
+- heights: ``h . R_5(q_5) p_6 = h . R_1(q_1)^-1 G p_6`` (``p_6`` a point of axis 6,
+  chosen off axis 5 by the plan).
+
+Both are linear in ``(cos q_1, sin q_1)`` and ``(cos q_5, sin q_5)``: the system of
+:func:`optik.analytic.general_arm._eliminate`, a quartic, up to 4 pairs. Then ``q_6`` by
+subproblem 1 (``R_6 F^T h = R_5^-1 h`` with ``F`` the rotation of ``R_1^-1 G``), the turn
+``theta`` from the rest of the rotation, and the planar arm: the point ``p_4`` of axis 4
+must reach ``X = R_1^-1 G R_6^-1 R_5^-1 p_4``: ``q_3`` by its distance from axis 2
+(subproblem 3, up to two), ``q_2`` by subproblem 1, ``q_4`` the rest of ``theta``.
+
+**Outer** (:func:`three_outer_candidates`; "three parallel, two intersecting"): axes 1, 2
+and 3 parallel, axes 5 and 6 meeting at ``C`` off axis 4, axis 4 not parallel to ``h``.
+``R_5 R_6`` fix ``C``, so ``h . R_4(q_4) C = h . G C`` (subproblem 4, up to two ``q_4``);
+then ``h . R_4 R_5(q_5) z_6 = h . R_G z_6`` (subproblem 4, up to two ``q_5``), ``q_6``
+by subproblem 1, ``theta``, and the planar arm on axis 3's point (``q_2`` by its distance
+from axis 1, ``q_1`` by subproblem 1, ``q_3`` the rest).
+
+Up to 8 branches each, refined by one Newton step on the chain and checked by FK in the
+post-processing; the same read backwards (axes 3, 4, 5 parallel; axes 4, 5, 6 parallel
+with axes 1 and 2 meeting). At a singularity a free angle takes the reference.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from optik._numba import jit as _jit
+from optik.analytic._compiled import closed_form_tols, mul3
+from optik.analytic._subproblems import (
+    Vec3,
+    apply,
+    apply_t,
+    axpy,
+    circle,
+    cross,
+    distance_angles,
+    dot,
+    meeting_point,
+    norm,
+    plane_angles,
+    rotation,
+    sp1_angle,
+    sub,
+    vec_at,
+)
+from optik.analytic.general_arm import _eliminate, _separation
+from optik.analytic.pair_wrist import REACH_TOL, target_frame
+
+_ORIGIN = (0.0, 0.0, 0.0)
+
+
+@_jit
+def _turned(w: Vec3, on_axis: Vec3, t: float, x: Vec3) -> Vec3:
+    """``x`` turned by ``t`` (rad) about the line through ``on_axis`` along ``w``."""
+    return axpy(1.0, apply(rotation(w, t), sub(x, on_axis)), on_axis)
+
+
+@_jit
+def _planar_rest(
+    h: Vec3,
+    F: tuple[float, float, float, float, float, float, float, float, float],
+    last: tuple[float, float, float, float, float, float, float, float, float],
+    across: Vec3,
+) -> float:
+    """``theta``: the angle about ``h`` of ``F last^T`` (a turn about ``h``)."""
+    last_t = (last[0], last[3], last[6], last[1], last[4], last[7], last[2], last[5], last[8])
+    turn = mul3(F, last_t)
+    return sp1_angle(h, across, apply(turn, across), 0.0, 0.0)
+
+
+@_jit
+def three_inner_candidates(
+    z: np.ndarray,
+    p: np.ndarray,
+    M: np.ndarray,
+    T: np.ndarray,
+    ref: np.ndarray,
+    tols: np.ndarray,
+    cand: np.ndarray,
+) -> int:
+    """Raw branches of the three-inner-parallel closed form into ``cand`` (>= 8, 6).
+
+    Args:
+        z: (6, 3) unit joint directions at ``q = 0`` (world frame).
+        p: (6, 3) a point on each axis (m); ``p[5]`` off axis 5.
+        M: (4, 4) world pose of the tool at ``q = 0``.
+        T: (4, 4) world target of the tool.
+        ref: (6,) reference angles for free joints (rad).
+        tols: the tolerance block of :mod:`optik.analytic._compiled`.
+        cand: output rows (joint angles, rad, not wrapped).
+
+    Returns:
+        The number of rows written (0 to 8): the quartic's pairs, then the elbow.
+    """
+    trig_tol, eps, free_tol, axis_tol = closed_form_tols(tols)
+    z1, z2, z3, z4, z5, z6 = (
+        vec_at(z, 0),
+        vec_at(z, 1),
+        vec_at(z, 2),
+        vec_at(z, 3),
+        vec_at(z, 4),
+        vec_at(z, 5),
+    )
+    p1, p2, p3, p4, p5, p6 = (
+        vec_at(p, 0),
+        vec_at(p, 1),
+        vec_at(p, 2),
+        vec_at(p, 3),
+        vec_at(p, 4),
+        vec_at(p, 5),
+    )
+    h = z2
+    RG, tG = target_frame(T, M)
+    back = (-z1[0], -z1[1], -z1[2])  # R_1(q)^-1 turns by q about -z1
+    Gp6 = axpy(1.0, apply(RG, p6), tG)
+    xa0, xac, xas = circle(z5, _ORIGIN, z6)
+    ya0, yac, yas = circle(back, _ORIGIN, apply(RG, z6))
+    xb0, xbc, xbs = circle(z5, p5, p6)
+    yb0, ybc, ybs = circle(back, p1, Gp6)
+    size = max(norm(sub(p6, p5)), norm(sub(Gp6, p1)), 1e-300)
+    inv = 1.0 / size
+    A = (dot(h, yac), dot(h, yas), dot(h, ybc) * inv, dot(h, ybs) * inv)
+    B = (dot(h, xac), dot(h, xas), dot(h, xbc) * inv, dot(h, xbs) * inv)
+    b0 = (dot(h, sub(xa0, ya0)), dot(h, sub(xb0, yb0)) * inv)
+    minus_b0 = (-b0[0], -b0[1])
+    pairs = np.empty((2, 4))
+    count = 0
+    if _separation(B, minus_b0, A) > _separation(A, b0, B):
+        count = _eliminate(B, minus_b0, A, trig_tol, pairs)  # roots q_1, partners q_5
+        first, fifth = pairs[0], pairs[1]
+    else:
+        count = _eliminate(A, b0, B, trig_tol, pairs)  # roots q_5, partners q_1
+        first, fifth = pairs[1], pairs[0]
+    # A direction across h, to read theta off a rotation about h.
+    across = cross(h, z1)
+    na = norm(across)
+    across = (across[0] / na, across[1] / na, across[2] / na)
+    roots = (trig_tol, eps, free_tol, REACH_TOL)
+    n = 0
+    for i in range(count):
+        t1, t5 = first[i], fifth[i]
+        F = mul3(rotation(back, t1), RG)  # the rotation of R_1^-1 G
+        R5 = rotation(z5, t5)
+        t6 = sp1_angle(z6, apply_t(F, h), apply_t(R5, h), ref[5], axis_tol)
+        theta = _planar_rest(h, F, mul3(R5, rotation(z6, t6)), across)
+        # X = R_1^-1 G R_6^-1 R_5^-1 p_4, by line turns.
+        X = _turned(z6, p6, -t6, _turned(z5, p5, -t5, p4))
+        X = _turned(back, p1, t1, axpy(1.0, apply(RG, X), tG))
+        d = sub(X, p2)
+        n3, e1, e2 = distance_angles(z3, p3, p4, p2, dot(d, d), ref[2], roots)
+        for i3 in range(n3):
+            t3 = e1 if i3 == 0 else e2
+            t2 = sp1_angle(z2, sub(_turned(z3, p3, t3, p4), p2), d, ref[1], axis_tol)
+            t4 = dot(h, z4) * (theta - dot(h, z2) * t2 - dot(h, z3) * t3)
+            if n < cand.shape[0]:
+                cand[n, 0] = t1
+                cand[n, 1] = t2
+                cand[n, 2] = t3
+                cand[n, 3] = math.atan2(math.sin(t4), math.cos(t4))
+                cand[n, 4] = t5
+                cand[n, 5] = t6
+                n += 1
+    return n
+
+
+@_jit
+def three_outer_candidates(
+    z: np.ndarray,
+    p: np.ndarray,
+    M: np.ndarray,
+    T: np.ndarray,
+    ref: np.ndarray,
+    tols: np.ndarray,
+    cand: np.ndarray,
+) -> int:
+    """Raw branches of the three-outer-parallel closed form into ``cand`` (>= 8, 6).
+
+    Arguments as :func:`three_inner_candidates` (``p[5]`` any point of axis 6). Returns
+    the number of rows written (0 to 8): ``q_4``, then ``q_5``, then the elbow ``q_2``.
+    """
+    trig_tol, eps, free_tol, axis_tol = closed_form_tols(tols)
+    z1, z2, z3, z4, z5, z6 = (
+        vec_at(z, 0),
+        vec_at(z, 1),
+        vec_at(z, 2),
+        vec_at(z, 3),
+        vec_at(z, 4),
+        vec_at(z, 5),
+    )
+    p1, p2, p3, p4, p5, p6 = (
+        vec_at(p, 0),
+        vec_at(p, 1),
+        vec_at(p, 2),
+        vec_at(p, 3),
+        vec_at(p, 4),
+        vec_at(p, 5),
+    )
+    h = z1
+    RG, tG = target_frame(T, M)
+    C = meeting_point(z5, p5, z6, p6)
+    Ct = axpy(1.0, apply(RG, C), tG)
+    roots = (trig_tol, eps, free_tol, REACH_TOL)
+    across = cross(h, z4)
+    na = norm(across)
+    across = (across[0] / na, across[1] / na, across[2] / na)
+    RGz6 = apply(RG, z6)
+    n4, a1, a2 = plane_angles(z4, p4, C, h, dot(h, Ct), ref[3], roots)
+    n = 0
+    for i4 in range(n4):
+        t4 = a1 if i4 == 0 else a2
+        R4 = rotation(z4, t4)
+        n5, b1, b2 = plane_angles(z5, _ORIGIN, z6, apply_t(R4, h), dot(h, RGz6), ref[4], roots)
+        for i5 in range(n5):
+            t5 = b1 if i5 == 0 else b2
+            R45 = mul3(R4, rotation(z5, t5))
+            t6 = sp1_angle(z6, apply_t(RG, h), apply_t(R45, h), ref[5], axis_tol)
+            theta = _planar_rest(h, RG, mul3(R45, rotation(z6, t6)), across)
+            # X = G R_6^-1 R_5^-1 R_4^-1 p_3: where axis 3's point must go.
+            X = _turned(z4, p4, -t4, p3)
+            X = _turned(z6, p6, -t6, _turned(z5, p5, -t5, X))
+            X = axpy(1.0, apply(RG, X), tG)
+            d = sub(X, p1)
+            n2, e1, e2 = distance_angles(z2, p2, p3, p1, dot(d, d), ref[1], roots)
+            for i2 in range(n2):
+                t2 = e1 if i2 == 0 else e2
+                t1 = sp1_angle(z1, sub(_turned(z2, p2, t2, p3), p1), d, ref[0], axis_tol)
+                t3 = dot(h, z3) * (theta - t1 - dot(h, z2) * t2)
+                if n < cand.shape[0]:
+                    cand[n, 0] = t1
+                    cand[n, 1] = t2
+                    cand[n, 2] = math.atan2(math.sin(t3), math.cos(t3))
+                    cand[n, 3] = t4
+                    cand[n, 4] = t5
+                    cand[n, 5] = t6
+                    n += 1
+    return n
+
+
+__all__ = ["three_inner_candidates", "three_outer_candidates"]
