@@ -50,6 +50,14 @@ def vec_at(a: np.ndarray, i: int) -> Vec3:
 
 
 @_inline
+def six_rows(
+    a: np.ndarray,
+) -> tuple[Vec3, Vec3, Vec3, Vec3, Vec3, Vec3]:
+    """The six rows of a (6, 3) array ``a`` (joint directions or points) as vectors."""
+    return vec_at(a, 0), vec_at(a, 1), vec_at(a, 2), vec_at(a, 3), vec_at(a, 4), vec_at(a, 5)
+
+
+@_inline
 def dot(a: Vec3, b: Vec3) -> float:
     """``a . b``."""
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]

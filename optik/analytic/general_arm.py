@@ -54,7 +54,7 @@ from optik.analytic._subproblems import (
     sub,
     vec_at,
 )
-from optik.analytic.pair_wrist import REACH_TOL, target_frame, wrist_across, wrist_branches
+from optik.analytic.pair_wrist import REACH_TOL, wrist_across, wrist_branches, wrist_target
 
 CIRCLE_TOL = 1e-6
 """A companion eigenvalue within this of the unit circle (``| |z| - 1 |``) is a root
@@ -150,24 +150,13 @@ def general_arm_candidates(
 ) -> int:
     """Raw branches of the general arm and spherical wrist into ``cand`` (>= 8, 6).
 
-    Args:
-        z: (6, 3) unit joint directions at ``q = 0`` (world frame).
-        p: (6, 3) a point on each axis (m).
-        M: (4, 4) world pose of the tool at ``q = 0``.
-        T: (4, 4) world target of the tool.
-        ref: (6,) reference angles for free joints (rad).
-        tols: the tolerance block of :mod:`optik.analytic._compiled`.
-        cand: output rows (joint angles, rad, not wrapped).
-
-    Returns:
-        The number of rows written (0 to 8), in the order of the module docstring.
+    Arguments as :func:`optik.analytic.pair_wrist.pair_wrist_candidates`. Returns the
+    number of rows written (0 to 8), in the order of the module docstring.
     """
     trig_tol, eps, free_tol, axis_tol = closed_form_tols(tols)
     z1, z2, z3 = vec_at(z, 0), vec_at(z, 1), vec_at(z, 2)
     p1, p2, p3 = vec_at(p, 0), vec_at(p, 1), vec_at(p, 2)
-    W = meeting_point(vec_at(z, 3), vec_at(p, 3), vec_at(z, 4), vec_at(p, 4))
-    RG, tG = target_frame(T, M)
-    Wt = axpy(1.0, apply(RG, W), tG)
+    W, Wt, RG = wrist_target(z, p, T, M)
     across = wrist_across(z)
     back = (-z1[0], -z1[1], -z1[2])  # R_1(q)^-1 turns by q about -z1
     x0, xc, xs = circle(z3, p3, W)

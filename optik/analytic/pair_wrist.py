@@ -51,6 +51,7 @@ from optik.analytic._subproblems import (
     Vec3,
     apply,
     apply_t,
+    axpy,
     cross,
     distance_angles,
     dot,
@@ -105,12 +106,9 @@ def pair_wrist_candidates(
         The number of rows written (0 to 8), in the order of the module docstring.
     """
     trig_tol, eps, free_tol, axis_tol = closed_form_tols(tols)
-    z1, z2, z3, z4, z5 = vec_at(z, 0), vec_at(z, 1), vec_at(z, 2), vec_at(z, 3), vec_at(z, 4)
+    z1, z2, z3 = vec_at(z, 0), vec_at(z, 1), vec_at(z, 2)
     S = meeting_point(z1, vec_at(p, 0), z2, vec_at(p, 1))
-    W = meeting_point(z4, vec_at(p, 3), z5, vec_at(p, 4))
-    RG, tG = target_frame(T, M)
-    GW = apply(RG, W)
-    Wt = (GW[0] + tG[0], GW[1] + tG[1], GW[2] + tG[2])
+    W, Wt, RG = wrist_target(z, p, T, M)
     q = sub(Wt, S)
     dist2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2]
     across = wrist_across(z)
@@ -152,13 +150,10 @@ def second_pair_candidates(
     ``q_1`` ascending, the pairs, the wrist. Arguments as :func:`pair_wrist_candidates`.
     """
     trig_tol, eps, free_tol, axis_tol = closed_form_tols(tols)
-    z1, z2, z3, z4, z5 = vec_at(z, 0), vec_at(z, 1), vec_at(z, 2), vec_at(z, 3), vec_at(z, 4)
+    z1, z2, z3 = vec_at(z, 0), vec_at(z, 1), vec_at(z, 2)
     p1 = vec_at(p, 0)
     S = meeting_point(z2, vec_at(p, 1), z3, vec_at(p, 2))
-    W = meeting_point(z4, vec_at(p, 3), z5, vec_at(p, 4))
-    RG, tG = target_frame(T, M)
-    GW = apply(RG, W)
-    Wt = (GW[0] + tG[0], GW[1] + tG[1], GW[2] + tG[2])
+    W, Wt, RG = wrist_target(z, p, T, M)
     P = sub(W, S)
     across = wrist_across(z)
     back = (-z1[0], -z1[1], -z1[2])  # R_1(q)^-1 turns by q about -z1
@@ -178,6 +173,19 @@ def second_pair_candidates(
             R123 = mul3(mul3(R1, rotation(z2, t2)), rotation(z3, t3))
             n = wrist_branches(z, RG, R123, (t1, t2, t3), across, ref, tols, cand, n)
     return n
+
+
+@_inline
+def wrist_target(
+    z: np.ndarray, p: np.ndarray, T: np.ndarray, M: np.ndarray
+) -> tuple[Vec3, Vec3, Rot9]:
+    """``(W, W_t, R_G)``: the wrist centre, its target and the turn of ``G = T M^-1``.
+
+    ``W`` is where axes 4 and 5 meet, ``W_t = G W`` (:func:`target_frame`).
+    """
+    W = meeting_point(vec_at(z, 3), vec_at(p, 3), vec_at(z, 4), vec_at(p, 4))
+    RG, tG = target_frame(T, M)
+    return W, axpy(1.0, apply(RG, W), tG), RG
 
 
 @_inline
@@ -325,4 +333,5 @@ __all__ = [
     "wrist_across",
     "wrist_branches",
     "wrist_reason",
+    "wrist_target",
 ]

@@ -38,11 +38,9 @@ from optik._numba import jit as _jit
 from optik.analytic._compiled import closed_form_tols, mul3
 from optik.analytic._subproblems import (
     Vec3,
-    apply,
     axpy,
     distance_angles,
     dot,
-    meeting_point,
     plane_angles,
     rotate,
     rotation,
@@ -50,7 +48,7 @@ from optik.analytic._subproblems import (
     sub,
     vec_at,
 )
-from optik.analytic.pair_wrist import REACH_TOL, target_frame, wrist_across, wrist_branches
+from optik.analytic.pair_wrist import REACH_TOL, wrist_across, wrist_branches, wrist_target
 
 PARALLEL_12 = 1
 """Arm kind: axes 1 and 2 parallel."""
@@ -96,9 +94,7 @@ def parallel_arm_candidates(
     roots = (trig_tol, eps, free_tol, REACH_TOL)
     z1, z2, z3 = vec_at(z, 0), vec_at(z, 1), vec_at(z, 2)
     p1, p2, p3 = vec_at(p, 0), vec_at(p, 1), vec_at(p, 2)
-    W = meeting_point(vec_at(z, 3), vec_at(p, 3), vec_at(z, 4), vec_at(p, 4))
-    RG, tG = target_frame(T, M)
-    Wt = axpy(1.0, apply(RG, W), tG)
+    W, Wt, RG = wrist_target(z, p, T, M)
     across = wrist_across(z)
     n = 0
     if kind == PARALLEL_12:

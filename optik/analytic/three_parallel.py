@@ -54,9 +54,9 @@ from optik.analytic._subproblems import (
     norm,
     plane_angles,
     rotation,
+    six_rows,
     sp1_angle,
     sub,
-    vec_at,
 )
 from optik.analytic.general_arm import _eliminate, _separation
 from optik.analytic.pair_wrist import REACH_TOL, target_frame
@@ -95,35 +95,13 @@ def three_inner_candidates(
 ) -> int:
     """Raw branches of the three-inner-parallel closed form into ``cand`` (>= 8, 6).
 
-    Args:
-        z: (6, 3) unit joint directions at ``q = 0`` (world frame).
-        p: (6, 3) a point on each axis (m); ``p[5]`` off axis 5.
-        M: (4, 4) world pose of the tool at ``q = 0``.
-        T: (4, 4) world target of the tool.
-        ref: (6,) reference angles for free joints (rad).
-        tols: the tolerance block of :mod:`optik.analytic._compiled`.
-        cand: output rows (joint angles, rad, not wrapped).
-
-    Returns:
-        The number of rows written (0 to 8): the quartic's pairs, then the elbow.
+    Arguments as :func:`optik.analytic.pair_wrist.pair_wrist_candidates` (``p[5]`` off
+    axis 5). Returns the number of rows written (0 to 8): the quartic's pairs, then the
+    elbow.
     """
     trig_tol, eps, free_tol, axis_tol = closed_form_tols(tols)
-    z1, z2, z3, z4, z5, z6 = (
-        vec_at(z, 0),
-        vec_at(z, 1),
-        vec_at(z, 2),
-        vec_at(z, 3),
-        vec_at(z, 4),
-        vec_at(z, 5),
-    )
-    p1, p2, p3, p4, p5, p6 = (
-        vec_at(p, 0),
-        vec_at(p, 1),
-        vec_at(p, 2),
-        vec_at(p, 3),
-        vec_at(p, 4),
-        vec_at(p, 5),
-    )
+    z1, z2, z3, z4, z5, z6 = six_rows(z)
+    p1, p2, p3, p4, p5, p6 = six_rows(p)
     h = z2
     RG, tG = target_frame(T, M)
     back = (-z1[0], -z1[1], -z1[2])  # R_1(q)^-1 turns by q about -z1
@@ -190,26 +168,12 @@ def three_outer_candidates(
 ) -> int:
     """Raw branches of the three-outer-parallel closed form into ``cand`` (>= 8, 6).
 
-    Arguments as :func:`three_inner_candidates` (``p[5]`` any point of axis 6). Returns
+    Arguments as :func:`optik.analytic.pair_wrist.pair_wrist_candidates`. Returns
     the number of rows written (0 to 8): ``q_4``, then ``q_5``, then the elbow ``q_2``.
     """
     trig_tol, eps, free_tol, axis_tol = closed_form_tols(tols)
-    z1, z2, z3, z4, z5, z6 = (
-        vec_at(z, 0),
-        vec_at(z, 1),
-        vec_at(z, 2),
-        vec_at(z, 3),
-        vec_at(z, 4),
-        vec_at(z, 5),
-    )
-    p1, p2, p3, p4, p5, p6 = (
-        vec_at(p, 0),
-        vec_at(p, 1),
-        vec_at(p, 2),
-        vec_at(p, 3),
-        vec_at(p, 4),
-        vec_at(p, 5),
-    )
+    z1, z2, z3, z4, z5, z6 = six_rows(z)
+    p1, p2, p3, p4, p5, p6 = six_rows(p)
     h = z1
     RG, tG = target_frame(T, M)
     C = meeting_point(z5, p5, z6, p6)
