@@ -4,8 +4,8 @@ The structure (in the product of exponentials of the joint axes at ``q = 0``,
 :func:`optik.analytic.geometry.joint_axes`: ``fk(q) = R_1(q_1) ... R_6(q_6) M``): axes
 4, 5 and 6 meet at the wrist centre ``W``, and the arm's axes have none of the relations
 the other arm kinds use — axes 1 and 2 neither meet nor are parallel, nor do axes 2 and 3
-— and axis 3 misses ``W`` (EAIK's "spherical, no parallel, no intersecting"; it solves
-axes 2 and 3 meeting too, where ``B`` is singular).
+— and axis 3 misses ``W`` (EAIK's "spherical, no parallel, no intersecting"; axes 2 and
+3 meeting take :func:`optik.analytic.pair_wrist.second_pair_candidates`).
 Pieper's problem: with ``G = T M^-1`` and the wrist centre's target ``W_t = G W``,
 
 ``R_2(q_2) X(q_3) = Y(q_1)``, ``X(q_3) = R_3(q_3) W``, ``Y(q_1) = R_1(-q_1) W_t``:
@@ -22,8 +22,8 @@ polished by Newton's method; then ``q_1`` is the angle of ``adj(A) (b_0 + B u_3)
 the sign of ``det A``. Near axis 1 ``A`` shrinks and that quartic's roots pair up (their
 gap is ``det A``, squared), so there ``q_3`` is eliminated instead (``B`` stays regular
 when axes 2 and 3 are skew): whichever keeps the roots further apart
-(:func:`_separation`). Then ``q_2`` turns ``X`` onto ``Y`` (subproblem 1), and the wrist
-follows as in :func:`optik.analytic.pair_wrist.wrist_branches`.
+(:func:`root_separation`). Then ``q_2`` turns ``X`` onto ``Y`` (subproblem 1), and the
+wrist follows as in :func:`optik.analytic.pair_wrist.wrist_branches`.
 
 Up to 4 x 2 = 8 branches, the quartic's angle ascending, then the wrist; each is
 refined by one Newton step on the robot's chain and checked by FK in the
@@ -42,6 +42,7 @@ from optik._math import sincos, trig_roots
 from optik._numba import jit as _jit
 from optik.analytic._compiled import closed_form_tols, mul3
 from optik.analytic._subproblems import (
+    Rot9,
     Vec3,
     apply,
     axpy,
@@ -72,13 +73,14 @@ Vec2 = tuple[float, float]
 def trig2_roots(k: np.ndarray, trig_tol: float, out: np.ndarray) -> int:
     """Real roots ``t`` (rad) of ``k0 + k1 cos t + k2 sin t + k3 cos 2t + k4 sin 2t = 0``.
 
-    ``k`` (5,) not all zero (the caller scales them to order 1); up to four roots go to
-    ``out`` (>= 4,), ascending, in ``(-pi, pi]``. The second harmonic negligible
-    (``|k3|, |k4| <= 1e-14 max|k|``): the first-degree equation's roots
-    (:func:`optik._math.trig_roots` with ``trig_tol``, no free rule). Otherwise the
-    eigenvalues ``z`` of the companion matrix of ``z^2 f(t)``, ``z = e^{it}`` (a quartic), within
-    :data:`CIRCLE_TOL` of the unit circle, each polished by Newton's method on ``f``
-    (a step is kept only when it lowers ``|f|``). Returns the count.
+    ``k`` (5,), scaled by the caller to order 1; up to four roots go to ``out`` (>= 4,),
+    ascending, in ``(-pi, pi]``. All zero (every ``t`` a root, a self-motion): none, and
+    the caller's numeric fallback judges. The second harmonic negligible (``|k3|, |k4| <=
+    1e-14 max|k|``): the first-degree equation's roots (:func:`optik._math.trig_roots`
+    with ``trig_tol``, no free rule). Otherwise the eigenvalues ``z`` of the companion
+    matrix of ``z^2 f(t)``, ``z = e^{it}`` (a quartic), within :data:`CIRCLE_TOL` of the
+    unit circle, each polished by Newton's method on ``f`` (a step is kept only when it
+    lowers ``|f|``). Returns the count.
     """
     scale = 0.0
     for i in range(5):
@@ -184,12 +186,12 @@ def general_arm_candidates(
     # Eliminate the angle whose matrix keeps the quartic's roots apart: near axis 1 (A
     # small) q_3's quartic has near-double roots, q_1's (B constant, regular when axes 2
     # and 3 are skew) does not.
-    if _separation(B, minus_b0, A) > _separation(A, b0, B):
-        count = _eliminate(B, minus_b0, A, trig_tol, angles)  # roots q_1, partners q_3
+    if root_separation(B, minus_b0, A) > root_separation(A, b0, B):
+        count = quartic_pairs(B, minus_b0, A, trig_tol, angles)  # roots q_1, partners q_3
         for i in range(count):
             n = _branch(z, p, RG, Wt, angles[0, i], angles[1, i], across, ref, tols, cand, n)
     else:
-        count = _eliminate(A, b0, B, trig_tol, angles)  # roots q_3, partners q_1
+        count = quartic_pairs(A, b0, B, trig_tol, angles)  # roots q_3, partners q_1
         for i in range(count):
             n = _branch(z, p, RG, Wt, angles[1, i], angles[0, i], across, ref, tols, cand, n)
     return n
@@ -199,7 +201,7 @@ def general_arm_candidates(
 def _branch(
     z: np.ndarray,
     p: np.ndarray,
-    RG: tuple[float, float, float, float, float, float, float, float, float],
+    RG: Rot9,
     Wt: Vec3,
     t1: float,
     t3: float,
@@ -222,8 +224,8 @@ def _branch(
 
 
 @_jit
-def _separation(M: Mat2, v0: Vec2, N: Mat2) -> float:
-    """How far apart :func:`_eliminate`'s roots stay: ``|det M| / (|adj M| (|v0| + |N|))``.
+def root_separation(M: Mat2, v0: Vec2, N: Mat2) -> float:
+    """How far apart the roots of :func:`quartic_pairs` stay: ``|det M| / (|M| (|v0| + |N|))``.
 
     At a root ``|adj(M) (v0 + N u)| = |det M|``; the smaller this ratio, the closer the
     quartic comes to a double root there (its value squared is what separates them).
@@ -235,7 +237,7 @@ def _separation(M: Mat2, v0: Vec2, N: Mat2) -> float:
 
 
 @_jit
-def _eliminate(M: Mat2, v0: Vec2, N: Mat2, trig_tol: float, angles: np.ndarray) -> int:
+def quartic_pairs(M: Mat2, v0: Vec2, N: Mat2, trig_tol: float, angles: np.ndarray) -> int:
     """The angle pairs ``(b, a)`` of ``M (cos a, sin a) = v0 + N (cos b, sin b)``.
 
     The roots ``b`` of ``|adj(M) (v0 + N u_b)|^2 = det(M)^2`` go to ``angles[0]``
@@ -272,4 +274,10 @@ def _dot2(a: Vec2, b: Vec2) -> float:
     return a[0] * b[0] + a[1] * b[1]
 
 
-__all__ = ["CIRCLE_TOL", "general_arm_candidates", "trig2_roots"]
+__all__ = [
+    "CIRCLE_TOL",
+    "general_arm_candidates",
+    "quartic_pairs",
+    "root_separation",
+    "trig2_roots",
+]

@@ -18,17 +18,21 @@ Paden–Kahan subproblems solve:
 
 Or the same read backwards (:func:`optik.analytic.geometry.reversed_axes`): a spherical
 shoulder (axes 1, 2 and 3 through one point) and an arm among axes 4 to 6. A robot that
-both readings fit takes the one in order, unless only the other avoids the quartic. Tolerances are
-those of the geometry (:data:`optik.analytic.geometry.ANGLE_TOL`, ``LENGTH_TOL`` times the
-arm's size). It is registered after the DH families: a robot that ``spherical_wrist`` or
-``ur`` fits keeps that family; this one covers the twists, offsets and joint orders they
-do not.
+both readings fit takes the one in order, unless only the other avoids the quartic.
+Tolerances are those of the geometry (:data:`optik.analytic.geometry.ANGLE_TOL`,
+``LENGTH_TOL`` times the arm's size). It is registered after the DH families: a robot
+that ``spherical_wrist`` or ``ur`` fits keeps that family; this one covers the twists,
+offsets and joint orders they do not.
 
 Compiled end to end as the DH families are: :func:`solve` (one target) and
 :func:`solve_batch` run the closed form, then the steps of
 :func:`optik.analytic._pipeline.postprocess_rows` (wrapping into the limits, the limit
 filter, the FK check on the robot's own chain, de-duplication, the sort), on the robot's
 parameter vector (:func:`pack_axes_params`; :meth:`SphericalAxes.compiled`).
+
+The same pipeline carries the family ``three_parallel`` (:class:`ThreeParallelAxes`,
+:func:`parallel_plan`): three parallel axes and no spherical wrist, two more arm kinds
+(:data:`THREE_INNER`, :data:`THREE_OUTER`, :mod:`optik.analytic.three_parallel`).
 """
 
 from __future__ import annotations
@@ -100,6 +104,8 @@ KIND_NAMES = {
     PARALLEL_23: "axes 2 and 3 parallel",
     SECOND_PAIR: "axes 2 and 3 meet",
     GENERAL: "general arm (a quartic)",
+    THREE_INNER: "axes 2, 3 and 4 parallel (three_parallel)",
+    THREE_OUTER: "axes 1, 2 and 3 parallel, axes 5 and 6 meeting (three_parallel)",
 }
 """What each arm kind means, for messages and docs."""
 

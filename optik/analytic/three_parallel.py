@@ -15,7 +15,7 @@ conditions tie ``q_5`` to ``q_1`` alone:
   chosen off axis 5 by the plan).
 
 Both are linear in ``(cos q_1, sin q_1)`` and ``(cos q_5, sin q_5)``: the system of
-:func:`optik.analytic.general_arm._eliminate`, a quartic, up to 4 pairs. Then ``q_6`` by
+:func:`optik.analytic.general_arm.quartic_pairs`, a quartic, up to 4 pairs. Then ``q_6`` by
 subproblem 1 (``R_6 F^T h = R_5^-1 h`` with ``F`` the rotation of ``R_1^-1 G``), the turn
 ``theta`` from the rest of the rotation, and the planar arm: the point ``p_4`` of axis 4
 must reach ``X = R_1^-1 G R_6^-1 R_5^-1 p_4``: ``q_3`` by its distance from axis 2
@@ -42,6 +42,7 @@ import numpy as np
 from optik._numba import jit as _jit
 from optik.analytic._compiled import closed_form_tols, mul3
 from optik.analytic._subproblems import (
+    Rot9,
     Vec3,
     apply,
     apply_t,
@@ -58,7 +59,7 @@ from optik.analytic._subproblems import (
     sp1_angle,
     sub,
 )
-from optik.analytic.general_arm import _eliminate, _separation
+from optik.analytic.general_arm import quartic_pairs, root_separation
 from optik.analytic.pair_wrist import REACH_TOL, target_frame
 
 _ORIGIN = (0.0, 0.0, 0.0)
@@ -73,8 +74,8 @@ def _turned(w: Vec3, on_axis: Vec3, t: float, x: Vec3) -> Vec3:
 @_jit
 def _planar_rest(
     h: Vec3,
-    F: tuple[float, float, float, float, float, float, float, float, float],
-    last: tuple[float, float, float, float, float, float, float, float, float],
+    F: Rot9,
+    last: Rot9,
     across: Vec3,
 ) -> float:
     """``theta``: the angle about ``h`` of ``F last^T`` (a turn about ``h``)."""
@@ -118,11 +119,11 @@ def three_inner_candidates(
     minus_b0 = (-b0[0], -b0[1])
     pairs = np.empty((2, 4))
     count = 0
-    if _separation(B, minus_b0, A) > _separation(A, b0, B):
-        count = _eliminate(B, minus_b0, A, trig_tol, pairs)  # roots q_1, partners q_5
+    if root_separation(B, minus_b0, A) > root_separation(A, b0, B):
+        count = quartic_pairs(B, minus_b0, A, trig_tol, pairs)  # roots q_1, partners q_5
         first, fifth = pairs[0], pairs[1]
     else:
-        count = _eliminate(A, b0, B, trig_tol, pairs)  # roots q_5, partners q_1
+        count = quartic_pairs(A, b0, B, trig_tol, pairs)  # roots q_5, partners q_1
         first, fifth = pairs[1], pairs[0]
     # A direction across h, to read theta off a rotation about h.
     across = cross(h, z1)
