@@ -183,3 +183,23 @@ def test_the_ur_keeps_its_family_and_what_does_not_fit_says_why(tmp_path: Path) 
     H, P = _arm(10, 0)  # axes 1-3 parallel, but axes 5 and 6 do not meet
     reason = parallel_plan(_urdf(H, P, tmp_path / "apart.urdf")).reason
     assert "as outer axes: axes 5 (j5) and 6 (j6) do not meet" in reason
+
+
+@pytest.mark.parametrize(("first", "meet"), [(1, None), (2, None), (0, 4), (3, 0)])
+def test_axes_parallel_only_to_the_tolerance(first: int, meet: int | None, tmp_path: Path) -> None:
+    """The middle parallel axis tilted by 3e-10 rad (inside ANGLE_TOL, as a URDF angle
+    written to ten digits): the closed form of the ideal arm (3e-10 off), then the Newton
+    step on the robot's chain, gives branches within 1e-12 of their pose (by the FK written
+    here), the source among them."""
+    H, P = _arm(40 + first, first, meet=meet)
+    tilt = Rotation.from_rotvec(3e-10 * np.array([0.6, -0.64, 0.48])).as_matrix()
+    H[first + 1] = tilt @ H[first + 1]
+    robot = _urdf(H, P, tmp_path / "arm.urdf")
+    assert family_of(robot) is not None and family_of(robot).name == "three_parallel"
+    rng = np.random.default_rng(first)
+    for q in rng.uniform(-math.pi, math.pi, (40, 6)):
+        T = _poe_fk(H, P, q)
+        branches = analytic_ik(robot, T, within_limits=False)
+        for b in branches:
+            assert np.abs(_poe_fk(H, P, b) - T).max() < 1e-12
+        assert min(_wrapped(b, q) for b in branches) < 1e-6, q
