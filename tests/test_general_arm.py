@@ -18,7 +18,7 @@ from scipy.optimize import brentq, least_squares
 
 from optik import Robot
 from optik.analytic import analytic_ik
-from optik.analytic.general_arm import trig2_roots
+from optik.analytic.general_arm import sampled_roots, trig2_roots
 from optik.analytic.geometry import joint_axes
 from optik.analytic.spherical_axes import GENERAL, axes_plan
 
@@ -62,6 +62,23 @@ def test_roots_of_random_polynomials_match_bracketing() -> None:
         for t in expected:
             assert min(_turn_distance(t, s) for s in found) < 1e-10, k
     assert seen == {0, 2, 4}
+
+
+def test_subdivision_certifies_random_polynomials_and_leaves_double_roots() -> None:
+    """The certified subdivision decides 2,000 random polynomials itself (the same roots as
+    bracketing, 1e-12) and hands a double root to the eigenvalues (-1)."""
+    rng = np.random.default_rng(4)
+    out = np.empty(4)
+    for _ in range(2000):
+        k = rng.normal(size=5)
+        n = sampled_roots(k, out)
+        expected = _reference_roots(k)
+        assert n == len(expected), k
+        for t in expected:
+            assert min(_turn_distance(t, s) for s in out[:n]) < 1e-12, k
+    # (cos t - cos 1.2)^2: double roots at +-1.2.
+    ca = math.cos(1.2)
+    assert sampled_roots(np.array([0.5 + ca * ca, -2 * ca, 0.0, 0.5, 0.0]), out) == -1
 
 
 @pytest.mark.parametrize("shift", [0.0, 0.7, math.pi])

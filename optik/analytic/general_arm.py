@@ -16,9 +16,10 @@ the same distance from its point ``p_2``. Both conditions are linear in ``u_1 = 
 q_1, sin q_1)`` and in ``u_3 = (cos q_3, sin q_3)``: ``A u_1 = b_0 + B u_3`` with 2x2
 matrices ``A`` (of the target) and ``B`` (of the arm). Eliminating ``q_1`` without
 dividing, ``|adj(A) (b_0 + B u_3)|^2 = det(A)^2``, leaves a trig polynomial of degree 2
-in ``q_3``, that is a quartic: its roots are the eigenvalues of the companion matrix of
-``z^2 f`` in ``z = e^{i q_3}`` that lie on the unit circle (:func:`trig2_roots`), each
-polished by Newton's method; then ``q_1`` is the angle of ``adj(A) (b_0 + B u_3)`` times
+in ``q_3``, that is a quartic: its real roots by certified subdivision and Newton's
+method (:func:`sampled_roots`), or, where a root may hide (a near-double one), the
+eigenvalues of the companion matrix of ``z^2 f`` in ``z = e^{i q_3}`` that lie on the
+unit circle (:func:`trig2_roots`); then ``q_1`` is the angle of ``adj(A) (b_0 + B u_3)`` times
 the sign of ``det A``. Near axis 1 ``A`` shrinks and that quartic's roots pair up (their
 gap is ``det A``, squared), so there ``q_3`` is eliminated instead (``B`` stays regular
 when axes 2 and 3 are skew): whichever keeps the roots further apart
@@ -64,6 +65,9 @@ CIRCLE_TOL = 1e-6
 FK check rejects."""
 _NEWTON_STEPS = 3
 _TINY = 1e-300
+_PIECES = 16
+"""Intervals the turn is cut into before :func:`sampled_roots` halves the undecided."""
+_STACK = 96
 Mat2 = tuple[float, float, float, float]
 """A 2x2 matrix ``((m0, m1), (m2, m3))``, row-major, in scalars."""
 Vec2 = tuple[float, float]
@@ -77,10 +81,11 @@ def trig2_roots(k: np.ndarray, trig_tol: float, out: np.ndarray) -> int:
     ascending, in ``(-pi, pi]``. All zero (every ``t`` a root, a self-motion): none, and
     the caller's numeric fallback judges. The second harmonic negligible (``|k3|, |k4| <=
     1e-14 max|k|``): the first-degree equation's roots (:func:`optik._math.trig_roots`
-    with ``trig_tol``, no free rule). Otherwise the eigenvalues ``z`` of the companion
-    matrix of ``z^2 f(t)``, ``z = e^{it}`` (a quartic), within :data:`CIRCLE_TOL` of the
-    unit circle, each polished by Newton's method on ``f`` (a step is kept only when it
-    lowers ``|f|``). Returns the count.
+    with ``trig_tol``, no free rule). Otherwise :func:`sampled_roots`, and where it cannot
+    decide (a root within rounding of a sample, or a near-double one) the eigenvalues
+    ``z`` of the companion matrix of ``z^2 f(t)``, ``z = e^{it}`` (a quartic), within
+    :data:`CIRCLE_TOL` of the unit circle, each polished by Newton's method on ``f`` (a
+    step is kept only when it lowers ``|f|``). Returns the count.
     """
     scale = 0.0
     for i in range(5):
@@ -92,6 +97,10 @@ def trig2_roots(k: np.ndarray, trig_tol: float, out: np.ndarray) -> int:
         out[0] = t1
         out[1] = t2
         return n
+    n = sampled_roots(k, out)
+    if n >= 0:
+        return n
+    # A root a hair from a sample or a near-double one: the eigenvalues decide.
     # z^2 f = a4 z^4 + a3 z^3 + a2 z^2 + conj(a3) z + conj(a4).
     a4 = complex(0.5 * k[3], -0.5 * k[4])
     a3 = complex(0.5 * k[1], -0.5 * k[2])
@@ -113,6 +122,81 @@ def trig2_roots(k: np.ndarray, trig_tol: float, out: np.ndarray) -> int:
         out[at] = t
         n += 1
     return n
+
+
+@_jit
+def sampled_roots(k: np.ndarray, out: np.ndarray) -> int:
+    """The roots of :func:`trig2_roots`' ``f`` by certified subdivision, or -1.
+
+    The turn is cut into :data:`_PIECES` intervals; each is proven root-free (``|f(m)| >
+    |f'(m)| w/2 + L2 w^2/8`` at its middle ``m``, ``w`` its width, ``L2 = |k1| + |k2| +
+    4 (|k3| + |k4|)`` a bound on ``|f''|``), or to hold exactly one root (a sign change
+    with ``|f'(m)| > L2 w/2``: ``f`` monotone), which a safeguarded Newton iteration
+    finds to rounding; otherwise it is halved. -1 (the caller takes the eigenvalues) when
+    a sample is within rounding of zero or an interval narrower than 1e-6 rad is still
+    undecided (a near-double root). Roots ascending in ``(-pi, pi)``.
+    """
+    s1 = abs(k[1]) + abs(k[2])
+    s2 = abs(k[3]) + abs(k[4])
+    bound2 = s1 + 4.0 * s2
+    slack = 1e-13 * (abs(k[0]) + s1 + s2)
+    stack = np.empty((_STACK, 4))
+    top = 0
+    width = 2.0 * math.pi / _PIECES
+    for i in range(_PIECES - 1, -1, -1):  # popped left to right
+        a = -math.pi + i * width
+        b = a + width
+        stack[top, 0], stack[top, 1] = a, b
+        stack[top, 2], stack[top, 3] = _trig2(k, a)[0], _trig2(k, b)[0]
+        top += 1
+    n = 0
+    while top > 0:
+        top -= 1
+        a, b, fa, fb = stack[top, 0], stack[top, 1], stack[top, 2], stack[top, 3]
+        if not (abs(fa) > slack and abs(fb) > slack):
+            return -1
+        w = b - a
+        m = 0.5 * (a + b)
+        fm, dm = _trig2(k, m)
+        if (fa > 0.0) == (fb > 0.0):
+            if abs(fm) - 0.5 * w * abs(dm) - 0.125 * w * w * bound2 > slack:
+                continue
+        elif abs(dm) > 0.5 * w * bound2:
+            if n == 4:
+                return -1
+            out[n] = _bracketed_root(k, a, b, fa)
+            n += 1
+            continue
+        if w < 1e-6 or top + 2 > _STACK:
+            return -1
+        stack[top, 0], stack[top, 1], stack[top, 2], stack[top, 3] = m, b, fm, fb
+        stack[top + 1, 0], stack[top + 1, 1], stack[top + 1, 2], stack[top + 1, 3] = a, m, fa, fm
+        top += 2
+    return n
+
+
+@_jit
+def _bracketed_root(k: np.ndarray, a: float, b: float, fa: float) -> float:
+    """The root of ``f`` in ``[a, b]`` (a sign change there, ``f`` monotone).
+
+    Newton's method, bisecting whenever a step leaves the bracket, to rounding.
+    """
+    t = 0.5 * (a + b)
+    for _ in range(100):
+        f, df = _trig2(k, t)
+        if f == 0.0:
+            return t
+        if (f > 0.0) == (fa > 0.0):
+            a = t
+        else:
+            b = t
+        step = t - f / df if df != 0.0 else 0.5 * (a + b)
+        if not (a < step < b):
+            step = 0.5 * (a + b)
+        if abs(step - t) <= 4e-16 * max(1.0, abs(t)):
+            return step
+        t = step
+    return t
 
 
 @_jit
@@ -279,5 +363,6 @@ __all__ = [
     "general_arm_candidates",
     "quartic_pairs",
     "root_separation",
+    "sampled_roots",
     "trig2_roots",
 ]
