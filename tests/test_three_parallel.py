@@ -12,6 +12,7 @@ each pose came from.
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 
@@ -203,3 +204,26 @@ def test_axes_parallel_only_to_the_tolerance(first: int, meet: int | None, tmp_p
         for b in branches:
             assert np.abs(_poe_fk(H, P, b) - T).max() < 1e-12
         assert min(_wrapped(b, q) for b in branches) < 1e-6, q
+
+
+def test_cli_names_the_family_and_solves_with_it(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`optik robot` prints ``three_parallel`` for such a URDF; `optik solve` answers with
+    the closed form, and the answer reaches the pose (FK written here)."""
+    from optik.cli import main
+
+    H, P = _arm(11, 0, meet=4)
+    path = tmp_path / "arm.urdf"
+    _urdf(H, P, path)
+    assert main(["robot", str(path)]) == 0
+    assert capsys.readouterr().out.rstrip().endswith("closed-form family: three_parallel")
+    q = np.array([0.3, -0.5, 1.0, 0.4, -0.8, 0.2])
+    T = _poe_fk(H, P, q)
+    rpy = Rotation.from_matrix(T[:3, :3]).as_euler("xyz")
+    argv = ["solve", "--urdf", str(path), "--base", "l0", "--tip", "l7", "--position"]
+    argv += [repr(float(v)) for v in T[:3, 3]] + ["--rpy"] + [repr(float(v)) for v in rpy]
+    assert main([*argv, "--json"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert result["solver"] == "analytic" and result["success"]
+    assert np.abs(_poe_fk(H, P, np.array(result["q"])) - T).max() < 1e-9
