@@ -106,6 +106,13 @@ def rotate(w: Vec3, s: float, c: float, v: Vec3) -> Vec3:
 
 
 @_inline
+def turn_point(w: Vec3, on_axis: Vec3, t: float, x: Vec3) -> Vec3:
+    """``x`` turned by ``t`` (rad) about the line through ``on_axis`` along unit ``w``."""
+    s, c = sincos(t)
+    return axpy(1.0, rotate(w, s, c, sub(x, on_axis)), on_axis)
+
+
+@_inline
 def rotation(w: Vec3, t: float) -> Rot9:
     """``R(w, t)`` as a row-major 9-tuple (``w`` a unit direction, ``t`` in rad)."""
     s, c = sincos(t)

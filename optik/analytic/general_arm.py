@@ -45,15 +45,13 @@ from optik.analytic._compiled import closed_form_tols, mul3
 from optik.analytic._subproblems import (
     Rot9,
     Vec3,
-    apply,
-    axpy,
     circle,
     dot,
-    meeting_point,
     plane_angles,
     rotation,
     sp1_angle,
     sub,
+    turn_point,
     vec_at,
 )
 from optik.analytic.pair_wrist import REACH_TOL, wrist_across, wrist_branches, wrist_target
@@ -256,7 +254,7 @@ def general_arm_candidates(
         count, e1, e2 = plane_angles(z3, p3, W, z2, dot(z2, Wt), ref[2], roots)
         for i3 in range(count):
             t3 = e1 if i3 == 0 else e2
-            n = _branch(z, p, RG, Wt, ref[0], t3, across, ref, tols, cand, n)
+            n = _branch(z, p, RG, W, Wt, ref[0], t3, across, ref, tols, cand, n)
         return n
     # The height (row 1, / size) and squared distance (row 2, / size^2) conditions:
     # A (cos q_1, sin q_1) = b0 + B (cos q_3, sin q_3), B's columns b1, b2.
@@ -273,11 +271,11 @@ def general_arm_candidates(
     if root_separation(B, minus_b0, A) > root_separation(A, b0, B):
         count = quartic_pairs(B, minus_b0, A, trig_tol, angles)  # roots q_1, partners q_3
         for i in range(count):
-            n = _branch(z, p, RG, Wt, angles[0, i], angles[1, i], across, ref, tols, cand, n)
+            n = _branch(z, p, RG, W, Wt, angles[0, i], angles[1, i], across, ref, tols, cand, n)
     else:
         count = quartic_pairs(A, b0, B, trig_tol, angles)  # roots q_3, partners q_1
         for i in range(count):
-            n = _branch(z, p, RG, Wt, angles[1, i], angles[0, i], across, ref, tols, cand, n)
+            n = _branch(z, p, RG, W, Wt, angles[1, i], angles[0, i], across, ref, tols, cand, n)
     return n
 
 
@@ -286,6 +284,7 @@ def _branch(
     z: np.ndarray,
     p: np.ndarray,
     RG: Rot9,
+    W: Vec3,
     Wt: Vec3,
     t1: float,
     t3: float,
@@ -295,13 +294,15 @@ def _branch(
     cand: np.ndarray,
     n: int,
 ) -> int:
-    """``q_2`` turning ``X(q_3)`` onto ``Y(q_1)`` about axis 2, then the wrist's rows."""
+    """``q_2`` turning ``X(q_3)`` onto ``Y(q_1)`` about axis 2, then the wrist's rows.
+
+    ``W`` is the wrist centre, ``W_t`` its target (:func:`optik.analytic.pair_wrist.wrist_target`).
+    """
     axis_tol = closed_form_tols(tols)[3]
     z1, z2, z3 = vec_at(z, 0), vec_at(z, 1), vec_at(z, 2)
     p1, p2, p3 = vec_at(p, 0), vec_at(p, 1), vec_at(p, 2)
-    W = meeting_point(vec_at(z, 3), vec_at(p, 3), vec_at(z, 4), vec_at(p, 4))
-    X = axpy(1.0, apply(rotation(z3, t3), sub(W, p3)), p3)
-    Y = axpy(1.0, apply(rotation(z1, -t1), sub(Wt, p1)), p1)
+    X = turn_point(z3, p3, t3, W)
+    Y = turn_point(z1, p1, -t1, Wt)
     t2 = sp1_angle(z2, sub(X, p2), sub(Y, p2), ref[1], axis_tol)
     R123 = mul3(mul3(rotation(z1, t1), rotation(z2, t2)), rotation(z3, t3))
     return wrist_branches(z, RG, R123, (t1, t2, t3), across, ref, tols, cand, n)

@@ -32,20 +32,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from optik._math import sincos
-from optik._numba import inline as _inline
 from optik._numba import jit as _jit
 from optik.analytic._compiled import closed_form_tols, mul3
 from optik.analytic._subproblems import (
-    Vec3,
-    axpy,
     distance_angles,
     dot,
     plane_angles,
-    rotate,
     rotation,
     sp1_angle,
     sub,
+    turn_point,
     vec_at,
 )
 from optik.analytic.pair_wrist import REACH_TOL, wrist_across, wrist_branches, wrist_target
@@ -54,13 +50,6 @@ PARALLEL_12 = 1
 """Arm kind: axes 1 and 2 parallel."""
 PARALLEL_23 = 2
 """Arm kind: axes 2 and 3 parallel."""
-
-
-@_inline
-def _turn(w: Vec3, on_axis: Vec3, t: float, x: Vec3) -> Vec3:
-    """``x`` turned by ``t`` (rad) about the line through ``on_axis`` along ``w``."""
-    s, c = sincos(t)
-    return axpy(1.0, rotate(w, s, c, sub(x, on_axis)), on_axis)
 
 
 @_jit
@@ -102,11 +91,11 @@ def parallel_arm_candidates(
         d = sub(Wt, p1)
         for ia in range(na):
             t3 = a1 if ia == 0 else a2
-            X = _turn(z3, p3, t3, W)
+            X = turn_point(z3, p3, t3, W)
             nb_, b1, b2 = distance_angles(z2, p2, X, p1, dot(d, d), ref[1], roots)
             for ib in range(nb_):
                 t2 = b1 if ib == 0 else b2
-                t1 = sp1_angle(z1, sub(_turn(z2, p2, t2, X), p1), d, ref[0], axis_tol)
+                t1 = sp1_angle(z1, sub(turn_point(z2, p2, t2, X), p1), d, ref[0], axis_tol)
                 R123 = mul3(mul3(rotation(z1, t1), rotation(z2, t2)), rotation(z3, t3))
                 n = wrist_branches(z, RG, R123, (t1, t2, t3), across, ref, tols, cand, n)
         return n
@@ -114,11 +103,11 @@ def parallel_arm_candidates(
     na, a1, a2 = plane_angles(back, p1, Wt, z2, dot(z2, W), ref[0], roots)
     for ia in range(na):
         t1 = a1 if ia == 0 else a2
-        d = sub(_turn(back, p1, t1, Wt), p2)
+        d = sub(turn_point(back, p1, t1, Wt), p2)
         nb_, b1, b2 = distance_angles(z3, p3, W, p2, dot(d, d), ref[2], roots)
         for ib in range(nb_):
             t3 = b1 if ib == 0 else b2
-            t2 = sp1_angle(z2, sub(_turn(z3, p3, t3, W), p2), d, ref[1], axis_tol)
+            t2 = sp1_angle(z2, sub(turn_point(z3, p3, t3, W), p2), d, ref[1], axis_tol)
             R123 = mul3(mul3(rotation(z1, t1), rotation(z2, t2)), rotation(z3, t3))
             n = wrist_branches(z, RG, R123, (t1, t2, t3), across, ref, tols, cand, n)
     return n

@@ -58,17 +58,12 @@ from optik.analytic._subproblems import (
     six_rows,
     sp1_angle,
     sub,
+    turn_point,
 )
 from optik.analytic.general_arm import quartic_pairs, root_separation
 from optik.analytic.pair_wrist import REACH_TOL, target_frame
 
 _ORIGIN = (0.0, 0.0, 0.0)
-
-
-@_jit
-def _turned(w: Vec3, on_axis: Vec3, t: float, x: Vec3) -> Vec3:
-    """``x`` turned by ``t`` (rad) about the line through ``on_axis`` along ``w``."""
-    return axpy(1.0, apply(rotation(w, t), sub(x, on_axis)), on_axis)
 
 
 @_jit
@@ -138,13 +133,13 @@ def three_inner_candidates(
         t6 = sp1_angle(z6, apply_t(F, h), apply_t(R5, h), ref[5], axis_tol)
         theta = _planar_rest(h, F, mul3(R5, rotation(z6, t6)), across)
         # X = R_1^-1 G R_6^-1 R_5^-1 p_4, by line turns.
-        X = _turned(z6, p6, -t6, _turned(z5, p5, -t5, p4))
-        X = _turned(back, p1, t1, axpy(1.0, apply(RG, X), tG))
+        X = turn_point(z6, p6, -t6, turn_point(z5, p5, -t5, p4))
+        X = turn_point(back, p1, t1, axpy(1.0, apply(RG, X), tG))
         d = sub(X, p2)
         n3, e1, e2 = distance_angles(z3, p3, p4, p2, dot(d, d), ref[2], roots)
         for i3 in range(n3):
             t3 = e1 if i3 == 0 else e2
-            t2 = sp1_angle(z2, sub(_turned(z3, p3, t3, p4), p2), d, ref[1], axis_tol)
+            t2 = sp1_angle(z2, sub(turn_point(z3, p3, t3, p4), p2), d, ref[1], axis_tol)
             t4 = dot(h, z4) * (theta - dot(h, z2) * t2 - dot(h, z3) * t3)
             if n < cand.shape[0]:
                 cand[n, 0] = t1
@@ -196,14 +191,14 @@ def three_outer_candidates(
             t6 = sp1_angle(z6, apply_t(RG, h), apply_t(R45, h), ref[5], axis_tol)
             theta = _planar_rest(h, RG, mul3(R45, rotation(z6, t6)), across)
             # X = G R_6^-1 R_5^-1 R_4^-1 p_3: where axis 3's point must go.
-            X = _turned(z4, p4, -t4, p3)
-            X = _turned(z6, p6, -t6, _turned(z5, p5, -t5, X))
+            X = turn_point(z4, p4, -t4, p3)
+            X = turn_point(z6, p6, -t6, turn_point(z5, p5, -t5, X))
             X = axpy(1.0, apply(RG, X), tG)
             d = sub(X, p1)
             n2, e1, e2 = distance_angles(z2, p2, p3, p1, dot(d, d), ref[1], roots)
             for i2 in range(n2):
                 t2 = e1 if i2 == 0 else e2
-                t1 = sp1_angle(z1, sub(_turned(z2, p2, t2, p3), p1), d, ref[0], axis_tol)
+                t1 = sp1_angle(z1, sub(turn_point(z2, p2, t2, p3), p1), d, ref[0], axis_tol)
                 t3 = dot(h, z3) * (theta - t1 - dot(h, z2) * t2)
                 if n < cand.shape[0]:
                     cand[n, 0] = t1
