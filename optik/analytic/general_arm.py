@@ -66,6 +66,22 @@ _TINY = 1e-300
 _PIECES = 16
 """Intervals the turn is cut into before :func:`sampled_roots` halves the undecided."""
 _STACK = 96
+_ROOT_FREE, _ONE_ROOT, _UNDECIDED = 0, 1, 2
+"""The verdicts of :func:`_verdict` on an interval."""
+
+
+def _grid(pieces: int) -> np.ndarray:
+    """``cos t, sin t, cos 2t, sin 2t`` (2 pieces + 1, 4) at ``t = -pi + i pi / pieces``.
+
+    The ends and middles of :func:`sampled_roots`' first intervals, ``i = 0 .. 2 pieces``.
+    """
+    t = -math.pi + np.arange(2 * pieces + 1) * (math.pi / pieces)
+    grid = np.stack([np.cos(t), np.sin(t), np.cos(2.0 * t), np.sin(2.0 * t)], axis=1)
+    grid.flags.writeable = False
+    return grid
+
+
+_GRID = _grid(_PIECES)
 Mat2 = tuple[float, float, float, float]
 """A 2x2 matrix ``((m0, m1), (m2, m3))``, row-major, in scalars."""
 Vec2 = tuple[float, float]
@@ -130,24 +146,77 @@ def sampled_roots(k: np.ndarray, out: np.ndarray) -> int:
     |f'(m)| w/2 + L2 w^2/8`` at its middle ``m``, ``w`` its width, ``L2 = |k1| + |k2| +
     4 (|k3| + |k4|)`` a bound on ``|f''|``), or to hold exactly one root (a sign change
     with ``|f'(m)| > L2 w/2``: ``f`` monotone), which a safeguarded Newton iteration
-    finds to rounding; otherwise it is halved. -1 (the caller takes the eigenvalues) when
-    a sample is within rounding of zero or an interval narrower than 1e-6 rad is still
-    undecided (a near-double root). Roots ascending in ``(-pi, pi)``.
+    from ``m`` finds to rounding; otherwise it is halved. -1 (the caller takes the
+    eigenvalues) when a sample is within rounding of zero or an interval narrower than
+    1e-6 rad is still undecided (a near-double root). Roots ascending in ``(-pi, pi)``.
+    The first intervals' ends and middles are fixed angles: their sines and cosines come
+    from :data:`_GRID`.
     """
     s1 = abs(k[1]) + abs(k[2])
     s2 = abs(k[3]) + abs(k[4])
     bound2 = s1 + 4.0 * s2
     slack = 1e-13 * (abs(k[0]) + s1 + s2)
-    stack = np.empty((_STACK, 4))
-    top = 0
     width = 2.0 * math.pi / _PIECES
-    for i in range(_PIECES - 1, -1, -1):  # popped left to right
-        a = -math.pi + i * width
-        b = a + width
-        stack[top, 0], stack[top, 1] = a, b
-        stack[top, 2], stack[top, 3] = _trig2(k, a)[0], _trig2(k, b)[0]
-        top += 1
     n = 0
+    fb = _grid_value(k, 0)[0]
+    for i in range(_PIECES):
+        fa = fb
+        fb = _grid_value(k, 2 * i + 2)[0]
+        if not (abs(fa) > slack and abs(fb) > slack):
+            return -1
+        fm, dm = _grid_value(k, 2 * i + 1)
+        a = -math.pi + i * width
+        verdict = _verdict(fa, fb, fm, dm, width, bound2, slack)
+        if verdict == _ROOT_FREE:
+            continue
+        if verdict == _ONE_ROOT:
+            if n == 4:
+                return -1
+            out[n] = _bracketed_root(k, a, a + width, fa, a + 0.5 * width, fm, dm)
+            n += 1
+            continue
+        n = _halved_roots(k, a, a + width, fa, fb, bound2, slack, out, n)
+        if n < 0:
+            return -1
+    return n
+
+
+@_jit
+def _verdict(
+    fa: float, fb: float, fm: float, dm: float, w: float, bound2: float, slack: float
+) -> int:
+    """Whether ``f`` has no root, exactly one, or perhaps more in an interval (a verdict).
+
+    ``fa``, ``fb``: ``f`` at its ends; ``fm``, ``dm``: ``f`` and ``f'`` at its middle;
+    ``w`` its width (rad); ``bound2 >= |f''|``; ``slack``: rounding of ``f``.
+    """
+    if (fa > 0.0) == (fb > 0.0):
+        if abs(fm) - 0.5 * w * abs(dm) - 0.125 * w * w * bound2 > slack:
+            return _ROOT_FREE
+    elif abs(dm) > 0.5 * w * bound2:
+        return _ONE_ROOT
+    return _UNDECIDED
+
+
+@_jit
+def _halved_roots(
+    k: np.ndarray,
+    a: float,
+    b: float,
+    fa: float,
+    fb: float,
+    bound2: float,
+    slack: float,
+    out: np.ndarray,
+    n: int,
+) -> int:
+    """:func:`sampled_roots` on ``[a, b]`` by halving.
+
+    Its roots go after ``out[:n]``; returns the new count, or -1 (undecided).
+    """
+    stack = np.empty((_STACK, 4))
+    stack[0, 0], stack[0, 1], stack[0, 2], stack[0, 3] = a, b, fa, fb
+    top = 1
     while top > 0:
         top -= 1
         a, b, fa, fb = stack[top, 0], stack[top, 1], stack[top, 2], stack[top, 3]
@@ -156,13 +225,13 @@ def sampled_roots(k: np.ndarray, out: np.ndarray) -> int:
         w = b - a
         m = 0.5 * (a + b)
         fm, dm = _trig2(k, m)
-        if (fa > 0.0) == (fb > 0.0):
-            if abs(fm) - 0.5 * w * abs(dm) - 0.125 * w * w * bound2 > slack:
-                continue
-        elif abs(dm) > 0.5 * w * bound2:
+        verdict = _verdict(fa, fb, fm, dm, w, bound2, slack)
+        if verdict == _ROOT_FREE:
+            continue
+        if verdict == _ONE_ROOT:
             if n == 4:
                 return -1
-            out[n] = _bracketed_root(k, a, b, fa)
+            out[n] = _bracketed_root(k, a, b, fa, m, fm, dm)
             n += 1
             continue
         if w < 1e-6 or top + 2 > _STACK:
@@ -174,27 +243,43 @@ def sampled_roots(k: np.ndarray, out: np.ndarray) -> int:
 
 
 @_jit
-def _bracketed_root(k: np.ndarray, a: float, b: float, fa: float) -> float:
+def _bracketed_root(
+    k: np.ndarray, a: float, b: float, fa: float, t: float, f: float, df: float
+) -> float:
     """The root of ``f`` in ``[a, b]`` (a sign change there, ``f`` monotone).
 
-    Newton's method, bisecting whenever a step leaves the bracket, to rounding.
+    Newton's method from ``t`` inside (``f``, ``df`` its value and slope there),
+    bisecting whenever a step leaves the bracket, to rounding.
     """
-    t = 0.5 * (a + b)
     for _ in range(100):
-        f, df = _trig2(k, t)
         if f == 0.0:
             return t
         if (f > 0.0) == (fa > 0.0):
             a = t
         else:
             b = t
+        rounding = 4e-16 * max(1.0, abs(t))
+        if b - a <= rounding:
+            return t
         step = t - f / df if df != 0.0 else 0.5 * (a + b)
+        if abs(step - t) <= rounding:
+            # At rounding; tested before the bracket, which a step that rounds to
+            # ``t`` (now one of its ends) would leave, bisecting on for nothing.
+            return step if a <= step <= b else t
         if not (a < step < b):
             step = 0.5 * (a + b)
-        if abs(step - t) <= 4e-16 * max(1.0, abs(t)):
-            return step
         t = step
+        f, df = _trig2(k, t)
     return t
+
+
+@_jit
+def _grid_value(k: np.ndarray, i: int) -> tuple[float, float]:
+    """``f`` and ``f'`` of :func:`trig2_roots` at the grid angle ``i`` (:data:`_GRID`)."""
+    c, s, c2, s2 = _GRID[i, 0], _GRID[i, 1], _GRID[i, 2], _GRID[i, 3]
+    f = k[0] + k[1] * c + k[2] * s + k[3] * c2 + k[4] * s2
+    df = -k[1] * s + k[2] * c - 2.0 * k[3] * s2 + 2.0 * k[4] * c2
+    return f, df
 
 
 @_jit
