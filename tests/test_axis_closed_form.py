@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 import optik
+from optik.analytic import family_of
 from optik.analytic.roll import axis_branches, rolled_poses
 from optik.spatial import rot_x, rot_y, rot_z
 
@@ -205,3 +206,103 @@ def test_drilling_path_on_the_ur5_is_continuous_with_the_closed_form(monkeypatch
     for q, T in zip(plan.q, holes, strict=True):
         position, angle = _axis_errors(robot, q, T)
         assert position <= EXACT and angle <= EXACT and _in_limits(robot, q)
+
+
+def _general_arm() -> optik.Robot:
+    """A spherical wrist after a general arm (the quartic of ``spherical_axes``) with a
+    turned, offset tool: the wrist centre moves with the roll, so some rolls are out of
+    reach, and the branches' wrists pass singularities along the roll."""
+    spec = [
+        (0.1, 60.0, 0.4, 0.2),
+        (0.5, 40.0, 0.1, 0.1),
+        (0.05, 75.0, 0.0, -0.3),
+        (0.0, -90.0, 0.45, 0.0),
+        (0.0, 90.0, 0.0, 0.3),
+        (0.0, 0.0, 0.1, 0.0),
+    ]
+    rows = [
+        {"a": a, "alpha": math.radians(al), "d": d, "theta": th, "lower": -3.2, "upper": 3.2}
+        for a, al, d, th in spec
+    ]
+    tool = np.eye(4)
+    tool[:3, :3] = rot_z(0.4) @ rot_x(-0.7)
+    tool[:3, 3] = (0.02, 0.03, 0.12)
+    return optik.Robot.from_dh(rows, tool=tool)
+
+
+def test_a_general_arm_with_an_offset_tool_solves_the_axis_task() -> None:
+    """Every answer exact and inside the limits; the source or one as near q0."""
+    robot = _general_arm()
+    assert family_of(robot).name == "spherical_axes"
+    for T, q_true, q0 in _targets(robot, seed=6, count=8):
+        (found,) = axis_branches(robot, T, 2, q0[None])
+        assert found.nearest
+        for q in [*found.nearest, *found.samples]:
+            position, angle = _axis_errors(robot, q, T)
+            assert position <= EXACT and angle <= EXACT and _in_limits(robot, q)
+        distances = [float(np.linalg.norm(q - q0)) for q in found.nearest]
+        assert distances == sorted(distances)
+        assert distances[0] <= float(np.linalg.norm(q_true - q0)) + 1e-9
+
+
+def test_the_roll_samples_skip_the_polish_the_batch_gives() -> None:
+    """Rolls out of reach have no branch: the batch of ``analytic_ik_batch`` polishes
+    each such pose (and finds none), the roll's own batch does not; on the others both
+    give the same branches."""
+    from optik.analytic import checked_batch
+
+    robot = _general_arm()
+    family = family_of(robot)
+    T = robot.fk(np.array([0.3, -0.5, 0.8, 0.2, 1.1, -0.4]))
+    poses = rolled_poses(T, 0, np.linspace(-math.pi, math.pi, 48, endpoint=False))
+    public = optik.analytic_ik_batch(robot, poses, within_limits=False)
+    fast = checked_batch(robot, family, poses, "pose", None, False, polish=False)
+    assert 0 < int(np.sum(public.counts == 0)) < len(poses)  # some rolls out of reach
+    np.testing.assert_array_equal(fast.counts, public.counts)
+    np.testing.assert_array_equal(fast.q, public.q)
+
+
+class _LineRoll:
+    """A one-joint stand-in for the roll: the configuration is the roll itself."""
+
+    def __init__(self, cost) -> None:
+        self.cost_of, self.calls = cost, 0
+
+    def branches(self, rolls: np.ndarray, refs: np.ndarray) -> np.ndarray:
+        self.calls += 1
+        return np.asarray(rolls, dtype=float)[:, None, None]
+
+    def cost(self, Q: np.ndarray, refs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return Q, self.cost_of(Q[:, 0])
+
+
+def _refined(cost, x0: float) -> tuple[float, float, int]:
+    from optik.analytic.roll import ROLL_GRID, _refine
+
+    h = 2 * math.pi / ROLL_GRID
+    line = _LineRoll(cost)
+    x = np.array([x0])
+    qx, fx = _refine(line, np.zeros((1, 1)), x, x[:, None], cost(x), cost(x - h), cost(x + h), h)
+    return float(qx[0, 0]), float(fx[0]), line.calls
+
+
+@pytest.mark.parametrize(
+    "cost",
+    [
+        lambda t: np.where(t < 0.3371, 5.0 + 10.0 * (0.3371 - t), 30.0),  # a jump
+        lambda t: np.where(t > 0.3371, 5.0 + 3.0 * np.sqrt(np.abs(t - 0.3371)), 30.0),
+    ],
+    ids=["linear then a jump", "a square-root cusp then a jump"],
+)
+def test_the_roll_search_finds_a_minimum_at_a_jump(cost) -> None:
+    """Where a branch's continuation ends (its wrist at a singularity) the distance falls
+    steeply to a jump. Golden sections find the jump to the roll tolerance within the
+    round limit (parabolas through the jump crept towards it and ran out of rounds,
+    3.7e-7 rad short); a smooth minimum still takes a few parabolic steps."""
+    from optik.analytic.roll import MAX_REFINE_ROUNDS, ROLL_TOLERANCE
+
+    x, fx, calls = _refined(cost, 0.3 if cost(np.array([0.3]))[0] < 30 else 0.36)
+    assert abs(x - 0.3371) <= ROLL_TOLERANCE and calls < MAX_REFINE_ROUNDS
+    assert fx == float(cost(np.array([x]))[0]) and fx < 5.01
+    x, fx, calls = _refined(lambda t: (t - 0.31) ** 2 + 0.1 * (t - 0.31) ** 4, 0.25)
+    assert abs(x - 0.31) < 1e-7 and fx < 1e-14 and calls <= 10

@@ -681,28 +681,49 @@ def analytic_ik_batch(
     family = _check_mode(robot, mode)
     within_limits = _check_within(within_limits)
     T = _batch_targets(targets, mode)
+    refs = _batch_refs(robot, q_ref, T.shape[0])
+    if mode == "position" and not places_tool_point(family, robot):
+        raise AnalyticIKError(
+            f"robot {robot.name!r}: position-only closed forms need a tool without offset"
+        )
+    return checked_batch(robot, family, T, mode, refs, within_limits, polish=True)
+
+
+def checked_batch(
+    robot: Robot,
+    family: AnalyticFamily,
+    T: FloatArray,
+    mode: str,
+    refs: FloatArray | None,
+    within_limits: bool,
+    *,
+    polish: bool,
+) -> AnalyticBatch:
+    """:func:`analytic_ik_batch` on checked arguments, with or without the polish.
+
+    ``T`` (N, 4, 4) valid world targets (of ``mode``), ``refs`` (1, dof), (N, dof) or
+    ``None``. With ``polish`` a target without a branch gets the single call's polish
+    (a degenerate pose, :func:`_degenerate`), so the batch gives what :func:`analytic_ik`
+    gives, target by target; without it such a target keeps none. A caller that samples
+    a continuum of targets (:mod:`optik.analytic.roll`) needs no polish: a pose where
+    rounding loses a branch is isolated, and unreachable poses, which have none, cost
+    a Gauss-Newton search each.
+    """
     N = T.shape[0]
     dof = robot.dof
-    refs = _batch_refs(robot, q_ref, N)
     pipeline = robot.cached(_compiled_plan) if mode == "pose" else None
     if pipeline is not None:
         ref = pipeline.mid.reshape(1, dof) if refs is None else _plain(refs)
         flags = (0 if refs is None else _SORT) | (_WITHIN_LIMITS if within_limits else 0)
         Q, counts = pipeline.solve_batch(pipeline.params, T, ref, flags)
-        # Rows without a branch get the single call's polish (degenerate poses), so the
-        # batch gives what analytic_ik gives, target by target.
-        for row in np.flatnonzero(counts == 0).tolist():
+        for row in np.flatnonzero(counts == 0).tolist() if polish else []:
             ref_k = ref[0 if len(ref) == 1 else row]
             found = _degenerate(robot, family, T[row], mode, ref_k, refs is not None, within_limits)
             for b, q in enumerate(found[: Q.shape[1]]):
                 Q[row, b] = q
             counts[row] = min(len(found), Q.shape[1])
         return AnalyticBatch(Q, counts)
-    if mode == "position" and not places_tool_point(family, robot):
-        raise AnalyticIKError(
-            f"robot {robot.name!r}: position-only closed forms need a tool without offset"
-        )
-    results = _python_family_batch(robot, family, T, mode, refs, within_limits)
+    results = _python_family_batch(robot, family, T, mode, refs, within_limits, polish)
     width = max([_compiled.MAX_BRANCHES, *(len(r) for r in results)])
     Q = np.full((N, width, dof), math.nan)
     counts = np.zeros(N, dtype=np.int64)
@@ -720,12 +741,14 @@ def _python_family_batch(
     mode: str,
     refs: FloatArray | None,
     within_limits: bool,
+    polish: bool,
 ) -> list[list[FloatArray]]:
     """:func:`analytic_ik` of each target of ``T`` (N, 4, 4) for a family run in Python.
 
     The closed form runs per target; its rows' wrap, limits and FK check run once over
     the batch (:func:`optik.analytic._steps.finish_batch`), which gives each target the
-    branches :func:`analytic_ik` gives it alone, in the same order.
+    branches :func:`analytic_ik` gives it alone, in the same order (with ``polish``, as
+    :func:`checked_batch`).
     """
     N = T.shape[0]
     R = np.broadcast_to(robot.mid_limits if refs is None else refs, (N, robot.dof))
@@ -737,7 +760,7 @@ def _python_family_batch(
     ]
     sort = refs is not None
     results = finish_batch(robot, raws, T, mode, R, sort, within_limits)
-    for k in range(N):
+    for k in range(N) if polish else []:
         if not results[k] and not beyond[k]:
             results[k] = _degenerate(robot, family, T[k], mode, R[k], sort, within_limits, raws[k])
     return results

@@ -11,7 +11,10 @@ compiled call of :func:`optik.analytic.analytic_ik_batch`), links the samples of
 neighbouring rolls into continuations of the branches (nearest configuration, angles
 compared modulo 2π), and refines every local minimum of ``||q(θ) − q_ref||²`` along its
 continuation by a bracketed one-dimensional search over θ (parabolic steps safeguarded
-by golden sections, batched over all minima).
+by golden sections as in Brent's method, and golden sections alone where the distance
+jumps: a continuation that ends at a wrist singularity; batched over all minima). The
+rolled poses skip the polish :func:`optik.analytic.analytic_ik_batch` gives a pose
+without a branch (:func:`optik.analytic.checked_batch`): a roll out of reach has none.
 
 What is guaranteed: every configuration returned is a closed-form branch of one rolled
 pose, verified by forward kinematics there (:data:`optik.analytic.VERIFY_TOLERANCE`), so it
@@ -30,7 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from optik._checks import FloatArray
-from optik.analytic import analytic_ik_batch, wrap_into_limits
+from optik.analytic import checked_batch, family_of, wrap_into_limits
 from optik.analytic._base import DUPLICATE_TOLERANCE, AnalyticFamily
 from optik.model import Robot
 from optik.task import Task
@@ -113,7 +116,7 @@ class _Roll:
         ``refs[n]`` (so ``[:, 0]`` continues ``refs``); limits are not applied here.
         """
         poses = rolled_poses(self.T, self.axis, rolls)
-        return analytic_ik_batch(self.robot, poses, "pose", q_ref=refs, within_limits=False).q
+        return _pose_branches(self.robot, poses, refs)
 
     def inside(self, Q: FloatArray) -> np.ndarray:
         """Whether each configuration (..., dof) is finite and inside the bounds."""
@@ -132,6 +135,20 @@ class _Roll:
         D = np.where(self.revolute, np.remainder(D + math.pi, 2.0 * math.pi) - math.pi, D)
         with np.errstate(invalid="ignore"):
             return np.max(np.abs(D), axis=-1)
+
+
+def _pose_branches(robot: Robot, poses: FloatArray, refs: FloatArray | None) -> FloatArray:
+    """Every branch (N, B, dof) of the rolled ``poses`` (N, 4, 4), limits not applied.
+
+    :func:`optik.analytic.analytic_ik_batch` without its arguments' checks (the poses
+    are a validated target turned) and without the polish of poses that have no
+    branch (:func:`optik.analytic.checked_batch`): the roll is sampled, and where it
+    has no branch (a roll out of reach) the polish would search in vain. With ``refs``
+    (1 or N, dof) each pose's branches are wrapped and sorted nearest its reference.
+    """
+    family = family_of(robot)
+    assert family is not None  # solves_axis_task() admitted the robot
+    return checked_batch(robot, family, poses, "pose", refs, False, polish=False).q
 
 
 def _links(roll: _Roll, Q: FloatArray) -> tuple[np.ndarray, np.ndarray]:
@@ -180,8 +197,12 @@ def _refine(
     a, b = x - h, x + h
     x, qx, fx = x.copy(), qx.copy(), fx.copy()
     fa, fb = fa.copy(), fb.copy()
+    # Brent's safeguard: a parabolic step must be shorter than half the step before the
+    # last one, else a golden section, which shrinks the bracket by 0.618 at the least.
+    last = np.full(len(x), h)
+    before_last = np.full(len(x), 2.0 * h)
     open_ = np.ones(len(x), dtype=bool)
-    for round_ in range(MAX_REFINE_ROUNDS):
+    for _ in range(MAX_REFINE_ROUNDS):
         open_ &= b - a > ROLL_TOLERANCE
         active = np.flatnonzero(open_)
         if active.size == 0:
@@ -193,13 +214,24 @@ def _refine(
             r = (X - A) * (FX - FB)
             p = (X - Bv) * (FX - FA)
             u = X - 0.5 * ((X - A) * r - (X - Bv) * p) / (r - p)
-        golden = np.where(Bv - X > X - A, X + _GOLDEN * (Bv - X), X - _GOLDEN * (X - A))
+        right = Bv - X > X - A
+        golden = np.where(right, X + _GOLDEN * (Bv - X), X - _GOLDEN * (X - A))
         room = 0.01 * (Bv - A)
-        usable = np.isfinite(u) & (u > A + room) & (u < Bv - room) & (round_ % 3 != 2)
+        usable = np.isfinite(u) & (u > A + room) & (u < Bv - room)
+        usable &= np.abs(u - X) < 0.5 * before_last[active]
+        # Nor where the two sides' curvatures differ a hundredfold: the cost jumps there
+        # (a continuation ends at a wrist singularity, falling steeply towards it), and a
+        # parabola through the jump creeps towards it; golden sections find it.
+        with np.errstate(invalid="ignore", over="ignore"):
+            left_curv = (FA - FX) * (Bv - X) ** 2
+            right_curv = (FB - FX) * (X - A) ** 2
+        usable &= (left_curv <= 100.0 * right_curv) & (right_curv <= 100.0 * left_curv)
         # A parabolic step shorter than the tolerance: the minimum is found.
         settled = usable & (np.abs(u - X) < ROLL_TOLERANCE)
         open_[active[settled]] = False
+        before_last[active] = np.where(usable, last[active], np.where(right, Bv - X, X - A))
         u = np.where(usable, u, golden)
+        last[active] = np.abs(u - X)
         Q = roll.branches(u, qx[active])
         qu, fu = roll.cost(Q[:, 0], refs[active])
         better = fu < FX
@@ -326,7 +358,7 @@ def grid_branches(
     poses = rolled_poses(T_target, axis, rolls)
     ref = np.broadcast_to(np.asarray(q_ref, dtype=float).reshape(dof), (grid, dof))
     # The compiled pipeline wraps every branch into the limits nearest the reference.
-    Q = analytic_ik_batch(robot, poses, "pose", q_ref=ref, within_limits=False).q
+    Q = _pose_branches(robot, poses, ref)
     Q = Q.reshape(-1, dof)
     Q = Q[np.all(np.isfinite(Q), axis=1)]
     lo = robot.lower if lower is None else lower
