@@ -2,10 +2,11 @@
 
 The wheel is built as ``pip install .`` builds it (the build hook ``hatch_build.py`` runs
 ``optik._warmup``), installed into a folder of its own, and a fresh process then makes
-the first ``solve_ik`` on the Puma 560 (closed form) and the Panda (numeric) and the
-first ``solve_ik_batch``. The answers are checked here from forward kinematics, and the
-process must have compiled no kernel: every one came from the wheel. Times are reported
-by ``benchmarks/bench_first_call.py``, never asserted.
+the first ``solve_ik`` on the Puma 560 (closed form) and the Panda (numeric), the first
+``solve_ik_batch``, and the Panda's closed form with joint 7 held. The answers are
+checked here from forward kinematics, and the process must have compiled no kernel:
+every one came from the wheel. Times are reported by ``benchmarks/bench_first_call.py``,
+never asserted.
 """
 
 from __future__ import annotations
@@ -50,11 +51,13 @@ Q = rng.uniform(panda.lower, panda.upper, size=(32, panda.dof))
 a = optik.solve_ik(puma, T_puma)
 b = optik.solve_ik(panda, T_panda)
 c = optik.solve_ik_batch(panda, panda.fk(Q))
+d = optik.solve_ik(panda, T_panda, frozen={"panda_joint7": 0.5})
 print(json.dumps({
     "package": optik.__file__,
     "puma": [a.status, a.solver, a.q.tolist()],
     "panda": [b.status, b.solver, b.q.tolist()],
     "batch": [c.success.tolist(), c.q.tolist()],
+    "held": [d.status, d.solver, d.q.tolist()],
     "compiled": compiled,
 }))
 """
@@ -73,7 +76,7 @@ def test_a_wheel_built_from_the_checkout_ships_every_kernel_of_the_first_calls(
 ) -> None:
     env = {k: v for k, v in os.environ.items() if k not in ("NUMBA_CACHE_DIR", "OPTIK_WARMUP")}
     # The groups behind the calls checked here (the whole warm-up is the README's install).
-    env["OPTIK_WARMUP_GROUPS"] = "closed_forms,numeric,batch"
+    env["OPTIK_WARMUP_GROUPS"] = "closed_forms,numeric,batch,held_joint"
     wheels = tmp_path / "wheels"
     # This environment has the build's requirements (the build hook imports optik).
     subprocess.run(
@@ -115,6 +118,9 @@ def test_a_wheel_built_from_the_checkout_ships_every_kernel_of_the_first_calls(
     assert np.all(panda.lower <= q) and np.all(np.array(q) <= panda.upper)
     rng = np.random.default_rng(0)
     Q = rng.uniform(panda.lower, panda.upper, size=(32, panda.dof))
+    status, solver, q = out["held"]  # the Panda's closed form with joint 7 held
+    assert (status, solver) == ("converged", "analytic") and q[6] == 0.5
+    assert max(_pose_errors(panda, np.array(q), T)) < 1e-9
     success, answers = out["batch"]
     assert sum(success) >= 31
     for ok, q_answer, q_source in zip(success, answers, Q, strict=True):

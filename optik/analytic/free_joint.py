@@ -224,9 +224,11 @@ def _candidates_into(
     M[3, 0] = M[3, 1] = M[3, 2] = 0.0
     M[3, 3] = 1.0
     tols = params[AT_TOLS:]
-    if params[AT_REVERSE] == 0.0:
-        n = pair_wrist_candidates(z, p, M, T, r6, tols, six)
-    else:
+    reverse = params[AT_REVERSE] != 0.0
+    # One call site of the closed form for both readings: numba links a callee's code
+    # into its caller, and a second site doubled the compile time of the pipelines.
+    zs, ps, home, target, reference = z, p, M, T, r6
+    if reverse:
         # Read backwards: axes seen from the tool at q = 0, reversed, in reverse order;
         # target T^-1, home M^-1.
         Mi = frames[1]
@@ -244,7 +246,9 @@ def _candidates_into(
                 pr[i, a] = (
                     Mi[a, 0] * p[src, 0] + Mi[a, 1] * p[src, 1] + Mi[a, 2] * p[src, 2] + Mi[a, 3]
                 )
-        n = pair_wrist_candidates(zr, pr, Mi, Ti, rr, tols, six)
+        zs, ps, home, target, reference = zr, pr, Mi, Ti, rr
+    n = pair_wrist_candidates(zs, ps, home, target, reference, tols, six)
+    if reverse:
         for r in range(n):
             for i in range(3):
                 six[r, i], six[r, 5 - i] = six[r, 5 - i], six[r, i]

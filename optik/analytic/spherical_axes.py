@@ -234,15 +234,17 @@ def pack_axes_params(robot: Robot, plan: AxesPlan) -> FloatArray:
 
 
 @_jit
-def _scratch(params: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """``(z, p, M, work)`` of :func:`_candidates_into`, made once per call or batch.
+def _scratch(
+    params: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(z, p, M, Ti, work)`` of :func:`_candidates_into`, made once per call or batch.
 
     ``z``, ``p`` (6, 3) and ``M`` (4, 4) the axes and tool of the chain solved (copied
-    from ``params``); ``work`` (3, 8, 6): the inverse target (in its first rows), the
-    reversed reference and the branches of the chain read backwards.
+    from ``params``); ``Ti`` (4, 4) the inverse target; ``work`` (2, 8, 6): the reversed
+    reference and the branches of the chain read backwards.
     """
     z, p, M = axes_block(params, AT_DIRECTIONS, DOF)
-    return z, p, M, np.empty((3, MAX_BRANCHES, DOF))
+    return z, p, M, np.empty((4, 4)), np.empty((2, MAX_BRANCHES, DOF))
 
 
 @_jit
@@ -251,28 +253,32 @@ def _candidates_into(
     T: np.ndarray,
     ref: np.ndarray,
     rows: np.ndarray,
-    scratch: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+    scratch: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray],
 ) -> int:
     """Raw branches of world target ``T`` (4, 4) into ``rows`` (>= 8, 6), in joint order.
 
     Read backwards (``params[AT_REVERSE]``) the chain's target is ``T^-1``, its
     reference ``ref`` reversed, and its branches are turned back into the robot's order.
+    One call site of :func:`axes_candidates` for both readings: numba links a callee's
+    code into its caller, and a second site doubled the compile time of every pipeline
+    above it (the six arm kernels optimised again).
     """
-    z, p, M, work = scratch
+    z, p, M, Ti, work = scratch
     kind = int(params[AT_ARM])
     tols = params[AT_TOLS:]
-    if params[AT_REVERSE] == 0.0:
-        return axes_candidates(z, p, M, T, ref, kind, tols, rows)
-    Ti = work[0, :4, :4]
-    inverse_into(T, Ti)
-    back = work[1, 0]
-    for j in range(DOF):
-        back[j] = ref[DOF - 1 - j]
-    cand = work[2]
-    n = axes_candidates(z, p, M, Ti, back, kind, tols, cand)
-    for r in range(n):
+    reverse = params[AT_REVERSE] != 0.0
+    target, reference, out = T, ref, rows
+    if reverse:
+        inverse_into(T, Ti)
+        back = work[0, 0]
         for j in range(DOF):
-            rows[r, j] = cand[r, DOF - 1 - j]
+            back[j] = ref[DOF - 1 - j]
+        target, reference, out = Ti, back, work[1]
+    n = axes_candidates(z, p, M, target, reference, kind, tols, out)
+    if reverse:
+        for r in range(n):
+            for j in range(DOF):
+                rows[r, j] = out[r, DOF - 1 - j]
     return n
 
 
