@@ -176,6 +176,27 @@ def as_modified_dh(dh: Robot) -> Robot:
     return Robot.from_mdh(rows, name=f"{dh.name}_mdh", base=dh.T_world_base, tool=tool)
 
 
+GENERAL_ARM = [
+    (0.1, 60.0, 0.4, 0.2),
+    (0.5, 40.0, 0.1, 0.1),
+    (0.05, 75.0, 0.0, -0.3),
+    (0.0, -90.0, 0.45, 0.0),
+    (0.0, 90.0, 0.0, 0.3),
+    (0.0, 0.0, 0.1, 0.0),
+]
+"""Standard DH rows (a m, alpha deg, d m, theta rad): a general arm, a spherical wrist
+(the quartic of ``spherical_axes``, :mod:`optik.analytic.general_arm`)."""
+
+
+def general_arm(limit: float = 4.0, tool: np.ndarray | None = None) -> Robot:
+    """The arm of :data:`GENERAL_ARM`, joints in ``[-limit, limit]`` rad, with ``tool``."""
+    rows = [
+        {"a": a, "alpha": math.radians(al), "d": d, "theta": th, "lower": -limit, "upper": limit}
+        for a, al, d, th in GENERAL_ARM
+    ]
+    return Robot.from_dh(rows, name="general", tool=tool)
+
+
 def random_q(robot: Robot, rng: np.random.Generator, n: int | None = None) -> np.ndarray:
     """Configurations inside the limits: uniform over a finite range, [-pi, pi] if unbounded.
 

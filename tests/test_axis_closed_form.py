@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import general_arm
 
 import optik
 from optik.analytic import family_of
@@ -212,22 +213,10 @@ def _general_arm() -> optik.Robot:
     """A spherical wrist after a general arm (the quartic of ``spherical_axes``) with a
     turned, offset tool: the wrist centre moves with the roll, so some rolls are out of
     reach, and the branches' wrists pass singularities along the roll."""
-    spec = [
-        (0.1, 60.0, 0.4, 0.2),
-        (0.5, 40.0, 0.1, 0.1),
-        (0.05, 75.0, 0.0, -0.3),
-        (0.0, -90.0, 0.45, 0.0),
-        (0.0, 90.0, 0.0, 0.3),
-        (0.0, 0.0, 0.1, 0.0),
-    ]
-    rows = [
-        {"a": a, "alpha": math.radians(al), "d": d, "theta": th, "lower": -3.2, "upper": 3.2}
-        for a, al, d, th in spec
-    ]
     tool = np.eye(4)
     tool[:3, :3] = rot_z(0.4) @ rot_x(-0.7)
     tool[:3, 3] = (0.02, 0.03, 0.12)
-    return optik.Robot.from_dh(rows, tool=tool)
+    return general_arm(limit=3.2, tool=tool)
 
 
 def test_a_general_arm_with_an_offset_tool_solves_the_axis_task() -> None:

@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 import pytest
-from conftest import joint_distance, reference_fk, reference_frames
+from conftest import general_arm, joint_distance, reference_fk, reference_frames
 from scipy.optimize import brentq, least_squares
 
 from optik import Robot
@@ -144,23 +144,8 @@ def test_first_harmonic_only_and_no_equation() -> None:
     assert len(_roots(np.array([2.0, 1.0, 0.0, 0.0, 0.0]))) == 0
 
 
-GENERAL_ARM = [
-    (0.1, 60.0, 0.4, 0.2),
-    (0.5, 40.0, 0.1, 0.1),
-    (0.05, 75.0, 0.0, -0.3),
-    (0.0, -90.0, 0.45, 0.0),
-    (0.0, 90.0, 0.0, 0.3),
-    (0.0, 0.0, 0.1, 0.0),
-]
-"""Standard DH rows (a m, alpha deg, d m, theta rad): a general arm, a spherical wrist."""
-
-
 def _general_robot() -> Robot:
-    rows = [
-        {"a": a, "alpha": math.radians(al), "d": d, "theta": th, "lower": -4.0, "upper": 4.0}
-        for a, al, d, th in GENERAL_ARM
-    ]
-    robot = Robot.from_dh(rows, name="general")
+    robot = general_arm()
     assert axes_plan(robot).kind == GENERAL
     return robot
 
