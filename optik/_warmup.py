@@ -5,9 +5,10 @@ its on-disk cache (``__pycache__`` beside the sources), so only the first proces
 about a minute of CPU for the kernels behind ``solve_ik``, ``solve_ik_batch`` and
 ``optik report --quick``. :func:`warm` pays it ahead: it runs the calls of :data:`GROUPS`
 in worker processes (two stages: groups whose kernels overlap little side by side, then
-the rest on what they compiled), and merges the kernels into the package's cache.
-``optik warmup`` runs it; the wheel's build hook (``hatch_build.py``) runs it with a
-staging folder and ships the merged cache in the wheel.
+the rest on what they compiled), and merges the kernels into the package's cache; the
+groups of :data:`OPTIONAL` (closed forms that compile too long for every install) run
+only when named. ``optik warmup`` runs it; the wheel's build hook (``hatch_build.py``)
+runs it with a staging folder and ships the merged cache in the wheel.
 
 Each worker compiles into a cache folder of its own (``NUMBA_CACHE_DIR``): numba's cache
 is safe for one writer, but two processes that compile different signatures of one
@@ -43,9 +44,12 @@ __all__ = [
     "GROUPS",
     "GROUPS_ENV",
     "LAST",
+    "OPTIONAL",
     "WarmReport",
+    "axes_arm_robot",
     "merge_caches",
     "plan_stages",
+    "rrp_wrist_robot",
     "run_groups",
     "warm",
 ]
@@ -101,23 +105,53 @@ def _held_joint() -> None:
     optik.solve_ik(panda, target, frozen={held: value})
 
 
-def _rrp_wrist() -> None:
-    """A Stanford arm solved by ``rrp_wrist``, the family of such arms from URDF or MDH.
-
-    (The general arms of ``spherical_axes`` are left out: their pipeline compiles in
-    about 35 s of CPU, more than the install can spare; their first call compiles it.)
-    """
+def rrp_wrist_robot() -> Any:
+    """The Stanford arm with ``rrp_wrist`` declared (its DH rows fit the DH family too)."""
     import optik
 
     stanford = _problem_robot("stanford_arm")
-    robot = optik.Robot.from_dh(
+    return optik.Robot.from_dh(
         stanford.dh,
         limits=list(zip(stanford.lower.tolist(), stanford.upper.tolist(), strict=True)),
         base=stanford.T_world_base,
         tool=stanford.T_flange_tool,
         analytic="rrp_wrist",
     )
+
+
+def _rrp_wrist() -> None:
+    """A Stanford arm solved by ``rrp_wrist``, the family of such arms from URDF or MDH."""
+    import optik
+
+    robot = rrp_wrist_robot()
     optik.analytic_ik(robot, _targets(robot, 1, 6)[0])
+
+
+def axes_arm_robot() -> Any:
+    """A spherical wrist after a general arm (twists of 40-75 deg): ``spherical_axes``."""
+    import math
+
+    import optik
+
+    rows = [(0.1, 1.05, 0.4), (0.5, 0.7, 0.1), (0.05, 1.3, 0.0)]
+    rows += [(0.0, -math.pi / 2, 0.45), (0.0, math.pi / 2, 0.0), (0.0, 0.0, 0.1)]
+    return optik.Robot.from_dh(
+        [{"a": a, "alpha": alpha, "d": d, "lower": -3.0, "upper": 3.0} for a, alpha, d in rows]
+    )
+
+
+def _axes_arms() -> None:
+    """A spherical wrist after a general arm: the ``spherical_axes`` pipeline.
+
+    ``analytic_ik`` and ``analytic_ik_batch``: one pipeline for every arm kind of
+    ``spherical_axes`` and ``three_parallel``.
+    """
+    import optik
+
+    robot = axes_arm_robot()
+    targets = _targets(robot, 2, 7)
+    optik.analytic_ik(robot, targets[0])
+    optik.analytic_ik_batch(robot, targets)
 
 
 def _closed_form_batches() -> None:
@@ -201,13 +235,20 @@ def _report() -> None:
 GROUPS: dict[str, Callable[[], None]] = {
     "closed_forms": _closed_forms,
     "closed_form_batches": _closed_form_batches,
-    "held_joint": _held_joint,
     "rrp_wrist": _rrp_wrist,
     "kinematics": _kinematics,
     "numeric": _numeric,
     "batch": _batch,
     "programs": _programs,
     "report": _report,
+}
+
+#: Groups run only when named (``optik warmup --groups``, ``$OPTIK_WARMUP_GROUPS``), after
+#: the others: closed forms whose pipeline compiles too long for every install (about 11
+#: and 34 s of CPU), left to their first call unless asked for here.
+OPTIONAL: dict[str, Callable[[], None]] = {
+    "held_joint": _held_joint,
+    "axes_arms": _axes_arms,
 }
 
 #: Groups compiled side by side first, a worker each (with two workers): the kernels of
@@ -220,27 +261,32 @@ FIRST: tuple[tuple[str, ...], ...] = (
 )
 #: Groups run last, side by side, each worker starting from every kernel compiled before:
 #: the report calls nearly every kernel and compiles only what the first stage left (and
-#: its ``casadi:*`` programs' C code, cached outside the package); the held joint's
-#: pipeline shares the closed forms' pieces compiled by then (about 11 s of its own, 18 s
-#: beside the first stage's damped least squares); the closed forms' batches find nearly
-#: every kernel compiled (a single target's share the batch's signatures) and compile
-#: what is left (about 15 and 5 s).
-LAST: tuple[tuple[str, ...], ...] = (("report", "held_joint"), ("closed_form_batches",))
+#: its ``casadi:*`` programs' C code, cached outside the package); the closed forms'
+#: batches beside it find nearly every kernel compiled (a single target's share the
+#: batch's signatures) and compile what is left. :data:`OPTIONAL` groups named join this
+#: stage, spread over its workers (they share the closed forms' pieces compiled by then).
+LAST: tuple[tuple[str, ...], ...] = (("report",), ("closed_form_batches",))
 
 
 def _check_groups(names: Sequence[str]) -> Sequence[str]:
-    """``names``, if every one is a group of :data:`GROUPS`; else ValueError."""
-    unknown = [name for name in names if name not in GROUPS]
+    """``names``, if every one names a group (:data:`GROUPS`, :data:`OPTIONAL`).
+
+    Raises:
+        ValueError: an unknown name (the known ones listed).
+    """
+    known = {**GROUPS, **OPTIONAL}
+    unknown = [name for name in names if name not in known]
     if unknown:
-        raise ValueError(f"unknown warm-up groups {unknown}; known: {sorted(GROUPS)}")
+        raise ValueError(f"unknown warm-up groups {unknown}; known: {sorted(known)}")
     return names
 
 
 def run_groups(names: Sequence[str]) -> None:
-    """Run the calls of :data:`GROUPS` named ``names`` in this process."""
+    """Run the calls of the groups named ``names`` (:data:`GROUPS`, :data:`OPTIONAL`) here."""
     _check_groups(names)
+    known = {**GROUPS, **OPTIONAL}
     for name in names:
-        GROUPS[name]()
+        known[name]()
 
 
 def _package_folders(package: Path) -> list[Path]:
@@ -357,10 +403,18 @@ GROUPS_ENV = "OPTIK_WARMUP_GROUPS"
 def plan_stages(processes: int, groups: Sequence[str] | None = None) -> list[list[tuple[str, ...]]]:
     """The workers' groups, stage by stage, for ``processes`` workers side by side.
 
-    ``groups`` keeps only those groups (default: every one of :data:`GROUPS`).
+    ``groups`` keeps only those groups (default: every one of :data:`GROUPS`); the
+    :data:`OPTIONAL` ones among them join the last stage, one per worker in turn.
     """
     keep = set(GROUPS) if groups is None else set(_check_groups(groups))
     first, last = _only(FIRST, keep), _only(LAST, keep)
+    workers = list(last)
+    for i, name in enumerate(name for name in OPTIONAL if name in keep):
+        if i < len(workers):
+            workers[i] += (name,)
+        else:
+            workers.append((name,))
+    last = tuple(workers)
     if processes <= 1:
         stages = [[tuple(name for stage in (first, last) for w in stage for name in w)]]
     else:
@@ -434,8 +488,9 @@ def warm(
             environment look: ``NUMBA_CACHE_DIR`` when it is set, else the package's own
             ``__pycache__`` folders).
         processes: worker processes side by side (default 2).
-        groups: the groups of :data:`GROUPS` to run (default: those named in
-            ``$OPTIK_WARMUP_GROUPS``, comma-separated, else all).
+        groups: the groups of :data:`GROUPS` and :data:`OPTIONAL` to run (default:
+            those named in ``$OPTIK_WARMUP_GROUPS``, comma-separated, else every one of
+            :data:`GROUPS`).
         package: the ``optik`` package folder the workers import.
         log: called with a line per finished worker (default: nothing).
 

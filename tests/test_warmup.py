@@ -22,6 +22,7 @@ from optik._warmup import (
     FIRST,
     GROUPS,
     LAST,
+    OPTIONAL,
     WarmReport,
     _count_entries,
     merge_caches,
@@ -29,6 +30,7 @@ from optik._warmup import (
     run_groups,
 )
 from optik.cli import main
+from optik.problems import load_problem
 
 TOY = textwrap.dedent(
     """
@@ -248,3 +250,35 @@ def test_the_build_requires_what_the_warm_up_imports() -> None:
     assert set(data["project"]["dependencies"]) <= requires
     hook = data["tool"]["hatch"]["build"]["targets"]["wheel"]["hooks"]["custom"]
     assert hook == {"path": "hatch_build.py"}
+
+
+@pytest.mark.parametrize("processes", [1, 2, 3])
+def test_optional_groups_run_only_when_named_and_last(processes: int) -> None:
+    """``held_joint`` and ``axes_arms`` are not the install's; named, they join the last
+    stage (after the closed forms' pieces they share), one per worker in turn."""
+    default = [name for stage in plan_stages(processes) for w in stage for name in w]
+    assert not set(OPTIONAL) & set(default)
+    named = [*GROUPS, *OPTIONAL]
+    stages = plan_stages(processes, named)
+    planned = [name for stage in stages for worker in stage for name in worker]
+    assert sorted(planned) == sorted(named)
+    if processes == 2:
+        assert stages[-1] == [("report", "held_joint"), ("closed_form_batches", "axes_arms")]
+    assert plan_stages(processes, ["axes_arms"]) == [[("axes_arms",)]]
+
+
+def test_the_optional_groups_warm_the_families_they_name() -> None:
+    """Each group's robot is solved by the family whose kernels it is meant to compile."""
+    from optik._warmup import axes_arm_robot, rrp_wrist_robot
+    from optik.analytic import family_of, free_joint_reason
+
+    assert family_of(axes_arm_robot()).name == "spherical_axes"
+    assert family_of(rrp_wrist_robot()).name == "rrp_wrist"
+    panda = load_problem("panda").robot
+    assert free_joint_reason(panda, panda.joint_names[6]) == ""
+
+
+def test_the_command_refuses_an_unknown_group(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["warmup", "--groups", "closed_forms,no-such-group"]) == 2
+    err = capsys.readouterr().err
+    assert "unknown warm-up groups ['no-such-group']" in err and "axes_arms" in err

@@ -10,14 +10,22 @@ from optik.cli._common import EXIT_OK, command
 
 
 def _cmd_warmup(args: argparse.Namespace) -> int:
-    from optik._warmup import warm
+    from optik._warmup import GROUPS, OPTIONAL, warm
 
     processes = args.processes
     if processes < 1:
         from optik.errors import OptikError
 
         raise OptikError(f"--processes must be at least 1, got {processes}")
-    report = warm(processes=processes, log=lambda line: print(line, file=sys.stderr))
+    groups = [name for name in args.groups.split(",") if name] if args.groups else None
+    if groups is not None:
+        known = sorted({*GROUPS, *OPTIONAL})
+        unknown = [name for name in groups if name not in known]
+        if unknown:
+            from optik.errors import OptikError
+
+            raise OptikError(f"--groups: unknown warm-up groups {unknown}; known: {known}")
+    report = warm(processes=processes, groups=groups, log=lambda line: print(line, file=sys.stderr))
     print(
         f"{report.compiled} kernels compiled in {report.seconds:.1f} s, "
         f"{report.kernels} of them new to the cache"
@@ -35,8 +43,12 @@ def add_warmup_command(sub: Any) -> None:
         "compiles the kernels of the common calls now, in worker processes side by side, "
         "into the installed package's cache (or NUMBA_CACHE_DIR when set). A wheel built "
         "with pip from the sources already carries them; run this after an install from "
-        "a wheel built elsewhere, or in an editable checkout.",
-        "  optik warmup\n  optik warmup --processes 1\n",
+        "a wheel built elsewhere, or in an editable checkout. --groups names the groups "
+        "(default: the install's); held_joint (seven-joint arms with a joint held, about "
+        "11 s of CPU) and axes_arms (the spherical_axes and three_parallel families, about "
+        "35 s) are compiled only when named.",
+        "  optik warmup\n  optik warmup --processes 1\n"
+        "  optik warmup --groups held_joint,axes_arms\n",
     )
     p.add_argument(
         "--processes",
@@ -44,5 +56,11 @@ def add_warmup_command(sub: Any) -> None:
         default=2,
         metavar="N",
         help="worker processes compiling side by side (no unit; default 2)",
+    )
+    p.add_argument(
+        "--groups",
+        metavar="NAMES",
+        help="comma-separated warm-up groups to compile (no unit; default: the install's "
+        "groups, or $OPTIK_WARMUP_GROUPS)",
     )
     p.set_defaults(func=_cmd_warmup)
