@@ -1,7 +1,8 @@
 """The tool-axis task on closed-form robots: the roll's closed form against ``dls``.
 
 Run: ``python benchmarks/bench_axis_roll.py [-n 200] [--seed 5] [--rounds 3]
-[--robots ur5,puma560]``.
+[--robots ur5,puma560]``; ``--robots general_arm`` takes a spherical wrist after a general
+arm (:data:`GENERAL_ARM`).
 
 Targets: the FK poses of ``n`` configurations drawn uniformly inside the limits, each
 turned by a uniform random roll about its tool z axis (reachable in ``mode="axis"`` by
@@ -63,9 +64,24 @@ def _targets(robot: optik.Robot, n: int, seed: int) -> list[tuple[np.ndarray, np
     return out
 
 
+GENERAL_ARM = "general_arm"
+"""The name of a robot that is no problem: ``bench_general_arm``'s "no parallel, no
+intersecting" arm (``spherical_axes``, the quartic) with its moved base and offset tool,
+whose rolls leave reach and whose branches meet wrist singularities along the roll."""
+
+
+def _robot(name: str) -> optik.Robot:
+    """A problem's robot, or the general arm (:data:`GENERAL_ARM`)."""
+    if name == GENERAL_ARM:
+        from bench_general_arm import ARMS, build
+
+        return build(ARMS["no parallel, no intersecting"])
+    return optik.load_problem(name).robot
+
+
 def bench(name: str, n: int, seed: int, rounds: int) -> None:
     """Time the three kinds on robot ``name`` and print one row per kind."""
-    robot = optik.load_problem(name).robot
+    robot = _robot(name)
     targets = _targets(robot, n, seed)
     calls: dict[str, Callable[[np.ndarray, np.ndarray], optik.IKResult]] = {
         "closed form": lambda T, q0: optik.solve_ik(robot, T, mode="axis", q0=q0),
@@ -116,7 +132,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("-n", type=int, default=200, help="targets per robot (no unit)")
     parser.add_argument("--seed", type=int, default=5, help="target seed (no unit)")
     parser.add_argument("--rounds", type=int, default=3, help="passes over the targets")
-    parser.add_argument("--robots", default="ur5,puma560", help="comma-separated problems")
+    parser.add_argument(
+        "--robots",
+        default="ur5,puma560",
+        help=f"comma-separated problems, or {GENERAL_ARM!r} (see the module)",
+    )
     args = parser.parse_args(argv)
     print(f"optik {optik.__version__}, Python {platform.python_version()}, {sys.platform}")
     print(f"load average before: {os.getloadavg()}")
