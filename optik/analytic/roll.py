@@ -12,15 +12,20 @@ neighbouring rolls into continuations of the branches (nearest configuration, an
 compared modulo 2π), and refines every local minimum of ``||q(θ) − q_ref||²`` along its
 continuation by a bracketed one-dimensional search over θ (parabolic steps safeguarded
 by golden sections as in Brent's method, and golden sections alone where the distance
-jumps: a continuation that ends at a wrist singularity; batched over all minima). The
-rolled poses skip the polish :func:`optik.analytic.analytic_ik_batch` gives a pose
-without a branch (:func:`optik.analytic.checked_batch`): a roll out of reach has none.
+jumps: a continuation that ends at a wrist singularity; batched over all minima). Where
+the number of branches changes between two grid rolls (a fold, where a pair of branches
+is born or dies), the interval is sampled :data:`FOLD_SAMPLES` times finer and its
+sample nearest each reference is refined too: a branch living on less than a grid step
+is searched as well. The rolled poses skip the polish
+:func:`optik.analytic.analytic_ik_batch` gives a pose without a branch
+(:func:`optik.analytic.checked_batch`): a roll out of reach has none.
 
 What is guaranteed: every configuration returned is a closed-form branch of one rolled
 pose, verified by forward kinematics there (:data:`optik.analytic.VERIFY_TOLERANCE`), so it
 is exact in the axis task, and it lies inside the given bounds. What is not: the nearest
 answer is the nearest over the grid, refined locally (a minimum of a continuation between
-two grid rolls, or one the grid does not resolve, can be missed); and an empty grid is no
+two grid rolls, or one the grid does not resolve, can be missed: a pair of branches born
+and dying between two grid rolls of equal branch counts); and an empty grid is no
 proof that the task has no answer (a stretch of roll narrower than the grid step can be
 missed), so callers fall back to a numeric search instead of reporting ``unreachable``.
 """
@@ -45,6 +50,12 @@ ROLL_TOLERANCE = 1e-7
 """A refinement stops when its roll bracket is this narrow or its parabolic step this
 short (rad). Near a minimum the distance changes by about the square of the roll's
 error, so the answer's distance is within ~1e-14 of the continuation's minimum."""
+
+FOLD_SAMPLES = 8
+"""Sub-intervals a grid interval is cut into where the number of branches changes from one
+grid roll to the next (a fold of the closed form, where a pair of branches is born or
+dies): a branch that lives on a stretch of roll shorter than the grid step is sampled
+there (:func:`_fold_starts`)."""
 
 MAX_REFINE_ROUNDS = 60
 """Most rounds of the bracketed search (each one batched call over the open minima)."""
@@ -185,7 +196,7 @@ def _refine(
     fx: FloatArray,
     fa: FloatArray,
     fb: FloatArray,
-    h: float,
+    h: float | FloatArray,
 ) -> tuple[FloatArray, FloatArray]:
     """Minimise ``||q(θ) − ref||²`` along each continuation, in [x − h, x + h].
 
@@ -199,8 +210,8 @@ def _refine(
     fa, fb = fa.copy(), fb.copy()
     # Brent's safeguard: a parabolic step must be shorter than half the step before the
     # last one, else a golden section, which shrinks the bracket by 0.618 at the least.
-    last = np.full(len(x), h)
-    before_last = np.full(len(x), 2.0 * h)
+    last = np.broadcast_to(np.asarray(h, dtype=np.float64), x.shape).copy()
+    before_last = 2.0 * last
     open_ = np.ones(len(x), dtype=bool)
     for _ in range(MAX_REFINE_ROUNDS):
         open_ &= b - a > ROLL_TOLERANCE
@@ -259,6 +270,36 @@ def _distinct_rows(Q: FloatArray) -> list[FloatArray]:
     return list(Q[~repeat])
 
 
+def _fold_starts(
+    roll: _Roll, rolls: FloatArray, Q: FloatArray, refs: FloatArray, h: float
+) -> tuple[np.ndarray, FloatArray, FloatArray, FloatArray]:
+    """Starts of the search inside the grid intervals where the branch count changes.
+
+    ``Q`` (N, B, dof) the branches at the grid ``rolls`` (N,), step ``h``; ``refs`` (S,
+    dof). Each such interval is sampled at :data:`FOLD_SAMPLES` - 1 inner rolls; for each
+    reference, its in-bound sample nearest the reference is a start. Returns ``(owner,
+    x, q, f)``: the reference index (E,), roll (E,), wrapped configuration (E, dof) and
+    squared distance (E,) of each start.
+    """
+    counts = np.sum(np.all(np.isfinite(Q), axis=-1), axis=1)
+    changed = np.flatnonzero(counts != np.roll(counts, -1))  # interval n .. n + 1
+    dof = Q.shape[-1]
+    if changed.size == 0:
+        return np.zeros(0, dtype=int), np.zeros(0), np.zeros((0, dof)), np.zeros(0)
+    inner = FOLD_SAMPLES - 1
+    sub = rolls[changed][:, None] + h * np.arange(1, FOLD_SAMPLES) / FOLD_SAMPLES
+    Qs = roll.branches(sub.ravel(), None)  # (C * inner, B', dof)
+    V, F = roll.cost(Qs[None], refs[:, None, None, :])
+    S, C, width = len(refs), len(changed), Qs.shape[1]
+    F = F.reshape(S, C, inner * width)
+    V = V.reshape(S, C, inner * width, dof)
+    best = np.argmin(F, axis=2)  # (S, C)
+    f = np.take_along_axis(F, best[..., None], axis=2)[..., 0]
+    owner, interval = np.nonzero(np.isfinite(f))
+    j = best[owner, interval]
+    return owner, sub[interval, j // width], V[owner, interval, j], f[owner, interval]
+
+
 def axis_branches(
     robot: Robot,
     T_target: FloatArray,
@@ -310,15 +351,24 @@ def axis_branches(
     owner = np.concatenate([np.full(len(c), s) for s, c in enumerate(chosen)]).astype(int)
     flat = np.concatenate(chosen).astype(int) if chosen else np.zeros(0, dtype=int)
     n_idx, b_idx = np.divmod(flat, B)
+    # Folds between grid rolls: their nearest samples start searches of their own, in
+    # one sub-interval each (no neighbour on a continuation: golden sections).
+    e_owner, e_x, e_q, e_f = _fold_starts(roll, rolls, Q, refs, h)
+    if per_ref is not None:
+        order = np.lexsort((e_f, e_owner))
+        rank = np.arange(len(order)) - np.searchsorted(e_owner[order], e_owner[order])
+        e_owner, e_x, e_q, e_f = (v[order][rank < per_ref] for v in (e_owner, e_x, e_q, e_f))
+    infinite = np.full(len(e_owner), math.inf)
+    owner = np.concatenate([owner, e_owner])
     qx, fx = _refine(
         roll,
         refs[owner],
-        rolls[n_idx],
-        V[owner, n_idx, b_idx],
-        F[owner, n_idx, b_idx],
-        f_prev[owner, n_idx, b_idx],
-        f_next[owner, n_idx, b_idx],
-        h,
+        np.concatenate([rolls[n_idx], e_x]),
+        np.concatenate([V[owner[: len(flat)], n_idx, b_idx], e_q]),
+        np.concatenate([F[owner[: len(flat)], n_idx, b_idx], e_f]),
+        np.concatenate([f_prev[owner[: len(flat)], n_idx, b_idx], infinite]),
+        np.concatenate([f_next[owner[: len(flat)], n_idx, b_idx], infinite]),
+        np.concatenate([np.full(len(flat), h), np.full(len(e_owner), h / FOLD_SAMPLES)]),
     )
     finite = np.all(np.isfinite(Q), axis=-1)
     results = []
