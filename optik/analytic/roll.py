@@ -359,17 +359,17 @@ def axis_branches(
         rank = np.arange(len(order)) - np.searchsorted(e_owner[order], e_owner[order])
         e_owner, e_x, e_q, e_f = (v[order][rank < per_ref] for v in (e_owner, e_x, e_q, e_f))
     infinite = np.full(len(e_owner), math.inf)
-    owner = np.concatenate([owner, e_owner])
     qx, fx = _refine(
         roll,
-        refs[owner],
+        refs[np.concatenate([owner, e_owner])],
         np.concatenate([rolls[n_idx], e_x]),
-        np.concatenate([V[owner[: len(flat)], n_idx, b_idx], e_q]),
-        np.concatenate([F[owner[: len(flat)], n_idx, b_idx], e_f]),
-        np.concatenate([f_prev[owner[: len(flat)], n_idx, b_idx], infinite]),
-        np.concatenate([f_next[owner[: len(flat)], n_idx, b_idx], infinite]),
+        np.concatenate([V[owner, n_idx, b_idx], e_q]),
+        np.concatenate([F[owner, n_idx, b_idx], e_f]),
+        np.concatenate([f_prev[owner, n_idx, b_idx], infinite]),
+        np.concatenate([f_next[owner, n_idx, b_idx], infinite]),
         np.concatenate([np.full(len(flat), h), np.full(len(e_owner), h / FOLD_SAMPLES)]),
     )
+    owner = np.concatenate([owner, e_owner])
     finite = np.all(np.isfinite(Q), axis=-1)
     results = []
     for s in range(S):
