@@ -236,9 +236,10 @@ def sweep_start(robot: Robot, T: Array, joint: int, K: int, kernel: bool) -> Arr
     mid = robot.mid_limits
     poses = np.ascontiguousarray(np.broadcast_to(T, (K, 4, 4)))
     if kernel:
-        from optik.analytic import _free_plan, free_joint
+        from optik.analytic import free_joint
+        from optik.analytic.held_joint import free_plan
 
-        params = _free_plan(robot, joint).params
+        params = free_plan(robot, joint).params
         Q, counts = free_joint.solve_batch(params, poses, mid.reshape(1, -1), values, 3)
         first = Q[counts > 0, 0]
     else:

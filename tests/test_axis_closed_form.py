@@ -18,7 +18,8 @@ from conftest import general_arm
 
 import optik
 from optik.analytic import family_of
-from optik.analytic.roll import axis_branches, rolled_poses
+from optik.analytic.roll import axis_branches, grid_branches, rolled_poses
+from optik.errors import AnalyticIKError
 from optik.spatial import rot_x, rot_y, rot_z
 
 ROBOTS = ("puma560", "ur5")
@@ -315,3 +316,13 @@ def test_a_branch_born_between_two_grid_rolls_is_found() -> None:
         position, angle = _axis_errors(robot, closed.q, T)
         assert position <= EXACT and angle <= EXACT and _in_limits(robot, closed.q)
         assert np.linalg.norm(closed.q - q0) <= np.linalg.norm(reference.q - q0) + 1e-6
+
+
+def test_the_roll_refuses_a_robot_without_a_pose_closed_form() -> None:
+    """Called directly on the Panda (no closed form), the roll says why, not an assert."""
+    panda = _robot("panda")
+    T = panda.fk(panda.mid_limits)
+    with pytest.raises(AnalyticIKError, match="'none'"):
+        axis_branches(panda, T, 2, panda.mid_limits[None])
+    with pytest.raises(AnalyticIKError, match="full poses"):
+        grid_branches(panda, T, 2, panda.mid_limits)

@@ -17,7 +17,8 @@ import pytest
 from conftest import newton_reference
 
 from optik import Robot
-from optik.analytic import _finish, _free_joint_raw, _free_plan, analytic_ik, analytic_ik_batch
+from optik.analytic import _finish, analytic_ik, analytic_ik_batch
+from optik.analytic.held_joint import free_joint_raw, free_plan
 from optik.errors import AnalyticIKError, NonFiniteError, OptikError, ShapeError
 
 IIWA_URDF = Path(pybullet_data.getDataPath()) / "kuka_iiwa" / "model.urdf"
@@ -46,7 +47,7 @@ def test_compiled_call_gives_the_numpy_steps_row_for_row(
 ) -> None:
     rng = np.random.default_rng(100 + k)
     name = iiwa.joint_names[k]
-    plan = _free_plan(iiwa, k)
+    plan = free_plan(iiwa, k)
     Q, T = _targets(iiwa, rng, 120)
     Q[::5] = rng.uniform(iiwa.lower - 1.0, iiwa.upper + 1.0, (len(Q[::5]), 7))  # some out
     Q[::5, k] = np.clip(Q[::5, k], iiwa.lower[k], iiwa.upper[k])
@@ -63,7 +64,7 @@ def test_compiled_call_gives_the_numpy_steps_row_for_row(
             free_value=q[k],
         )
         ref[k] = q[k]
-        raw = newton_reference(iiwa, _free_joint_raw(plan, q[k], target, ref), target, k)
+        raw = newton_reference(iiwa, free_joint_raw(plan, q[k], target, ref), target, k)
         expected = _finish(iiwa, raw, target, "pose", ref, sort, within, (k, q[k]))
         if not expected:
             continue  # the fallback's case (polish), not the compiled steps'

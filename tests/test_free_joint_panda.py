@@ -532,20 +532,20 @@ def test_no_candidate_is_not_searched_from_a_distant_reference(
     """A held value without a single raw candidate gives ``[]`` at once: the polish (for
     rounding at degenerate poses) runs only from candidates or a reference that is a
     near-solution, as when the reference is the answer itself."""
-    import optik.analytic as analytic
+    import optik.analytic.held_joint as held
 
     robot = problems_arm.robot
     q = np.array([0.5, -0.3, 0.4, -2.2, -0.8, 2.4, 0.7])
     T = robot.fk(q)
     assert analytic_ik(robot, T, within_limits=False, free_joint=Q7, free_value=2.0) == []
     calls: list[int] = []
-    real = analytic.polish
+    real = held.polish
 
     def spy(*args: object, **kwargs: object) -> list[np.ndarray]:
         calls.append(1)
         return real(*args, **kwargs)  # type: ignore[arg-type]
 
-    monkeypatch.setattr(analytic, "polish", spy)
+    monkeypatch.setattr(held, "polish", spy)
     assert analytic_ik(robot, T, free_joint=Q7, free_value=2.0) == []
     assert analytic_ik_batch(robot, T[None], free_joint=Q7, free_value=2.0).counts[0] == 0
     assert not calls
@@ -553,8 +553,8 @@ def test_no_candidate_is_not_searched_from_a_distant_reference(
     # (here made to find nothing, as rounding could at a degenerate pose).
     near = q.copy()
     near[:6] += 1e-5
-    monkeypatch.setattr(analytic.free_joint, "solve", lambda *args: 0)
-    monkeypatch.setattr(analytic, "_free_joint_raw", lambda *args: [])
+    monkeypatch.setattr(held.free_joint, "solve", lambda *args: 0)
+    monkeypatch.setattr(held, "free_joint_raw", lambda *args: [])
     branches = analytic_ik(robot, T, q_ref=near, free_joint=Q7, free_value=0.7)
     assert calls and _source_distance(branches, q) < SOURCE_TOL
 

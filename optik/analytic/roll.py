@@ -40,6 +40,7 @@ import numpy as np
 from optik._checks import FloatArray
 from optik.analytic import checked_batch, family_of, wrap_into_limits
 from optik.analytic._base import DUPLICATE_TOLERANCE, AnalyticFamily
+from optik.errors import AnalyticIKError
 from optik.model import Robot
 from optik.task import Task
 
@@ -117,6 +118,7 @@ class _Roll:
         self, robot: Robot, T_target: FloatArray, axis: int, lower: FloatArray, upper: FloatArray
     ) -> None:
         self.robot, self.T, self.axis = robot, T_target, axis
+        self.family = _pose_family(robot)
         self.lower, self.upper = lower, upper
         self.revolute = np.array([j.kind == "revolute" for j in robot.joints])
 
@@ -127,7 +129,7 @@ class _Roll:
         ``refs[n]`` (so ``[:, 0]`` continues ``refs``); limits are not applied here.
         """
         poses = rolled_poses(self.T, self.axis, rolls)
-        return _pose_branches(self.robot, poses, refs)
+        return _pose_branches(self.robot, self.family, poses, refs)
 
     def inside(self, Q: FloatArray) -> np.ndarray:
         """Whether each configuration (..., dof) is finite and inside the bounds."""
@@ -148,7 +150,24 @@ class _Roll:
             return np.max(np.abs(D), axis=-1)
 
 
-def _pose_branches(robot: Robot, poses: FloatArray, refs: FloatArray | None) -> FloatArray:
+def _pose_family(robot: Robot) -> AnalyticFamily:
+    """The robot's closed-form family, which must solve full poses.
+
+    Raises:
+        AnalyticIKError: the robot has no family, or its family does not solve poses.
+    """
+    family = family_of(robot)
+    if family is None or "pose" not in family.modes:
+        raise AnalyticIKError(
+            f"robot {robot.name!r}: the roll's closed form needs a family that solves "
+            f"full poses, found {family.name if family else 'none'!r}"
+        )
+    return family
+
+
+def _pose_branches(
+    robot: Robot, family: AnalyticFamily, poses: FloatArray, refs: FloatArray | None
+) -> FloatArray:
     """Every branch (N, B, dof) of the rolled ``poses`` (N, 4, 4), limits not applied.
 
     :func:`optik.analytic.analytic_ik_batch` without its arguments' checks (the poses
@@ -157,8 +176,6 @@ def _pose_branches(robot: Robot, poses: FloatArray, refs: FloatArray | None) -> 
     has no branch (a roll out of reach) the polish would search in vain. With ``refs``
     (1 or N, dof) each pose's branches are wrapped and sorted nearest its reference.
     """
-    family = family_of(robot)
-    assert family is not None  # solves_axis_task() admitted the robot
     return checked_batch(robot, family, poses, "pose", refs, False, polish=False).q
 
 
@@ -327,6 +344,9 @@ def axis_branches(
 
     Returns:
         One :class:`RollBranches` per reference (see the module for what is guaranteed).
+
+    Raises:
+        AnalyticIKError: the robot has no closed-form family that solves full poses.
     """
     lower = robot.lower if lower is None else lower
     upper = robot.upper if upper is None else upper
@@ -402,13 +422,16 @@ def grid_branches(
     closed-form call over the grid; ``nearest`` holds the ``keep`` distinct in-bound
     branches nearest ``q_ref`` (each exact in the axis task, verified by FK), ``samples``
     all of them, ``outside`` the rest. The arguments are :func:`axis_branches`'s.
+
+    Raises:
+        AnalyticIKError: the robot has no closed-form family that solves full poses.
     """
     dof = robot.dof
     rolls = -math.pi + (2.0 * math.pi / grid) * np.arange(grid, dtype=np.float64)
     poses = rolled_poses(T_target, axis, rolls)
     ref = np.broadcast_to(np.asarray(q_ref, dtype=float).reshape(dof), (grid, dof))
     # The compiled pipeline wraps every branch into the limits nearest the reference.
-    Q = _pose_branches(robot, poses, ref)
+    Q = _pose_branches(robot, _pose_family(robot), poses, ref)
     Q = Q.reshape(-1, dof)
     Q = Q[np.all(np.isfinite(Q), axis=1)]
     lo = robot.lower if lower is None else lower
