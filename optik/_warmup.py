@@ -141,17 +141,28 @@ def axes_arm_robot() -> Any:
 
 
 def _axes_arms() -> None:
-    """A spherical wrist after a general arm: the ``spherical_axes`` pipeline.
+    """Every arm kind of ``spherical_axes`` and ``three_parallel``: a pipeline each.
 
-    ``analytic_ik`` and ``analytic_ik_batch``: one pipeline for every arm kind of
-    ``spherical_axes`` and ``three_parallel``.
+    ``analytic_ik``, ``analytic_ik_batch`` and the raw branches on a spherical wrist after
+    a general arm compile its kind's kernels; every other kind's are compiled with the
+    same signatures (:func:`optik.analytic.spherical_axes.kind_pipeline`).
     """
     import optik
+    from optik.analytic import FAMILIES
+    from optik.analytic.spherical_axes import KIND_NAMES, KindPipeline, axes_plan, kind_pipeline
 
     robot = axes_arm_robot()
     targets = _targets(robot, 2, 7)
     optik.analytic_ik(robot, targets[0])
     optik.analytic_ik_batch(robot, targets)
+    # The raw branches alone, as an unreachable target's polish asks for them.
+    FAMILIES["spherical_axes"].candidates(robot, targets[0], "pose", robot.mid_limits)
+    compiled = kind_pipeline(robot.cached(axes_plan).kind)
+    for kind in KIND_NAMES:
+        kernels = kind_pipeline(kind)
+        for name in KindPipeline._fields:
+            for signature in getattr(compiled, name).signatures:
+                getattr(kernels, name).compile(signature)
 
 
 def _closed_form_batches() -> None:
@@ -244,8 +255,9 @@ GROUPS: dict[str, Callable[[], None]] = {
 }
 
 #: Groups run only when named (``optik warmup --groups``, ``$OPTIK_WARMUP_GROUPS``), after
-#: the others: closed forms whose pipeline compiles too long for every install (about 11
-#: and 34 s of CPU), left to their first call unless asked for here.
+#: the others: closed forms whose pipelines compile too long for every install (about 11
+#: s of CPU, and 12-25 s for each of the seven arm kinds), left to their first call unless
+#: asked for here.
 OPTIONAL: dict[str, Callable[[], None]] = {
     "held_joint": _held_joint,
     "axes_arms": _axes_arms,

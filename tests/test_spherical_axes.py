@@ -11,7 +11,11 @@ numeric solver.
 from __future__ import annotations
 
 import math
+import os
+import subprocess
+import sys
 from collections.abc import Callable
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -30,9 +34,10 @@ from optik.analytic.spherical_axes import (
     _candidates_into,
     _scratch,
     axes_plan,
+    kind_pipeline,
     pack_axes_params,
 )
-from optik.errors import AnalyticIKError
+from optik.errors import AnalyticIKError, OptikError
 from optik.problems import builtin_problems
 
 FK_TOL = 1e-10
@@ -356,7 +361,8 @@ def test_compiled_call_gives_the_numpy_steps_row_for_row(arm: str) -> None:
     spec = ARMS[arm][0]
     base, tool = _moved()
     robot = Robot.from_dh(_rows(spec), name=arm, base=base, tool=tool, limits=LIMITS)
-    params = pack_axes_params(robot, axes_plan(robot))
+    plan = axes_plan(robot)
+    params = pack_axes_params(robot, plan)
     rng = np.random.default_rng(6)
     compared = 0
     for q in rng.uniform(-math.pi, math.pi, (120, 6)):
@@ -365,7 +371,7 @@ def test_compiled_call_gives_the_numpy_steps_row_for_row(arm: str) -> None:
             ref = rng.uniform(robot.lower, robot.upper) if sort else robot.mid_limits
             got = analytic_ik(robot, T, q_ref=ref if sort else None, within_limits=within)
             rows = np.empty((8, 6))
-            n = _candidates_into(params, T, ref, rows, _scratch(params))
+            n = _candidates_into(params, T, ref, rows, _scratch(params), plan.kind)
             stepped = newton_reference(robot, list(rows[:n]), T)
             expected = _finish(robot, stepped, T, "pose", ref, sort, within)
             if not expected:
@@ -399,3 +405,48 @@ def test_batch_equals_single_calls(arm: str) -> None:
                 assert batch.counts[i] == len(single)
                 if single:
                     np.testing.assert_array_equal(batch.q[i, : len(single)], np.array(single))
+
+
+_ONE_KIND_SCRIPT = """
+import math, sys
+import numpy as np
+import optik
+from optik.analytic.general_arm import general_arm_candidates
+from optik.analytic.pair_wrist import pair_wrist_candidates, second_pair_candidates
+from optik.analytic.parallel_arm import parallel_arm_candidates
+from optik.analytic.spherical_axes import INTERSECTING, axes_plan, kind_pipeline
+from optik.analytic.three_parallel import three_inner_candidates, three_outer_candidates
+
+rows = [dict(a=a, alpha=math.radians(al), d=d, lower=-3.0, upper=3.0) for a, al, d in ROWS]
+robot = optik.Robot.from_dh(rows)
+plan = axes_plan(robot)
+assert plan.kind == INTERSECTING, plan
+out = np.empty((8, 6))
+T = robot.fk(np.full(6, 0.3))
+n = kind_pipeline(INTERSECTING).candidates(
+    plan.directions, plan.points, plan.tool, T, np.zeros(6), plan.tols, out
+)
+others = (general_arm_candidates, second_pair_candidates, parallel_arm_candidates,
+          three_inner_candidates, three_outer_candidates)
+print(n, len(pair_wrist_candidates.signatures), [len(f.signatures) for f in others])
+"""
+
+
+def test_a_kind_pipeline_compiles_its_own_arm_alone(tmp_path: Path) -> None:
+    """Each arm kind's kernels hold its closed form alone (numba prunes the others on the
+    constant kind), so a robot's first call compiles one arm's kernel, not seven: in a
+    fresh cache, the ``candidates`` of the meeting-pair kind compile ``pair_wrist``'s
+    kernel and no other arm's."""
+    rows = [(a, al, d) for a, al, d, _ in ARMS["first two intersecting"][0]]
+    script = _ONE_KIND_SCRIPT.replace("ROWS", repr(rows))
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}
+    done = subprocess.run(
+        [sys.executable, "-c", script], env=env, capture_output=True, text=True, check=False
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == ["8", "1", "[0,", "0,", "0,", "0,", "0]"]
+
+
+def test_kind_pipeline_refuses_an_unknown_kind() -> None:
+    with pytest.raises(OptikError, match=r"unknown arm kind 99; known: \[1, 2, 3, 4, 5, 6, 7\]"):
+        kind_pipeline(99)

@@ -24,8 +24,8 @@ Tolerances are those of the geometry (:data:`optik.analytic.geometry.ANGLE_TOL`,
 that ``spherical_wrist`` or ``ur`` fits keeps that family; this one covers the twists,
 offsets and joint orders they do not.
 
-Compiled end to end as the DH families are: :func:`solve` (one target) and
-:func:`solve_batch` run the closed form, then the steps of
+Compiled end to end as the DH families are, a pipeline per arm kind
+(:func:`kind_pipeline`: one target, or a batch) runs the closed form, then the steps of
 :func:`optik.analytic._pipeline.postprocess_rows` (wrapping into the limits, the limit
 filter, the FK check on the robot's own chain, de-duplication, the sort), on the robot's
 parameter vector (:func:`pack_axes_params`; :meth:`SphericalAxes.compiled`).
@@ -37,11 +37,13 @@ The same pipeline carries the family ``three_parallel`` (:class:`ThreeParallelAx
 
 from __future__ import annotations
 
-from typing import NamedTuple
+import functools
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from optik._checks import FloatArray
+from optik._numba import inline as _inline
 from optik._numba import jit as _jit
 from optik.analytic._base import AnalyticFamily, CompiledPipeline, register
 from optik.analytic._compiled import (
@@ -83,6 +85,7 @@ from optik.analytic.pair_wrist import (
 )
 from optik.analytic.parallel_arm import PARALLEL_12, PARALLEL_23, parallel_arm_candidates
 from optik.analytic.three_parallel import three_inner_candidates, three_outer_candidates
+from optik.errors import OptikError
 from optik.model import Robot
 from optik.spatial import invert_transform
 
@@ -247,13 +250,14 @@ def _scratch(
     return z, p, M, np.empty((4, 4)), np.empty((2, MAX_BRANCHES, DOF))
 
 
-@_jit
+@_inline
 def _candidates_into(
     params: np.ndarray,
     T: np.ndarray,
     ref: np.ndarray,
     rows: np.ndarray,
     scratch: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+    kind: int,
 ) -> int:
     """Raw branches of world target ``T`` (4, 4) into ``rows`` (>= 8, 6), in joint order.
 
@@ -261,10 +265,11 @@ def _candidates_into(
     reference ``ref`` reversed, and its branches are turned back into the robot's order.
     One call site of :func:`axes_candidates` for both readings: numba links a callee's
     code into its caller, and a second site doubled the compile time of every pipeline
-    above it (the six arm kernels optimised again).
+    above it (the arm kernels optimised again). ``kind`` is the arm's kind
+    (``params[AT_ARM]``); inlined into a pipeline of :func:`kind_pipeline`, where it is a
+    constant, only that kind's kernel is compiled.
     """
     z, p, M, Ti, work = scratch
-    kind = int(params[AT_ARM])
     tols = params[AT_TOLS:]
     reverse = params[AT_REVERSE] != 0.0
     target, reference, out = T, ref, rows
@@ -282,50 +287,99 @@ def _candidates_into(
     return n
 
 
-@_jit
-def solve(params: np.ndarray, T: np.ndarray, ref: np.ndarray, flags: int, out: np.ndarray) -> int:
-    """Every branch of one target: solve, wrap, filter, verify, sort (``spherical_axes``).
+class KindPipeline(NamedTuple):
+    """The compiled kernels of one arm kind (:func:`kind_pipeline`).
 
-    Arguments, flags and return codes of :func:`optik.analytic._pipeline.solve`, on
-    :func:`pack_axes_params`'s vector (``ref`` (6,) in rad, ``out`` (8, 6)).
+    Attributes:
+        solve: ``solve(params, T, ref, flags, out) -> code or n``: every branch of one
+            target, the closed form then the steps of
+            :func:`optik.analytic._pipeline.postprocess_rows` (arguments, flags and
+            return codes of :func:`optik.analytic._pipeline.solve`; ``ref`` (6,) in rad,
+            ``out`` (8, 6)).
+        solve_batch: ``solve_batch(params, T, ref, flags) -> (Q, counts)``: validated
+            targets ``T`` (N, 4, 4) serially (outputs of
+            :func:`optik.analytic._pipeline.solve_batch`: ``Q`` (N, 8, 6), ``counts``
+            (N,)).
+        candidates: ``candidates(z, p, M, T, ref, tols, cand) -> n``: the raw branches
+            alone (:func:`axes_candidates` with this kind).
+
+    ``solve`` and ``solve_batch`` take :func:`pack_axes_params`'s vector of a robot of
+    this kind.
     """
-    T1 = T[None]
-    code = input_code(params, AT_TOLS, T1, ref)
-    if code != 0:
-        return code
-    ref1 = ref[None]
-    pre, flat, rows, newton = work_rows(DOF)
-    n = _candidates_into(params, T, ref, rows, _scratch(params))
-    return postprocess_one(
-        params, AXES_LAYOUT, DOF, -1, 0.0, T1, ref1, flags, rows, flat, n, pre, out,
-        True, newton,
-    )  # fmt: skip
+
+    solve: Any
+    solve_batch: Any
+    candidates: Any
 
 
-@_jit
-def solve_batch(
-    params: np.ndarray, T: np.ndarray, ref: np.ndarray, flags: int
-) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`solve` over validated targets ``T`` (N, 4, 4), serially.
+@functools.cache
+def kind_pipeline(kind: int) -> KindPipeline:
+    """The compiled pipeline of arm ``kind`` alone (a :class:`KindPipeline`).
 
-    Arguments and outputs of :func:`optik.analytic._pipeline.solve_batch` (``Q`` (N, 8,
-    6), ``counts`` (N,)), on :func:`pack_axes_params`'s vector.
+    One pipeline per arm kind, so that a robot's first call compiles its own arm's
+    closed form and not the six others: numba prunes the branches of
+    :func:`axes_candidates` on the constant ``kind``, and caches each kind's kernels on
+    disk under it.
+
+    Args:
+        kind: an arm kind (a key of :data:`KIND_NAMES`).
+
+    Raises:
+        OptikError: ``kind`` is not an arm kind.
     """
-    N = T.shape[0]
-    sort, within, pre, flat, rows, newton, Q, counts = batch_work(N, DOF, flags)
-    scratch = _scratch(params)
-    for k in range(N):
-        kr = 0 if ref.shape[0] == 1 else k
-        n = _candidates_into(params, T[k], ref[kr], rows, scratch)
-        counts[k] = postprocess_rows(
-            params, AXES_LAYOUT, DOF, -1, 0.0, T, k, ref, kr, sort, within, rows, flat, n,
-            pre, Q, True, newton,
+    if kind not in KIND_NAMES:
+        raise OptikError(f"unknown arm kind {kind!r}; known: {sorted(KIND_NAMES)}")
+    kind = int(kind)  # the closure's constant: numba keys the disk cache on its pickle
+
+    @_jit
+    def solve(
+        params: np.ndarray, T: np.ndarray, ref: np.ndarray, flags: int, out: np.ndarray
+    ) -> int:
+        T1 = T[None]
+        code = input_code(params, AT_TOLS, T1, ref)
+        if code != 0:
+            return code
+        ref1 = ref[None]
+        pre, flat, rows, newton = work_rows(DOF)
+        n = _candidates_into(params, T, ref, rows, _scratch(params), kind)
+        return postprocess_one(
+            params, AXES_LAYOUT, DOF, -1, 0.0, T1, ref1, flags, rows, flat, n, pre, out,
+            True, newton,
         )  # fmt: skip
-        pad_rows(Q, k, counts[k])
-    return Q, counts
+
+    @_jit
+    def solve_batch(
+        params: np.ndarray, T: np.ndarray, ref: np.ndarray, flags: int
+    ) -> tuple[np.ndarray, np.ndarray]:
+        N = T.shape[0]
+        sort, within, pre, flat, rows, newton, Q, counts = batch_work(N, DOF, flags)
+        scratch = _scratch(params)
+        for k in range(N):
+            kr = 0 if ref.shape[0] == 1 else k
+            n = _candidates_into(params, T[k], ref[kr], rows, scratch, kind)
+            counts[k] = postprocess_rows(
+                params, AXES_LAYOUT, DOF, -1, 0.0, T, k, ref, kr, sort, within, rows, flat,
+                n, pre, Q, True, newton,
+            )  # fmt: skip
+            pad_rows(Q, k, counts[k])
+        return Q, counts
+
+    @_jit
+    def candidates(
+        z: np.ndarray,
+        p: np.ndarray,
+        M: np.ndarray,
+        T: np.ndarray,
+        ref: np.ndarray,
+        tols: np.ndarray,
+        cand: np.ndarray,
+    ) -> int:
+        return axes_candidates(z, p, M, T, ref, kind, tols, cand)
+
+    return KindPipeline(solve, solve_batch, candidates)
 
 
-@_jit
+@_inline
 def axes_candidates(
     z: np.ndarray,
     p: np.ndarray,
@@ -339,7 +393,8 @@ def axes_candidates(
     """Raw branches of arm ``kind`` and a spherical wrist into ``cand`` (>= 8, 6).
 
     Arguments as :func:`optik.analytic.parallel_arm.parallel_arm_candidates` (world
-    frame; ``T`` the tool's target); returns the number of rows written.
+    frame; ``T`` the tool's target); returns the number of rows written. Inlined, so
+    that a constant ``kind`` keeps one kernel (:func:`kind_pipeline`).
     """
     if kind == INTERSECTING:
         return pair_wrist_candidates(z, p, M, T, ref, tols, cand)
@@ -376,8 +431,10 @@ class SphericalAxes(AnalyticFamily):
         Args:
             robot: the robot (fits this family).
         """
-        params = pack_axes_params(robot, robot.cached(self.plan))
-        return CompiledPipeline(solve, solve_batch, params, robot.mid_limits)
+        plan = robot.cached(self.plan)
+        kernels = kind_pipeline(plan.kind)
+        params = pack_axes_params(robot, plan)
+        return CompiledPipeline(kernels.solve, kernels.solve_batch, params, robot.mid_limits)
 
     def candidates(
         self, robot: Robot, T_0_target: FloatArray, mode: str, q_ref: FloatArray
@@ -397,13 +454,12 @@ class SphericalAxes(AnalyticFamily):
             T = invert_transform(T)
             ref = ref[::-1]
         out = np.empty((MAX_BRANCHES, 6))
-        n = axes_candidates(
+        n = kind_pipeline(plan.kind).candidates(
             plan.directions,
             plan.points,
             plan.tool,
             np.ascontiguousarray(T, dtype=np.float64),
             np.ascontiguousarray(ref),
-            plan.kind,
             plan.tols,
             out,
         )
@@ -527,12 +583,12 @@ __all__ = [
     "THREE_INNER",
     "THREE_OUTER",
     "AxesPlan",
+    "KindPipeline",
     "SphericalAxes",
     "ThreeParallelAxes",
     "arm_kind",
     "axes_plan",
+    "kind_pipeline",
     "pack_axes_params",
     "parallel_plan",
-    "solve",
-    "solve_batch",
 ]
