@@ -31,8 +31,6 @@ from optik.analytic.spherical_axes import (
     GENERAL,
     INTERSECTING,
     SECOND_PAIR,
-    _candidates_into,
-    _scratch,
     axes_plan,
     kind_pipeline,
     pack_axes_params,
@@ -371,7 +369,7 @@ def test_compiled_call_gives_the_numpy_steps_row_for_row(arm: str) -> None:
             ref = rng.uniform(robot.lower, robot.upper) if sort else robot.mid_limits
             got = analytic_ik(robot, T, q_ref=ref if sort else None, within_limits=within)
             rows = np.empty((8, 6))
-            n = _candidates_into(params, T, ref, rows, _scratch(params), plan.kind)
+            n = kind_pipeline(plan.kind).candidates(params, T, ref, rows)
             stepped = newton_reference(robot, list(rows[:n]), T)
             expected = _finish(robot, stepped, T, "pose", ref, sort, within)
             if not expected:
@@ -414,7 +412,9 @@ import optik
 from optik.analytic.general_arm import general_arm_candidates
 from optik.analytic.pair_wrist import pair_wrist_candidates, second_pair_candidates
 from optik.analytic.parallel_arm import parallel_arm_candidates
-from optik.analytic.spherical_axes import INTERSECTING, axes_plan, kind_pipeline
+from optik.analytic.spherical_axes import (
+    INTERSECTING, axes_plan, kind_pipeline, pack_axes_params,
+)
 from optik.analytic.three_parallel import three_inner_candidates, three_outer_candidates
 
 rows = [dict(a=a, alpha=math.radians(al), d=d, lower=-3.0, upper=3.0) for a, al, d in ROWS]
@@ -423,9 +423,7 @@ plan = axes_plan(robot)
 assert plan.kind == INTERSECTING, plan
 out = np.empty((8, 6))
 T = robot.fk(np.full(6, 0.3))
-n = kind_pipeline(INTERSECTING).candidates(
-    plan.directions, plan.points, plan.tool, T, np.zeros(6), plan.tols, out
-)
+n = kind_pipeline(INTERSECTING).candidates(pack_axes_params(robot, plan), T, np.zeros(6), out)
 others = (general_arm_candidates, second_pair_candidates, parallel_arm_candidates,
           three_inner_candidates, three_outer_candidates)
 print(n, len(pair_wrist_candidates.signatures), [len(f.signatures) for f in others])

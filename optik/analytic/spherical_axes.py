@@ -87,7 +87,6 @@ from optik.analytic.parallel_arm import PARALLEL_12, PARALLEL_23, parallel_arm_c
 from optik.analytic.three_parallel import three_inner_candidates, three_outer_candidates
 from optik.errors import OptikError
 from optik.model import Robot
-from optik.spatial import invert_transform
 
 INTERSECTING = 3
 """Arm kind: axes 1 and 2 meet (:func:`optik.analytic.pair_wrist.pair_wrist_candidates`)."""
@@ -300,11 +299,11 @@ class KindPipeline(NamedTuple):
             targets ``T`` (N, 4, 4) serially (outputs of
             :func:`optik.analytic._pipeline.solve_batch`: ``Q`` (N, 8, 6), ``counts``
             (N,)).
-        candidates: ``candidates(z, p, M, T, ref, tols, cand) -> n``: the raw branches
-            alone (:func:`axes_candidates` with this kind).
+        candidates: ``candidates(params, T, ref, rows) -> n``: the raw branches alone of
+            world target ``T`` (4, 4) into ``rows`` (>= 8, 6), in joint order
+            (:func:`_candidates_into`; ``ref`` (6,) in rad).
 
-    ``solve`` and ``solve_batch`` take :func:`pack_axes_params`'s vector of a robot of
-    this kind.
+    Each takes :func:`pack_axes_params`'s vector of a robot of this kind.
     """
 
     solve: Any
@@ -365,16 +364,8 @@ def kind_pipeline(kind: int) -> KindPipeline:
         return Q, counts
 
     @_jit
-    def candidates(
-        z: np.ndarray,
-        p: np.ndarray,
-        M: np.ndarray,
-        T: np.ndarray,
-        ref: np.ndarray,
-        tols: np.ndarray,
-        cand: np.ndarray,
-    ) -> int:
-        return axes_candidates(z, p, M, T, ref, kind, tols, cand)
+    def candidates(params: np.ndarray, T: np.ndarray, ref: np.ndarray, rows: np.ndarray) -> int:
+        return _candidates_into(params, T, ref, rows, _scratch(params), kind)
 
     return KindPipeline(solve, solve_batch, candidates)
 
@@ -449,22 +440,14 @@ class SphericalAxes(AnalyticFamily):
         """
         plan = robot.cached(self.plan)
         T = robot.T_world_base @ T_0_target @ robot.T_flange_tool
-        ref = np.asarray(q_ref, dtype=np.float64)
-        if plan.reverse:
-            T = invert_transform(T)
-            ref = ref[::-1]
         out = np.empty((MAX_BRANCHES, 6))
         n = kind_pipeline(plan.kind).candidates(
-            plan.directions,
-            plan.points,
-            plan.tool,
+            pack_axes_params(robot, plan),
             np.ascontiguousarray(T, dtype=np.float64),
-            np.ascontiguousarray(ref),
-            plan.tols,
+            np.ascontiguousarray(q_ref, dtype=np.float64),
             out,
         )
-        rows = out[:n, ::-1] if plan.reverse else out[:n]
-        return [np.array(row) for row in rows]
+        return [np.array(row) for row in out[:n]]
 
 
 # ---------------------------------------------------------------------- three parallel axes
