@@ -178,20 +178,25 @@ def check_length(name: str, value: Any, *, nonnegative: bool = False) -> float:
     return number
 
 
-def check_length_array(name: str, array: FloatArray) -> FloatArray:
-    """Raise unless every entry of a finite array has magnitude <= :data:`MAX_LENGTH_M`."""
+def check_length_array(name: str, array: FloatArray, unit: str = "m") -> FloatArray:
+    """Raise unless every entry of a finite array has magnitude <= :data:`MAX_LENGTH_M`.
+
+    ``unit`` names the entries' unit in the message (``"m"``; ``"rad or m"`` for joint
+    values).
+    """
     if array.size and float(np.max(np.abs(array))) > MAX_LENGTH_M:
         index = tuple(int(i) for i in np.unravel_index(np.argmax(np.abs(array)), array.shape))
+        what = "a length" if unit == "m" else "a value"
         raise ArgumentError(
             f"{name}{list(index)}" if index else name,
             float(array[index]),
-            f"a length of magnitude <= {MAX_LENGTH_M:g} m",
+            f"{what} of magnitude <= {MAX_LENGTH_M:g} {unit}",
         )
     return array
 
 
 def finite_length_array(
-    name: str, value: Any, trailing: tuple[int, ...], batch: bool = False
+    name: str, value: Any, trailing: tuple[int, ...], batch: bool = False, unit: str = "m"
 ) -> FloatArray:
     """:func:`finite_array` whose entries are also bounded by :data:`MAX_LENGTH_M`.
 
@@ -205,7 +210,7 @@ def finite_length_array(
     array = _shaped(name, value, trailing, batch)
     if _all_within(array, MAX_LENGTH_M):
         return array
-    return check_length_array(name, check_finite(name, array))
+    return check_length_array(name, check_finite(name, array), unit)
 
 
 def _has_bool(value: Any) -> bool:

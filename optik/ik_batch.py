@@ -145,7 +145,7 @@ def solve_ik_batch(
     weights: Any = None,
     q0: Any = None,
     tol: float | tuple[float, float] = 1e-6,
-    max_iter: int = 100,
+    max_iter: int | None = None,
     restarts: int = DEFAULT_RESTARTS,
     seed: int = 0,
     threads: int | None = None,
@@ -171,7 +171,8 @@ def solve_ik_batch(
             each inside the limits (within :data:`~optik.limits.Q_CLIP_TOLERANCE`,
             clipped onto them).
         tol: one tolerance, or ``(position_tol_m, orientation_tol_rad)``.
-        max_iter: iterations per attempt.
+        max_iter: iterations per attempt, 1 to :data:`MAX_ITERATIONS` (default: the
+            damped least squares' own, 100, as in :func:`solve_ik`).
         restarts: attempts after the first, 0 to :data:`MAX_BATCH_RESTARTS`.
         seed: base seed of the restarts.
         threads: worker threads (default: numba's current thread count,
@@ -208,7 +209,8 @@ def solve_ik_batch(
     table = seed_table(robot)
     given = _given_starts(robot, q0, N, bounds)
     chain = robot.chain.kernel_args(bounds)
-    settings = (int(max_iter), DLSSolver.w_bias, int(restarts))
+    iterations_each = DLSSolver.default_max_iter if max_iter is None else int(max_iter)
+    settings = (iterations_each, DLSSolver.w_bias, int(restarts))
     for lo in range(0, len(rows), BATCH_SLICE):
         part = rows[lo : lo + BATCH_SLICE]
         workers = threads if len(part) >= PARALLEL_BATCH else 1

@@ -56,7 +56,8 @@ def resolve_limits(
         ModelError: unknown role, a prismatic joint without limits, a joint with neither
             limits nor role, or a continuous prismatic joint.
         InvalidLimitsError: NaN, lower > upper, infinite limits on a bounded joint, a
-            limit that is not a number, or a prismatic limit beyond ``MAX_LENGTH_M``.
+            limit that is not a number, or a finite limit beyond ``MAX_LENGTH_M`` (rad or
+            m).
     """
     if role is not None and role not in ROLE_LIMITS_RAD:
         raise ModelError(
@@ -100,6 +101,16 @@ def resolve_limits(
         raise InvalidLimitsError(
             joint, lo, hi, "only a continuous revolute joint may have infinite limits"
         )
+    if math.isfinite(lo) and max(abs(lo), abs(hi)) > MAX_LENGTH_M:
+        # Joint values are bounded alike (Robot.check_q): a configuration near such a
+        # bound could be neither checked nor solved.
+        raise InvalidLimitsError(
+            joint,
+            lo,
+            hi,
+            f"a finite revolute range must lie within +-{MAX_LENGTH_M:g} rad "
+            "(infinite limits make the joint continuous)",
+        )
     return lo, hi
 
 
@@ -114,5 +125,6 @@ def within_limits(
     q: FloatArray, lower: FloatArray, upper: FloatArray, tol: float = LIMIT_TOLERANCE
 ) -> bool | FloatArray:
     """Whether ``q`` (or each row of a batch) lies inside the limits, up to ``tol``."""
-    inside = np.all((q >= lower - tol) & (q <= upper + tol), axis=-1)
+    # The differences, as limit_violation forms them: the same verdict to the last bit.
+    inside = np.all((lower - q <= tol) & (q - upper <= tol), axis=-1)
     return bool(inside) if np.ndim(inside) == 0 else inside

@@ -596,7 +596,7 @@ class Robot:
             q: configuration (dof,) or batch (N, dof), rad or m.
             name: the argument's name in error messages.
         """
-        return finite_length_array(name, q, (self.dof,), batch=True)
+        return finite_length_array(name, q, (self.dof,), batch=True, unit="rad or m")
 
     def _theta(self, q: FloatArray) -> FloatArray:
         if self._identity_coupling:
@@ -672,8 +672,9 @@ class Robot:
             upper: upper joint limits (dof,), rad or m (``inf`` allowed for a revolute joint).
 
         Raises:
-            InvalidLimitsError: NaN, ``lower > upper`` for some joint, or a prismatic
-                limit that is infinite or beyond :data:`~optik._checks.MAX_LENGTH_M`.
+            InvalidLimitsError: NaN, ``lower > upper`` for some joint, a prismatic
+                limit that is infinite, or a finite limit beyond
+                :data:`~optik._checks.MAX_LENGTH_M` (rad or m).
             ArgumentError: complex, boolean or non-numeric limits.
             ShapeError: wrong shapes.
         """
@@ -771,10 +772,24 @@ def _build_chain(robot: Robot) -> Chain:
 
 
 def _check_limit_magnitude(joint: str, kind: str, lower: float, upper: float) -> None:
-    """A prismatic range must be finite and within :data:`~optik._checks.MAX_LENGTH_M`."""
+    """A range must lie within +-:data:`~optik._checks.MAX_LENGTH_M` (rad or m).
+
+    A prismatic range must also be finite; a revolute one may be infinite (a continuous
+    joint), but a finite bound beyond it would let no configuration near it be checked
+    (:meth:`Robot.check_q` bounds joint values alike).
+    """
     if kind == "prismatic" and not (abs(lower) <= MAX_LENGTH_M and abs(upper) <= MAX_LENGTH_M):
         raise InvalidLimitsError(
             joint, lower, upper, f"a prismatic range must lie within +-{MAX_LENGTH_M:g} m"
+        )
+    beyond = [b for b in (lower, upper) if math.isfinite(b) and abs(b) > MAX_LENGTH_M]
+    if kind != "prismatic" and beyond:
+        raise InvalidLimitsError(
+            joint,
+            lower,
+            upper,
+            f"a finite revolute range must lie within +-{MAX_LENGTH_M:g} rad "
+            "(infinite limits make the joint continuous)",
         )
 
 

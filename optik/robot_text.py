@@ -10,7 +10,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 from optik.analytic import family_of, free_joint_reason
 from optik.errors import URDFError
@@ -58,7 +57,6 @@ def read_urdf_tree(source: str | Path) -> UrdfTree:
     links = tuple(str(el.get("name")) for el in root.findall("link"))
     by_child = _parent_joints(root)
     parent_of = {child: str(j.find("parent").get("link")) for child, j in by_child.items()}  # type: ignore[union-attr]
-    _check_acyclic(parent_of, by_child)
     parents = set(parent_of.values())
     chains = []
     for leaf in links:
@@ -79,23 +77,6 @@ def read_urdf_tree(source: str | Path) -> UrdfTree:
         if joints:
             chains.append(UrdfChain(link, leaf, tuple(reversed(joints)), moving))
     return UrdfTree(str(root.get("name") or Path(source).stem), links, tuple(chains))
-
-
-def _check_acyclic(parent_of: dict[str, str], by_child: dict[str, Any]) -> None:
-    """Raise on a cycle of parent links (each link visited once: linear in the links)."""
-    done: set[str] = set()
-    for start in parent_of:
-        path: list[str] = []
-        on_path: set[str] = set()
-        link: str | None = start
-        while link is not None and link not in done:
-            if link in on_path:
-                names = [str(by_child[x].get("name")) for x in path[path.index(link) :]]
-                raise URDFError(f"the joints {names} form a cycle through link {link!r}")
-            path.append(link)
-            on_path.add(link)
-            link = parent_of.get(link)
-        done.update(path)
 
 
 def _limit(value: float, kind: str) -> str:

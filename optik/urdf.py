@@ -93,7 +93,11 @@ def _read_root(source: str | Path) -> ET.Element:
 
 
 def _parent_joints(root: ET.Element) -> dict[str, ET.Element]:
-    """The joint whose child each link is; a link with two parents or a self-loop is an error."""
+    """The joint whose child each link is.
+
+    A link with two parents, a self-loop or a cycle anywhere in the file is an error
+    (a URDF describes a tree), whichever chain is asked for.
+    """
     by_child: dict[str, ET.Element] = {}
     for joint in root.findall("joint"):
         jname = joint.get("name")
@@ -113,17 +117,35 @@ def _parent_joints(root: ET.Element) -> dict[str, ET.Element]:
                 "a URDF describes a tree"
             )
         by_child[link] = joint
+    parent_of = {child: str(j.find("parent").get("link")) for child, j in by_child.items()}  # type: ignore[union-attr]
+    _check_acyclic(parent_of, by_child)
     return by_child
+
+
+def _check_acyclic(parent_of: dict[str, str], by_child: dict[str, ET.Element]) -> None:
+    """Raise on a cycle of parent links (each link visited once: linear in the links)."""
+    done: set[str] = set()
+    for start in parent_of:
+        path: list[str] = []
+        on_path: set[str] = set()
+        link: str | None = start
+        while link is not None and link not in done:
+            if link in on_path:
+                names = [str(by_child[x].get("name")) for x in path[path.index(link) :]]
+                raise URDFError(f"the joints {names} form a cycle through link {link!r}")
+            path.append(link)
+            on_path.add(link)
+            link = parent_of.get(link)
+        done.update(path)
 
 
 def _path_to(by_child: dict[str, ET.Element], base_link: str, tip_link: str) -> list[ET.Element]:
     """The joints from ``base_link`` to ``tip_link``, found by walking up from the tip.
 
-    Every link has at most one parent joint, so the walk is unique; a link seen twice
-    means a cycle, which is reported instead of looped over.
+    Every link has at most one parent joint and the tree has no cycle
+    (:func:`_parent_joints`), so the walk is unique and ends.
     """
     path: list[ET.Element] = []
-    seen = {tip_link}
     link = tip_link
     while link != base_link:
         joint = by_child.get(link)
@@ -131,10 +153,6 @@ def _path_to(by_child: dict[str, ET.Element], base_link: str, tip_link: str) -> 
             raise URDFError(f"no kinematic path from {base_link!r} to {tip_link!r}")
         path.append(joint)
         link = str(joint.find("parent").get("link"))  # type: ignore[union-attr]
-        if link in seen:
-            names = [str(j.get("name")) for j in path]
-            raise URDFError(f"the joints {names} form a cycle through link {link!r}")
-        seen.add(link)
     path.reverse()
     return path
 

@@ -145,6 +145,59 @@ def test_outside_limits_branches_are_dropped_unless_asked() -> None:
     assert_close(loose[0], q, atol=1e-9)
 
 
+def test_the_limit_filter_and_the_verification_give_one_verdict() -> None:
+    """``within_limits`` (the closed forms' filter) and ``limit_violation`` (every
+    answer's verification) agree to the last bit at the tolerance: a value 1e-12 beyond
+    a bound of about 3 passed the one (``q <= upper + tol`` rounds) and failed the other
+    (``q - upper <= tol``), and ``solve_ik`` reported ``max_iter`` for a closed-form
+    answer. Values spread over the rounding of ``bound +- tol``."""
+    from optik.limits import LIMIT_TOLERANCE, limit_violation, within_limits
+
+    rng = np.random.default_rng(3)
+    bounds = rng.uniform(-4.0, 4.0, 2000)
+    steps = rng.integers(-40, 41, bounds.shape) * np.spacing(bounds)
+    for sign in (1.0, -1.0):
+        q = bounds + sign * LIMIT_TOLERANCE + steps
+        lower = np.where(sign < 0, bounds, -10.0)[:, None]
+        upper = np.where(sign > 0, bounds, 10.0)[:, None]
+        inside = within_limits(q[:, None], lower[:, 0], upper[:, 0])
+        rows = [within_limits(q[i : i + 1], lower[i], upper[i]) for i in range(len(q))]
+        violation = np.array(
+            [limit_violation(q[i : i + 1], lower[i], upper[i]) for i in range(len(q))]
+        )
+        assert np.array_equal(np.asarray(rows), violation <= LIMIT_TOLERANCE)
+        assert inside.shape == (len(q),)
+        assert 0 < np.count_nonzero(violation <= LIMIT_TOLERANCE) < len(q)
+
+
+@pytest.mark.parametrize("name", ["stanford_arm", "puma560", "ur5", "jumbo_drill_6dof"])
+def test_branches_at_their_limits_come_back_inside_them(name: str) -> None:
+    """A configuration with joints on their bounds: every branch returned lies inside the
+    limits exactly (a row off by rounding is put on the bound) and ``solve_ik`` answers
+    with a verified in-limit configuration (the Stanford arm's case found by a fuzz:
+    ``max_iter`` from the closed form, at a limit violation of 1.00009e-12)."""
+    robot = load_problem(name).robot
+    lower, upper = _finite_limits(robot)
+    rng = np.random.default_rng(11)
+    configurations = [
+        np.array([-math.pi / 2, 1e-12, 0.3048, -math.pi / 2, -math.pi / 2, -math.pi / 2])
+    ]
+    for _ in range(40):
+        q = rng.uniform(lower, upper)
+        on = rng.random(robot.dof) < 0.5
+        q[on] = np.where(rng.random(robot.dof) < 0.5, lower, upper)[on]
+        configurations.append(q)
+    for q in configurations:
+        if not robot.within_limits(q):
+            continue
+        T = robot.fk(q)
+        for branch in analytic_ik(robot, T):
+            assert np.all(branch >= robot.lower) and np.all(branch <= robot.upper)
+        result = optik.solve_ik(robot, T)
+        assert result.success, (q, result.status, result.limit_violation)
+        assert result.limit_violation == 0.0
+
+
 def test_wrap_into_limits_picks_representative_nearest_reference() -> None:
     robot = load_problem("ur5").robot  # +-360 deg: two representatives for most angles
     Q = np.array([[0.5, -0.5, 1.0, 3.0, -3.0, 0.0]])

@@ -39,6 +39,22 @@ def test_entry_points_list_their_keywords() -> None:
         optik.solve_ik(PANDA, PANDA.fk(PANDA.mid_limits), max_iters=3)  # type: ignore[call-arg]
 
 
+def test_batch_takes_the_defaults_solve_ik_takes() -> None:
+    """``max_iter=None`` is the solvers' own default in both entry points (100 iterations
+    for the damped least squares): the same answers as ``max_iter=100``; a bad value is
+    refused by both alike."""
+    _, T = _poses(UR5, 12, 4)
+    default = optik.solve_ik_batch(UR5, T, max_iter=None, threads=1)
+    explicit = optik.solve_ik_batch(UR5, T, max_iter=100, threads=1)
+    np.testing.assert_array_equal(default.q, explicit.q)
+    np.testing.assert_array_equal(default.status, explicit.status)
+    assert default.success.all()
+    assert optik.solve_ik(UR5, T[0], solver="dls", max_iter=None).success
+    for call in (optik.solve_ik, optik.solve_ik_batch):
+        with pytest.raises(OptikError, match="max_iter"):
+            call(UR5, T[:1] if call is optik.solve_ik_batch else T[0], max_iter=0)
+
+
 def test_batch_holds_frozen_joints_and_answers_like_solve_ik() -> None:
     Q, T = _poses(PANDA, 120, 1)
     name = PANDA.joint_names[2]

@@ -41,6 +41,7 @@ from optik.errors import (
     ShapeError,
     URDFError,
 )
+from optik.ik import solve_ik
 from optik.model import DHJoint, Mimic, Robot
 from optik.paths import MAX_PATH_SAMPLES, PathFileError, read_path
 from optik.planning import PLAN_STATUSES, plan_path
@@ -194,8 +195,29 @@ def test_complex_q_is_rejected_not_truncated() -> None:
 
 
 def test_joint_values_beyond_length_bound() -> None:
-    with pytest.raises(ArgumentError, match=r"q\[1\]: expected a length of magnitude"):
+    with pytest.raises(
+        ArgumentError, match=r"q\[1\]: expected a value of magnitude <= 1e\+09 rad or m"
+    ):
         PLANAR.fk([0.0, 1e154])
+
+
+def test_finite_revolute_limits_beyond_the_value_bound_are_refused() -> None:
+    """A finite revolute bound beyond 1e9 rad would let no configuration near it be
+    checked (joint values are bounded alike): refused when the robot is built, by every
+    route that sets limits; infinite limits (a continuous joint) and 1e6 rad are kept."""
+    message = r"joint 'j1': invalid limits .*within \+-1e\+09 rad"
+    with pytest.raises(InvalidLimitsError, match=message):
+        Robot.from_dh([DHJoint(a=0.4, lower=-1e10, upper=1e10), DHJoint(a=0.3, role="arm")])
+    arm = [DHJoint(a=0.4, role="arm"), DHJoint(a=0.3, role="arm")]
+    with pytest.raises(InvalidLimitsError, match=message):
+        Robot.from_dh(arm, limits=[[-1e10, 1.0], [-1.0, 1.0]])
+    with pytest.raises(InvalidLimitsError, match=message):
+        Robot.from_dh(arm).with_limits([-1e10, -1.0], [1.0, 1.0])
+    wide = Robot.from_dh([DHJoint(a=0.4, lower=-1e6, upper=1e6), DHJoint(a=0.3, role="arm")])
+    q = np.array([5e5, 0.3])
+    assert solve_ik(wide, wide.fk(q), tol=1e-6).success
+    continuous = Robot.from_dh([DHJoint(a=0.4, continuous=True), DHJoint(a=0.3, role="arm")])
+    assert continuous.upper[0] == INF
 
 
 # ====================================================================== DH rows
@@ -336,6 +358,18 @@ def test_urdf_link_with_two_parents() -> None:
     text = _urdf(_joint("j1", "base", "l1"), _joint("j2", "l1", "l2"), _joint("jx", "base", "l2"))
     with pytest.raises(URDFError, match="link 'l2' has two parent joints, 'j2' and 'jx'"):
         Robot.from_urdf(text, "base", "l2")
+
+
+def test_urdf_cycle_is_refused_whichever_chain_is_asked_for() -> None:
+    """A URDF describes a tree: a cycle anywhere in the file is an error, also when the
+    chain asked for (``b -> l1``) would not walk round it."""
+    text = _urdf(_joint("j1", "base", "l1"), _joint("j2", "l1", "base"))
+    for tip in ("l1", "base"):
+        with pytest.raises(URDFError, match=r"the joints \['j1', 'j2'\] form a cycle"):
+            Robot.from_urdf(text, "base", tip)
+    longer = _urdf(_joint("j1", "base", "l1"), _joint("j2", "l2", "l3"), _joint("j3", "l3", "l2"))
+    with pytest.raises(URDFError, match=r"form a cycle through link 'l[23]'"):
+        Robot.from_urdf(longer, "base", "l1")
 
 
 def test_urdf_unreadable_files(tmp_path: Path) -> None:

@@ -374,7 +374,9 @@ def _inside(
     """Whether ``rows[r]`` lies inside the limits, each widened by ``tol``."""
     for j in range(dof):
         v = rows[r, j]
-        if not (v >= params[layout[2] + j] - tol and v <= params[layout[3] + j] + tol):
+        # The differences, as optik.limits.limit_violation forms them: the same verdict
+        # to the last bit as the verification of every answer.
+        if not (params[layout[2] + j] - v <= tol and v - params[layout[3] + j] <= tol):
             return False
     return True
 
@@ -589,7 +591,13 @@ def postprocess_rows(
         if duplicate:
             continue
         for j in range(dof):
-            Q[k, m, j] = rows[r, j]
+            v = rows[r, j]
+            if within and j != held:
+                # Onto the bound a row passed within the tolerance (rounding of a branch
+                # at its limit): an answer inside its limits, not 1e-12 beyond them; the
+                # pose moves by that much times the arm's length.
+                v = min(max(v, params[layout[2] + j]), params[layout[3] + j])
+            Q[k, m, j] = v
         m += 1
     if sort and m > 1:
         # 4. By distance to the reference; the keys go in the (now free) sine rows.

@@ -121,7 +121,11 @@ def finish_batch(
         Q[:, held[0]] = held[1]
     if within_limits:
         keep = np.asarray(robot.within_limits(Q), dtype=bool).reshape(-1)
-        Q, owner = Q[keep], owner[keep]
+        # Onto the bound a row passed within the tolerance (a branch at its limit, off
+        # by rounding): answers inside their limits (the held joint keeps its value).
+        Q, owner = np.clip(Q[keep], robot.lower, robot.upper), owner[keep]
+        if held is not None:
+            Q[:, held[0]] = held[1]
     if len(Q) == 0:
         return finished
     keep = _verified(robot, Q, T_targets[0] if single else T_targets[owner], mode)
