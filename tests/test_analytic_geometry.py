@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from conftest import assert_closed_form_round_trips
+from scipy.spatial.transform import Rotation
 
 from optik import Robot, load_problem, solve_ik
 from optik.analytic import (
@@ -631,3 +632,40 @@ def test_random_urdf_frames_and_reversed_axes_keep_the_family(
         assert np.max(np.abs(robot.fk(Q * signs) - dh.fk(Q))) < 1e-12  # independent
         assert family_of(robot) is FAMILIES[family], explain_family(robot)
         _check_branches(robot, 40, seed=seed)
+
+
+@needs_erd
+def test_stretched_elbows_next_to_singular_wrists_keep_their_branches() -> None:
+    """A stretched elbow whose reach, computed next to a second singularity, lands just
+    beyond the arm's exact reach takes the tangent (stretched) elbow instead of losing
+    every branch (found by a hostile-input search): the UR5 at ``q3 = 1e-9`` with
+    ``q5`` of 1e-10 to 1e-8 (``q6`` then carries the error of two entries of order ``sin
+    q5``), and the Jaco 2 from its URDF stretched (``q3 = pi``) with ``q6 = -pi/2`` (its
+    URDF's angles fit the ideal arm to 11 digits). Each pose keeps a branch, every branch
+    reaching it (1e-9), the nearest within 2e-3 rad of the source: next to two
+    singularities at once the configurations that reach a pose within 1e-9 spread that
+    far (the UR5 at ``q3 = -1e-9``, ``q5 = 1e-10``: two branches 1e-3 rad apart in the
+    elbow, both within 1e-9 of the pose)."""
+    ur5 = load_problem("ur5").robot
+    cases = [
+        (ur5, np.array([0.3, -1.0, q3, -1.0, q5, 0.5]))
+        for q3 in (1e-9, -1e-9)
+        for q5 in (1e-10, 1e-9, 1e-8)
+    ]
+    kinova = _kinova()
+    cases += [
+        (kinova, np.array([0.3, 2.0, math.pi, 0.5, 2.0, q6])) for q6 in (-math.pi / 2, -1.5698)
+    ]
+    for robot, q in cases:
+        T = robot.fk(q)
+        branches = analytic_ik(robot, T, within_limits=False)
+        assert branches, q
+        nearest = min(
+            float(np.max(np.abs(np.remainder(b - q + math.pi, 2 * math.pi) - math.pi)))
+            for b in branches
+        )
+        assert nearest <= 2e-3, (q, nearest)
+        for b in branches:
+            F = robot.fk(b)
+            assert np.linalg.norm(F[:3, 3] - T[:3, 3]) <= 1e-9
+            assert Rotation.from_matrix(F[:3, :3].T @ T[:3, :3]).magnitude() <= 1e-9

@@ -30,6 +30,15 @@ VERIFY_TOLERANCE = 1e-9
 DUPLICATE_TOLERANCE = 1e-9
 """Two branches closer than this (max-abs, rad or m) are one."""
 
+ELBOW_REACH_TOL = 1e-6
+"""A wrist centre beyond a DH arm's elbow reach (stretched or folded) by at most this,
+relative to the elbow equation's coefficient ``2 a2 a3``, takes the tangent elbow. The
+reach computed near a singularity carries more than rounding (next to the wrist's, the
+angle ``q6`` that places the wrist centre comes from two entries of order ``sin q5``; a
+URDF's angles fit the ideal arm only to its own digits), and a stretched arm's target
+would fall just out of exact reach, with no branch at all; the FK check judges the
+tangent row."""
+
 WRIST_SINGULAR = 1e-10
 """``|sin q5|`` below which a six-joint arm's wrist axes 4 and 6 count as aligned: only
 ``q4 + q6`` (or ``q6`` alone) is defined, and the free joint takes its reference."""

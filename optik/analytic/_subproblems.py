@@ -40,7 +40,7 @@ Rot9 = tuple[float, float, float, float, float, float, float, float, float]
 RootTols = tuple[float, float, float, float]
 """The tolerances of a root solve, ``(trig_tol, eps, free_tol, reach_tol)``: those of
 :func:`optik._math.trig_roots`, then the relative slack of the tangent root
-(:func:`_roots_or_tangent`)."""
+(:func:`roots_or_tangent`)."""
 
 
 @_inline
@@ -260,7 +260,7 @@ def distance_angles(
     a = 2.0 * dot(d, u) / scale
     b = 2.0 * dot(d, v) / scale
     c = (dist2 - scale) / scale
-    return _roots_or_tangent(a, b, c, ref, roots)
+    return roots_or_tangent(a, b, c, ref, roots)
 
 
 @_inline
@@ -276,7 +276,7 @@ def circle(w: Vec3, on_axis: Vec3, point: Vec3) -> tuple[Vec3, Vec3, Vec3]:
 
 
 @_inline
-def _roots_or_tangent(
+def roots_or_tangent(
     a: float,
     b: float,
     c: float,
@@ -319,7 +319,7 @@ def plane_angles(
     (coefficients of order 1). Both ``h.u`` and ``h.(w x u)`` vanish (the height does
     not depend on ``t``: ``point`` on the line, or ``h`` along it) -> the free rule of
     :func:`optik._math.trig_roots`, ``ref``. A height beyond the reachable range by at
-    most ``reach_tol`` of ``roots`` (relative) gives the tangent angle (:func:`_roots_or_tangent`).
+    most ``reach_tol`` of ``roots`` (relative) gives the tangent angle (:func:`roots_or_tangent`).
     """
     foot, u, v = circle(w, on_axis, point)
     rhs = height - dot(h, foot)
@@ -328,7 +328,7 @@ def plane_angles(
         return 1, ref, ref
     a = dot(h, u) / scale
     b = dot(h, v) / scale
-    return _roots_or_tangent(a, b, rhs / scale, ref, roots)
+    return roots_or_tangent(a, b, rhs / scale, ref, roots)
 
 
 @_jit

@@ -39,7 +39,7 @@ import numpy as np
 from optik._math import sincos, trig_roots
 from optik._numba import jit as _jit
 from optik.analytic import _compiled
-from optik.analytic._base import deg, is_right_angle, opposite, register
+from optik.analytic._base import ELBOW_REACH_TOL, deg, is_right_angle, opposite, register
 from optik.analytic._compiled import (
     CompiledFamily,
     closed_form_tols,
@@ -51,6 +51,7 @@ from optik.analytic._compiled import (
     mul3tn,
     store_branch,
 )
+from optik.analytic._subproblems import roots_or_tangent
 from optik.model import DHJoint
 
 _EPS = 1e-12
@@ -201,8 +202,12 @@ def spherical_wrist_candidates(
         R1 = dh_rot(c1, sn1, ca1, sa1) if theta1 == t1 else dh_rotation(theta1, ca1, sa1)
         if not rrp:
             rhs = rho2 - a2 * a2 - a3 * a3 - b3 * b3
-            n3, t3a, t3b = trig_roots(
-                2 * a2 * a3, -2 * a2 * b3, rhs, th3 + ref[kr, 2], trig_tol, eps, free_tol
+            n3, t3a, t3b = roots_or_tangent(
+                2 * a2 * a3,
+                -2 * a2 * b3,
+                rhs,
+                th3 + ref[kr, 2],
+                (trig_tol, eps, free_tol, ELBOW_REACH_TOL),
             )
             for i3 in range(n3):
                 t3 = t3a if i3 == 0 else t3b

@@ -35,7 +35,7 @@ from optik._math import sincos, trig_roots, wrap_angle
 from optik._numba import inline as _inline
 from optik._numba import jit as _jit
 from optik.analytic import _compiled
-from optik.analytic._base import deg, opposite, register
+from optik.analytic._base import ELBOW_REACH_TOL, deg, opposite, register
 from optik.analytic._compiled import (
     CompiledFamily,
     closed_form_tols,
@@ -45,6 +45,7 @@ from optik.analytic._compiled import (
     store_branch,
     times_inverse_dh,
 )
+from optik.analytic._subproblems import roots_or_tangent
 from optik.model import DHJoint
 
 _ALPHAS_DEG = (90.0, 0.0, 0.0, 90.0, -90.0, 0.0)
@@ -165,14 +166,12 @@ def _ur_elbow(
     trig_tol, eps, free_tol, _ = closed_form_tols(tols)
     x, y, t234 = _ur_wrist_origin(dh, T16, c5t, sn5t, c6t, sn6t)
     phi = math.atan2(y, x)
-    n3, t3a, t3b = trig_roots(
+    n3, t3a, t3b = roots_or_tangent(
         2 * a2 * a3,
         0.0,
         x * x + y * y - a2 * a2 - a3 * a3,
         th3 + ref[kr, 2],
-        trig_tol,
-        eps,
-        free_tol,
+        (trig_tol, eps, free_tol, ELBOW_REACH_TOL),
     )
     for i3 in range(n3):
         t3 = t3a if i3 == 0 else t3b
