@@ -198,6 +198,55 @@ def test_branches_at_their_limits_come_back_inside_them(name: str) -> None:
         assert result.limit_violation == 0.0
 
 
+def test_an_aligned_wrist_splits_its_turn_inside_the_limits() -> None:
+    """At the wrist singularity only ``q4 + q6`` is defined. Keeping ``q4`` at its
+    reference put the whole turn into ``q6``, outside its +-170 deg for a Stanford arm at
+    ``q4 = 1.98, q6 = 1.23`` (found by a hostile-input search: no branch within the
+    limits). The split nearest the reference comes too: on 300 random aligned wrists
+    (``q5 = 0``) every pose keeps an in-limit branch, each reaching the pose (the sum
+    ``q4 + q6`` is the source's modulo 2 pi), and with the source as reference the
+    source comes first."""
+    robot = load_problem("stanford_arm").robot
+    rng = np.random.default_rng(8)
+    sources = [np.array([-0.744, 1.2, 0.389, 1.98, 0.0, 1.23])]
+    for _ in range(300):
+        q = rng.uniform(robot.lower, robot.upper)
+        q[4] = 0.0
+        sources.append(q)
+    for q in sources:
+        T = robot.fk(q)
+        branches = analytic_ik(robot, T)
+        assert branches, q
+        for b in branches:
+            assert np.all(b >= robot.lower) and np.all(b <= robot.upper)
+            assert_close(robot.fk(b), T, atol=1e-9)
+        aligned = [b for b in branches if abs(b[4]) < 1e-9 and np.allclose(b[:3], q[:3], atol=1e-9)]
+        assert aligned, q
+        turn = np.remainder(aligned[0][3] + aligned[0][5] - q[3] - q[5] + math.pi, 2 * math.pi)
+        assert abs(turn - math.pi) < 1e-9
+        first = analytic_ik(robot, T, q_ref=q)[0]
+        assert_close(first, q, atol=1e-9)
+
+
+def test_dobot_over_its_base_axis_keeps_the_reference() -> None:
+    """The flange over the base axis (to 1e-17 m, rounding's azimuth): J1 is free and
+    keeps its reference, not ``atan2`` of the rounding (which put J4 beyond -90 deg and
+    lost the in-limit answer; found by a hostile-input search)."""
+    robot = load_problem("dobot_magician").robot
+    q = np.array([0.589, 0.0, math.pi / 2, -math.pi / 2])
+    T = robot.fk(q)
+    assert 0.0 < np.hypot(*T[:2, 3]) < 1e-15
+    branches = analytic_ik(robot, T)
+    assert branches
+    for b in branches:
+        assert b[0] == robot.mid_limits[0]
+        assert np.all(b >= robot.lower) and np.all(b <= robot.upper)
+        assert_close(robot.fk(b), T, atol=1e-9)
+    ref = robot.mid_limits.copy()
+    ref[0] = 0.4
+    assert abs(analytic_ik(robot, T, q_ref=ref)[0][0] - 0.4) < 1e-12
+
+
 def test_wrap_into_limits_picks_representative_nearest_reference() -> None:
     robot = load_problem("ur5").robot  # +-360 deg: two representatives for most angles
     Q = np.array([[0.5, -0.5, 1.0, 3.0, -3.0, 0.0]])

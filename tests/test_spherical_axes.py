@@ -448,3 +448,27 @@ def test_a_kind_pipeline_compiles_its_own_arm_alone(tmp_path: Path) -> None:
 def test_kind_pipeline_refuses_an_unknown_kind() -> None:
     with pytest.raises(OptikError, match=r"unknown arm kind 99; known: \[1, 2, 3, 4, 5, 6, 7\]"):
         kind_pipeline(99)
+
+
+def test_an_aligned_wrist_splits_its_turn_inside_narrow_limits() -> None:
+    """Axes 4 and 6 aligned (``q5 = -0.3`` against the wrist's DH offset): only the turn
+    ``q4 + q6`` is defined. With the wrist's joints limited to +-1.2 rad, keeping ``q4``
+    at its reference (0) put turns beyond 1.2 rad into ``q6``, outside its limits: no
+    branch. The split nearest the reference comes too: every pose of 200 random aligned
+    wrists keeps an in-limit branch reaching it (the turn the source's)."""
+    spec = ARMS["second two parallel"][0]
+    limits = np.array([[-3.0, 3.0]] * 3 + [[-1.2, 1.2], [-2.0, 2.0], [-1.2, 1.2]])
+    robot = Robot.from_dh(_rows(spec), limits=limits)
+    assert axes_plan(robot).kind == PARALLEL_23
+    rng = np.random.default_rng(21)
+    for _ in range(200):
+        q = rng.uniform(robot.lower, robot.upper)
+        q[4] = -0.3
+        T = robot.fk(q)
+        branches = analytic_ik(robot, T)
+        aligned = [b for b in branches if abs(b[4] + 0.3) < 1e-9]
+        assert aligned, q
+        for b in branches:
+            assert np.all(b >= robot.lower) and np.all(b <= robot.upper)
+            np.testing.assert_allclose(robot.fk(b), T, atol=1e-9)
+        assert any(abs(b[3] + b[5] - q[3] - q[5]) < 1e-9 for b in aligned)

@@ -22,6 +22,10 @@ from optik._checks import FloatArray
 from optik.analytic._base import AnalyticFamily, angles, dh_rows, register
 from optik.model import Robot
 
+ON_AXIS_TOL = 1e-12
+"""A flange this close to the base axis (relative to the arm's length ``L1 + L2``) is on
+it: its azimuth is rounding's, and J1, free there, keeps its reference."""
+
 _PATTERN = (
     # (alpha deg, theta deg, mimic of, multiplier)
     (-90.0, 0.0, None, None),
@@ -83,6 +87,9 @@ class Dobot(AnalyticFamily):
         radius = math.hypot(x, y)
         yaw = math.atan2(float(T_0_target[1, 0]), float(T_0_target[0, 0]))
         j1_free = float(q_ref[0])
+        if radius <= ON_AXIS_TOL * (abs(L1) + abs(L2)):
+            # Over the base axis (its azimuth is rounding's): J1 is free, at its reference.
+            radius = 0.0
         out = []
         for r in (radius, -radius) if radius > 0 else (0.0,):
             j1 = math.atan2(y, x) if r > 0 else (math.atan2(-y, -x) if r < 0 else j1_free)

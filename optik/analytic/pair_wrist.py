@@ -26,7 +26,8 @@ with ``G = T_target M^-1`` (all in the world frame):
 Up to 2 x 2 x 2 = 8 branches, in this order: elbow, shoulder, wrist (each pair in the
 ascending order of the angle solved first). At a singularity a free angle takes the
 reference: the shoulder's ``q_1`` with ``W_t - S`` on axis 1, the wrist's ``q_4`` with
-axes 4 and 6 aligned (``q_6`` then takes up the rest), the elbow with ``S`` or ``W`` on
+axes 4 and 6 aligned (``q_6`` then takes up the rest; a second row splits the rest
+between them, the configuration nearest the reference), the elbow with ``S`` or ``W`` on
 axis 3 only when the distance already matches.
 
 Tolerances are those of the compiled families (:data:`optik.analytic._compiled.TOL_TRIG`
@@ -39,7 +40,7 @@ from __future__ import annotations
 import numpy as np
 
 from optik._checks import FloatArray
-from optik._math import sincos
+from optik._math import sincos, wrap_angle
 
 # Steps shared by the closed forms are inlined into each: a call per shoulder branch cost
 # 4-15 % of a held-joint solve.
@@ -235,12 +236,24 @@ def wrist_branches(
     trig_tol, _, _, axis_tol = closed_form_tols(tols)
     z4, z5, z6 = vec_at(z, 3), vec_at(z, 4), vec_at(z, 5)
     H = mul3tn(R123, RG)
-    n45, ta, tb, tc, td = sp2_angles(z4, z5, z6, apply(H, z6), ref[3], ref[4], trig_tol, axis_tol)
+    Hz6 = apply(H, z6)
+    n45, ta, tb, tc, td = sp2_angles(z4, z5, z6, Hz6, ref[3], ref[4], trig_tol, axis_tol)
+    Ha = apply(H, across)
+    if norm(cross(z4, Hz6)) <= axis_tol:
+        # Axes 4 and 6 aligned (sp2_angles's test): q4 took its reference. A second
+        # row is the split nearest the reference (q4 and q6 each off theirs by half
+        # q6's excess), inside the limits where keeping q4 pushes q6 out of them. q6
+        # moves with or against q4 along the singular set: measured by one turn of q4.
+        t6 = _wrist_q6(z4, z5, z6, ta, tb, across, Ha, ref, axis_tol)
+        turned = _wrist_q6(z4, z5, z6, ta + 1.0, tb, across, Ha, ref, axis_tol)
+        against = -1.0 if wrap_angle(turned - t6) < 0.0 else 1.0
+        excess = wrap_angle(t6 - ref[5])
+        if abs(excess) > axis_tol:
+            n45, tc, td = 2, ta - against * 0.5 * excess, tb
     for i45 in range(n45):
         t4 = ta if i45 == 0 else tc
         t5 = tb if i45 == 0 else td
-        R45 = mul3(rotation(z4, t4), rotation(z5, t5))
-        t6 = sp1_angle(z6, across, apply_t(R45, apply(H, across)), ref[5], axis_tol)
+        t6 = _wrist_q6(z4, z5, z6, t4, t5, across, Ha, ref, axis_tol)
         if n < cand.shape[0]:
             cand[n, 0] = arm[0]
             cand[n, 1] = arm[1]
@@ -250,6 +263,26 @@ def wrist_branches(
             cand[n, 5] = t6
             n += 1
     return n
+
+
+@_inline
+def _wrist_q6(
+    z4: Vec3,
+    z5: Vec3,
+    z6: Vec3,
+    t4: float,
+    t5: float,
+    across: Vec3,
+    Ha: Vec3,
+    ref: np.ndarray,
+    axis_tol: float,
+) -> float:
+    """``q_6`` (rad) from the residual rotation given ``q_4``, ``q_5`` (subproblem 1).
+
+    On ``across``, whose image under the wrist's target rotation is ``Ha``.
+    """
+    R45 = mul3(rotation(z4, t4), rotation(z5, t5))
+    return sp1_angle(z6, across, apply_t(R45, Ha), ref[5], axis_tol)
 
 
 # ---------------------------------------------------------------------- the structure

@@ -36,7 +36,8 @@ import math
 
 import numpy as np
 
-from optik._math import sincos, trig_roots
+from optik._math import sincos, trig_roots, wrap_angle
+from optik._numba import inline as _inline
 from optik._numba import jit as _jit
 from optik.analytic import _compiled
 from optik.analytic._base import ELBOW_REACH_TOL, deg, is_right_angle, opposite, register
@@ -117,8 +118,12 @@ def _sw_wrist(
 ) -> int:
     """Append the wrist branches (q4, q5, q6) of ``A4 A5 A6 = R36`` after the arm values.
 
-    Writes rows ``n, n + 1`` (or only ``n`` at the wrist singularity, ``|sin q5| <
-    wrist_tol``) of ``cand``; returns the new row count.
+    Writes rows ``n, n + 1`` of ``cand`` and returns the new row count. At the wrist
+    singularity (``|sin q5| < wrist_tol``) only ``q4 +- q6`` is defined: the first row
+    keeps ``q4`` at its reference, the second is the split nearest the reference
+    (``q4`` and ``q6`` each off theirs by half the excess), which lies inside the limits
+    where keeping ``q4`` would push ``q6`` out of them (the same row when the reference
+    fits both).
     """
     _, _, _, th4, _, ca4, sa4, s4 = dh_row(dh, 3)
     _, _, _, th5, _, ca5, sa5, s5 = dh_row(dh, 4)
@@ -127,28 +132,71 @@ def _sw_wrist(
     M = mul3(R36, (1.0, 0.0, 0.0, 0.0, ca6, sa6, 0.0, -sa6, ca6))
     c5 = -s4 * s5 * M[8]
     s5_mag = math.sqrt(M[2] * M[2] + M[5] * M[5])
-    count = 1 if s5_mag < wrist_tol else 2
-    for b in range(count):
-        if count == 1:
+    singular = s5_mag < wrist_tol
+    for b in range(2):
+        if singular:
             t5 = math.atan2(0.0, c5)
-            t4 = th4 + ref[kr, 3]
-            sn4, c4 = sincos(t4)
             sn5t, c5t = sincos(t5)
+            t4 = th4 + ref[kr, 3]
+            if b == 1:
+                # q6 moves against (or with) q4 along the singular set: measured by one
+                # turn of q4, then both take half of q6's excess over its reference.
+                q6 = _sw_q6(M, t4, c5t, sn5t, ca4, sa4, ca5, sa5) - th6
+                turned = _sw_q6(M, t4 + 1.0, c5t, sn5t, ca4, sa4, ca5, sa5) - th6
+                against = -1.0 if wrap_angle(turned - q6) < 0.0 else 1.0
+                excess = wrap_angle(q6 - ref[kr, 5])
+                if abs(excess) < wrist_tol:
+                    break  # the reference fits both: one row
+                t4 = t4 - against * 0.5 * excess
+            sn4, c4 = sincos(t4)
         else:
             sign = 1.0 if b == 0 else -1.0
             t5 = math.atan2(sign * s5_mag, c5)
             t4 = math.atan2(s5 * sign * M[5], s5 * sign * M[2])
             c4, sn4 = cos_sin(t4, t4, s5 * sign * M[2], s5 * sign * M[5])
             c5t, sn5t = cos_sin(t5, t5, c5, sign * s5_mag)
-        # q6 from the residual rotation N = (A4 A5)^T M given q4 and q5, not from M's row
-        # alone: near the singularity q4 carries an error of eps / sin(q5), which this q6
-        # absorbs exactly.
-        P = mul3(dh_rot(c4, sn4, ca4, sa4), dh_rot(c5t, sn5t, ca5, sa5))
-        n00 = P[0] * M[0] + P[3] * M[3] + P[6] * M[6]
-        n10 = P[1] * M[0] + P[4] * M[3] + P[7] * M[6]
-        t6 = math.atan2(n10, n00)
+        t6 = _sw_q6_from(M, c4, sn4, c5t, sn5t, ca4, sa4, ca5, sa5)
         n = store_branch(cand, n, (arm0, arm1, arm2, t4 - th4, t5 - th5, t6 - th6))
     return n
+
+
+@_inline
+def _sw_q6_from(
+    M: tuple[float, float, float, float, float, float, float, float, float],
+    c4: float,
+    sn4: float,
+    c5t: float,
+    sn5t: float,
+    ca4: float,
+    sa4: float,
+    ca5: float,
+    sa5: float,
+) -> float:
+    """``theta6`` (rad) from the residual rotation ``N = (A4 A5)^T M`` given q4 and q5.
+
+    Not from ``M``'s row alone: near the singularity q4 carries an error of
+    ``eps / sin(q5)``, which this q6 absorbs exactly.
+    """
+    P = mul3(dh_rot(c4, sn4, ca4, sa4), dh_rot(c5t, sn5t, ca5, sa5))
+    n00 = P[0] * M[0] + P[3] * M[3] + P[6] * M[6]
+    n10 = P[1] * M[0] + P[4] * M[3] + P[7] * M[6]
+    return math.atan2(n10, n00)
+
+
+@_inline
+def _sw_q6(
+    M: tuple[float, float, float, float, float, float, float, float, float],
+    t4: float,
+    c5t: float,
+    sn5t: float,
+    ca4: float,
+    sa4: float,
+    ca5: float,
+    sa5: float,
+) -> float:
+    """:func:`_sw_q6_from` at ``theta4 = t4`` (rad)."""
+    sn4, c4 = sincos(t4)
+    return _sw_q6_from(M, c4, sn4, c5t, sn5t, ca4, sa4, ca5, sa5)
 
 
 @_jit
