@@ -239,20 +239,23 @@ def wrist_branches(
     Hz6 = apply(H, z6)
     n45, ta, tb, tc, td = sp2_angles(z4, z5, z6, Hz6, ref[3], ref[4], trig_tol, axis_tol)
     Ha = apply(H, across)
-    if norm(cross(z4, Hz6)) <= axis_tol:
-        # Axes 4 and 6 aligned (sp2_angles's test): q4 took its reference. A second
-        # row is the split nearest the reference (q4 and q6 each off theirs by half
-        # q6's excess), inside the limits where keeping q4 pushes q6 out of them. q6
-        # moves with or against q4 along the singular set: measured by one turn of q4.
-        t6 = _wrist_q6(z4, z5, z6, ta, tb, across, Ha, ref, axis_tol)
-        turned = _wrist_q6(z4, z5, z6, ta + 1.0, tb, across, Ha, ref, axis_tol)
-        against = -1.0 if wrap_angle(turned - t6) < 0.0 else 1.0
-        excess = wrap_angle(t6 - ref[5])
-        if abs(excess) > axis_tol:
-            n45, tc, td = 2, ta - against * 0.5 * excess, tb
-    for i45 in range(n45):
+    # Axes 4 and 6 aligned (sp2_angles's test): q4 took its reference. A second row is
+    # the split nearest the reference (q4 and q6 each off theirs by half q6's excess),
+    # inside the limits where keeping q4 pushes q6 out of them.
+    aligned = norm(cross(z4, Hz6)) <= axis_tol
+    t6 = 0.0
+    for i45 in range(2 if aligned else n45):
         t4 = ta if i45 == 0 else tc
         t5 = tb if i45 == 0 else td
+        if aligned and i45 == 1:
+            excess = wrap_angle(t6 - ref[5])  # the first row's q6
+            if abs(excess) <= axis_tol:
+                break
+            # Axis 6 along axis 4: q4 + q6 is fixed, so q6 turns against q4; opposite:
+            # q4 - q6 is fixed.
+            along = dot(z4, apply(rotation(z5, tb), z6)) > 0.0
+            t4 = ta + (0.5 * excess if along else -0.5 * excess)
+            t5 = tb
         t6 = _wrist_q6(z4, z5, z6, t4, t5, across, Ha, ref, axis_tol)
         if n < cand.shape[0]:
             cand[n, 0] = arm[0]

@@ -133,20 +133,22 @@ def _sw_wrist(
     c5 = -s4 * s5 * M[8]
     s5_mag = math.sqrt(M[2] * M[2] + M[5] * M[5])
     singular = s5_mag < wrist_tol
+    t6 = 0.0
     for b in range(2):
         if singular:
             t5 = math.atan2(0.0, c5)
             sn5t, c5t = sincos(t5)
             t4 = th4 + ref[kr, 3]
             if b == 1:
-                # q6 moves against (or with) q4 along the singular set: measured by one
-                # turn of q4, then both take half of q6's excess over its reference.
-                q6 = _sw_q6(M, t4, c5t, sn5t, ca4, sa4, ca5, sa5) - th6
-                turned = _sw_q6(M, t4 + 1.0, c5t, sn5t, ca4, sa4, ca5, sa5) - th6
-                against = -1.0 if wrap_angle(turned - q6) < 0.0 else 1.0
-                excess = wrap_angle(q6 - ref[kr, 5])
+                # q6 (the first row's t6) moves against (or with) q4 along the singular
+                # set, measured by one turn of q4; both take half its excess over its
+                # reference.
+                excess = wrap_angle(t6 - th6 - ref[kr, 5])
                 if abs(excess) < wrist_tol:
                     break  # the reference fits both: one row
+                sb, cb = sincos(t4 + 1.0)
+                turned = _sw_q6(M, cb, sb, c5t, sn5t, ca4, sa4, ca5, sa5)
+                against = -1.0 if wrap_angle(turned - t6) < 0.0 else 1.0
                 t4 = t4 - against * 0.5 * excess
             sn4, c4 = sincos(t4)
         else:
@@ -155,13 +157,13 @@ def _sw_wrist(
             t4 = math.atan2(s5 * sign * M[5], s5 * sign * M[2])
             c4, sn4 = cos_sin(t4, t4, s5 * sign * M[2], s5 * sign * M[5])
             c5t, sn5t = cos_sin(t5, t5, c5, sign * s5_mag)
-        t6 = _sw_q6_from(M, c4, sn4, c5t, sn5t, ca4, sa4, ca5, sa5)
+        t6 = _sw_q6(M, c4, sn4, c5t, sn5t, ca4, sa4, ca5, sa5)
         n = store_branch(cand, n, (arm0, arm1, arm2, t4 - th4, t5 - th5, t6 - th6))
     return n
 
 
 @_inline
-def _sw_q6_from(
+def _sw_q6(
     M: tuple[float, float, float, float, float, float, float, float, float],
     c4: float,
     sn4: float,
@@ -181,22 +183,6 @@ def _sw_q6_from(
     n00 = P[0] * M[0] + P[3] * M[3] + P[6] * M[6]
     n10 = P[1] * M[0] + P[4] * M[3] + P[7] * M[6]
     return math.atan2(n10, n00)
-
-
-@_inline
-def _sw_q6(
-    M: tuple[float, float, float, float, float, float, float, float, float],
-    t4: float,
-    c5t: float,
-    sn5t: float,
-    ca4: float,
-    sa4: float,
-    ca5: float,
-    sa5: float,
-) -> float:
-    """:func:`_sw_q6_from` at ``theta4 = t4`` (rad)."""
-    sn4, c4 = sincos(t4)
-    return _sw_q6_from(M, c4, sn4, c5t, sn5t, ca4, sa4, ca5, sa5)
 
 
 @_jit

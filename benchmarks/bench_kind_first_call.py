@@ -1,0 +1,117 @@
+"""First calls on arms found from their axes: the compile time of each arm kind's pipeline.
+
+Run: ``python benchmarks/bench_kind_first_call.py [--kinds NAMES]``
+
+``spherical_axes`` and ``three_parallel`` compile a pipeline per arm kind
+(:func:`optik.analytic.spherical_axes.kind_pipeline`), outside the install's warm-up. This
+copies the checkout's ``optik`` package into a temporary folder, compiles the install's
+warm-up groups there once (``optik warmup``: what a user's environment holds after the
+README's install), keeps that state, and then for each of the five arm kinds with a
+spherical wrist restores it and times, in a fresh process, the first ``analytic_ik`` and
+the first ``analytic_ik_batch`` on an arm of that kind (process CPU time: the
+compilation), and the same calls again (warm). No assertions: times are reported, never
+tested.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import shutil
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+
+WRIST = [(0.0, -90.0, 0.45, 0.0), (0.0, 90.0, 0.0, 0.3), (0.0, 0.0, 0.1, 0.0)]
+"""A spherical wrist: DH rows (a m, alpha deg, d m, theta rad) of joints 4 to 6."""
+ARMS = {
+    "PARALLEL_23": [(0.1, 60.0, 0.4, 0.2), (0.5, 0.0, 0.1, 0.1), (0.05, 75.0, 0.0, -0.3)],
+    "PARALLEL_12": [(0.4, 0.0, 0.3, 0.2), (0.3, 70.0, 0.1, 0.0), (0.05, 80.0, 0.0, 0.4)],
+    "INTERSECTING": [(0.0, 70.0, 0.3, 0.1), (0.4, 50.0, 0.05, 0.2), (0.05, 80.0, 0.0, 0.0)],
+    "SECOND_PAIR": [(0.1, 60.0, 0.4, 0.2), (0.0, 40.0, 0.1, 0.1), (0.05, 75.0, 0.0, -0.3)],
+    "GENERAL": [(0.1, 60.0, 0.4, 0.2), (0.5, 40.0, 0.1, 0.1), (0.05, 75.0, 0.0, -0.3)],
+}
+"""Arms with a spherical wrist, one per arm kind (the kinds' names in ``spherical_axes``)."""
+
+CALLS = """
+import math, sys, time
+import numpy as np
+import optik
+from optik.analytic import family_of
+from optik.analytic import spherical_axes
+
+rows = [
+    {"a": a, "alpha": math.radians(al), "d": d, "theta": th, "lower": -3.0, "upper": 3.0}
+    for a, al, d, th in ROWS
+]
+robot = optik.Robot.from_dh(rows)
+family = family_of(robot)
+kind = robot.cached(family.plan).kind
+assert kind == getattr(spherical_axes, KIND), (kind, KIND)
+T = robot.fk(np.full(6, 0.3))
+figures = []
+for _ in range(2):
+    start = time.process_time()
+    optik.analytic_ik(robot, T)
+    single = time.process_time() - start
+    start = time.process_time()
+    optik.analytic_ik_batch(robot, np.stack([T, T]))
+    figures += [single, time.process_time() - start]
+print(" ".join(f"{x:.2f}" for x in figures))
+"""
+
+
+def _python(folder: Path, code: str) -> str:
+    """Run ``code`` in a fresh interpreter importing ``optik`` from ``folder``."""
+    env = {**os.environ, "PYTHONPATH": str(folder)}
+    env.pop("NUMBA_CACHE_DIR", None)
+    done = subprocess.run(
+        [sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True
+    )
+    return done.stdout.strip()
+
+
+def _row(cells: tuple[str, ...]) -> str:
+    """One table row: the kind, then four right-aligned figures."""
+    return f"{cells[0]:14s}" + "".join(f" {cell:>11s}" for cell in cells[1:])
+
+
+def main() -> None:
+    """Print each arm kind's first-call and warm CPU times."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument(
+        "--kinds", default=",".join(ARMS), help=f"comma-separated kinds (default: {','.join(ARMS)})"
+    )
+    args = parser.parse_args()
+    kinds = [k for k in args.kinds.split(",") if k]
+    unknown = sorted(set(kinds) - set(ARMS))
+    if unknown:
+        parser.error(f"unknown kinds {unknown}; known: {sorted(ARMS)}")
+    import numba
+
+    print(f"python {platform.python_version()}, numba {numba.__version__}, "
+          f"{platform.machine()}, {os.cpu_count()} cores, load {os.getloadavg()[0]:.2f}; "
+          f"checkout {ROOT}")  # fmt: skip
+    with tempfile.TemporaryDirectory() as tmp:
+        warm = Path(tmp) / "warm"
+        fresh = shutil.ignore_patterns("__pycache__")
+        shutil.copytree(ROOT / "optik", warm / "optik", ignore=fresh)
+        print("compiling the install's warm-up groups (optik warmup) ...", flush=True)
+        _python(warm, "from optik._warmup import warm; warm()")
+        header = ("arm kind", "first call", "first batch", "warm call", "warm batch")
+        print(_row(header) + "  (process CPU s)")
+        for kind in kinds:
+            trial = Path(tmp) / kind
+            shutil.copytree(warm, trial)
+            rows = ARMS[kind] + WRIST
+            code = CALLS.replace("ROWS", repr(rows)).replace("KIND", repr(kind))
+            print(_row((kind, *_python(trial, code).split())), flush=True)
+            shutil.rmtree(trial)
+
+
+if __name__ == "__main__":
+    main()
