@@ -29,8 +29,9 @@ class NonFiniteError(OptikError):
 
     def __init__(self, name: str, index: tuple[int, ...] | None = None) -> None:
         self.name = name
-        self.index = index
-        where = f" at index {index}" if index is not None else ""
+        # Plain ints: a numpy index would print as (np.int64(0),).
+        self.index = None if index is None else tuple(int(i) for i in index)
+        where = f" at index {self.index}" if self.index is not None else ""
         super().__init__(f"{name}: values must be finite, found NaN or inf{where}")
 
 

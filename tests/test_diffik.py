@@ -299,3 +299,13 @@ def test_every_installed_backend_by_both_names(solver: str) -> None:
     plain = solver.split(":", 1)[1]
     with pytest.warns(DeprecationWarning):
         assert_close(diff_ik(robot, q, TWIST, dt=DT, solver=plain), expected, atol=1e-9)
+
+
+def test_a_non_finite_velocity_limit_is_named_by_plain_index() -> None:
+    """The index of a NaN prints as ``(0,)``, not numpy's ``(np.int64(0),)``."""
+    robot = robot_of("ur5")
+    limits = np.ones(6)
+    limits[2] = np.nan
+    with pytest.raises(NonFiniteError, match=r"velocity_limits: .* at index \(2,\)$") as caught:
+        diff_ik(robot, robot.mid_limits, TWIST, dt=DT, velocity_limits=limits)
+    assert caught.value.index == (2,) and type(caught.value.index[0]) is int
