@@ -9,8 +9,9 @@ warm-up groups there once (``optik warmup``: what a user's environment holds aft
 README's install), keeps that state, and then for each of the five arm kinds with a
 spherical wrist restores it and times, in a fresh process, the first ``analytic_ik`` and
 the first ``analytic_ik_batch`` on an arm of that kind (process CPU time: the
-compilation), and the same calls again (warm). No assertions: times are reported, never
-tested.
+compilation), the same calls again (warm), and how many of the kind's two pipelines the
+process compiled (2: neither came from the cache). No assertions: times are reported,
+never tested.
 """
 
 from __future__ import annotations
@@ -61,7 +62,9 @@ for _ in range(2):
     start = time.process_time()
     optik.analytic_ik_batch(robot, np.stack([T, T]))
     figures += [single, time.process_time() - start]
-print(" ".join(f"{x:.2f}" for x in figures))
+kernels = spherical_axes.kind_pipeline(kind)
+compiled = sum(sum(f.stats.cache_misses.values()) for f in (kernels.solve, kernels.solve_batch))
+print(" ".join(f"{x:.2f}" for x in figures), compiled)
 """
 
 
@@ -69,14 +72,22 @@ def _python(folder: Path, code: str) -> str:
     """Run ``code`` in a fresh interpreter importing ``optik`` from ``folder``."""
     env = {**os.environ, "PYTHONPATH": str(folder)}
     env.pop("NUMBA_CACHE_DIR", None)
+    # Run from the folder: ``-c`` puts the working directory first on sys.path, and the
+    # checkout's own package there would shadow the copy.
+    check = f"import optik; assert optik.__file__.startswith({str(folder)!r}), optik.__file__\n"
     done = subprocess.run(
-        [sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True
+        [sys.executable, "-c", check + code],
+        env=env,
+        cwd=folder,
+        capture_output=True,
+        text=True,
+        check=True,
     )
     return done.stdout.strip()
 
 
 def _row(cells: tuple[str, ...]) -> str:
-    """One table row: the kind, then four right-aligned figures."""
+    """One table row: the kind, then right-aligned figures."""
     return f"{cells[0]:14s}" + "".join(f" {cell:>11s}" for cell in cells[1:])
 
 
@@ -99,11 +110,12 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         warm = Path(tmp) / "warm"
         fresh = shutil.ignore_patterns("__pycache__")
-        shutil.copytree(ROOT / "optik", warm / "optik", ignore=fresh)
+        for folder in ("optik", "problems"):  # the package finds its problems beside it
+            shutil.copytree(ROOT / folder, warm / folder, ignore=fresh)
         print("compiling the install's warm-up groups (optik warmup) ...", flush=True)
         _python(warm, "from optik._warmup import warm; warm()")
-        header = ("arm kind", "first call", "first batch", "warm call", "warm batch")
-        print(_row(header) + "  (process CPU s)")
+        header = ("arm kind", "first call", "first batch", "warm call", "warm batch", "compiled")
+        print(_row(header) + "  (process CPU s; kernels the kind compiled)")
         for kind in kinds:
             trial = Path(tmp) / kind
             shutil.copytree(warm, trial)

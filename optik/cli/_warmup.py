@@ -46,7 +46,7 @@ def add_warmup_command(sub: Any) -> None:
         "a wheel built elsewhere, or in an editable checkout. --groups names the groups "
         "(default: the install's); held_joint (seven-joint arms with a joint held, about "
         "11 s of CPU) and axes_arms (the seven arm kinds of the spherical_axes and "
-        "three_parallel families, 12-25 s each, about 2 minutes in all) are compiled only "
+        "three_parallel families, 13-22 s each, about 2 minutes in all) are compiled only "
         "when named.",
         "  optik warmup\n  optik warmup --processes 1\n"
         "  optik warmup --groups held_joint,axes_arms\n",
