@@ -59,6 +59,11 @@ __all__ = [
 ]
 
 
+JOINT_WEIGHT_RANGE = (1e-100, 1e100)
+"""Smallest and largest joint weight accepted (no unit): the squares, which the steps'
+normal equations form, stay finite and above float64's subnormals."""
+
+
 def check_joint_weights(weights: object, dof: int) -> FloatArray:
     """``joint_weights`` as a (dof,) array of positive finite numbers (ones for ``None``)."""
     if weights is None:
@@ -66,6 +71,12 @@ def check_joint_weights(weights: object, dof: int) -> FloatArray:
     w = finite_array("joint_weights", weights, (dof,))
     if np.any(w <= 0.0):
         raise OptikError(f"joint_weights must be > 0, got {w.tolist()}")
+    if np.any(w < JOINT_WEIGHT_RANGE[0]) or np.any(w > JOINT_WEIGHT_RANGE[1]):
+        low, high = JOINT_WEIGHT_RANGE
+        raise OptikError(
+            f"joint_weights must lie within [{low:g}, {high:g}] (their squares must stay "
+            f"finite and normal in float64), got {w.tolist()}"
+        )
     return w
 
 

@@ -159,6 +159,8 @@ BAD = [
     ({"joint_weights": [1, 1, 0, 1, 1, 1, 1]}, "joint_weights"),
     ({"joint_weights": [1, 1, -2, 1, 1, 1, 1]}, "joint_weights"),
     ({"joint_weights": [1, 1, np.nan, 1, 1, 1, 1]}, "joint_weights"),
+    ({"joint_weights": [1, 1, 1e300, 1, 1, 1, 1]}, r"joint_weights must lie within"),
+    ({"joint_weights": [1, 1, 1e-300, 1, 1, 1, 1]}, r"joint_weights must lie within"),
     ({"posture": np.zeros(6)}, "posture"),
     ({"posture": [0, 0, np.nan, 0, 0, 0, 0]}, "posture"),
     ({"posture": [0, 0, np.inf, 0, 0, 0, 0]}, "posture"),
@@ -174,3 +176,14 @@ def test_bad_task_keywords_raise(kwargs: dict[str, object], name: str) -> None:
     robot, q, twist = _setup("panda", seed=2)
     with pytest.raises(OptikError, match=name):
         optik.diff_ik(robot, q, twist, dt=DT, solver="qp:daqp", **kwargs)  # type: ignore[arg-type]
+
+
+def test_joint_weights_far_apart_within_their_range_are_taken() -> None:
+    """Joint weights up to 1e100 apart are accepted (their squares stay finite): the
+    step is the weighted least-norm one, the heavy joint all but still."""
+    robot, q, twist = _setup("panda", seed=2)
+    weights = np.ones(7)
+    weights[2] = 1e100
+    dq = optik.diff_ik(robot, q, twist, dt=DT, solver="qp:daqp", joint_weights=weights)
+    assert abs(dq[2]) < 1e-12
+    np.testing.assert_allclose(robot.jacobian(q) @ dq, twist * DT, atol=1e-9)

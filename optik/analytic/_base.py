@@ -41,7 +41,8 @@ tangent row."""
 
 WRIST_SINGULAR = 1e-10
 """``|sin q5|`` below which a six-joint arm's wrist axes 4 and 6 count as aligned: only
-``q4 + q6`` (or ``q6`` alone) is defined, and the free joint takes its reference."""
+``q4 + q6`` (or ``q6`` alone) is defined, and the free joint takes its reference (the
+spherical wrists add the split nearest the reference as a second branch)."""
 
 
 class AnalyticFamily(ABC):
