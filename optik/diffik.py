@@ -288,8 +288,8 @@ def diff_ik(
             zero weight drops that row; positive weights leave the answer unchanged. With
             ``rows``, a positive weight on a row that ``rows`` leaves out is a conflict
             (``OptikError``); zero weights on rows of ``rows`` free them.
-        joint_weights: (dof,) > 0, the joint weights ``W = diag(joint_weights)`` (no unit):
-            a heavier joint moves less.
+        joint_weights: (dof,) in [1e-100, 1e100], the joint weights
+            ``W = diag(joint_weights)`` (no unit): a heavier joint moves less.
         posture: a reference configuration ``q_ref`` (dof,), rad or m, the step also pulls
             towards (see above).
         posture_gain: fraction in (0, 1] of ``posture - q`` one step pulls towards

@@ -318,7 +318,7 @@ def solve_ik(
             :func:`optik.posture.refine_posture` (a local optimum of
             ``min ||q - q_ref||_W s.t. the task``, compiled), the nearest kept; with a
             closed form, every branch is refined.
-        joint_weights: (dof,) > 0, the norm of ``posture`` (default ones).
+        joint_weights: (dof,) in [1e-100, 1e100], the norm of ``posture`` (default ones).
 
     Returns:
         An :class:`IKResult`; a well-formed query that cannot be solved gives

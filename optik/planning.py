@@ -656,7 +656,7 @@ def plan_path(
             :func:`optik.posture.refine_posture` (redundant arms and 5-D tasks, where the
             answers form a continuum). Closed-form candidates are isolated branches and
             stay as they are. The choice between candidates is still by continuity.
-        joint_weights: (dof,) > 0, the norm of ``posture`` (default ones).
+        joint_weights: (dof,) in [1e-100, 1e100], the norm of ``posture`` (default ones).
         q_start: current configuration: the first waypoint's choice is the nearest to it.
         tol: IK tolerance for both errors, or ``(position_tol_m, orientation_tol_rad)``.
         restarts: numeric restarts per waypoint (robots without a closed form).
