@@ -191,8 +191,12 @@ def test_branches_at_their_limits_come_back_inside_them(name: str) -> None:
         if not robot.within_limits(q):
             continue
         T = robot.fk(q)
-        for branch in analytic_ik(robot, T):
+        branches = analytic_ik(robot, T)
+        for branch in branches:
             assert np.all(branch >= robot.lower) and np.all(branch <= robot.upper)
+        if name == "stanford_arm" and q is configurations[0]:
+            # 1.00009e-12 beyond its bound by rounding: put on it, not dropped.
+            assert min(float(np.max(np.abs(b - q))) for b in branches) < 1e-9
         result = optik.solve_ik(robot, T)
         assert result.success, (q, result.status, result.limit_violation)
         assert result.limit_violation == 0.0

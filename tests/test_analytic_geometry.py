@@ -669,3 +669,24 @@ def test_stretched_elbows_next_to_singular_wrists_keep_their_branches() -> None:
             F = robot.fk(b)
             assert np.linalg.norm(F[:3, 3] - T[:3, 3]) <= 1e-9
             assert Rotation.from_matrix(F[:3, :3].T @ T[:3, :3]).magnitude() <= 1e-9
+
+
+@needs_erd
+def test_a_branch_on_its_limit_next_to_a_singularity_is_kept_on_the_limit() -> None:
+    """The Jaco 2 stretched (``q3 = pi``) with its wrist on its lower limit
+    (``q5 = 0.523598775598``, the URDF's bound to 12 digits): its branch is refined by a
+    Newton step on the chain, which left it 1e-10 beyond the bound, and it was dropped
+    (found by a hostile-input search). A row off its bound by at most ``LIMIT_CLIP`` is
+    now put on it, its FK taken anew there: the source comes back, inside the limits
+    exactly, reaching the pose."""
+    kinova = _kinova()
+    q = np.array([1e-12, math.pi, math.pi, 0.0, 0.523598775598, -math.pi / 2])
+    assert kinova.within_limits(q, 0.0)
+    T = kinova.fk(q)
+    branches = analytic_ik(kinova, T)
+    assert min(float(np.max(np.abs(b - q))) for b in branches) < 1e-9
+    for b in branches:
+        assert np.all(b >= kinova.lower) and np.all(b <= kinova.upper)
+        F = kinova.fk(b)
+        assert np.linalg.norm(F[:3, 3] - T[:3, 3]) <= 1e-9
+        assert Rotation.from_matrix(F[:3, :3].T @ T[:3, :3]).magnitude() <= 1e-9

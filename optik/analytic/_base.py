@@ -30,6 +30,12 @@ VERIFY_TOLERANCE = 1e-9
 DUPLICATE_TOLERANCE = 1e-9
 """Two branches closer than this (max-abs, rad or m) are one."""
 
+LIMIT_CLIP = 1e-9
+"""A branch at most this beyond a limit (rad or m) is put on the bound, and the FK check
+judges it there; farther, it is dropped. Next to a singularity a closed form's rounding
+is that large (a Jaco 2 stretched, its wrist on its lower limit: 1e-10), and a
+configuration on its limit would lose its branch."""
+
 ELBOW_REACH_TOL = 1e-6
 """A wrist centre beyond a DH arm's elbow reach (stretched or folded) by at most this,
 relative to the elbow equation's coefficient ``2 a2 a3``, takes the tangent elbow. The

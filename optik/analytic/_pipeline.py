@@ -44,6 +44,7 @@ import numpy as np
 from optik._math import _SINCOS_RANGE, _sincos_core, mod_two_pi, pose_defect, sincos
 from optik._numba import inline as _inline
 from optik._numba import jit as _jit
+from optik.analytic._base import LIMIT_CLIP
 from optik.analytic._compiled import (
     AT_BASE_INV,
     AT_CHAIN,
@@ -382,6 +383,32 @@ def _inside(
 
 
 @_inline
+def _onto_bounds(
+    params: np.ndarray, layout: Layout, dof: int, held: int, rows: np.ndarray, r: int
+) -> None:
+    """``rows[r]`` clipped onto its limits (the held joint keeps its value)."""
+    for j in range(dof):
+        if j != held:
+            rows[r, j] = min(max(rows[r, j], params[layout[2] + j]), params[layout[3] + j])
+
+
+@_inline
+def _onto_bounds_fk(
+    params: np.ndarray,
+    layout: Layout,
+    dof: int,
+    held: int,
+    rows: np.ndarray,
+    r: int,
+    pre: np.ndarray,
+) -> int:
+    """:func:`_onto_bounds`, then the row's sines and its FK anew into ``pre``: the depth."""
+    _onto_bounds(params, layout, dof, held, rows, r)
+    _row_sines(rows, r, dof)
+    return fk_shared(params, layout, rows, r, pre, np.int64(0))
+
+
+@_inline
 def _rewrap_moved(
     params: np.ndarray,
     layout: Layout,
@@ -451,7 +478,11 @@ def _refine_row(
     """
     depth = _newton_row(params, layout, dof, held, T, k, rows, r, pre, depth, verify_tol, work)
     _rewrap_moved(params, layout, dof, held, held_value, rows, r, ref, kr)
-    return depth, not within or _inside(params, layout, dof, rows, r, params[layout[5] + TOL_LIMIT])
+    if not within or _inside(params, layout, dof, rows, r, params[layout[5] + TOL_LIMIT]):
+        return depth, True
+    if not _inside(params, layout, dof, rows, r, LIMIT_CLIP):
+        return depth, False
+    return _onto_bounds_fk(params, layout, dof, held, rows, r, pre), True
 
 
 @_inline
@@ -548,8 +579,11 @@ def postprocess_rows(
         _wrap_row(params, layout, rows, r, ref, kr)
         if held >= 0:
             rows[r, held] = held_value
-        if within and not _inside(params, layout, dof, rows, r, limit_tol):
-            continue
+        if within:
+            if not _inside(params, layout, dof, rows, r, max(limit_tol, LIMIT_CLIP)):
+                continue
+            if not refine:  # a refined row is put on its bounds once moved
+                _onto_bounds(params, layout, dof, held, rows, r)
         if kept != r:
             for j in range(dof):
                 rows[kept, j] = rows[r, j]
@@ -577,7 +611,11 @@ def postprocess_rows(
                 if not keep:
                     continue
             elif within and not _inside(params, layout, dof, rows, r, strict_tol):
-                continue
+                if not _inside(params, layout, dof, rows, r, LIMIT_CLIP):
+                    continue
+                depth = _onto_bounds_fk(
+                    params, _runtime(layout), np.int64(dof), np.int64(held), rows, r, pre
+                )
         if not _pose_verified(pre, dof, T, k, verify_tol):
             continue
         duplicate = False

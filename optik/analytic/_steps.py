@@ -13,7 +13,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from optik._checks import FloatArray
-from optik.analytic._base import DUPLICATE_TOLERANCE, VERIFY_TOLERANCE
+from optik.analytic._base import DUPLICATE_TOLERANCE, LIMIT_CLIP, VERIFY_TOLERANCE
 from optik.model import Robot
 from optik.spatial import rotation_angle
 
@@ -120,9 +120,9 @@ def finish_batch(
     if held is not None:
         Q[:, held[0]] = held[1]
     if within_limits:
-        keep = np.asarray(robot.within_limits(Q), dtype=bool).reshape(-1)
-        # Onto the bound a row passed within the tolerance (a branch at its limit, off
-        # by rounding): answers inside their limits (the held joint keeps its value).
+        keep = np.asarray(robot.within_limits(Q, LIMIT_CLIP), dtype=bool).reshape(-1)
+        # Onto the bound a row off it by rounding (a branch at its limit): answers inside
+        # their limits, which the FK check below judges (the held joint keeps its value).
         Q, owner = np.clip(Q[keep], robot.lower, robot.upper), owner[keep]
         if held is not None:
             Q[:, held[0]] = held[1]
