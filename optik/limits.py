@@ -7,11 +7,12 @@ Limits are float arrays aligned with ``q`` (rad for revolute joints, m for prism
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
-from optik._checks import MAX_LENGTH_M, FloatArray
-from optik.errors import InvalidLimitsError, ModelError
+from optik._checks import MAX_LENGTH_M, FloatArray, as_float_array, check_finite
+from optik.errors import InvalidLimitsError, ModelError, ShapeError
 
 ROLE_LIMITS_RAD: dict[str, tuple[float, float]] = {
     "arm": (-math.radians(135.0), math.radians(135.0)),
@@ -101,16 +102,7 @@ def resolve_limits(
         raise InvalidLimitsError(
             joint, lo, hi, "only a continuous revolute joint may have infinite limits"
         )
-    if math.isfinite(lo) and max(abs(lo), abs(hi)) > MAX_LENGTH_M:
-        # Joint values are bounded alike (Robot.check_q): a configuration near such a
-        # bound could be neither checked nor solved.
-        raise InvalidLimitsError(
-            joint,
-            lo,
-            hi,
-            f"a finite revolute range must lie within +-{MAX_LENGTH_M:g} rad "
-            "(infinite limits make the joint continuous)",
-        )
+    check_limit_magnitude(joint, kind, lo, hi)
     return lo, hi
 
 
@@ -128,3 +120,35 @@ def within_limits(
     # The differences, as limit_violation forms them: the same verdict to the last bit.
     inside = np.all((lower - q <= tol) & (q - upper <= tol), axis=-1)
     return bool(inside) if np.ndim(inside) == 0 else inside
+
+
+def check_limit_magnitude(joint: str, kind: str, lower: float, upper: float) -> None:
+    """A range must lie within +-:data:`~optik._checks.MAX_LENGTH_M` (rad or m).
+
+    A prismatic range must also be finite; a revolute one may be infinite (a continuous
+    joint), but a finite bound beyond it would let no configuration near it be checked
+    (:meth:`optik.Robot.check_q` bounds joint values alike).
+    """
+    if kind == "prismatic" and not (abs(lower) <= MAX_LENGTH_M and abs(upper) <= MAX_LENGTH_M):
+        raise InvalidLimitsError(
+            joint, lower, upper, f"a prismatic range must lie within +-{MAX_LENGTH_M:g} m"
+        )
+    beyond = [b for b in (lower, upper) if math.isfinite(b) and abs(b) > MAX_LENGTH_M]
+    if kind != "prismatic" and beyond:
+        raise InvalidLimitsError(
+            joint,
+            lower,
+            upper,
+            f"a finite revolute range must lie within +-{MAX_LENGTH_M:g} rad "
+            "(infinite limits make the joint continuous)",
+        )
+
+
+def finite_or_inf_limits(limits: Any, dof: int) -> FloatArray:
+    """Validate a ``(dof, 2)`` limits array (infinities allowed, NaN rejected)."""
+    lim = as_float_array("limits", limits)
+    if lim.shape != (dof, 2):
+        raise ShapeError("limits", f"({dof}, 2)", lim.shape)
+    if np.any(np.isnan(lim)):
+        check_finite("limits", np.where(np.isinf(lim), 0.0, lim))
+    return lim

@@ -23,11 +23,9 @@ import numpy as np
 
 from optik import _kernels
 from optik._checks import (
-    MAX_LENGTH_M,
     FloatArray,
     as_float_array,
     check_bool,
-    check_finite,
     check_length,
     check_length_array,
     check_real,
@@ -36,7 +34,13 @@ from optik._checks import (
 from optik._clock import one_time_setup
 from optik.chain import Chain, ChainLink, JointKind, Mimic, read_only
 from optik.errors import ArgumentError, InvalidLimitsError, ModelError, OptikError, ShapeError
-from optik.limits import limit_violation, resolve_limits, within_limits
+from optik.limits import (
+    check_limit_magnitude,
+    finite_or_inf_limits,
+    limit_violation,
+    resolve_limits,
+    within_limits,
+)
 from optik.spatial import as_pose, rot_x, rot_z, transform
 
 _KINDS = ("revolute", "prismatic")
@@ -687,7 +691,7 @@ class Robot:
         for joint, a, b in zip(self.joints, lo, hi, strict=True):
             if math.isnan(a) or math.isnan(b) or a > b:
                 raise InvalidLimitsError(joint.name, float(a), float(b))
-            _check_limit_magnitude(joint.name, joint.kind, float(a), float(b))
+            check_limit_magnitude(joint.name, joint.kind, float(a), float(b))
             joints.append(Joint(joint.name, joint.kind, float(a), float(b), joint.role))
         clone = copy.copy(self)
         clone.joints = tuple(joints)
@@ -769,38 +773,6 @@ def _build_chain(robot: Robot) -> Chain:
         robot.lower,
         robot.upper,
     )
-
-
-def _check_limit_magnitude(joint: str, kind: str, lower: float, upper: float) -> None:
-    """A range must lie within +-:data:`~optik._checks.MAX_LENGTH_M` (rad or m).
-
-    A prismatic range must also be finite; a revolute one may be infinite (a continuous
-    joint), but a finite bound beyond it would let no configuration near it be checked
-    (:meth:`Robot.check_q` bounds joint values alike).
-    """
-    if kind == "prismatic" and not (abs(lower) <= MAX_LENGTH_M and abs(upper) <= MAX_LENGTH_M):
-        raise InvalidLimitsError(
-            joint, lower, upper, f"a prismatic range must lie within +-{MAX_LENGTH_M:g} m"
-        )
-    beyond = [b for b in (lower, upper) if math.isfinite(b) and abs(b) > MAX_LENGTH_M]
-    if kind != "prismatic" and beyond:
-        raise InvalidLimitsError(
-            joint,
-            lower,
-            upper,
-            f"a finite revolute range must lie within +-{MAX_LENGTH_M:g} rad "
-            "(infinite limits make the joint continuous)",
-        )
-
-
-def finite_or_inf_limits(limits: Any, dof: int) -> FloatArray:
-    """Validate a ``(dof, 2)`` limits array (infinities allowed, NaN rejected)."""
-    lim = as_float_array("limits", limits)
-    if lim.shape != (dof, 2):
-        raise ShapeError("limits", f"({dof}, 2)", lim.shape)
-    if np.any(np.isnan(lim)):
-        check_finite("limits", np.where(np.isinf(lim), 0.0, lim))
-    return lim
 
 
 __all__ = ["DHJoint", "Joint", "Mimic", "Robot"]

@@ -39,7 +39,7 @@ from optik.analytic import rrp_wrist  # noqa: F401
 
 # isort: split
 # After the families: the pipeline imports two of them, which would register them first.
-from optik.analytic import _pipeline
+from optik.analytic import _pipeline, _pipeline_args
 from optik.analytic._arguments import (
     AnalyticBatch,
     batch_refs,
@@ -85,8 +85,8 @@ _F64 = np.dtype(np.float64)
 _SHAPE_4x4 = (4, 4)
 _SHAPE_DOF = (_compiled.DOF,)
 _SHAPE_OUT = (_compiled.MAX_BRANCHES, _compiled.DOF)
-_SORT = _pipeline.SORT
-_WITHIN_LIMITS = _pipeline.WITHIN_LIMITS
+_SORT = _pipeline_args.SORT
+_WITHIN_LIMITS = _pipeline_args.WITHIN_LIMITS
 
 __all__ = [
     "FAMILIES",

@@ -41,7 +41,7 @@ import math
 
 import numpy as np
 
-from optik._math import _SINCOS_RANGE, _sincos_core, mod_two_pi, pose_defect, sincos
+from optik._math import _SINCOS_RANGE, _sincos_core, mod_two_pi, sincos
 from optik._numba import inline as _inline
 from optik._numba import jit as _jit
 from optik.analytic._base import LIMIT_CLIP
@@ -61,14 +61,11 @@ from optik.analytic._compiled import (
     COL_PRISMATIC,
     COS_ROWS,
     DOF,
-    MAX_BRANCHES,
     NCOL,
     SIN_ROWS,
     SPHERICAL_WRIST,
-    TOL_BOTTOM_ROW,
     TOL_DUPLICATE,
     TOL_LIMIT,
-    TOL_ROTATION,
     TOL_VERIFY,
     UR,
     mul3tn,
@@ -78,9 +75,15 @@ from optik.analytic._newton import (
     REFINE_ROUNDING,
     REFINE_TRUSTED_STEP,
     newton_step,
-    newton_work_size,
     pose_residual,
     restore_row,
+)
+from optik.analytic._pipeline_args import (
+    batch_work,
+    flag_bits,
+    input_code,
+    pad_rows,
+    work_rows,
 )
 from optik.analytic.spherical_wrist import spherical_wrist_candidates
 from optik.analytic.ur import ur_candidates
@@ -672,74 +675,6 @@ def postprocess_one(
         params, layout, dof, held, held_value, T1, k, ref1, k, sort, within, rows, flat, n,
         pre, out[None], refine, work,
     )  # fmt: skip
-
-
-@_inline
-def input_code(params: np.ndarray, tols: int, T1: np.ndarray, ref: np.ndarray) -> int:
-    """The inputs of a single call checked: 0 valid, -1 or -2 as :func:`solve` returns.
-
-    -1 when ``T1[0]`` is not a valid pose (:func:`optik._math.pose_defect`, with the
-    tolerances of the block at offset ``tols`` of ``params``), -2 when ``ref`` (dof,) is
-    not finite. The caller raises the matching optik error.
-    """
-    k = np.int64(0)  # not the literal 0: first_bad_pose's signature serves this call too
-    if pose_defect(T1, k, params[tols + TOL_ROTATION], params[tols + TOL_BOTTOM_ROW]) != 0:
-        return -1
-    for j in range(ref.shape[0]):
-        if not math.isfinite(ref[j]):
-            return -2
-    return 0
-
-
-@_inline
-def work_rows(dof: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Scratch of :func:`postprocess_rows` for ``dof`` joints: ``(pre, flat, rows, work)``.
-
-    ``pre`` (dof + 2, 12) for the FK, ``rows`` (24, dof) for the raw branches and their
-    sines and cosines, ``flat`` the same memory seen flat, ``work`` the Newton step's
-    (:func:`optik.analytic._newton.newton_work_size`). Made once per call or batch.
-    """
-    pre = np.empty((dof + 2, 12))
-    flat = np.empty(3 * MAX_BRANCHES * dof)
-    work = np.empty(newton_work_size(dof))
-    return pre, flat, flat.reshape((3 * MAX_BRANCHES, dof)), work
-
-
-@_inline
-def batch_work(
-    n: int, dof: int, flags: int
-) -> tuple[bool, bool, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Flags and scratch of a batch of ``n`` targets for ``dof`` joints, made once.
-
-    ``(sort, within, pre, flat, rows, work, Q, counts)``: the :data:`SORT` and
-    :data:`WITHIN_LIMITS` bits of ``flags``, :func:`work_rows`' scratch, then the outputs
-    ``Q`` (n, 8, dof) and ``counts`` (n,) of a ``solve_batch``.
-    """
-    pre, flat, rows, work = work_rows(dof)
-    Q = np.empty((n, MAX_BRANCHES, dof))
-    counts = np.zeros(n, dtype=np.int64)
-    sort, within = flag_bits(flags)
-    return sort, within, pre, flat, rows, work, Q, counts
-
-
-@_inline
-def pad_rows(Q: np.ndarray, k: int, m: int) -> None:
-    """Fill the rows of ``Q[k]`` past its ``m`` branches with NaN."""
-    for r in range(m, Q.shape[1]):
-        for j in range(Q.shape[2]):
-            Q[k, r, j] = np.nan
-
-
-SORT = 1
-"""Flag of :func:`solve` / :func:`solve_batch`: sort the branches by distance to ``ref``."""
-WITHIN_LIMITS = 2
-"""Flag of :func:`solve` / :func:`solve_batch`: drop branches outside the joint limits."""
-
-
-@_inline
-def flag_bits(flags: int) -> tuple[bool, bool]:
-    """``(sort, within)``: the :data:`SORT` and :data:`WITHIN_LIMITS` bits of ``flags``."""
-    return (flags & SORT) != 0, (flags & WITHIN_LIMITS) != 0
 
 
 @_jit

@@ -42,15 +42,8 @@ from optik.analytic._compiled import (
     pack_axes_vector,
     tolerance_block,
 )
-from optik.analytic._pipeline import (
-    Layout,
-    batch_work,
-    input_code,
-    pad_rows,
-    postprocess_one,
-    postprocess_rows,
-    work_rows,
-)
+from optik.analytic._pipeline import Layout, postprocess_one, postprocess_rows
+from optik.analytic._pipeline_args import batch_work, input_code, pad_rows, work_rows
 from optik.analytic._subproblems import Vec3, apply, rotation, sub
 from optik.analytic.geometry import Axes, joint_axes, reversed_axes, revolute_chain_reason
 from optik.analytic.pair_wrist import pair_wrist_candidates, structure_reason
@@ -315,7 +308,7 @@ def solve(
         ref: (7,) reference configuration (rad); its held entry is not used (``value``
             stands in for it).
         value: the held joint's value (rad), finite.
-        flags: :data:`optik.analytic._pipeline.SORT` and / or ``WITHIN_LIMITS``.
+        flags: :data:`optik.analytic._pipeline_args.SORT` and / or ``WITHIN_LIMITS``.
         out: (8, 7) output rows.
 
     Returns:
@@ -350,7 +343,7 @@ def solve_batch(
         T: (N, 4, 4) world targets of the tool, already validated.
         ref: (1, 7) one reference for every target, or (N, 7) one per target; finite.
         values: (1,) one held value for every target, or (N,) one per target; finite.
-        flags: :data:`optik.analytic._pipeline.SORT` and / or ``WITHIN_LIMITS``.
+        flags: :data:`optik.analytic._pipeline_args.SORT` and / or ``WITHIN_LIMITS``.
 
     Returns:
         ``Q`` (N, 8, 7): branches, rows past each count filled with NaN; ``counts`` (N,).

@@ -27,8 +27,8 @@ from optik.analytic._arguments import (
     raise_input_error,
 )
 from optik.analytic._base import VERIFY_TOLERANCE
-from optik.analytic._pipeline import SORT as _SORT
-from optik.analytic._pipeline import WITHIN_LIMITS as _WITHIN_LIMITS
+from optik.analytic._pipeline_args import SORT as _SORT
+from optik.analytic._pipeline_args import WITHIN_LIMITS as _WITHIN_LIMITS
 from optik.analytic._polish import near_solution, polish
 from optik.analytic._steps import _beyond_reach, _finish, _verified
 from optik.errors import AnalyticIKError, OptikError

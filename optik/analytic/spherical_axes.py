@@ -53,15 +53,8 @@ from optik.analytic._compiled import (
     pack_axes_vector,
     tolerance_block,
 )
-from optik.analytic._pipeline import (
-    Layout,
-    batch_work,
-    input_code,
-    pad_rows,
-    postprocess_one,
-    postprocess_rows,
-    work_rows,
-)
+from optik.analytic._pipeline import Layout, postprocess_one, postprocess_rows
+from optik.analytic._pipeline_args import batch_work, input_code, pad_rows, work_rows
 from optik.analytic.free_joint import inverse_into
 from optik.analytic.general_arm import general_arm_candidates
 from optik.analytic.geometry import (
