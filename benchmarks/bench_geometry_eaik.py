@@ -12,7 +12,9 @@ kinematics (EAIK's end frame need not be optik's ``tool0``), and compares:
 - the number of branches: optik's ``analytic_ik(..., within_limits=False)`` (every branch,
   FK-verified to 1e-9) against EAIK's exact (not least-squares) solutions;
 - whether each optik branch equals one of EAIK's after wrapping angles (1e-9), and the
-  largest such difference;
+  largest such difference; for a branch further from EAIK's nearest, which of the two
+  reaches the pose closer in EAIK's own forward kinematics (the rounding of one or the
+  other, next to a singularity);
 - the time per pose of each (medians over the poses, one process, same poses);
 - batched, ``--batch`` poses (default 20,000): ``analytic_ik_batch`` (every branch in
   the limits) against EAIK's ``IK_batched(..., num_worker_threads=1)`` on the same
@@ -63,6 +65,11 @@ def wrapped(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.max(np.abs(np.remainder(a - b + math.pi, 2 * math.pi) - math.pi)))
 
 
+def pose_error(A: np.ndarray, B: np.ndarray) -> float:
+    """Max-abs entry of ``A - B`` (4x4 poses; metres and rotation entries)."""
+    return float(np.max(np.abs(np.asarray(A) - np.asarray(B))))
+
+
 def compare(
     label: str, path: Path, base: str, tip: str, n: int, seed: int, batch: int, repeat: int
 ) -> None:
@@ -79,6 +86,7 @@ def compare(
     Q = rng.uniform(lower, upper, (n, robot.dof))
     same_count = matched = total = 0
     worst = 0.0
+    apart: list[tuple[float, float]] = []
     counts_optik: list[int] = []
     counts_eaik: list[int] = []
     t_optik: list[float] = []
@@ -101,9 +109,20 @@ def compare(
         same_count += len(branches) == len(exact)
         for b in branches:
             total += 1
-            d = min((wrapped(b, e) for e in exact), default=math.inf)
+            d, nearest = min(
+                ((wrapped(b, e), i) for i, e in enumerate(exact)), default=(math.inf, -1)
+            )
             worst = max(worst, d)
             matched += d < 1e-9
+            if d >= 1e-9 and nearest >= 0:
+                # Which of the two is nearer the pose, each in EAIK's own FK (its end frame).
+                e = exact[nearest]
+                apart.append(
+                    (
+                        pose_error(eaik_robot.fwdKin(b), T_eaik),
+                        pose_error(eaik_robot.fwdKin(e), T_eaik),
+                    )
+                )
     print(f"  EAIK exact branches per pose: mean {np.mean(counts_eaik):.2f}")
     print(f"  EAIK IK per pose: median {1e6 * statistics.median(t_eaik):.1f} us")
     if not solvable:
@@ -114,6 +133,13 @@ def compare(
     print(
         f"  optik branches equal to an EAIK one (1e-9): {matched} / {total}, max diff {worst:.1e}"
     )
+    if apart:
+        closer = sum(mine < theirs for mine, theirs in apart)
+        print(
+            f"  of the {len(apart)} further apart, optik's branch reaches the pose closer in"
+            f" EAIK's FK: {closer}; pose errors (max abs of 4x4) optik <= "
+            f"{max(m for m, _ in apart):.1e}, EAIK <= {max(t for _, t in apart):.1e}"
+        )
     print(f"  optik analytic_ik per pose: median {1e6 * statistics.median(t_optik):.1f} us")
     if batch > 0:
         compare_batches(robot, eaik_robot, rng.uniform(lower, upper, (batch, robot.dof)), repeat)

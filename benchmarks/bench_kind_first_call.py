@@ -10,8 +10,10 @@ README's install), keeps that state, and then for each of the five arm kinds wit
 spherical wrist restores it and times, in a fresh process, the first ``analytic_ik`` and
 the first ``analytic_ik_batch`` on an arm of that kind (process CPU time: the
 compilation), the same calls again (warm), and how many of the kind's two pipelines the
-process compiled (2: neither came from the cache). No assertions: times are reported,
-never tested.
+process compiled (2: neither came from the cache); then the first calls again in a copy
+of that state where the next kind's first calls ran before ("after other": the kernels
+the kinds share, such as their post-processing, come from the cache). No assertions:
+times are reported, never tested.
 """
 
 from __future__ import annotations
@@ -68,6 +70,11 @@ print(" ".join(f"{x:.2f}" for x in figures), compiled)
 """
 
 
+def _calls(kind: str) -> str:
+    """The timed calls (:data:`CALLS`) on the arm of ``kind``."""
+    return CALLS.replace("ROWS", repr(ARMS[kind] + WRIST)).replace("KIND", repr(kind))
+
+
 def _python(folder: Path, code: str) -> str:
     """Run ``code`` in a fresh interpreter importing ``optik`` from ``folder``."""
     env = {**os.environ, "PYTHONPATH": str(folder)}
@@ -115,14 +122,21 @@ def main() -> None:
         print("compiling the install's warm-up groups (optik warmup) ...", flush=True)
         _python(warm, "from optik._warmup import warm; warm()")
         header = ("arm kind", "first call", "first batch", "warm call", "warm batch", "compiled")
-        print(_row(header) + "  (process CPU s; kernels the kind compiled)")
+        print(_row((*header, "after other", "then batch"))
+              + "  (process CPU s; kernels the kind compiled)")  # fmt: skip
+        names = list(ARMS)
         for kind in kinds:
             trial = Path(tmp) / kind
             shutil.copytree(warm, trial)
-            rows = ARMS[kind] + WRIST
-            code = CALLS.replace("ROWS", repr(rows)).replace("KIND", repr(kind))
-            print(_row((kind, *_python(trial, code).split())), flush=True)
+            figures = _python(trial, _calls(kind)).split()
             shutil.rmtree(trial)
+            # Again where another kind's first calls ran before (the shared kernels cached).
+            other = names[(names.index(kind) + 1) % len(names)]
+            shutil.copytree(warm, trial)
+            _python(trial, _calls(other))
+            after = _python(trial, _calls(kind)).split()[:2]
+            shutil.rmtree(trial)
+            print(_row((kind, *figures, *after)), flush=True)
 
 
 if __name__ == "__main__":

@@ -256,8 +256,9 @@ GROUPS: dict[str, Callable[[], None]] = {
 
 #: Groups run only when named (``optik warmup --groups``, ``$OPTIK_WARMUP_GROUPS``), after
 #: the others: closed forms whose pipelines compile too long for every install (about 11
-#: s of CPU, and 13-22 s for each of the seven arm kinds), left to their first call unless
-#: asked for here.
+#: s of CPU; the seven arm kinds 11-20 s for the first a robot calls, 5-15 s for each
+#: other, their post-processing being shared), left to their first call unless asked for
+#: here.
 OPTIONAL: dict[str, Callable[[], None]] = {
     "held_joint": _held_joint,
     "axes_arms": _axes_arms,

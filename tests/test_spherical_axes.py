@@ -413,7 +413,7 @@ from optik.analytic.general_arm import general_arm_candidates
 from optik.analytic.pair_wrist import pair_wrist_candidates, second_pair_candidates
 from optik.analytic.parallel_arm import parallel_arm_candidates
 from optik.analytic.spherical_axes import (
-    INTERSECTING, axes_plan, kind_pipeline, pack_axes_params,
+    INTERSECTING, axes_plan, kind_pipeline, pack_axes_params, postprocess_axes,
 )
 from optik.analytic.three_parallel import three_inner_candidates, three_outer_candidates
 
@@ -427,6 +427,9 @@ n = kind_pipeline(INTERSECTING).candidates(pack_axes_params(robot, plan), T, np.
 others = (general_arm_candidates, second_pair_candidates, parallel_arm_candidates,
           three_inner_candidates, three_outer_candidates)
 print(n, len(pair_wrist_candidates.signatures), [len(f.signatures) for f in others])
+single = optik.analytic_ik(robot, T)
+Q, counts = optik.analytic_ik_batch(robot, np.stack([T, T]))
+print(len(single), *counts.tolist(), len(postprocess_axes.signatures))
 """
 
 
@@ -434,7 +437,9 @@ def test_a_kind_pipeline_compiles_its_own_arm_alone(tmp_path: Path) -> None:
     """Each arm kind's kernels hold its closed form alone (numba prunes the others on the
     constant kind), so a robot's first call compiles one arm's kernel, not seven: in a
     fresh cache, the ``candidates`` of the meeting-pair kind compile ``pair_wrist``'s
-    kernel and no other arm's."""
+    kernel and no other arm's. The post-processing is one kernel, not inlined into each
+    pipeline: the single call and the batch compile it once, with one signature, and a
+    second kind's pipeline links that kernel (``postprocess_axes``)."""
     rows = [(a, al, d) for a, al, d, _ in ARMS["first two intersecting"][0]]
     script = _ONE_KIND_SCRIPT.replace("ROWS", repr(rows))
     env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}
@@ -442,7 +447,11 @@ def test_a_kind_pipeline_compiles_its_own_arm_alone(tmp_path: Path) -> None:
         [sys.executable, "-c", script], env=env, capture_output=True, text=True, check=False
     )
     assert done.returncode == 0, done.stderr
-    assert done.stdout.split() == ["8", "1", "[0,", "0,", "0,", "0,", "0]"]
+    first, second = done.stdout.splitlines()
+    assert first.split() == ["8", "1", "[0,", "0,", "0,", "0,", "0]"]
+    single, batch_0, batch_1, signatures = (int(x) for x in second.split())
+    assert single >= 1 and batch_0 == batch_1 == single
+    assert signatures == 1
 
 
 def test_kind_pipeline_refuses_an_unknown_kind() -> None:

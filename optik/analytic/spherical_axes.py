@@ -53,8 +53,8 @@ from optik.analytic._compiled import (
     pack_axes_vector,
     tolerance_block,
 )
-from optik.analytic._pipeline import Layout, postprocess_one, postprocess_rows
-from optik.analytic._pipeline_args import batch_work, input_code, pad_rows, work_rows
+from optik.analytic._pipeline import Layout, postprocess_rows
+from optik.analytic._pipeline_args import batch_work, flag_bits, input_code, pad_rows, work_rows
 from optik.analytic.free_joint import inverse_into
 from optik.analytic.general_arm import general_arm_candidates
 from optik.analytic.geometry import (
@@ -304,6 +304,36 @@ class KindPipeline(NamedTuple):
     candidates: Any
 
 
+@_jit
+def postprocess_axes(
+    params: np.ndarray,
+    T: np.ndarray,
+    k: int,
+    ref: np.ndarray,
+    kr: int,
+    sort: bool,
+    within: bool,
+    rows: np.ndarray,
+    flat: np.ndarray,
+    n: int,
+    pre: np.ndarray,
+    Q: np.ndarray,
+    newton: np.ndarray,
+) -> int:
+    """:func:`optik.analytic._pipeline.postprocess_rows` of any arm kind's raw branches.
+
+    A call, not inlined, shared by the pipelines of every kind (:func:`kind_pipeline`):
+    its code (the wrap, the limits, the Newton step, the FK check, the sort) is compiled
+    once, at install (the warm-up), and a kind's first call compiles only its closed form.
+    Arguments and result as ``postprocess_rows`` with the layout of :func:`pack_axes_params`
+    and the Newton step on.
+    """
+    return postprocess_rows(
+        params, AXES_LAYOUT, DOF, -1, 0.0, T, k, ref, kr, sort, within, rows, flat, n, pre, Q,
+        True, newton,
+    )  # fmt: skip
+
+
 @functools.cache
 def kind_pipeline(kind: int) -> KindPipeline:
     """The compiled pipeline of arm ``kind`` alone (a :class:`KindPipeline`).
@@ -331,12 +361,13 @@ def kind_pipeline(kind: int) -> KindPipeline:
         code = input_code(params, AT_TOLS, T1, ref)
         if code != 0:
             return code
-        ref1 = ref[None]
         pre, flat, rows, newton = work_rows(DOF)
         n = _candidates_into(params, T, ref, rows, _scratch(params), kind)
-        return postprocess_one(
-            params, AXES_LAYOUT, DOF, -1, 0.0, T1, ref1, flags, rows, flat, n, pre, out,
-            True, newton,
+        sort, within = flag_bits(flags)
+        first = np.int64(0)  # not the literal 0: the batch's signature serves this call
+        return postprocess_axes(
+            params, T1, first, ref[None], first, sort, within, rows, flat, n, pre, out[None],
+            newton,
         )  # fmt: skip
 
     @_jit
@@ -349,10 +380,9 @@ def kind_pipeline(kind: int) -> KindPipeline:
         for k in range(N):
             kr = 0 if ref.shape[0] == 1 else k
             n = _candidates_into(params, T[k], ref[kr], rows, scratch, kind)
-            counts[k] = postprocess_rows(
-                params, AXES_LAYOUT, DOF, -1, 0.0, T, k, ref, kr, sort, within, rows, flat,
-                n, pre, Q, True, newton,
-            )  # fmt: skip
+            counts[k] = postprocess_axes(
+                params, T, k, ref, kr, sort, within, rows, flat, n, pre, Q, newton
+            )
             pad_rows(Q, k, counts[k])
         return Q, counts
 

@@ -46,8 +46,8 @@ def add_warmup_command(sub: Any) -> None:
         "a wheel built elsewhere, or in an editable checkout. --groups names the groups "
         "(default: the install's); held_joint (seven-joint arms with a joint held, about "
         "11 s of CPU) and axes_arms (the seven arm kinds of the spherical_axes and "
-        "three_parallel families, 13-22 s each, about 2 minutes in all) are compiled only "
-        "when named.",
+        "three_parallel families: 11-20 s for the first, 5-15 s for each other, about "
+        "70 s in all) are compiled only when named.",
         "  optik warmup\n  optik warmup --processes 1\n"
         "  optik warmup --groups held_joint,axes_arms\n",
     )
