@@ -154,6 +154,26 @@ def check_bool(name: str, value: Any) -> bool:
     return bool(value)
 
 
+def check_progress(value: Any, *, flag: bool = True, call: bool = True) -> Any:
+    """Return a ``progress`` option: ``None``, a boolean (``flag``) or a callable (``call``).
+
+    A callable is called as ``progress(done, total)``; a boolean turns a progress bar on or
+    off (``None``: drawn when stderr is a terminal). Checked before any work is done, so
+    that a wrong value is not found after the first step.
+
+    Raises:
+        ArgumentError: anything else.
+    """
+    if value is None:
+        return None
+    if flag and isinstance(value, bool | np.bool_):
+        return bool(value)
+    if call and callable(value):
+        return value
+    kinds = ["None"] + ["true or false"] * flag + ["a callable progress(done, total)"] * call
+    raise ArgumentError("progress", value, ", ".join(kinds[:-1]) + " or " + kinds[-1])
+
+
 def check_choice(name: str, value: Any, options: Collection[str]) -> str:
     """Return ``value`` if it is one of the strings ``options``.
 

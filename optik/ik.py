@@ -80,7 +80,7 @@ from optik.solvers._base import IKQuery, IKSolver, RunOutput, budget_now, now
 from optik.solvers._seeds import start_sequence
 from optik.solvers._starts import StartSequence
 from optik.task import make_task
-from optik.verify import verify_one
+from optik.verify import beyond_reach, verify_one
 
 if TYPE_CHECKING:
     from typing_extensions import Unpack  # Python 3.10 has no typing.Unpack
@@ -609,10 +609,10 @@ def _plan(
         # Complete for the held value inside the limits; a margin narrows the others.
         return closed_form("pose", provable=float(limit_margin) == 0.0, held=held)
     # No closed form: the reach sphere still proves a target unreachable.
-    centre, radius = robot.reach_sphere
-    # math.dist is exact in the range (no overflow: a target 1e155 m away is beyond).
-    distance = math.dist(T_target[:3, 3].tolist(), centre.tolist())
-    if task.constrains_position and distance > radius + task.position_tol:
+    if task.constrains_position and beyond_reach(robot, T_target[:3, 3], task.position_tol):
+        centre, radius = robot.reach_sphere
+        # math.dist is exact in the range (no overflow: a target 1e155 m away is beyond).
+        distance = math.dist(T_target[:3, 3].tolist(), centre.tolist())
         reason = (
             f"the target lies {distance:.6g} m from "
             f"the reach sphere's centre, beyond its radius {radius:.6g} m"

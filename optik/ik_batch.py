@@ -32,7 +32,7 @@ from optik.solvers._seeds import seed_table
 from optik.solvers.iterative import DLSSolver
 from optik.spatial import as_pose
 from optik.task import make_task
-from optik.verify import verify
+from optik.verify import beyond_reach, verify
 
 PARALLEL_BATCH = 64
 """Batches at least this large run in parallel threads; smaller ones on one thread."""
@@ -199,12 +199,9 @@ def solve_ik_batch(
     Q = np.full((N, robot.dof), math.nan)
     iterations = np.zeros(N, dtype=np.int64)
     used = np.zeros(N, dtype=np.int64)
-    centre, radius = robot.reach_sphere
-    with np.errstate(over="ignore"):  # a target 1e154 m away is simply unreachable
-        distance = np.linalg.norm(poses[:, :3, 3] - centre, axis=1)
-    reachable = distance <= radius * (1 + 1e-9) + task.position_tol
+    reachable = ~beyond_reach(robot, poses[:, :3, 3], task.position_tol)
     if not task.constrains_position:  # a freed position axis: the sphere proves nothing
-        reachable = np.isfinite(distance) | np.ones(N, dtype=bool)
+        reachable = np.ones(N, dtype=bool)
     rows = np.flatnonzero(reachable)
     table = seed_table(robot)
     given = _given_starts(robot, q0, N, bounds)

@@ -40,6 +40,7 @@ from optik._checks import (
     check_choice,
     check_int,
     check_length_array,
+    check_progress,
     check_real,
     finite_array,
 )
@@ -53,6 +54,7 @@ from optik.model import Robot
 from optik.posture import check_joint_weights
 from optik.spatial import as_pose
 from optik.task import AXES, MODES, Task, make_task, task_rows
+from optik.verify import beyond_reach
 
 if TYPE_CHECKING:
     from optik.trajectory import Trajectory
@@ -474,9 +476,8 @@ class _CandidateFinder:
         ``not_found``: the numeric search failed, which proves nothing.
         """
         target = self.path_task.target(T)
-        center, radius = self.robot.reach_sphere
-        far = float(np.linalg.norm(T[:3, 3] - center)) > radius
-        if far and self.path_task.task.constrains_position:
+        task = self.path_task.task
+        if task.constrains_position and beyond_reach(self.robot, T[:3, 3], task.position_tol):
             return "unreachable"
         if self.analytic:
             loose = analytic_ik(self.robot, target, self.mode, within_limits=False)
@@ -693,6 +694,7 @@ def plan_path(
     singular_threshold = check_real("singular_threshold", singular_threshold, nonnegative=True)
     max_candidates = check_int("max_candidates", max_candidates, minimum=1, maximum=MAX_CANDIDATES)
     greedy = check_bool("greedy", greedy)
+    progress = check_progress(progress, flag=False)
     poses, mode = _as_path(path, mode)
     check_length_array("path translation", poses[:, :3, 3])
     held = query_bounds(robot, frozen, 0.0)  # frozen joints: lower = upper = their value

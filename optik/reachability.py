@@ -27,6 +27,7 @@ from optik.ik import solve_ik_batch
 from optik.model import Robot
 from optik.planning import MAX_RESTARTS, MAX_SEED, _check_robot
 from optik.spatial import check_rotation
+from optik.verify import beyond_reach
 
 
 @dataclass
@@ -96,8 +97,7 @@ def reachability(
     if not np.all(np.isfinite(P)):
         raise OptikError("points: values must be finite")
     check_length_array("points", P)
-    center, radius = robot.reach_sphere
-    far = np.linalg.norm(P - center, axis=1) > radius
+    far = beyond_reach(robot, P, tol)
     Q = np.full((len(P), robot.dof), np.nan)
     reachable = np.zeros(len(P), dtype=bool)
     candidates = np.flatnonzero(~far)

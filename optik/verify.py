@@ -21,6 +21,37 @@ from optik.limits import LIMIT_TOLERANCE
 from optik.model import Robot
 from optik.task import Task, as_task
 
+#: Relative slack of the reach sphere's proof (:func:`beyond_reach`): forward kinematics
+#: rounds a tool position by some ulps of the arm's length per joint, so a stretched arm's
+#: own pose can lie 1e-15 m outside the sphere's radius.
+REACH_SLACK = 1e-9
+
+
+def beyond_reach(robot: Robot, points: FloatArray, tol: float = 0.0) -> np.ndarray:
+    """Whether each point lies provably beyond every tool position of ``robot``.
+
+    A point farther than ``radius (1 + REACH_SLACK) + tol`` from the centre of
+    :attr:`optik.Robot.reach_sphere` is out of reach (within ``tol``) for every
+    configuration inside the limits (the sphere counts a prismatic joint's stroke up to
+    its limits): the one test of every "unreachable" that the sphere proves.
+
+    Args:
+        robot: the robot.
+        points: (N, 3) or (3,) world points (m), finite.
+        tol: position tolerance (m), >= 0.
+
+    Returns:
+        (N,) booleans, or one numpy boolean for a single point.
+    """
+    centre, radius = robot.reach_sphere
+    bound = radius * (1.0 + REACH_SLACK) + tol
+    offset = np.asarray(points, dtype=float) - centre
+    # One coordinate beyond the bound is enough, and squares nothing: a point 1e155 m
+    # away is ruled out without an overflow. The distance of the others is then finite.
+    far = np.max(np.abs(offset), axis=-1) > bound
+    near = np.where(far[..., None], 0.0, offset)
+    return far | (np.linalg.norm(near, axis=-1) > bound)
+
 
 class Verdict(NamedTuple):
     """Errors of a batch of answers, each (N,), and the verified success mask."""

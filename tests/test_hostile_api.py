@@ -650,3 +650,34 @@ def test_hostile_available_solvers(kind: Any) -> None:
     names = _attempt("available_solvers", lambda: optik.available_solvers(kind=kind))
     if names is not None:
         assert kind in ("ik", "step") and names and all(isinstance(n, str) for n in names)
+
+
+@pytest.mark.parametrize("bad", [3, "yes", 1.0, [print]])
+def test_progress_options_are_checked_before_any_work(bad: Any) -> None:
+    """A ``progress`` that is neither a flag nor a callable was found only when first
+    called (``plan_path``: a bare ``TypeError`` after its first waypoint was solved)."""
+    from optik.campaign import capability_map
+    from optik.campaign.batch import solve_batch
+    from optik.compare import RunConfig, run
+    from optik.paths import line
+
+    robot = optik.load_problem("puma560").robot
+    T0 = robot.fk(robot.mid_limits + 0.1)
+    T1 = T0.copy()
+    T1[:3, 3] += [0.0, 0.0, 0.05]
+    calls: list[Callable[[], Any]] = [
+        lambda: optik.plan_path(robot, line(T0, T1, 0.01), progress=bad),
+        lambda: solve_batch(robot, T0[None], progress=bad),
+        lambda: capability_map(robot, voxel=0.5, progress=bad),
+        lambda: run(RunConfig(problems=("puma560",), solvers=("dls",)), "unused.csv", progress=bad),
+    ]
+    for call in calls:
+        with pytest.raises(OptikError, match=r"progress: expected None"):
+            call()
+
+
+def test_plan_path_takes_no_progress_flag() -> None:
+    robot = optik.load_problem("puma560").robot
+    T0 = robot.fk(robot.mid_limits)
+    with pytest.raises(OptikError, match=r"expected None or a callable progress\(done, total\)"):
+        optik.plan_path(robot, T0[None], progress=True)

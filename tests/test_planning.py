@@ -8,6 +8,7 @@ import math
 import numpy as np
 import pytest
 
+from optik import DHJoint, Robot, solve_ik, solve_ik_batch
 from optik.errors import OptikError, ShapeError
 from optik.paths import PathFileError, arc, circle, line, read_path
 from optik.planning import PLAN_STATUSES, plan_path
@@ -187,6 +188,29 @@ def test_reach_sphere_contains_every_tool_position(name: str, rng: np.random.Gen
     distance = np.linalg.norm(robot.fk(Q)[:, :3, 3] - center, axis=1)
     assert distance.max() <= radius + 1e-12
     assert distance.max() >= 0.75 * radius  # tight enough to prune, not a vacuous bound
+
+
+def test_a_stretched_arms_own_position_is_never_proven_unreachable() -> None:
+    """The tool position of a stretched planar arm lies 8.9e-16 m beyond its reach
+    sphere's radius (the rounding of its FK); reachability, plan_path and solve_ik
+    proved it unreachable (each compared the distance with the bare radius). Every
+    proof by the sphere now allows for FK rounding (``REACH_SLACK``); a point 1e-6 of
+    the radius beyond is still proven unreachable by each of them."""
+    links = [0.8682033505476444, 0.7457427954593243, 0.6217322753706368]
+    robot = Robot.from_dh([DHJoint(a=a, alpha=0.0, role="arm") for a in links])
+    q = np.array([-1.7567159551060498, 0.0, 0.0])
+    p = robot.fk(q)[:3, 3]
+    centre, radius = robot.reach_sphere
+    assert np.linalg.norm(p - centre) > radius  # the rounding this is about
+    beyond = centre + (p - centre) * (1 + 1e-6)
+    for point, proven in ((p, False), (beyond, True)):
+        assert bool(reachability(robot, point[None]).proven_unreachable[0]) is proven
+        assert (plan_path(robot, point[None], tol=1e-12).status[0] == "unreachable") is proven
+        single = solve_ik(robot, point, mode="position", tol=1e-16)
+        assert (single.status == "unreachable") is proven
+        batch = solve_ik_batch(robot, point[None], mode="position", tol=1e-16)
+        assert (batch.status[0] == "unreachable") is proven
+    assert solve_ik(robot, p, mode="position").success
 
 
 def test_unproven_failure_is_not_found_not_unreachable() -> None:

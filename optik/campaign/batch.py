@@ -24,7 +24,14 @@ from typing import Any
 
 import numpy as np
 
-from optik._checks import FloatArray, as_float_array, check_bool, check_choice, check_int
+from optik._checks import (
+    FloatArray,
+    as_float_array,
+    check_bool,
+    check_choice,
+    check_int,
+    check_progress,
+)
 from optik._files import prepare_folder, write_atomic, write_atomic_with
 from optik.campaign._deps import require
 from optik.campaign.engine import (
@@ -365,6 +372,7 @@ def solve_batch(
     seed = check_int("seed", seed, minimum=0, maximum=MAX_SEED - 2**41)
     chunk = check_int("chunk", chunk, minimum=1, maximum=10_000_000)
     resume = check_bool("resume", resume)
+    progress = check_progress(progress)
     poses = _as_poses(targets, task.mode)
     if len(poses) > 2**40:
         raise OptikError(f"targets: at most 2**40 per batch, got {len(poses)}")

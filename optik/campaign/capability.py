@@ -42,7 +42,14 @@ from typing import Any
 
 import numpy as np
 
-from optik._checks import FloatArray, check_bool, check_choice, check_int, check_real
+from optik._checks import (
+    FloatArray,
+    check_bool,
+    check_choice,
+    check_int,
+    check_progress,
+    check_real,
+)
 from optik.campaign._deps import require, require_zarr
 from optik.campaign.engine import Engine, ProgressOption, open_engine, run_chunks_with_progress
 from optik.campaign.provenance import check_same_run, robot_fingerprint, versions
@@ -615,6 +622,7 @@ def capability_map(
     chunk = check_int("chunk", chunk, minimum=1, maximum=100_000)
     keep_q = check_bool("keep_q", keep_q)
     resume = check_bool("resume", resume)
+    progress = check_progress(progress)
     centre, radius = robot.reach_sphere
     x, y, z = lattice(centre, radius, voxel, bounds)
     rotations = sample_orientations(mode, orientations, rolls, axis)

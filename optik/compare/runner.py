@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from optik._checks import FloatArray
+from optik._checks import FloatArray, check_progress
 from optik._progress import Progress
 from optik.compare.backends import solve_step, step_backends
 from optik.compare.config import RunConfig, RunStats, ik_settings
@@ -214,6 +214,7 @@ def run(
     Returns:
         A :class:`RunStats`; seed 003's trajectory is recomputed when its row was skipped.
     """
+    progress = check_progress(progress, call=False)
     problems = [_problem(p) for p in config.problems]
     cf_names = (
         config.problems if config.closed_form_problems is None else config.closed_form_problems
