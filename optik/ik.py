@@ -73,13 +73,13 @@ from optik.ik_batch import (
 )
 from optik.limits import LIMIT_TOLERANCE
 from optik.model import Robot
-from optik.poses import as_target_pose
+from optik.poses import PositionOnlyTargetError, as_target_pose
 from optik.posture import check_joint_weights, posture_answers, refine_posture
 from optik.solvers import get_solver
 from optik.solvers._base import IKQuery, IKSolver, RunOutput, budget_now, now
 from optik.solvers._seeds import start_sequence
 from optik.solvers._starts import StartSequence
-from optik.task import make_task
+from optik.task import Task, make_task
 from optik.verify import beyond_reach, verify_one
 
 if TYPE_CHECKING:
@@ -519,7 +519,7 @@ def _plan(
     task = make_task(**task_keywords)
     if not isinstance(solver, str):
         raise OptikError(f"solver must be a solver name (str), got {solver!r}")
-    T_target = as_target_pose(target, "position" if task.mode == "position" else "pose")
+    T_target = _task_target(target, task)
     flags = T_target.flags
     if not (flags.c_contiguous and flags.writeable):
         # The compiled solvers are specialised on layout and writability: a Fortran-ordered
@@ -622,6 +622,22 @@ def _plan(
         )
         return plan([], [], early)
     return plan(starts_given, [])
+
+
+def _task_target(target: Any, task: Task) -> FloatArray:
+    """The target as a 4x4 pose, its rotation the identity in position mode.
+
+    Unless the weights need the target's frame (:attr:`Task.needs_target_frame`) and the
+    target has a rotation: then it is kept.
+    """
+    if task.mode != "position":
+        return as_target_pose(target, "pose")
+    if task.needs_target_frame:
+        try:
+            return as_target_pose(target, "pose")
+        except PositionOnlyTargetError:  # a point: its axes are the world's
+            pass
+    return as_target_pose(target, "position")
 
 
 def _held_joint(

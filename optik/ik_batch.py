@@ -113,8 +113,11 @@ class IKBatchResult:
     time_s: float
 
 
-def _batch_poses(targets: Any, mode: str) -> FloatArray:
-    """(N, 4, 4) validated target poses (identity rotations in position mode)."""
+def _batch_poses(targets: Any, mode: str, framed: bool = False) -> FloatArray:
+    """(N, 4, 4) validated target poses, identity rotations in position mode.
+
+    With ``framed``, poses given with a rotation keep it: the weights are on its axes.
+    """
     array = as_float_array("targets", targets)  # rejects ragged, complex, bool, strings
     if array.ndim >= 1 and array.shape[0] == 0:
         expected = (3,) if (mode == "position" and array.ndim == 2) else (4, 4)
@@ -125,7 +128,7 @@ def _batch_poses(targets: Any, mode: str) -> FloatArray:
         return poses
     if array.ndim == 3 and array.shape[1:] == (4, 4):
         poses = as_pose("targets", array, batch=True)
-        if mode == "position":
+        if mode == "position" and not framed:
             poses = poses.copy()
             poses[:, :3, :3] = np.eye(3)
         return np.ascontiguousarray(poses, dtype=np.float64)
@@ -193,7 +196,7 @@ def solve_ik_batch(
     if seed > MAX_SEED - 2**40:  # target k uses seed + k
         raise OptikError(f"seed must be at most 2**63 - 2**40 in a batch, got {seed!r}")
     threads = _check_threads(threads)
-    poses = _batch_poses(targets, mode)
+    poses = _batch_poses(targets, mode, task.needs_target_frame)
     bounds = query_bounds(robot, frozen, limit_margin)
     N = poses.shape[0]
     Q = np.full((N, robot.dof), math.nan)

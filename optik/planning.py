@@ -327,7 +327,9 @@ class _PathTask:
         return self.task.is_pose_or_position and not self.frozen.any()
 
     def target(self, T: FloatArray) -> FloatArray:
-        return T[:3, 3] if self.task.mode == "position" else T
+        if self.task.mode == "position" and not self.task.needs_target_frame:
+            return T[:3, 3]
+        return T
 
     def keywords(self, posture: bool) -> dict[str, Any]:
         """The task keywords of :func:`solve_ik` (frozen joints are in the robot's limits)."""
@@ -601,8 +603,8 @@ def _task_jacobian(robot: Robot, q: FloatArray, T: FloatArray, path_task: _PathT
     task = path_task.task
     J = np.array(robot.jacobian(q), dtype=np.float64, order="C")  # a copy: changed in place
     frame = np.array(T, dtype=np.float64, order="C")
-    if task.mode == "position":  # solve_ik takes the point alone: its weights are world axes
-        frame[:3, :3] = np.eye(3)
+    if task.mode == "position" and not task.needs_target_frame:
+        frame[:3, :3] = np.eye(3)  # solve_ik takes the point alone: on the world axes
     n = task_rows(J, frame, task.packed)
     # Plain tasks keep the world-frame rows (6 for a pose, 3 for a point); the others
     # are the weighted target-frame rows, of which the zero-weight ones carry nothing.
@@ -648,8 +650,8 @@ def plan_path(
         axis: ``"x"``, ``"y"`` or ``"z"``, the tool axis of ``mode="axis"``: it points
             along the waypoint's same axis, the rotation about it is free.
         weights: (6,) >= 0 on ``[x, y, z, rx, ry, rz]`` in each waypoint's frame (0 frees
-            that axis), as in :func:`optik.solve_ik`; with ``mode="position"`` the
-            waypoints are points and the weights are on the world axes.
+            that axis), as in :func:`optik.solve_ik`; waypoints given as points (N, 3)
+            have the world's axes.
         frozen: ``{joint name: value}`` (rad or m): joints held at these values (inside
             their limits) along the whole path.
         posture: ``q_ref`` (dof,): each numeric candidate is the answer nearest it in the

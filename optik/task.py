@@ -10,7 +10,9 @@ Weights ``w`` (6,) >= 0 are on ``[x, y, z, rx, ry, rz]`` **in the target frame**
 residual is ``sqrt(w) * [R*^T (p* - p); R*^T r]`` where ``r`` is the rotation error (the
 rotation vector ``log(R* R^T)`` for a full orientation; for a tool axis ``a`` and its
 target ``a*`` the rotation vector of the smallest rotation taking ``a`` to ``a*``). A zero
-position weight frees that target axis (e.g. the insertion depth along the target's z).
+position weight frees that target axis (e.g. the insertion depth along the target's z),
+also in position mode, where a target given with a rotation lends its axes to the
+weights (:attr:`Task.needs_target_frame`); a point target's axes are the world's.
 The rotational weights are all positive (full orientation), exactly one zero (that tool
 axis points along the target's: ``mode="axis"``), or all zero (no orientation:
 ``mode="position"``). The modes are shortcuts for weights.
@@ -80,6 +82,16 @@ class Task:
         """Whether every position axis is constrained (then the reach sphere is a proof)."""
         w = self.weights
         return bool(w[0] > 0.0 and w[1] > 0.0 and w[2] > 0.0)
+
+    @property
+    def needs_target_frame(self) -> bool:
+        """Whether a position task's weights differ between its axes.
+
+        Then a target's rotation (when it has one) is the frame they are on; a point's
+        frame is the world's.
+        """
+        w = self.weights
+        return self.mode == "position" and not (w[0] == w[1] == w[2])
 
     @property
     def is_pose_or_position(self) -> bool:

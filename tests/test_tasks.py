@@ -321,3 +321,32 @@ def test_bad_posture(kwargs: dict[str, object], field: str) -> None:
     panda = load_problem("panda").robot
     with pytest.raises(OptikError, match=field):
         optik.solve_ik(panda, panda.fk(panda.mid_limits), **kwargs)  # type: ignore[arg-type]
+
+
+def test_position_weights_are_on_the_targets_axes() -> None:
+    """Rotational weights all zero (position mode) and the target's z freed: the freed
+    axis is the target's (a 4x4 target's rotation lends its axes to the weights), not
+    the world's. The target frame's z is the world's -y here; the tool may stop anywhere
+    along it, and must be on it. A 3-vector target's axes are the world's. Before, the
+    rotation was dropped in position mode and the world's z was freed (x, y errors of
+    2 cm in the target frame reported as success)."""
+    panda = load_problem("panda").robot
+    source = panda.fk(panda.mid_limits + 0.3)
+    T = source.copy()
+    T[:3, :3] = rot_x(math.pi / 2)
+    T[:3, 3] += 0.05 * T[:3, 2]  # 5 cm along the target's own z: the freed axis
+    weights = [1.0, 1.0, 0.0, 0.0, 0.0, 0.0]
+    single = optik.solve_ik(panda, T, weights=weights)
+    batch = optik.solve_ik_batch(panda, T[None], weights=weights)
+    plan = optik.plan_path(panda, T[None], weights=weights)
+    answers = [single.q, batch.q[0], plan.q[0]]
+    assert single.success and batch.success[0] and plan.status[0] == "ok"
+    for q in answers:
+        offset = T[:3, :3].T @ (panda.fk(q)[:3, 3] - T[:3, 3])  # in the target frame
+        assert np.linalg.norm(offset[:2]) < 2e-6, offset
+        assert _in_limits(panda, q)
+    # The same weights on a point: the world's z is free, its x and y held.
+    point = optik.solve_ik(panda, T[:3, 3], mode="position", weights=weights)
+    assert point.success
+    offset = panda.fk(point.q)[:3, 3] - T[:3, 3]
+    assert np.linalg.norm(offset[:2]) < 2e-6
