@@ -62,7 +62,8 @@ class Task:
     Attributes:
         mode: ``"pose"``, ``"position"``, ``"orientation"`` or ``"axis"``.
         axis: index of the tool axis of ``mode="axis"`` (0 x, 1 y, 2 z), else -1.
-        weights: (6,) weights on ``[x, y, z, rx, ry, rz]`` in the target frame.
+        weights: (6,) weights on ``[x, y, z, rx, ry, rz]`` in the target frame, divided
+            by the largest (a uniform scale describes the same task).
         position_tol: position tolerance (m).
         orientation_tol: orientation tolerance (rad).
         packed: the task as the compiled kernels take it (read-only).
@@ -99,6 +100,10 @@ class Task:
         return int(self.packed[_FAST]) != 0
 
 
+WEIGHT_RANGE = (1e-100, 1e100)
+"""Smallest and largest positive task weight accepted (no unit)."""
+
+
 def _parse_tol(tol: Any) -> tuple[float, float]:
     if isinstance(tol, tuple | list):
         if len(tol) != 2:
@@ -120,8 +125,10 @@ def make_task(mode: Any = "pose", *, axis: Any = "z", weights: Any = None, tol: 
         mode: ``"pose"``, ``"position"``, ``"orientation"`` or ``"axis"``.
         axis: ``"x"``, ``"y"`` or ``"z"``: the tool axis of ``mode="axis"``.
         weights: (6,) >= 0 on ``[x, y, z, rx, ry, rz]`` in the target frame, or ``None``
-            (ones, with the mode's zeros). With the default ``mode="pose"`` the pattern of
-            rotational weights chooses the mode; with another mode it must agree with it.
+            (ones, with the mode's zeros); the positive ones within :data:`WEIGHT_RANGE`.
+            Only their ratios count: the task keeps them divided by the largest. With the
+            default ``mode="pose"`` the pattern of rotational weights chooses the mode;
+            with another mode it must agree with it.
         tol: one tolerance for both errors, or ``(position_tol_m, orientation_tol_rad)``.
 
     Raises:
@@ -184,6 +191,13 @@ def _make_task(mode: Any, axis: Any, weights: Any, tol: Any) -> Task:
         w = finite_array("weights", weights, (6,)).copy()
         if np.any(w < 0.0):
             raise OptikError(f"weights must be >= 0, got {w.tolist()}")
+        positive = w[w > 0.0]
+        if np.any(positive < WEIGHT_RANGE[0]) or np.any(positive > WEIGHT_RANGE[1]):
+            low, high = WEIGHT_RANGE
+            raise OptikError(
+                f"weights must be 0 or lie within [{low:g}, {high:g}] (the residual's squares "
+                f"must stay finite and normal in float64), got {w.tolist()}"
+            )
         zeros = [i for i in range(3) if w[3 + i] == 0.0]
         if len(zeros) == 2:
             raise OptikError(
@@ -202,6 +216,10 @@ def _make_task(mode: Any, axis: Any, weights: Any, tol: Any) -> Task:
             axis_name = AXES[zeros[0]]
     if not np.any(w > 0.0):
         raise OptikError("weights: at least one weight must be positive")
+    # Weights all multiplied by one number describe the same task: the largest is 1, so
+    # that every solver (its damping, its stall floor, a QP backend's tolerances) sees the
+    # same numbers for it (weights of 1e-10 left the damping's bias to dominate).
+    w = w / np.max(w)
     axis_index = AXES.index(axis_name) if mode == "axis" else -1
     kind = {"pose": FULL_ROTATION, "orientation": FULL_ROTATION, "axis": AXIS_ROTATION}.get(
         mode, NO_ROTATION
@@ -369,4 +387,13 @@ def task_errors_of(T: np.ndarray, target: np.ndarray, task: np.ndarray) -> tuple
     return task_error(T, target, task, e, M)
 
 
-__all__ = ["AXES", "MODES", "Task", "as_task", "make_task", "task_error", "task_rows"]
+__all__ = [
+    "AXES",
+    "MODES",
+    "WEIGHT_RANGE",
+    "Task",
+    "as_task",
+    "make_task",
+    "task_error",
+    "task_rows",
+]

@@ -350,3 +350,29 @@ def test_position_weights_are_on_the_targets_axes() -> None:
     assert point.success
     offset = panda.fk(point.q)[:3, 3] - T[:3, 3]
     assert np.linalg.norm(offset[:2]) < 2e-6
+
+
+@pytest.mark.parametrize("scale", [1e-10, 1e10])
+def test_scaling_every_weight_keeps_the_answers(scale: float) -> None:
+    """Weights all multiplied by one number describe the same task, and the task keeps
+    them divided by the largest: every solver sees the same numbers (``dls`` the same
+    answers, ``qp:osqp`` the same success). Before, the damping's absolute bias swamped
+    weights of 1e-10 (0 of 20 Panda targets solved) and OSQP's tolerances did too."""
+    panda = load_problem("panda").robot
+    rng = np.random.default_rng(17)
+    targets = [panda.fk(rng.uniform(panda.lower, panda.upper)) for _ in range(8)]
+    for T in targets:
+        plain = optik.solve_ik(panda, T, weights=[1.0] * 6, solver="dls")
+        scaled = optik.solve_ik(panda, T, weights=[scale] * 6, solver="dls")
+        assert plain.success and scaled.success
+        np.testing.assert_array_equal(scaled.q, plain.q)
+    batch = optik.solve_ik_batch(panda, np.stack(targets), weights=[scale] * 6)
+    assert batch.success.all()
+    qp = optik.solve_ik(panda, targets[0], weights=[scale] * 6, solver="qp:osqp")
+    assert qp.success
+
+
+@pytest.mark.parametrize("weight", [1e-101, 1e101, 1e-300])
+def test_weights_beyond_their_range_are_refused(weight: float) -> None:
+    with pytest.raises(OptikError, match=r"weights must be 0 or lie within \[1e-100, 1e\+100\]"):
+        make_task(weights=[1.0, 1.0, weight, 1.0, 1.0, 1.0])
