@@ -10,7 +10,7 @@ the SX functions, 0.38 ms compiled, measured). Two forms:
   the solver on it (``casadi.nlpsol(name, plugin, "<library>.so", options)``). Ipopt runs
   this way.
 - :func:`compiled_solver` generates the *whole* solver as C (CasADi's code generation of
-  ``sqpmethod`` with its QP solver ``qrqp``: the SQP loop, the QP and the functions in one
+  ``sqpmethod`` with its QP solver (DAQP): the SQP loop, the QP and the functions in one
   C function) and loads it with ``casadi.external``. It leaves out what CasADi's C++
   solver does around the numbers on every function call: a timing of each call with
   ``std::clock()``, which is a system call (``clock_gettime(CLOCK_PROCESS_CPUTIME_ID)``,
@@ -129,14 +129,20 @@ def find_compiler() -> str | None:
     return None
 
 
-def _compile(source: Path, target: Path, compiler: str, flags: tuple[str, ...]) -> None:
-    """Compile ``source`` into ``target`` atomically (a temporary file, then a rename)."""
+def _compile(
+    source: Path, target: Path, compiler: str, flags: tuple[str, ...], libs: tuple[str, ...] = ()
+) -> None:
+    """Compile ``source`` into ``target`` atomically (a temporary file, then a rename).
+
+    ``libs`` (linker arguments) follow the source, where a linker that drops libraries
+    not yet needed (``--as-needed``) still links them.
+    """
     target.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{target.stem}.", suffix=".so", dir=target.parent)
     os.close(fd)
     try:
         subprocess.run(
-            [compiler, *flags, str(source), "-o", tmp, "-lm"],
+            [compiler, *flags, str(source), "-o", tmp, "-lm", *libs],
             check=True,
             capture_output=True,
             text=True,
@@ -198,14 +204,18 @@ def _failed(exc: BaseException, start: float) -> CompileReport:
     )
 
 
-def _library(name: str, code: str, compiler: str, flags: tuple[str, ...]) -> tuple[Path, bool]:
+def _library(
+    name: str, code: str, compiler: str, flags: tuple[str, ...], libs: tuple[str, ...] = ()
+) -> tuple[Path, bool]:
     """The shared library of C ``code`` in the cache: ``(path, found on disk)``.
 
-    Named by the SHA-256 of the code, the CasADi version, the compiler and its flags.
+    Named by the SHA-256 of the code, the CasADi version, the compiler, its flags and the
+    libraries linked (``libs``, as :func:`_compile` takes them).
     """
     data = code.encode()
     digest = hashlib.sha256()
-    for part in (data, _casadi_version(), compiler.encode(), *(f.encode() for f in flags)):
+    arguments = (*flags, *libs)
+    for part in (data, _casadi_version(), compiler.encode(), *(f.encode() for f in arguments)):
         digest.update(part)
         digest.update(b"\0")
     target = cache_dir() / f"{name}_{digest.hexdigest()[:24]}.so"
@@ -214,8 +224,21 @@ def _library(name: str, code: str, compiler: str, flags: tuple[str, ...]) -> tup
     with tempfile.TemporaryDirectory(prefix="optik_nlp_") as tmp:
         source = Path(tmp) / f"{name}.c"
         source.write_bytes(data)
-        _compile(source, target, compiler, flags)
+        _compile(source, target, compiler, flags, libs)
     return target, False
+
+
+def _qp_library(code: str) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """The compiler flags and linker arguments of the QP solver that ``code`` calls.
+
+    CasADi's generated code of a ``daqp`` QP includes DAQP's header and calls its
+    library; CasADi's wheel ships both (``casadi/include/daqp``, ``libdaqp.so``). Code
+    of CasADi's own ``qrqp`` needs neither.
+    """
+    if "<daqp/" not in code:
+        return (), ()
+    folder = Path(casadi.__file__).resolve().parent
+    return (f"-I{folder / 'include'}",), (f"-L{folder}", "-ldaqp", f"-Wl,-rpath,{folder}")
 
 
 # The SQP loop's convergence test in CasADi's generated sqpmethod code, e.g.
@@ -288,8 +311,8 @@ def compiled_solver(solver: casadi.Function) -> tuple[CompiledSolver | None, Com
     The compiled function and its library take the solver's name.
 
     Args:
-        solver: a ``sqpmethod`` solver with ``qrqp`` as its QP solver (CasADi generates
-            code for those).
+        solver: a ``sqpmethod`` solver whose QP solver CasADi generates code for (DAQP,
+            qrqp).
 
     Returns:
         The compiled solver, or ``None`` with the reason in the report (no compiler,
@@ -314,7 +337,8 @@ def compiled_solver(solver: casadi.Function) -> tuple[CompiledSolver | None, Com
                 "to instrument",
             )
         flags = (*COMPILE_FLAGS, f"-DCASADI_MAX_NUM_THREADS={MAX_THREADS}")
-        target, cached = _library(name, code, compiler, flags)
+        extra_flags, libs = _qp_library(code)
+        target, cached = _library(name, code, compiler, (*flags, *extra_flags), libs)
         function = casadi.external(name, str(target))
         info = getattr(ctypes.CDLL(str(target)), INFO_SYMBOL)
         info.restype = ctypes.c_longlong
