@@ -324,7 +324,8 @@ def postprocess_axes(
 
     A call, not inlined, shared by the pipelines of every kind (:func:`kind_pipeline`):
     its code (the wrap, the limits, the Newton step, the FK check, the sort) is compiled
-    once, at install (the warm-up), and a kind's first call compiles only its closed form.
+    once, on the first call of any kind (or by ``optik warmup --groups axes_arms``), and
+    every other kind's first call then compiles only its own closed form.
     Arguments and result as ``postprocess_rows`` with the layout of :func:`pack_axes_params`
     and the Newton step on.
     """
