@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 from collections import Counter
 from collections.abc import Callable, Iterator
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -653,7 +654,7 @@ def test_hostile_available_solvers(kind: Any) -> None:
 
 
 @pytest.mark.parametrize("bad", [3, "yes", 1.0, [print]])
-def test_progress_options_are_checked_before_any_work(bad: Any) -> None:
+def test_progress_options_are_checked_before_any_work(bad: Any, tmp_path: Path) -> None:
     """A ``progress`` that is neither a flag nor a callable was found only when first
     called (``plan_path``: a bare ``TypeError`` after its first waypoint was solved)."""
     from optik.campaign import capability_map
@@ -669,7 +670,9 @@ def test_progress_options_are_checked_before_any_work(bad: Any) -> None:
         lambda: optik.plan_path(robot, line(T0, T1, 0.01), progress=bad),
         lambda: solve_batch(robot, T0[None], progress=bad),
         lambda: capability_map(robot, voxel=0.5, progress=bad),
-        lambda: run(RunConfig(problems=("puma560",), solvers=("dls",)), "unused.csv", progress=bad),
+        lambda: run(
+            RunConfig(problems=("puma560",), solvers=("dls",)), tmp_path / "r.csv", progress=bad
+        ),
     ]
     for call in calls:
         with pytest.raises(OptikError, match=r"progress: expected None"):
