@@ -48,6 +48,7 @@ from optik._files import write_atomic_with
 from optik._ik_options import query_bounds
 from optik.analytic import analytic_ik, family_of, wrap_into_limits
 from optik.analytic.roll import axis_branches, solves_axis_task
+from optik.diffik import clip_into_limits
 from optik.errors import OptikError, ShapeError
 from optik.ik import solve_ik
 from optik.model import Robot
@@ -286,6 +287,8 @@ def _atomic_write(target: Path, writer: Callable[[Any], None], binary: bool = Fa
 
 def _as_path(path: Any, mode: str | None) -> tuple[FloatArray, str]:
     array = as_float_array("path", path)
+    if array.ndim >= 1 and array.shape[0] == 0:
+        raise OptikError("path: at least one waypoint is needed, got none")
     if array.ndim == 2 and array.shape[1] == 3:
         if mode in ("orientation", "axis"):
             raise ShapeError(f"path (mode {mode!r})", "(N, 4, 4) poses", array.shape)
@@ -373,6 +376,11 @@ class _CandidateFinder:
         self.max_step = max_step
         self.restarts, self.seed, self.limit = restarts, seed, limit
         self.comfort = _Comfort.of(robot)
+        # Whether the margin narrows the box: only then is an answer inside the limits
+        # (and not inside the margin) a reason for "outside_limits".
+        self.narrowed = not (
+            np.array_equal(work.lower, robot.lower) and np.array_equal(work.upper, robot.upper)
+        )
         family = family_of(robot)
         self.analytic = family is not None and path_task.analytic_ok and self.mode in family.modes
         # The free roll of an axis task, solved by the full-pose closed form.
@@ -391,21 +399,15 @@ class _CandidateFinder:
         return self.comfort.towards(seed, 0.5 * self.max_step)
 
     def _solve(self, robot: Robot, T: FloatArray, with_posture: bool, **options: Any) -> Any:
+        settings = {"solver": "dls", "warm_start": "q0", **options}
         return solve_ik(
-            robot,
-            self.path_task.target(T),
-            solver="dls",
-            warm_start="q0",
-            **self.path_task.keywords(with_posture),
-            **options,
+            robot, self.path_task.target(T), **self.path_task.keywords(with_posture), **settings
         )
 
     def find(self, T: FloatArray, seeds: list[FloatArray], k: int) -> list[FloatArray]:
         target = self.path_task.target(T)
-        if self.analytic:
-            branches = analytic_ik(self.work, target, self.mode)
-            if not branches:
-                return []
+        branches = analytic_ik(self.work, target, self.mode) if self.analytic else []
+        if branches:
             # Joints with more than 2 pi of range have several representatives of each
             # branch. Those that continue a previous candidate (within one step of it)
             # come first; the branches themselves follow, for where the path must jump.
@@ -418,6 +420,9 @@ class _CandidateFinder:
                 parts.append(V[near])
             parts.append(B)
             return _dedupe(np.concatenate(parts), self.limit)
+        # No branch inside the limits proves nothing yet: at a singularity the closed form
+        # holds its free joint at the reference (the DOBOT's flange over its base axis)
+        # and rounds there by up to 1e-7, so the numeric search follows, as in solve_ik.
         if self.roll:
             found = self._on_roll(T, seeds)
             if found:
@@ -442,6 +447,15 @@ class _CandidateFinder:
                 restarts=self.restarts if rows else max(self.restarts, 20),
                 seed=self.seed + k,
                 **steer,
+            )
+            if result.success:
+                rows.append(result.q)
+        if not rows and not own:
+            # The steered searches can fail where solve_ik's own policy does not (its
+            # closed forms and their cross-check; an axis task with joints on their
+            # limits): any answer beats none.
+            result = self._solve(
+                self.work, T, False, solver="auto", warm_start="analytic", seed=self.seed + k
             )
             if result.success:
                 rows.append(result.q)
@@ -484,9 +498,10 @@ class _CandidateFinder:
         if self.analytic:
             loose = analytic_ik(self.robot, target, self.mode, within_limits=False)
             return "outside_limits" if loose else "unreachable"
-        inside = self._solve(self.robot, T, False, restarts=20)
-        if inside.success:
-            return "outside_limits"  # reachable inside the limits, not inside the margin
+        if self.narrowed:
+            inside = self._solve(self.robot, T, False, restarts=20)
+            if inside.success:
+                return "outside_limits"  # reachable inside the limits, not inside the margin
         prismatic = np.array([j.kind == "prismatic" for j in self.robot.joints])
         keep = prismatic | self.path_task.frozen
         free = self.robot.with_limits(
@@ -660,7 +675,8 @@ def plan_path(
             answers form a continuum). Closed-form candidates are isolated branches and
             stay as they are. The choice between candidates is still by continuity.
         joint_weights: (dof,) in [1e-100, 1e100], the norm of ``posture`` (default ones).
-        q_start: current configuration: the first waypoint's choice is the nearest to it.
+        q_start: current configuration (dof,), inside the limits (a hair outside is clipped
+            onto them): the first waypoint's choice is the nearest to it.
         tol: IK tolerance for both errors, or ``(position_tol_m, orientation_tol_rad)``.
         restarts: numeric restarts per waypoint (robots without a closed form).
         seed: seed of the restarts.
@@ -708,7 +724,8 @@ def plan_path(
     if np.any(lower > upper):
         raise OptikError(f"limit_margin {limit_margin} leaves no range for some joint")
     work = base.with_limits(lower, upper)
-    start = None if q_start is None else work.check_q(q_start, "q_start")
+    # Inside the limits (a hair outside is clipped onto them), as solve_ik's q0.
+    start = None if q_start is None else clip_into_limits(robot, "q_start", q_start)
     finder = _CandidateFinder(base, work, path_task, restarts, seed, max_candidates, max_joint_step)
 
     n = len(poses)
@@ -736,6 +753,15 @@ def plan_path(
         q = layers[k][choice[k]]
         Q[k] = q
         rows = _task_jacobian(robot, q, poses[k], path_task)
+        if rows.shape[1] == 0:
+            # Every joint frozen: the tool cannot move at all (manipulability 0; no
+            # singular direction to flag, as no joint could ever move along one).
+            manip[k] = 0.0
+            Q[k] = q
+            if previous is not None:
+                steps[k] = float(np.max(np.abs(q - previous)))
+            previous = q
+            continue
         singular_values = np.linalg.svd(rows, compute_uv=False)
         manip[k] = float(np.prod(singular_values[: min(rows.shape)]))
         if previous is not None:

@@ -225,3 +225,70 @@ def test_unproven_failure_is_not_found_not_unreachable() -> None:
     plan = plan_path(panda, np.stack([start, beyond]), max_joint_step=3.0)
     assert plan.status[0] == "ok"
     assert plan.status[1] == "not_found"
+
+
+@pytest.mark.parametrize(
+    ("q", "mode"),
+    [
+        ([-1.5, 0.0, math.pi / 2, -1.5], "pose"),  # the flange on the base axis
+        ([-1.5707963, 0.0, 1.5707963, -1.5707963], "pose"),  # next to it
+        ([-1.5707963, 0.0, 1.5707963, -1.5707963], "position"),
+    ],
+)
+def test_a_closed_forms_missed_branch_is_found_not_called_outside_limits(
+    q: list[float], mode: str
+) -> None:
+    """The DOBOT's closed form holds J1 at its reference when the flange is over the base
+    axis (J4 then out of its limits) and rounds by 3e-7 beside it (J2 below 0): no branch
+    inside the limits, and plan_path reported ``outside_limits``, a proof, for poses of
+    in-limit configurations. The numeric search now follows, as in solve_ik."""
+    robot = load_problem("dobot_magician").robot
+    q_source = np.array(q)
+    assert robot.within_limits(q_source)
+    T = robot.fk(q_source)
+    plan = plan_path(robot, T[None] if mode == "pose" else T[None, :3, 3], mode=mode)
+    assert plan.status[0] in ("ok", "near_singular")
+    reached = robot.fk(plan.q[0])
+    assert np.linalg.norm(reached[:3, 3] - T[:3, 3]) < 1e-6
+    assert robot.within_limits(plan.q[0])
+
+
+def test_an_axis_waypoint_with_joints_on_their_limits_is_planned() -> None:
+    """A Puma configuration with joints 2-6 on a limit: the steered numeric searches
+    failed on its axis task and the waypoint was called ``outside_limits`` although
+    solve_ik answers it inside the limits; planning now ends with solve_ik's own policy."""
+    robot = load_problem("puma560").robot
+    q = np.array([2.792526803190927, -0.7853981633974483, -3.9269908169872414,
+                  -1.9198621771937625, -1.7453292519943295, -4.642575810304916])  # fmt: skip
+    assert robot.within_limits(q)
+    T = robot.fk(q)
+    plan = plan_path(robot, T[None], mode="axis")
+    assert plan.status[0] == "ok"
+    reached = robot.fk(plan.q[0])
+    assert np.linalg.norm(reached[:3, 3] - T[:3, 3]) < 1e-6
+    assert float(reached[:3, 2] @ T[:3, 2]) > 1 - 1e-9
+    assert robot.within_limits(plan.q[0])
+
+
+def test_a_path_with_every_joint_frozen() -> None:
+    """Every joint frozen at the waypoint's configuration: solved, manipulability 0
+    (before: an IndexError from the singular values of a Jacobian with no column)."""
+    robot = load_problem("puma560").robot
+    q = robot.mid_limits + 0.2
+    frozen = dict(zip(robot.joint_names, q.tolist(), strict=True))
+    plan = plan_path(robot, robot.fk(q)[None], frozen=frozen)
+    assert plan.status == ["ok"]
+    np.testing.assert_array_equal(plan.q[0], q)
+    assert plan.manipulability[0] == 0.0
+
+
+def test_an_empty_path_and_a_start_outside_the_limits_are_refused() -> None:
+    robot = load_problem("puma560").robot
+    with pytest.raises(OptikError, match="at least one waypoint"):
+        plan_path(robot, np.zeros((0, 4, 4)))
+    T = robot.fk(robot.mid_limits)[None]
+    with pytest.raises(OptikError, match="outside its limits"):
+        plan_path(robot, T, q_start=robot.upper + 1.0)
+    # A hair outside (a measured configuration) is clipped onto the limits.
+    plan = plan_path(robot, robot.fk(robot.upper - 0.1)[None], q_start=robot.upper + 1e-9)
+    assert plan.status[0] != "not_found" and robot.within_limits(plan.q[0])
