@@ -9,14 +9,15 @@ File formats (see docs/planning.md):
 - CSV: the header line ``x,y,z`` (position only) or ``x,y,z,roll,pitch,yaw`` (rad, the
   URDF ``rpy`` convention), then one waypoint per line; lengths in m. Any other first
   line is an error (a missing header would otherwise cost the first waypoint).
-- NPZ: an array ``poses`` (N, 4, 4), or ``positions`` (N, 3).
+- NPZ: an array ``poses`` (N, 4, 4), or ``positions`` (N, 3); one (4, 4) pose or (3,)
+  position is a path of one waypoint.
 - TOML: ``positions = [[x, y, z], ...]`` and optionally ``rpy = [[r, p, y], ...]``, with
   optional ``length_unit`` / ``angle_unit`` as in problem files; any other key is an
   error.
 
-The primitives check their arguments (poses, a positive finite ``step``) and refuse to
-produce more than :data:`MAX_PATH_SAMPLES` samples. Coordinates beyond
-:data:`~optik._checks.MAX_LENGTH_M` are rejected everywhere.
+The primitives check their arguments (poses, a positive finite ``step``, a radius of at
+least :data:`MIN_RADIUS_M`) and refuse to produce more than :data:`MAX_PATH_SAMPLES`
+samples. Coordinates beyond :data:`~optik._checks.MAX_LENGTH_M` are rejected everywhere.
 """
 
 from __future__ import annotations
@@ -57,6 +58,10 @@ MAX_PATH_SAMPLES = 10_000_000
 CSV_HEADERS = (("x", "y", "z"), ("x", "y", "z", "roll", "pitch", "yaw"))
 """The accepted header lines of a path CSV (case and spaces around names ignored)."""
 
+MIN_RADIUS_M = 1e-9
+"""Smallest radius of an arc or circle, m: :func:`arc` takes distances within 1e-9 m as
+equal, so a smaller radius cannot be told from zero (and its square underflows)."""
+
 _TOML_KEYS = {"positions", "rpy", "length_unit", "angle_unit"}
 
 
@@ -75,6 +80,12 @@ def _check_poses(name: str, poses: FloatArray) -> FloatArray:
     """Path coordinates (m) must lie within ``MAX_LENGTH_M``; returns ``poses``."""
     check_length_array(f"{name} translation", poses[..., :3, 3])
     return poses
+
+
+def _check_radius(what: str, radius: float) -> None:
+    """Refuse a degenerate circle before its axis and sample count are computed."""
+    if not radius >= MIN_RADIUS_M:
+        raise OptikError(f"{what} {radius:.6g} m is below the minimum of {MIN_RADIUS_M:g} m")
 
 
 def _endpoint(name: str, value: Any) -> FloatArray:
@@ -122,8 +133,8 @@ def arc(start: Any, end: Any, center: Any, step: float, *, long_way: bool = Fals
     is the shorter one unless ``long_way``. Orientation is slerped along the arc.
 
     Raises:
-        OptikError: as :func:`line`; also ends at different (or zero) distances from
-            ``center``, or collinear with it.
+        OptikError: as :func:`line`; also ends at different distances from ``center``,
+            a radius below :data:`MIN_RADIUS_M`, or ends collinear with ``center``.
     """
     step = _step(step)
     long_way = check_bool("long_way", long_way)
@@ -131,9 +142,11 @@ def arc(start: Any, end: Any, center: Any, step: float, *, long_way: bool = Fals
     T1 = _endpoint("end", end)
     c = check_length_array("center", finite_array("center", center, (3,)))
     u, v = T0[:3, 3] - c, T1[:3, 3] - c
-    radius = float(np.linalg.norm(u))
-    if radius == 0.0 or abs(float(np.linalg.norm(v)) - radius) > 1e-9 * max(radius, 1.0):
-        raise OptikError("arc: start and end must be at the same non-zero distance from center")
+    # hypot, unlike np.linalg.norm, does not underflow to 0 for a radius of 1e-300.
+    radius = math.hypot(*u)
+    _check_radius("arc: radius (distance from start to center)", radius)
+    if abs(math.hypot(*v) - radius) > 1e-9 * max(radius, 1.0):
+        raise OptikError("arc: start and end must be at the same distance from center")
     normal = np.cross(u, v)
     sweep = math.atan2(float(np.linalg.norm(normal)), float(u @ v))
     if float(np.linalg.norm(normal)) < 1e-12 * radius * radius:
@@ -151,7 +164,8 @@ def circle(start: Any, center: Any, normal: Any, step: float) -> FloatArray:
     the last sample coincides with the first.
 
     Raises:
-        OptikError: as :func:`line`; also a zero ``normal``.
+        OptikError: as :func:`line`; also a zero ``normal``, or ``start`` closer than
+            :data:`MIN_RADIUS_M` to the axis through ``center``.
     """
     step = _step(step)
     T0 = _endpoint("start", start)
@@ -163,6 +177,11 @@ def circle(start: Any, center: Any, normal: Any, step: float) -> FloatArray:
     # Scale first: the norm of (1e300, 1e300, 0) overflows, that of (1e-300, 0, 0) underflows.
     axis = n / largest
     axis = axis / np.linalg.norm(axis)
+    u = T0[:3, 3] - c
+    _check_radius(
+        "circle: radius (distance from start to the axis through center)",
+        math.hypot(*(u - axis * float(axis @ u))),
+    )
     T1 = T0.copy()
     return _sweep(T0, T1, c, axis, 2 * math.pi, step, carry_rotation=True)
 
@@ -207,7 +226,8 @@ def read_path(path: str | Path) -> tuple[FloatArray, str]:
         PathFileError: ``path`` not a path, missing or unreadable file, not UTF-8,
             unknown extension, or malformed content: a CSV whose first line is not one of
             :data:`CSV_HEADERS`, a TOML key other than ``positions``, ``rpy``,
-            ``length_unit``, ``angle_unit``, a coordinate beyond ``MAX_LENGTH_M`` (the
+            ``length_unit``, ``angle_unit``, an ``.npz`` that is not an archive (a bare
+            ``.npy`` array), no waypoints, a coordinate beyond ``MAX_LENGTH_M`` (the
             message names the file and the line or key).
     """
     if not isinstance(path, str | os.PathLike) or isinstance(path, bytes):
@@ -263,14 +283,31 @@ def _read_csv(file: Path) -> tuple[FloatArray, str]:
 
 
 def _read_npz(file: Path) -> tuple[FloatArray, str]:
-    with np.load(file) as data:
+    loaded = np.load(file)
+    if not isinstance(loaded, np.lib.npyio.NpzFile):
+        # np.load reads a .npy file (one bare array) whatever its name.
+        raise PathFileError(
+            f"{file}: not an .npz archive (a single .npy array?); save the path with "
+            "np.savez(file, poses=...) or np.savez(file, positions=...)"
+        )
+    with loaded as data:
         if "poses" in data:
-            return _check_poses("poses", as_pose("poses", data["poses"], batch=True).copy()), "pose"
+            # One (4, 4) pose is one waypoint, as a single CSV or TOML position is.
+            poses = as_pose("poses", data["poses"], batch=True).reshape(-1, 4, 4).copy()
+            return _nonempty(file, _check_poses("poses", poses)), "pose"
         if "positions" in data:
             positions = finite_array("positions", data["positions"], (3,), batch=True)
             check_length_array("positions", positions)
-            return _positions_to_poses(np.atleast_2d(positions), None), "position"
+            poses = _positions_to_poses(np.atleast_2d(positions), None)
+            return _nonempty(file, poses), "position"
     raise PathFileError(f"{file}: expected an array named 'poses' (N, 4, 4) or 'positions' (N, 3)")
+
+
+def _nonempty(file: Path, poses: FloatArray) -> FloatArray:
+    """An empty array is no path (a CSV or TOML file without waypoints is refused too)."""
+    if len(poses) == 0:
+        raise PathFileError(f"{file}: expected at least one waypoint, got none")
+    return poses
 
 
 def _read_toml(file: Path) -> tuple[FloatArray, str]:
@@ -298,12 +335,11 @@ def _read_toml(file: Path) -> tuple[FloatArray, str]:
     if "positions" not in data:
         raise PathFileError(f"{file}: missing 'positions'")
     positions = finite_array("positions", data["positions"], (3,), batch=True) * length
+    positions = np.atleast_2d(positions)  # a single [x, y, z] is one waypoint
     check_length_array("positions", positions)
     rpy = None
     if "rpy" in data:
-        rpy = finite_array("rpy", data["rpy"], (3,), batch=True) * angle
+        rpy = np.atleast_2d(finite_array("rpy", data["rpy"], (3,), batch=True) * angle)
         if len(rpy) != len(positions):
             raise PathFileError(f"{file}: 'rpy' needs one entry per position")
-    return _positions_to_poses(
-        np.atleast_2d(positions), rpy
-    ), "pose" if rpy is not None else "position"
+    return _positions_to_poses(positions, rpy), "pose" if rpy is not None else "position"

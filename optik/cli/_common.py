@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import re
 import textwrap
 from collections.abc import Sequence
 from pathlib import Path
@@ -33,8 +34,24 @@ EXIT_INTERNAL = 3
 URDF_SUFFIXES = (".urdf", ".xml")
 
 
+#: A negative number as an argument: argparse's own pattern (``-3``, ``-0.3``) plus an
+#: exponent (``-3e-1``), which it would otherwise take for an unknown option. ``-inf`` and
+#: ``-nan`` stay out, so they are still refused (as options), as before.
+NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$")
+
+
 class Parser(argparse.ArgumentParser):
-    """An argument parser whose usage errors are one ``optik: error: ...`` line (exit 2)."""
+    """An argument parser whose usage errors are one ``optik: error: ...`` line (exit 2).
+
+    Arguments such as ``-3e-1`` are read as negative numbers, not options. Subparsers
+    are made of this class too (``add_subparsers`` uses the parent's class).
+    """
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        # argparse sets its matcher per instance in __init__, so a class attribute would
+        # be shadowed; set it before any option is added (add_argument consults it).
+        self._negative_number_matcher = NEGATIVE_NUMBER
 
     def error(self, message: str) -> NoReturn:
         self.exit(EXIT_BAD_INPUT, f"optik: error: {message} (see '{self.prog} --help')\n")
