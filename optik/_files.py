@@ -19,19 +19,42 @@ from typing import IO, Any
 
 from optik.errors import OutputFileError
 
-__all__ = ["prepare_folder", "write_atomic", "write_atomic_with"]
+__all__ = ["output_path", "prepare_folder", "write_atomic", "write_atomic_with"]
 
 _O_BINARY = getattr(os, "O_BINARY", 0)  # Windows: no newline translation at the fd level
+
+
+def output_path(path: Any) -> Path:
+    """``path`` as a :class:`~pathlib.Path` to write, once it is one the system can name.
+
+    Checked before any output is written, so that a path no file system accepts fails
+    at once rather than after a folder was created or the work was done.
+
+    Raises:
+        OutputFileError: ``path`` is not a string or path-like, is empty, or holds a NUL
+            character (no file system allows one; ``os`` would raise a bare ValueError).
+    """
+    if not isinstance(path, str | os.PathLike):
+        raise OutputFileError(repr(path), f"expected a path, got {type(path).__name__}")
+    text = os.fspath(path)
+    if isinstance(text, bytes):
+        raise OutputFileError(repr(path), "expected a text path, not bytes")
+    if not text:
+        raise OutputFileError(repr(text), "the path is empty")
+    if "\x00" in text:
+        raise OutputFileError(repr(text), "the path holds a NUL character")
+    return Path(text)
 
 
 def prepare_folder(folder: str | Path) -> Path:
     """Create ``folder`` (and its parents) for output, or say clearly why it cannot be.
 
     Raises:
-        OutputFileError: ``folder`` or one of its parents is a file, or the place is not
-            writable (the message names the path).
+        OutputFileError: ``folder`` is not a usable path (:func:`output_path`), it or one
+            of its parents is a file, or the place is not writable (the message names
+            the path).
     """
-    folder = Path(folder)
+    folder = output_path(folder)
     for parent in (folder, *folder.parents):
         if parent.exists() and not parent.is_dir():
             raise OutputFileError(str(folder), f"{parent} is a file, not a folder")
@@ -83,7 +106,7 @@ def write_atomic_with(
         OutputFileError: ``path`` is a folder, a parent is a file, or the place is not
             writable.
     """
-    target = Path(path)
+    target = output_path(path)
     if target.is_dir():
         raise OutputFileError(str(target), "it is a folder")
     prepare_folder(target.parent)

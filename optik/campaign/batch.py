@@ -15,6 +15,7 @@ per chunk, each written whole through a temporary file and a rename) and ``_opti
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import json
 import uuid
@@ -32,7 +33,7 @@ from optik._checks import (
     check_int,
     check_progress,
 )
-from optik._files import prepare_folder, write_atomic, write_atomic_with
+from optik._files import output_path, prepare_folder, write_atomic, write_atomic_with
 from optik.campaign._deps import require
 from optik.campaign.engine import (
     ProgressOption,
@@ -87,7 +88,7 @@ def _read(file: Path) -> tuple[FloatArray, bool]:
     if suffix == ".npy":
         try:
             raw = np.load(file, allow_pickle=False)
-        except (OSError, ValueError) as exc:
+        except (OSError, ValueError, EOFError) as exc:  # EOFError: an empty or cut file
             raise OptikError(f"{file}: not a NumPy .npy array ({exc})") from None
         array = as_float_array(str(file), raw)
         if array.ndim == 2 and array.shape[1] == 3:
@@ -249,6 +250,38 @@ class PartWriter:
         return True
 
 
+def _damaged(file: Path, exc: Exception) -> OptikError:
+    """The error of a part file that does not read, saying how to recover."""
+    return OptikError(
+        f"{file}: a damaged part file ({exc}); delete it and resume the run "
+        "(resume=True, or --resume) to compute its chunk again"
+    )
+
+
+def _check_part(file: Path) -> None:
+    """Raise unless a part file's Parquet footer reads (cheap: the footer, not the data).
+
+    A part is renamed into place only when whole, so one that does not read was damaged
+    from outside (a disk fault, a cut copy); resuming over it would fail only at the end.
+
+    Raises:
+        OptikError: the file does not read as Parquet (the message names it).
+    """
+    pq = require("pyarrow.parquet", "a batch")
+    try:
+        pq.read_metadata(file)
+    except Exception as exc:  # pyarrow's ArrowInvalid (a ValueError), OSError, ...
+        raise _damaged(file, exc) from None
+
+
+def _read_part(pq: Any, file: Path) -> Any:
+    """The rows of one part file, or a clear error naming it."""
+    try:
+        return pq.read_table(file)
+    except Exception as exc:  # damaged since the run checked its footer
+        raise _damaged(file, exc) from None
+
+
 class PartStore:
     """Parquet part files in a folder, one per chunk (``None`` folder: in memory).
 
@@ -274,13 +307,18 @@ class PartStore:
     part_name = staticmethod(part_name)
 
     def finished(self) -> set[int]:
-        """Chunks whose part file exists (a part is renamed into place only when whole)."""
+        """Chunks whose part file exists (each checked to read as Parquet).
+
+        Raises:
+            OptikError: a part file that does not read (see :func:`_check_part`).
+        """
         if self.folder is None:
             return set(self.memory)
         done = set()
         for file in self.folder.glob("part-*.parquet"):
             stem = file.stem.removeprefix("part-")
             if stem.isdigit():
+                _check_part(file)
                 done.add(int(stem))
         return done
 
@@ -306,7 +344,7 @@ class PartStore:
             parts = [self.memory[i] for i in sorted(self.memory)]
         else:
             files = sorted(self.folder.glob("part-*.parquet"))
-            parts = [pq.read_table(f) for f in files]
+            parts = [_read_part(pq, f) for f in files]
         if not parts:
             return None
         return pa.concat_tables(parts).sort_by("index")
@@ -373,6 +411,15 @@ def solve_batch(
     chunk = check_int("chunk", chunk, minimum=1, maximum=10_000_000)
     resume = check_bool("resume", resume)
     progress = check_progress(progress)
+    folder = None if out is None else output_path(out)
+    # The validated values, as plain Python numbers: a numpy scalar would not go into the
+    # settings file, and every check must pass before anything is written.
+    axis = str(axis)
+    tol = (
+        (task.position_tol, task.orientation_tol)
+        if isinstance(tol, tuple | list)
+        else task.position_tol
+    )
     poses = _as_poses(targets, task.mode)
     if len(poses) > 2**40:
         raise OptikError(f"targets: at most 2**40 per batch, got {len(poses)}")
@@ -381,7 +428,7 @@ def solve_batch(
         "robot_fingerprint": robot_fingerprint(robot),
         "mode": task.mode,
         "axis": axis,
-        "tol": list(tol) if isinstance(tol, tuple | list) else tol,
+        "tol": list(tol) if isinstance(tol, tuple) else tol,
         "restarts": restarts,
         "max_iter": max_iter,
         "seed": seed,
@@ -391,10 +438,14 @@ def solve_batch(
         "seed_rule": "target k uses stream seed + k",
         "optik": versions()["optik"],
     }
-    folder = _prepare(out, settings, resume)
-    store = PartStore.for_run(folder)
+    text = json.dumps(settings, indent=1)
+    new = _check_out(folder, settings, resume)
     items = [(s, poses[s : s + chunk]) for s in range(0, len(poses), chunk)]
     with open_engine(client=client, workers=workers, scheduler=scheduler) as engine:
+        # Written only now: a bad engine option leaves no folder behind either.
+        if folder is not None and new:
+            _create(folder, text)
+        store = PartStore.for_run(folder)
         threads = engine.threads_for(chunk_count(len(poses), chunk))
         spec = BatchSpec(robot, task.mode, axis, tol, restarts, max_iter, seed, threads)
         work = functools.partial(solve_chunk, spec)
@@ -426,26 +477,44 @@ def _as_poses(targets: Any, mode: str) -> FloatArray:
     raise ShapeError("targets", "(N, 4, 4) poses or (N, 3) positions", array.shape)
 
 
-def _prepare(out: str | Path | None, settings: dict[str, Any], resume: bool) -> Path | None:
-    """The output folder, new or resumed (its stored settings must match)."""
-    if out is None:
-        return None
-    folder = Path(out)
+def _check_out(folder: Path | None, settings: dict[str, Any], resume: bool) -> bool:
+    """Whether the output folder is to be created; a resumed one must match ``settings``.
+
+    Reads only: nothing is written until every option has been checked.
+    """
+    if folder is None:
+        return False
     marker = folder / SETTINGS_FILE
-    if folder.exists():
-        if not resume:
-            raise OutputFileError(str(folder), "it exists (resume=True, or --resume, finishes it)")
-        if not marker.is_file():
-            raise OptikError(f"{folder}: not a batch run to resume (no {SETTINGS_FILE})")
-        try:
-            stored = json.loads(marker.read_text(encoding="utf-8"))
-        except (OSError, ValueError) as exc:
-            raise OptikError(f"{marker}: unreadable settings ({exc})") from None
-        check_same_run(str(folder), stored, settings)
-        return folder
+    if not folder.exists():
+        return True
+    if not resume:
+        raise OutputFileError(str(folder), "it exists (resume=True, or --resume, finishes it)")
+    if not marker.is_file():
+        raise OptikError(f"{folder}: not a batch run to resume (no {SETTINGS_FILE})")
+    try:
+        stored = json.loads(marker.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        raise OptikError(f"{marker}: unreadable settings ({exc})") from None
+    if not isinstance(stored, dict):
+        raise OptikError(
+            f"{marker}: unreadable settings (a JSON {type(stored).__name__}, not an object); "
+            "give another output path"
+        )
+    check_same_run(str(folder), stored, settings)
+    return False
+
+
+def _create(folder: Path, text: str) -> None:
+    """Create the output folder with its settings file, or leave no folder behind."""
+    existed = folder.exists()
     prepare_folder(folder)
-    write_atomic(marker, json.dumps(settings, indent=1))
-    return folder
+    try:
+        write_atomic(folder / SETTINGS_FILE, text)
+    except BaseException:
+        if not existed:  # ours and empty: a rerun must not find it "existing"
+            with contextlib.suppress(OSError):
+                folder.rmdir()
+        raise
 
 
 __all__ = [

@@ -50,6 +50,7 @@ from optik._checks import (
     check_progress,
     check_real,
 )
+from optik._files import output_path
 from optik.campaign._deps import require, require_zarr
 from optik.campaign.engine import Engine, ProgressOption, open_engine, run_chunks_with_progress
 from optik.campaign.provenance import check_same_run, robot_fingerprint, versions
@@ -626,7 +627,7 @@ def capability_map(
     centre, radius = robot.reach_sphere
     x, y, z = lattice(centre, radius, voxel, bounds)
     rotations = sample_orientations(mode, orientations, rolls, axis)
-    target = None if out is None else Path(out)
+    target = None if out is None else output_path(out)
     if target is not None and target.exists() and not resume:
         raise OutputFileError(str(target), "it exists (resume=True, or --resume, finishes it)")
     with open_engine(client=client, workers=workers, scheduler=scheduler) as engine:

@@ -26,7 +26,13 @@ from typing import Any
 
 import numpy as np
 
-from optik._checks import FloatArray, as_float_array, check_int, check_real
+from optik._checks import (
+    FloatArray,
+    as_float_array,
+    check_int,
+    check_length_array,
+    check_real,
+)
 from optik.campaign.capability import open_map
 from optik.campaign.engine import open_engine
 from optik.campaign.sampling import AXES
@@ -34,6 +40,9 @@ from optik.errors import OptikError, ShapeError
 from optik.ik import solve_ik
 from optik.model import Robot
 from optik.spatial import as_pose, invert_transform, rot_z
+
+MAX_CANDIDATES = 10_000_000
+"""Largest number of base poses :func:`planar_candidates` makes (640 bytes each)."""
 
 
 @dataclass
@@ -77,8 +86,24 @@ class BasePlacements:
 
     @property
     def best(self) -> Placement:
-        """The first placement (the best re-verified one)."""
+        """The first placement (the best re-verified one).
+
+        Raises:
+            OptikError: the ranking holds no placement.
+        """
+        if not self.placements:
+            raise OptikError("base placements: the ranking is empty (no candidate base pose)")
         return self.placements[0]
+
+
+def _grid(lo: float, hi: float, step: float) -> FloatArray:
+    """Positions from ``lo`` every ``step`` up to ``hi`` (m); at least ``lo`` itself.
+
+    Far from the origin ``hi + 1e-9 * step`` may round to ``hi == lo``, and the range
+    would then be empty.
+    """
+    values = np.arange(lo, hi + 1e-9 * step, step)
+    return values if len(values) else np.array([lo])
 
 
 def planar_candidates(region: Any, step: Any, yaws: Any, height: Any = 0.0) -> FloatArray:
@@ -91,7 +116,8 @@ def planar_candidates(region: Any, step: Any, yaws: Any, height: Any = 0.0) -> F
         height: z of the base origin (m).
 
     Raises:
-        OptikError: a malformed or inverted region, a non-positive step, too many poses.
+        OptikError: a malformed or inverted region, a non-positive step, more than
+            :data:`MAX_CANDIDATES` poses.
     """
     box = as_float_array("region", region)
     if box.shape != (2, 2) or not np.all(np.isfinite(box)):
@@ -101,11 +127,22 @@ def planar_candidates(region: Any, step: Any, yaws: Any, height: Any = 0.0) -> F
     h = check_real("step", step, positive=True)
     n = check_int("yaws", yaws, minimum=1, maximum=3600)
     z = check_real("height", height)
-    xs = np.arange(box[0, 0], box[0, 1] + 1e-9 * h, h)
-    ys = np.arange(box[1, 0], box[1, 1] + 1e-9 * h, h)
+    # The count first, in floating point (inf when a huge region or tiny step overflows
+    # it), so that no grid axis is allocated beyond the cap.
+    spans = (float(box[0, 1]) - float(box[0, 0]), float(box[1, 1]) - float(box[1, 0]))
+    estimate = math.prod(float(np.floor(span / h + 1e-9)) + 1.0 for span in spans) * n
+    if not estimate <= MAX_CANDIDATES:
+        shown = f"{estimate:.3g}" if math.isfinite(estimate) else "too many"
+        raise OptikError(
+            f"region, step and yaws give {shown} candidates: at most {MAX_CANDIDATES:,}"
+        )
+    xs = _grid(float(box[0, 0]), float(box[0, 1]), h)
+    ys = _grid(float(box[1, 0]), float(box[1, 1]), h)
     count = len(xs) * len(ys) * n
-    if count > 10_000_000:
-        raise OptikError(f"region, step and yaws give {count} candidates: at most 10,000,000")
+    if count > MAX_CANDIDATES:  # the estimate's rounding, at the very edge of the cap
+        raise OptikError(
+            f"region, step and yaws give {count} candidates: at most {MAX_CANDIDATES:,}"
+        )
     out = np.empty((len(xs), len(ys), n, 4, 4))
     out[...] = np.eye(4)
     for j in range(n):
@@ -231,6 +268,8 @@ def base_placement(
     """
     from optik.campaign.provenance import robot_fingerprint
 
+    if not isinstance(robot, Robot):
+        raise OptikError(f"robot: expected an optik.Robot, got {type(robot).__name__}")
     ds = open_map(map) if not hasattr(map, "attrs") else map
     settings = ds.attrs.get("settings", {})
     if settings.get("robot_fingerprint") != robot_fingerprint(robot):
@@ -254,6 +293,7 @@ def base_placement(
         bases = as_pose("candidates", candidates, batch=True)
         if len(bases) == 0:
             raise OptikError("candidates: give at least one base pose")
+        check_length_array("candidates translation", bases[:, :3, 3])
     # (K, P, 4, 4): every task pose seen from every candidate, in the robot's frame.
     local = np.einsum("kij,pjl->kpil", invert_transform(bases), tasks)
     reached, index = map_cells(ds, local)
@@ -282,7 +322,16 @@ def _task_poses(task_poses: Any) -> FloatArray:
     poses = as_pose("task_poses", array, batch=True)
     if len(poses) == 0:
         raise OptikError("task_poses: give at least one task pose")
+    # Beyond MAX_LENGTH_M the map lookup loses all precision (and no map reaches there).
+    check_length_array("task_poses translation", poses[:, :3, 3])
     return poses
 
 
-__all__ = ["BasePlacements", "Placement", "base_placement", "map_cells", "planar_candidates"]
+__all__ = [
+    "MAX_CANDIDATES",
+    "BasePlacements",
+    "Placement",
+    "base_placement",
+    "map_cells",
+    "planar_candidates",
+]

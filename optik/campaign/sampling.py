@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from optik._checks import FloatArray, as_float_array, check_int, check_real
+from optik._checks import FloatArray, as_float_array, check_int, check_length_array, check_real
 from optik.errors import ArgumentError, OptikError, ShapeError
 
 MAX_VOXELS = 200_000_000
@@ -22,6 +22,10 @@ MAX_VOXELS = 200_000_000
 
 MAX_ORIENTATIONS = 100_000
 """Largest ``orientations`` (and ``rolls``) of a map."""
+
+MAX_SAMPLES = 100_000
+"""Largest number of samples per voxel, ``orientations * rolls`` (the (M, 3, 3) rotations
+take 72 bytes each, and every chunk solves M samples per voxel)."""
 
 AXES = ("x", "y", "z")
 
@@ -40,8 +44,9 @@ def lattice(
 
     Raises:
         OptikError: ``voxel`` not positive, not finite or larger than ``radius``;
-            ``bounds`` not (3, 2), not finite, inverted or holding no voxel centre on an
-            axis; more than :data:`MAX_VOXELS` voxels.
+            ``bounds`` not (3, 2), not finite, beyond :data:`~optik._checks.MAX_LENGTH_M`,
+            inverted or holding no voxel centre on an axis; more than :data:`MAX_VOXELS`
+            voxels.
     """
     v = check_real("voxel", voxel, positive=True)
     if v > radius:
@@ -56,26 +61,35 @@ def lattice(
             )
         if not np.all(np.isfinite(box)):
             raise OptikError("bounds: values must be finite (m)")
-    axes = []
+        check_length_array("bounds", box)
+    # The lattice indices k0..k1 of each axis, in floating point: with a tiny voxel they
+    # overflow an integer (or reach inf), so the count is checked before any allocation.
+    ranges = []
     for i, name in enumerate(AXES):
-        lo, hi = float(box[i, 0]), float(box[i, 1])
+        lo, hi, c = float(box[i, 0]), float(box[i, 1]), float(centre[i])
         if lo > hi:
             raise OptikError(f"bounds: {name}min {lo:g} m is above {name}max {hi:g} m")
         # A small slack keeps a bound that is a lattice point (up to rounding) inside.
-        k0 = math.ceil((lo - centre[i]) / v - 1e-9)
-        k1 = math.floor((hi - centre[i]) / v + 1e-9)
+        k0 = float(np.ceil((lo - c) / v - 1e-9))
+        k1 = float(np.floor((hi - c) / v + 1e-9))
         if k1 < k0:
             raise OptikError(
                 f"bounds: no voxel centre between {name} = {lo:g} and {hi:g} m "
-                f"(centres lie at {centre[i]:g} + k * {v:g} m)"
+                f"(centres lie at {c:g} + k * {v:g} m)"
             )
-        axes.append(centre[i] + v * np.arange(k0, k1 + 1, dtype=np.float64))
-    count = math.prod(len(a) for a in axes)
-    if count > MAX_VOXELS:
+        ranges.append((k0, k1))
+    count = math.prod(k1 - k0 + 1.0 for k0, k1 in ranges)  # inf or NaN when overflowing
+    if not count <= MAX_VOXELS:
+        shown = f"{count:.3g}" if math.isfinite(count) else "too many"
         raise OptikError(
-            f"voxel {v:g} m gives {count} voxels, more than {MAX_VOXELS}: "
+            f"voxel {v:g} m and bounds give {shown} voxels, more than {MAX_VOXELS}: "
             "give a larger voxel or smaller bounds"
         )
+    # k0 + arange(n) equals arange(k0, k1 + 1) (exact integers), without an int of k0.
+    axes = [
+        centre[i] + v * (k0 + np.arange(int(k1 - k0) + 1, dtype=np.float64))
+        for i, (k0, k1) in enumerate(ranges)
+    ]
     return axes[0], axes[1], axes[2]
 
 
@@ -132,7 +146,8 @@ def orientations(mode: str, count: Any, rolls: Any, axis: str) -> FloatArray:
 
     Raises:
         OptikError: ``count`` or ``rolls`` not an integer in [1, MAX_ORIENTATIONS];
-            ``rolls`` other than 1 outside pose mode.
+            ``rolls`` other than 1 outside pose mode; ``count * rolls`` above
+            :data:`MAX_SAMPLES`.
     """
     n = check_int("orientations", count, minimum=1, maximum=MAX_ORIENTATIONS)
     m = check_int("rolls", rolls, minimum=1, maximum=MAX_ORIENTATIONS)
@@ -141,6 +156,11 @@ def orientations(mode: str, count: Any, rolls: Any, axis: str) -> FloatArray:
     if m != 1 and mode != "pose":
         raise OptikError(
             f"rolls: only a full pose has rotations about the tool axis (mode {mode!r})"
+        )
+    if n * m > MAX_SAMPLES:
+        raise OptikError(
+            f"orientations * rolls: {n} * {m} = {n * m} samples per voxel, more than "
+            f"{MAX_SAMPLES}: give fewer orientations or rolls"
         )
     k = AXES.index(axis)
     base = frames_with_axis(fibonacci_sphere(n), k)
@@ -152,6 +172,7 @@ def orientations(mode: str, count: Any, rolls: Any, axis: str) -> FloatArray:
 
 __all__ = [
     "MAX_ORIENTATIONS",
+    "MAX_SAMPLES",
     "MAX_VOXELS",
     "fibonacci_sphere",
     "frames_with_axis",
