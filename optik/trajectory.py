@@ -13,6 +13,11 @@ A :class:`~optik.planning.PathPlan` is a sequence of joint vectors without timin
    of ``||q_{k+1} - q_k||``, mixed rad and m): a natural cubic spline (C2, so the joint
    acceleration is continuous), or, where that spline would leave the joint limits between
    two waypoints, a monotone PCHIP spline (C1), which never overshoots its waypoints.
+   Waypoints closer than :data:`MERGE_TOLERANCE` times the segment's chord length
+   (at least 1e-12 rad or m) to the previous knot are merged into it: the path passes
+   through that knot at their stated time, so the trajectory holds each waypoint's
+   configuration to within that distance, and the tool's move from it is counted in
+   the segment's measured departure (and ``path_tolerance``).
 3. **Timing.** TOPP-RA (Pham and Pham, 2018, the ``toppra`` package) finds the fastest
    path speed ``ds/dt`` under the joint velocity and acceleration limits on a grid of ``s``,
    with constant path acceleration between grid points. The limits hold at the grid points;
@@ -24,7 +29,8 @@ A :class:`~optik.planning.PathPlan` is a sequence of joint vectors without timin
 The samples lie exactly on the geometric path; between waypoints that path is an
 interpolation, so its tool pose departs slightly from the Cartesian path: with a robot,
 the largest departure of each segment is measured (position, m; orientation, rad) and,
-with ``path_tolerance``, enforced.
+with ``path_tolerance``, enforced. The sampled arrays hold at most
+:data:`MAX_TRAJECTORY_SAMPLES` samples.
 """
 
 from __future__ import annotations
@@ -46,12 +52,24 @@ if TYPE_CHECKING:
     from optik.model import Robot
     from optik.planning import PathPlan
 
-__all__ = ["Trajectory", "TrajectorySegment", "plan_trajectory"]
+__all__ = [
+    "MAX_TRAJECTORY_SAMPLES",
+    "MERGE_TOLERANCE",
+    "Trajectory",
+    "TrajectorySegment",
+    "plan_trajectory",
+]
+
+MAX_TRAJECTORY_SAMPLES = 10_000_000
+"""Most samples a trajectory may hold (10 million samples of a 6-joint robot are 1.5 GB)."""
+
+MERGE_TOLERANCE = 1e-6
+"""Waypoints of a segment closer than this fraction of its joint-space chord length are one."""
 
 _UNSOLVED = ("unreachable", "outside_limits", "not_found")
 _DEVIATION_SAMPLES = 8
 _SLERP_SAMPLES = 33
-_SAME_POINT = 1e-12  # chord (rad or m) below which two waypoints are one point of the path
+_SAME_POINT = 1e-12  # rad or m: the least merge distance, whatever the segment's length
 _LIMIT_SLACK = 1e-12  # rad or m: a spline within this of a limit stays inside it
 
 
@@ -103,7 +121,9 @@ class _Timing:
     def build(cls, path: Any, ss: FloatArray, sd: FloatArray) -> _Timing:
         ds = np.diff(ss)
         us = (sd[1:] ** 2 - sd[:-1] ** 2) / (2.0 * ds)
-        ts = np.concatenate([[0.0], np.cumsum(2.0 * ds / (sd[1:] + sd[:-1]))])
+        # Two zero speeds in a row give an infinite time: plan_trajectory rejects it.
+        with np.errstate(divide="ignore"):
+            ts = np.concatenate([[0.0], np.cumsum(2.0 * ds / (sd[1:] + sd[:-1]))])
         return cls(path, ss, sd, ts, us)
 
     def scaled(self, r: float) -> _Timing:
@@ -387,6 +407,29 @@ def _chord(Q: FloatArray) -> FloatArray:
     return np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(Q, axis=0), axis=1))])
 
 
+def _merge_close(Q: FloatArray) -> tuple[Any, Any]:
+    """The waypoints of ``Q`` (k, dof) kept as knots, and for each waypoint its knot.
+
+    Returns ``(kept, knot_of)``: indices into ``Q`` of the knots (the first waypoint always
+    one), and per waypoint the index into ``kept`` of the knot it is merged into. A
+    waypoint within ``max(MERGE_TOLERANCE * chord length, 1e-12)`` (rad or m, Euclidean) of
+    the last knot is merged into it: a spline through both would bend sharply between
+    them, and TOPP-RA's rounding over so short an interval would read as a large
+    acceleration. Each waypoint is thus within that distance of its knot.
+    """
+    steps = np.linalg.norm(np.diff(Q, axis=0), axis=1)
+    tol = max(_SAME_POINT, MERGE_TOLERANCE * float(steps.sum()))
+    if np.all(steps > tol):  # the common case: every waypoint is a knot
+        return np.arange(len(Q)), np.arange(len(Q))
+    kept = [0]
+    knot_of = np.zeros(len(Q), dtype=int)
+    for k in range(1, len(Q)):
+        if np.linalg.norm(Q[k] - Q[kept[-1]]) > tol:
+            kept.append(k)
+        knot_of[k] = len(kept) - 1
+    return np.array(kept), knot_of
+
+
 def joint_path(Q: FloatArray, lower: FloatArray, upper: FloatArray) -> tuple[Any, FloatArray, str]:
     """The interpolating spline through ``Q`` (k >= 2 distinct rows), its knots, its kind."""
     from scipy.interpolate import CubicSpline, PchipInterpolator
@@ -422,15 +465,27 @@ def _cubic_range(c: FloatArray, h: FloatArray) -> tuple[FloatArray, FloatArray]:
 
 
 def _grid(knots: FloatArray, intervals: int) -> FloatArray:
-    """At least ``intervals`` grid intervals, every knot a grid point."""
-    per = max(1, math.ceil(intervals / (len(knots) - 1)))
-    w = np.linspace(0.0, 1.0, per + 1)[:-1]
-    inner = (knots[:-1, None] + np.diff(knots)[:, None] * w).ravel()
+    """At least ``intervals`` grid intervals, every knot a grid point.
+
+    Each knot interval gets a share in proportion to its length (at least one): splitting
+    a short interval as finely as a long one would only magnify TOPP-RA's rounding.
+    """
+    lengths = np.diff(knots)
+    # The - 1e-9 keeps equal intervals from getting one piece more through rounding.
+    per = np.maximum(1, np.ceil(lengths * (intervals / knots[-1]) - 1e-9)).astype(int)
+    piece = np.repeat(np.arange(len(per)), per)
+    step = np.arange(len(piece)) - np.repeat(np.cumsum(per) - per, per)
+    inner = knots[piece] + lengths[piece] * step / per[piece]
     return np.concatenate([inner, knots[-1:]])
 
 
 def _toppra_speed(path: Any, grid: FloatArray, vlim: FloatArray, alim: FloatArray) -> FloatArray:
-    """TOPP-RA's fastest path speed ``ds/dt`` at the grid points, at rest at both ends."""
+    """TOPP-RA's fastest path speed ``ds/dt`` at the grid points, at rest at both ends.
+
+    ``grid`` starts at 0. TOPP-RA's tolerances are absolute, so it solves in units where the
+    path is 1 long and lasts about 1 (``s = length * x``, ``t = scale * tau``); otherwise
+    its rounding, large beside small speeds or short grid intervals, reads as accelerations.
+    """
     try:
         import toppra
         import toppra.algorithm
@@ -438,9 +493,13 @@ def _toppra_speed(path: Any, grid: FloatArray, vlim: FloatArray, alim: FloatArra
     except ImportError as exc:  # pragma: no cover - toppra is in the test extra
         raise OptikError("trajectories need toppra: pip install 'optik[trajectory]'") from exc
 
+    length = float(grid[-1])
+    # A time scale (s) of the segment: the longer of cruising and accelerating through it.
+    scale = max(length / float(np.min(vlim)), math.sqrt(length / float(np.min(alim))))
+
     class _Path(toppra.interpolator.AbstractGeometricPath):
         def __call__(self, s: Any, order: int = 0) -> Any:
-            return path(s, order)
+            return path(np.asarray(s) * length, order) * length**order
 
         @property
         def dof(self) -> int:
@@ -448,20 +507,20 @@ def _toppra_speed(path: Any, grid: FloatArray, vlim: FloatArray, alim: FloatArra
 
         @property
         def path_interval(self) -> FloatArray:
-            return np.array([grid[0], grid[-1]])
+            return np.array([0.0, 1.0])
 
     toppra.setup_logging("WARNING")
     constraints = [
-        toppra.constraint.JointVelocityConstraint(np.column_stack([-vlim, vlim])),
-        toppra.constraint.JointAccelerationConstraint(np.column_stack([-alim, alim])),
+        toppra.constraint.JointVelocityConstraint(np.column_stack([-vlim, vlim]) * scale),
+        toppra.constraint.JointAccelerationConstraint(np.column_stack([-alim, alim]) * scale**2),
     ]
-    instance = toppra.algorithm.TOPPRA(constraints, _Path(), gridpoints=grid)
+    instance = toppra.algorithm.TOPPRA(constraints, _Path(), gridpoints=grid / length)
     instance.compute_parameterization(0.0, 0.0)
     code = instance.problem_data.return_code
     sd = instance.problem_data.sd_vec
     if sd is None or code != toppra.algorithm.ParameterizationReturnCode.Ok:
         raise OptikError(f"TOPP-RA found no parameterisation ({code}); check the limits")
-    return np.maximum(np.asarray(sd, dtype=float), 0.0)
+    return np.maximum(np.asarray(sd, dtype=float), 0.0) * (length / scale)
 
 
 def _fit_limits(timing: _Timing, vlim: FloatArray, alim: FloatArray) -> _Timing:
@@ -497,7 +556,7 @@ def _deviation(
     position = orientation = 0.0
     u = np.linspace(0.0, 1.0, _SLERP_SAMPLES)
     for i in range(len(s_way) - 1):
-        if s_way[i + 1] - s_way[i] <= _SAME_POINT:
+        if s_way[i + 1] <= s_way[i]:  # a waypoint merged into the previous one
             continue
         T = robot.fk(path(s_way[i] + (s_way[i + 1] - s_way[i]) * w))
         a, b = plan.poses[first + i, :3, 3], plan.poses[first + i + 1, :3, 3]
@@ -510,6 +569,23 @@ def _deviation(
             R = _slerp(plan.poses[first + i, :3, :3], plan.poses[first + i + 1, :3, :3], u)
             rel = np.einsum("kji,mjl->mkil", R, T[:, :3, :3])
             orientation = max(orientation, float(np.max(np.min(_rotation_angle(rel), axis=1))))
+    return position, orientation
+
+
+def _merge_departure(
+    robot: Robot, plan: PathPlan, Q: FloatArray, kept: Any, knot_of: Any
+) -> tuple[float, float]:
+    """Largest tool move (m, rad) from a merged waypoint's configuration to its knot's."""
+    knot_rows = kept[knot_of]
+    merged = np.flatnonzero(knot_rows != np.arange(len(Q)))
+    if len(merged) == 0:
+        return 0.0, 0.0
+    T_way, T_knot = robot.fk(Q[merged]), robot.fk(Q[knot_rows[merged]])
+    position = float(np.max(np.linalg.norm(T_way[:, :3, 3] - T_knot[:, :3, 3], axis=1)))
+    orientation = 0.0
+    if plan.mode == "pose":
+        rel = np.einsum("kji,kjl->kil", T_knot[:, :3, :3], T_way[:, :3, :3])
+        orientation = float(np.max(_rotation_angle(rel)))
     return position, orientation
 
 
@@ -537,7 +613,8 @@ def plan_trajectory(
         robot: the robot the plan was made for: the source of default limits, and of the
             measured departure from the Cartesian path.
         dt: sampling step (s) of the returned arrays; each segment also has a sample at its
-            end. :meth:`Trajectory.at` evaluates at any time.
+            end; at most :data:`MAX_TRAJECTORY_SAMPLES` samples in all.
+            :meth:`Trajectory.at` evaluates at any time.
         grid: least number of TOPP-RA grid intervals per segment (every waypoint is a grid
             point).
         path_tolerance: largest accepted departure (m for position, rad for orientation)
@@ -549,8 +626,9 @@ def plan_trajectory(
     Raises:
         OptikError: no limits given or known, limits of the wrong length or not finite
             and positive, ``dt``, ``grid`` or ``path_tolerance`` out of range, a robot
-            whose joints do not match the plan, or a departure beyond ``path_tolerance``
-            (plan with a finer path step, or loosen it).
+            whose joints do not match the plan, a departure beyond ``path_tolerance``
+            (plan with a finer path step, or loosen it), or more than
+            :data:`MAX_TRAJECTORY_SAMPLES` samples (raise ``dt`` or the limits).
     """
     dt = check_real("dt", dt, positive=True)
     grid = check_int("grid", grid, minimum=1, maximum=1_000_000)
@@ -589,31 +667,44 @@ def plan_trajectory(
     count = 0
     for first, last in plan_stretches(plan):
         Q = plan.q[first : last + 1]
-        s_all = _chord(Q)
-        keep = np.concatenate([[True], np.diff(s_all) > _SAME_POINT])
-        if keep.sum() < 2:  # one point: the segment holds still
+        kept, knot_of = _merge_close(Q)
+        if len(kept) < 2:  # one point: the segment holds still
             timing = _Timing(_Hold(Q[0]), np.zeros(2), np.zeros(2), np.zeros(2), np.zeros(1))
             kind, s_way, t_way = "hold", np.zeros(len(Q)), np.zeros(len(Q))
         else:
-            path, knots, kind = joint_path(Q[keep], lower, upper)
-            s_way = s_all  # duplicates share their predecessor's s
+            path, knots, kind = joint_path(Q[kept], lower, upper)
+            s_way = knots[knot_of]  # a merged waypoint is passed when its knot is
             ss = _grid(knots, grid)
             timing = _fit_limits(
                 _Timing.build(path, ss, _toppra_speed(path, ss, vlim, alim)), vlim, alim
             )
+            if not np.all(np.isfinite(timing.ts)):  # a zero speed inside the path
+                raise OptikError(
+                    f"waypoints {first} to {last}: TOPP-RA stopped inside the path, so its "
+                    "time is not finite"
+                )
             t_way = np.interp(s_way, timing.ss, timing.ts)
         deviation = (math.nan, math.nan)
-        if robot is not None and kind != "hold":
-            deviation = _deviation(robot, plan, first, timing.path, s_way)
+        if robot is not None:
+            merged = _merge_departure(robot, plan, Q, kept, knot_of)
+            between = (0.0, 0.0)
+            if kind != "hold":
+                between = _deviation(robot, plan, first, timing.path, s_way)
+            deviation = (max(between[0], merged[0]), max(between[1], merged[1]))
             if path_tolerance is not None and max(deviation) > path_tolerance:
                 raise OptikError(
                     f"the joint path between waypoints {first} and {last} departs "
                     f"{deviation[0]:.3g} m / {deviation[1]:.3g} rad from the Cartesian path, "
                     f"beyond path_tolerance {path_tolerance:g}: plan with a finer path step"
                 )
-        elif robot is not None:
-            deviation = (0.0, 0.0)
         duration = timing.duration
+        # Count before allocating: tiny limits or a tiny dt ask for billions of samples.
+        if not count + duration / dt <= MAX_TRAJECTORY_SAMPLES - 2:
+            raise OptikError(
+                f"dt: sampling {clock + duration:.6g} s of trajectory every {dt:g} s gives more "
+                f"than MAX_TRAJECTORY_SAMPLES = {MAX_TRAJECTORY_SAMPLES:,} samples; raise dt "
+                "or the limits (Trajectory.at evaluates at any time)"
+            )
         local = np.append(np.arange(0.0, duration, dt), duration) if duration > 0 else np.zeros(1)
         q, qd, qdd = timing.at(local)
         segments.append(

@@ -1,0 +1,187 @@
+"""PathPlan.to_trajectory on hostile input: near-duplicate waypoints, huge sample counts."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import optik.trajectory
+from optik.errors import OptikError
+from optik.model import Robot
+from optik.planning import PathPlan, plan_path
+from optik.problems import load_problem
+from optik.trajectory import MAX_TRAJECTORY_SAMPLES, MERGE_TOLERANCE, Trajectory
+
+QA = np.array([0.3, 0.5, -1.0, 0.4, 0.6, 0.2])
+QB = QA + 0.3  # every joint moves 0.3 rad
+REL = 1e-6
+# A curved Puma path (rad) found by a hostile-input search ...
+DISTINCT = np.array(
+    [
+        [
+            0.12694799857,
+            -0.30325637818,
+            -0.25650728797,
+            -0.00599424467,
+            0.02222002795,
+            -0.0209664846,
+        ],
+        [0.21312141779, -0.32101987508, -0.22965730103, 0.05893574170, 0.10955595781, 0.0369849745],
+        [0.29531262023, -0.34276558876, -0.20678953087, 0.11988351128, 0.19290967088, 0.0909542168],
+        [0.36983375565, -0.37218136945, -0.19159182772, 0.17316121385, 0.26859331695, 0.1372533921],
+        [0.43356394728, -0.41238809395, -0.18718506838, 0.21564797262, 0.33348601921, 0.1727616237],
+        [0.48417998782, -0.46570896952, -0.19589246011, 0.24502058031, 0.38526457039, 0.1951557041],
+        [0.52032807164, -0.53349780182, -0.21906780857, 0.25992523127, 0.42257516484, 0.2030818278],
+        [0.54172386838, -0.61603892120, -0.25699544411, 0.26007759516, 0.44513347222, 0.1962556644],
+        [0.54917354078, -0.71252616492, -0.30886920398, 0.24628383471, 0.45374565526, 0.1754833767],
+        [0.54451415290, -0.78539816340, -0.37285202413, 0.22038101398, 0.45024877802, 0.1426020287],
+        [0.53047787384, -0.78539816340, -0.44621173548, 0.18510130206, 0.43737500959, 0.1003437895],
+        [0.51049001503, -0.78539816340, -0.52552302656, 0.14387001040, 0.41854966142, 0.0521339706],
+    ]
+)
+# ... whose IK repeated waypoints 3, 4 and 5 about 2e-11 rad off the path (these offsets).
+OFFSETS = np.array(
+    [
+        [1.255e-11, -6.195e-12, 1.851e-12, 8.719e-12, 1.276e-11, 7.460e-12],
+        [1.037e-11, -8.378e-12, -3.317e-13, 6.536e-12, 1.058e-11, 5.278e-12],
+        [7.849e-12, -1.090e-11, -2.850e-12, 4.018e-12, 8.059e-12, 2.759e-12],
+    ]
+)
+CURVED = np.insert(DISTINCT, [4, 5, 6], DISTINCT[3:6] + OFFSETS, axis=0)
+DUPLICATES = [4, 6, 8]  # rows of CURVED that repeat the row before them
+
+
+@pytest.fixture(scope="module")
+def puma() -> Robot:
+    return load_problem("puma560").robot
+
+
+def _plan_from_q(robot: Robot, Q: np.ndarray) -> PathPlan:
+    n = len(Q)
+    steps = np.concatenate([[np.nan], np.max(np.abs(np.diff(Q, axis=0)), axis=1)])
+    return PathPlan(
+        poses=robot.fk(Q),
+        mode="pose",
+        q=Q,
+        status=["ok"] * n,
+        limit_margin=np.minimum(Q - robot.lower, robot.upper - Q),
+        manipulability=np.ones(n),
+        step=steps,
+        candidates=np.ones(n, dtype=int),
+        max_joint_step=1.0,
+        joint_names=robot.joint_names,
+    )
+
+
+def _line(*extra: float) -> np.ndarray:
+    """Five waypoints from QA to QB, plus waypoints at the given fractions of the way."""
+    s = np.sort(np.concatenate([np.linspace(0.0, 1.0, 5), extra]))
+    return QA + s[:, None] * (QB - QA)
+
+
+def _within_limits(trajectory: Trajectory, vlim: float, alim: float) -> None:
+    """Exact samples at 2,000 times of each segment keep both limits."""
+    for k, seg in enumerate(trajectory.segments):
+        _, qd, qdd = trajectory.at(k, np.linspace(0.0, seg.duration, 2000))
+        assert np.all(np.isfinite(qd)) and np.all(np.isfinite(qdd))
+        assert np.max(np.abs(qd)) <= vlim * (1 + REL)
+        assert np.max(np.abs(qdd)) <= alim * (1 + REL)
+
+
+def _chord_length(Q: np.ndarray) -> float:
+    return float(np.sum(np.linalg.norm(np.diff(Q, axis=0), axis=1)))
+
+
+# ----------------------------------------------------------------------- near duplicates
+def test_a_near_duplicate_waypoint_leaves_a_straight_line_time_optimal(puma: Robot) -> None:
+    # Every joint moves 0.3 rad at once from rest to rest, so with limits of 1 the
+    # optimum is the triangular profile 2 sqrt(0.3 / 1) s. It took 115 s with the
+    # duplicate.
+    optimum = 2.0 * math.sqrt(0.3)
+    plan = _plan_from_q(puma, _line(0.5 + 3e-11))
+    trajectory = plan.to_trajectory(1.0, 1.0, robot=puma)
+    assert trajectory.duration == pytest.approx(optimum, rel=1e-5)
+    _within_limits(trajectory, 1.0, 1.0)
+
+
+def test_near_duplicates_on_a_curved_path_give_a_trajectory_through_every_waypoint(
+    puma: Robot,
+) -> None:
+    plan = _plan_from_q(puma, CURVED)
+    trajectory = plan.to_trajectory(1.0, 1.0, robot=puma)  # a bare ValueError before
+    _within_limits(trajectory, 1.0, 1.0)
+    # The same path without the near duplicates takes the same time.
+    alone = _plan_from_q(puma, DISTINCT).to_trajectory(1.0, 1.0, robot=puma)
+    assert trajectory.duration == pytest.approx(alone.duration, rel=1e-6)
+    # Each waypoint is held at its stated time to within the documented merge distance.
+    (segment,) = trajectory.segments
+    assert np.all(np.diff(segment.waypoint_times) >= 0.0)
+    q_way, _, _ = trajectory.at(0, segment.waypoint_times)
+    tol = MERGE_TOLERANCE * _chord_length(CURVED)
+    assert np.max(np.linalg.norm(q_way - CURVED, axis=1)) <= tol
+    # A merged waypoint is passed when the one it duplicates is.
+    times = segment.waypoint_times
+    np.testing.assert_array_equal(times[DUPLICATES], times[np.subtract(DUPLICATES, 1)])
+    np.testing.assert_allclose(np.delete(q_way, DUPLICATES, axis=0), DISTINCT, atol=1e-9)
+
+
+def test_a_merged_waypoint_counts_in_the_measured_departure(puma: Robot) -> None:
+    # Two waypoints 3e-13 rad apart are one point: the segment holds at the first, and
+    # the tool's move to the second is the departure recorded.
+    Q = np.array([QA, QA + 3e-13])
+    trajectory = _plan_from_q(puma, Q).to_trajectory(1.0, 1.0, robot=puma)
+    (segment,) = trajectory.segments
+    assert segment.interpolation == "hold"
+    T = puma.fk(Q)
+    moved = float(np.linalg.norm(T[1, :3, 3] - T[0, :3, 3]))
+    assert moved > 0.0
+    assert segment.position_deviation == pytest.approx(moved, rel=1e-3, abs=0.0)
+
+
+def test_close_waypoints_with_fast_limits_are_timed_exactly(puma: Robot) -> None:
+    # Waypoints 7e-6 rad apart (not merged), solved by IK, under limits of 1e3: TOPP-RA's
+    # absolute tolerances reported "no parameterisation; check the limits". The optimum
+    # is 2 sqrt(0.3 / 1e3) s, as above.
+    plan = plan_path(puma, puma.fk(_line(0.5 + 1e-5)), max_joint_step=0.5, q_start=QA)
+    assert all(status == "ok" for status in plan.status)
+    trajectory = plan.to_trajectory(1e3, 1e3, robot=puma)
+    assert trajectory.duration == pytest.approx(2.0 * math.sqrt(0.3 / 1e3), rel=1e-5)
+    _within_limits(trajectory, 1e3, 1e3)
+
+
+def test_a_short_knot_interval_is_not_split_as_finely_as_a_long_one(puma: Robot) -> None:
+    trajectory = _plan_from_q(puma, np.array([QA, QA + 1e-4, QB])).to_trajectory(1.0, 1.0)
+    ss = trajectory._timings[0].ss
+    length = _chord_length(np.array([QA, QA + 1e-4, QB]))
+    # At least 200 intervals (the default grid), none longer than an even share.
+    assert 200 <= len(ss) - 1 <= 202
+    assert np.max(np.diff(ss)) <= length / 200 * (1 + 1e-9)
+
+
+def test_a_zero_speed_inside_the_path_raises(puma: Robot, monkeypatch: pytest.MonkeyPatch) -> None:
+    real = optik.trajectory._toppra_speed
+
+    def stalled(*args: object) -> np.ndarray:
+        sd = real(*args)  # type: ignore[arg-type]
+        sd[len(sd) // 2 : len(sd) // 2 + 2] = 0.0
+        return sd
+
+    monkeypatch.setattr(optik.trajectory, "_toppra_speed", stalled)
+    with pytest.raises(OptikError, match="not finite"):
+        _plan_from_q(puma, _line()).to_trajectory(1.0, 1.0)
+
+
+# ----------------------------------------------------------------------- sample count
+@pytest.mark.parametrize(
+    ("limit", "dt"),
+    [(1e-6, 0.01), (1.0, 1e-10)],  # 303,000 s every 10 ms; 1.1 s every 0.1 ns
+)
+def test_more_than_the_sample_cap_raises_before_allocating(
+    puma: Robot, limit: float, dt: float
+) -> None:
+    plan = _plan_from_q(puma, _line())
+    with pytest.raises(OptikError, match="MAX_TRAJECTORY_SAMPLES") as info:
+        plan.to_trajectory(limit, limit, dt=dt)
+    assert "dt" in str(info.value) and f"{MAX_TRAJECTORY_SAMPLES:,}" in str(info.value)
