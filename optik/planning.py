@@ -234,9 +234,14 @@ class PathPlan:
             path: the image file to write (PNG, SVG or PDF, by suffix).
             robot: the robot the plan was made for: adds its limit bands and the arm along the
                 path (default: joint panels only).
+
+        Raises:
+            OptikError: the plan has no waypoint (an empty path plans to nothing).
         """
         from optik.plots import plot_plan
 
+        if len(self.q) == 0:
+            raise OptikError("the plan has no waypoint to draw (its path was empty)")
         return plot_plan(self, Path(path), robot)
 
     def to_trajectory(
@@ -287,8 +292,6 @@ def _atomic_write(target: Path, writer: Callable[[Any], None], binary: bool = Fa
 
 def _as_path(path: Any, mode: str | None) -> tuple[FloatArray, str]:
     array = as_float_array("path", path)
-    if array.ndim >= 1 and array.shape[0] == 0:
-        raise OptikError("path: at least one waypoint is needed, got none")
     if array.ndim == 2 and array.shape[1] == 3:
         if mode in ("orientation", "axis"):
             raise ShapeError(f"path (mode {mode!r})", "(N, 4, 4) poses", array.shape)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -282,10 +283,14 @@ def test_a_path_with_every_joint_frozen() -> None:
     assert plan.manipulability[0] == 0.0
 
 
-def test_an_empty_path_and_a_start_outside_the_limits_are_refused() -> None:
+def test_a_start_outside_the_limits_is_refused_and_an_empty_plan_is_not_drawn(
+    tmp_path: Path,
+) -> None:
     robot = load_problem("puma560").robot
-    with pytest.raises(OptikError, match="at least one waypoint"):
-        plan_path(robot, np.zeros((0, 4, 4)))
+    empty = plan_path(robot, np.zeros((0, 4, 4)))  # an empty batch plans to nothing
+    with pytest.raises(OptikError, match="no waypoint to draw"):
+        empty.plot(tmp_path / "empty.png", robot)
+    assert not (tmp_path / "empty.png").exists()
     T = robot.fk(robot.mid_limits)[None]
     with pytest.raises(OptikError, match="outside its limits"):
         plan_path(robot, T, q_start=robot.upper + 1.0)
