@@ -177,3 +177,29 @@ def test_the_best_of_an_empty_ranking_is_an_error() -> None:
     empty = BasePlacements([], np.empty((0, 4, 4)), "position")
     with pytest.raises(OptikError, match="ranking is empty"):
         _ = empty.best
+
+
+def test_an_in_memory_map_beyond_its_size_cap_is_refused_before_allocating() -> None:
+    """Voxels and samples are each within their caps, their product is not: 8e6 voxels
+    of 1,000 samples ask for 8 GB of ``reached`` alone (the map was allocated first)."""
+    from optik.campaign.capability import MAX_MEMORY_BYTES
+
+    robot = _two_link()
+    radius = robot.reach_sphere[1]
+    with pytest.raises(OptikError, match=r"GiB in memory, more than 4 GiB: give out="):
+        capability_map(robot, voxel=radius / 100, orientations=1000, restarts=0)
+    assert MAX_MEMORY_BYTES == 4 * 2**30
+
+
+@pytest.mark.parametrize(
+    ("option", "message"),
+    [({"tol": -1.0}, "tol"), ({"restarts": -1}, "restarts"), ({"mode": "sideways"}, "mode")],
+)
+def test_base_placement_checks_its_reverification_options_first(
+    coarse_map: Any, option: dict[str, Any], message: str
+) -> None:
+    """Checked before the ranking, also when nothing is re-verified (``top=0``)."""
+    with pytest.raises(OptikError, match=message):
+        base_placement(
+            _two_link(), [[0.5, 0.0, 0.0]], map=coarse_map, step=0.5, yaws=1, top=0, **option
+        )

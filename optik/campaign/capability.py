@@ -290,6 +290,27 @@ def _statics(spec: MapSpec) -> dict[str, tuple[tuple[str, ...], np.ndarray]]:
     }
 
 
+MAX_MEMORY_BYTES = 4 * 2**30
+"""Largest map held in memory (``out=None``), bytes: a larger one is written to Zarr."""
+
+
+def _check_memory(spec: MapSpec) -> None:
+    """Refuse an in-memory map larger than :data:`MAX_MEMORY_BYTES` before allocating it.
+
+    The voxels and the samples per voxel are each capped, but their product (the
+    ``reached`` array, and ``q`` with ``keep_q``) could still ask for terabytes.
+    """
+    size = 0.0
+    for var, shape in _layout(spec).values():
+        size += math.prod(float(n) for n in shape) * np.dtype(var.dtype).itemsize
+    if size > MAX_MEMORY_BYTES:
+        raise OptikError(
+            f"the map would take {size / 2**30:.3g} GiB in memory, more than "
+            f"{MAX_MEMORY_BYTES / 2**30:g} GiB: give out= (a Zarr store, written chunk by "
+            "chunk), a larger voxel, or fewer orientations"
+        )
+
+
 class MemoryMapStore:
     """A map in NumPy arrays (no ``out``): the same layout as :class:`MapStore`."""
 
@@ -630,11 +651,13 @@ def capability_map(
     target = None if out is None else output_path(out)
     if target is not None and target.exists() and not resume:
         raise OutputFileError(str(target), "it exists (resume=True, or --resume, finishes it)")
+    spec = MapSpec(
+        robot, mode, axis, tol, restarts, max_iter, seed, rotations, x, y, z, centre,
+        float(radius), chunk, keep_q,
+    )  # fmt: skip
+    if target is None:
+        _check_memory(spec)
     with open_engine(client=client, workers=workers, scheduler=scheduler) as engine:
-        spec = MapSpec(
-            robot, mode, axis, tol, restarts, max_iter, seed, rotations, x, y, z, centre,
-            float(radius), chunk, keep_q,
-        )  # fmt: skip
         spec = replace(spec, threads=engine.threads_for(len(spec.blocks)))
         settings = _settings(spec, float(voxel), int(orientations), int(rolls))
         attrs = {"settings": settings, "versions": versions(), "engine": engine.description}
@@ -678,6 +701,7 @@ def _run(
 
 __all__ = [
     "MAP_MODES",
+    "MAX_MEMORY_BYTES",
     "MapSpec",
     "MapStore",
     "MapWriter",

@@ -39,7 +39,9 @@ from optik.campaign.sampling import AXES
 from optik.errors import OptikError, ShapeError
 from optik.ik import solve_ik
 from optik.model import Robot
+from optik.planning import MAX_RESTARTS
 from optik.spatial import as_pose, invert_transform, rot_z
+from optik.task import make_task
 
 MAX_CANDIDATES = 10_000_000
 """Largest number of base poses :func:`planar_candidates` makes (640 bytes each)."""
@@ -280,6 +282,10 @@ def base_placement(
     map_mode = settings["mode"]
     mode = map_mode if mode is None else mode
     top = check_int("top", top, minimum=0, maximum=100_000)
+    # The re-verification's options, checked now rather than after the ranking (or never,
+    # with top=0).
+    make_task(mode, tol=tol)
+    restarts = check_int("restarts", restarts, minimum=0, maximum=MAX_RESTARTS)
     tasks = _task_poses(task_poses)
     if candidates is None:
         radius = float(settings["reach_radius_m"])
