@@ -19,7 +19,7 @@ from typing import IO, Any
 
 from optik.errors import OutputFileError
 
-__all__ = ["output_path", "prepare_folder", "write_atomic", "write_atomic_with"]
+__all__ = ["check_folder", "output_path", "prepare_folder", "write_atomic", "write_atomic_with"]
 
 _O_BINARY = getattr(os, "O_BINARY", 0)  # Windows: no newline translation at the fd level
 
@@ -46,18 +46,30 @@ def output_path(path: Any) -> Path:
     return Path(text)
 
 
-def prepare_folder(folder: str | Path) -> Path:
-    """Create ``folder`` (and its parents) for output, or say clearly why it cannot be.
+def check_folder(folder: str | Path) -> Path:
+    """``folder`` as a path that can be a folder for output, without creating it.
+
+    For a check before long work whose output goes there at the end.
 
     Raises:
-        OutputFileError: ``folder`` is not a usable path (:func:`output_path`), it or one
-            of its parents is a file, or the place is not writable (the message names
-            the path).
+        OutputFileError: ``folder`` is not a usable path (:func:`output_path`), or it or
+            one of its parents is a file (the message names the path).
     """
     folder = output_path(folder)
     for parent in (folder, *folder.parents):
         if parent.exists() and not parent.is_dir():
             raise OutputFileError(str(folder), f"{parent} is a file, not a folder")
+    return folder
+
+
+def prepare_folder(folder: str | Path) -> Path:
+    """Create ``folder`` (and its parents) for output, or say clearly why it cannot be.
+
+    Raises:
+        OutputFileError: as :func:`check_folder`, or the place is not writable (the
+            message names the path).
+    """
+    folder = check_folder(folder)
     try:
         folder.mkdir(parents=True, exist_ok=True)
     except OSError as exc:

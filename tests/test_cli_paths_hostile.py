@@ -134,3 +134,19 @@ def test_an_arc_of_a_vanishing_radius_names_the_radius() -> None:
 def test_a_circle_whose_start_lies_on_its_axis_names_the_radius() -> None:
     with pytest.raises(OptikError, match=r"circle: radius .* 0 m is below the minimum"):
         circle(_pose(0.0, 0.0, 1.0), np.zeros(3), [0.0, 0.0, 1.0], 0.1)
+
+
+def test_map_plots_into_a_file_is_refused_before_the_map_is_computed(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``--plots`` naming a file: the map was computed and written, then the plots were
+    skipped with a note and exit 0. Now the command stops first, exit 2, nothing written."""
+    from optik.cli import main
+
+    occupied = tmp_path / "plots"
+    occupied.write_text("a file")
+    out = tmp_path / "m.zarr"
+    code = main(["map", "planar_2r", "--voxel", "0.5", "--out", str(out), "--plots", str(occupied)])
+    assert code == 2
+    assert "is a file, not a folder" in capsys.readouterr().err
+    assert not out.exists()

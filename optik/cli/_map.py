@@ -7,6 +7,7 @@ from typing import Any
 
 import numpy as np
 
+from optik._files import check_folder
 from optik.campaign import capability_map, plot_map
 from optik.cli._campaign import add_campaign_ik_arguments, add_engine_arguments, run_campaign
 from optik.cli._common import (
@@ -23,6 +24,8 @@ from optik.errors import OptikError
 
 
 def _cmd_map(args: argparse.Namespace) -> int:
+    if args.plots is not None:
+        check_folder(args.plots)  # before the map is computed, not after
     bounds = None if args.bounds is None else np.reshape(args.bounds, (3, 2))
     problem, ds, wall = run_campaign(
         args,
