@@ -432,3 +432,34 @@ def time_limit(seconds: float) -> Iterator[None]:
     finally:
         signal.setitimer(signal.ITIMER_REAL, 0)
         signal.signal(signal.SIGALRM, previous)
+
+
+def two_link_robot() -> Robot:
+    """A planar arm of links 1.0 and 0.6 m, joints within +-pi: a small map's robot."""
+    return Robot.from_dh(
+        [
+            {"a": 1.0, "lower": -math.pi, "upper": math.pi},
+            {"a": 0.6, "lower": -math.pi, "upper": math.pi},
+        ],
+        name="two_link",
+    )
+
+
+def plan_from_q(robot: Robot, Q: np.ndarray) -> Any:
+    """A :class:`optik.planning.PathPlan` of configurations ``Q`` (n, dof), all ``ok``."""
+    from optik.planning import PathPlan
+
+    n = len(Q)
+    steps = np.concatenate([[np.nan], np.max(np.abs(np.diff(Q, axis=0)), axis=1)])
+    return PathPlan(
+        poses=robot.fk(Q),
+        mode="pose",
+        q=Q,
+        status=["ok"] * n,
+        limit_margin=np.minimum(Q - robot.lower, robot.upper - Q),
+        manipulability=np.ones(n),
+        step=steps,
+        candidates=np.ones(n, dtype=int),
+        max_joint_step=1.0,
+        joint_names=robot.joint_names,
+    )

@@ -8,13 +8,12 @@ fragment of its message and, where a folder is involved, that none is left behin
 from __future__ import annotations
 
 import json
-import math
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
-from conftest import robot_of
+from conftest import robot_of, two_link_robot
 
 from optik.campaign import batch, capability_map
 from optik.campaign.batch import SETTINGS_FILE, solve_batch
@@ -30,21 +29,11 @@ def _targets(n: int = 3) -> tuple[Robot, np.ndarray]:
     return robot, robot.fk(q)
 
 
-def _two_link() -> Robot:
-    return Robot.from_dh(
-        [
-            {"a": 1.0, "lower": -math.pi, "upper": math.pi},
-            {"a": 0.6, "lower": -math.pi, "upper": math.pi},
-        ],
-        name="two_link",
-    )
-
-
 @pytest.fixture(scope="module")
 def coarse_map() -> Any:
     box = [[-2.0, 2.0], [-2.0, 2.0], [0.0, 0.0]]
     return capability_map(
-        _two_link(), voxel=0.5, bounds=box, mode="position", restarts=0, progress=False
+        two_link_robot(), voxel=0.5, bounds=box, mode="position", restarts=0, progress=False
     )
 
 
@@ -170,7 +159,7 @@ def test_a_planar_grid_far_from_the_origin_keeps_its_one_position() -> None:
 
 def test_a_task_pose_beyond_the_length_limit_is_an_error(coarse_map: Any) -> None:
     with pytest.raises(OptikError, match=r"task_poses translation\[0, 0\].*1e\+09 m"):
-        base_placement(_two_link(), [[1e300, 0.0, 0.0]], map=coarse_map, step=0.5, yaws=1)
+        base_placement(two_link_robot(), [[1e300, 0.0, 0.0]], map=coarse_map, step=0.5, yaws=1)
 
 
 def test_the_best_of_an_empty_ranking_is_an_error() -> None:
@@ -184,7 +173,7 @@ def test_an_in_memory_map_beyond_its_size_cap_is_refused_before_allocating() -> 
     of 1,000 samples ask for 8 GB of ``reached`` alone (the map was allocated first)."""
     from optik.campaign.capability import MAX_MEMORY_BYTES
 
-    robot = _two_link()
+    robot = two_link_robot()
     radius = robot.reach_sphere[1]
     with pytest.raises(OptikError, match=r"GiB in memory, more than 4 GiB: give out="):
         capability_map(robot, voxel=radius / 100, orientations=1000, restarts=0)
@@ -201,5 +190,5 @@ def test_base_placement_checks_its_reverification_options_first(
     """Checked before the ranking, also when nothing is re-verified (``top=0``)."""
     with pytest.raises(OptikError, match=message):
         base_placement(
-            _two_link(), [[0.5, 0.0, 0.0]], map=coarse_map, step=0.5, yaws=1, top=0, **option
+            two_link_robot(), [[0.5, 0.0, 0.0]], map=coarse_map, step=0.5, yaws=1, top=0, **option
         )

@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 import pytest
 import zarr
-from conftest import reference_fk, robot_of
+from conftest import reference_fk, robot_of, two_link_robot
 
 import optik
 from optik.campaign import base_placement, capability, capability_map, open_map, plot_map
@@ -45,20 +45,10 @@ def _marker_files(out: Path) -> dict[str, tuple[int, int]]:
     return {str(f.relative_to(out)): (f.stat().st_ino, f.stat().st_mtime_ns) for f in files}
 
 
-def _two_link() -> Robot:
-    return Robot.from_dh(
-        [
-            {"a": 1.0, "lower": -math.pi, "upper": math.pi},
-            {"a": 0.6, "lower": -math.pi, "upper": math.pi},
-        ],
-        name="two_link",
-    )
-
-
 @pytest.fixture(scope="module")
 def two_link_map() -> Any:
     box = [[-2.0, 2.0], [-2.0, 2.0], [-0.01, 0.01]]
-    return capability_map(_two_link(), voxel=0.05, bounds=box, mode="position", restarts=10)
+    return capability_map(two_link_robot(), voxel=0.05, bounds=box, mode="position", restarts=10)
 
 
 # ---------------------------------------------------------------------------- sampling
@@ -341,7 +331,7 @@ def test_map_plots_are_pngs(puma_map: Any, tmp_path: Path) -> None:
 # ---------------------------------------------------------------------------- placement
 def test_base_placement_ranks_and_reverifies_by_the_annulus(two_link_map: Any) -> None:
     """A 2R base serves a point iff 0.4 <= distance <= 1.6 m: the map and IK agree."""
-    robot = _two_link()
+    robot = two_link_robot()
     tasks = np.array([[2.0, 0.5, 0.0], [2.3, -0.4, 0.0], [1.6, -0.2, 0.0]])
     result = base_placement(
         robot, tasks, map=two_link_map, region=[[0.5, 3.5], [-1.5, 1.5]], step=0.1, yaws=1,
@@ -370,7 +360,9 @@ def test_base_placement_checks_its_map(two_link_map: Any) -> None:
     with pytest.raises(OptikError, match="made for robot"):
         base_placement(robot_of("planar_2r"), [[1.0, 0.0, 0.0]], map=two_link_map)
     with pytest.raises(OptikError, match="region"):
-        base_placement(_two_link(), [[1.0, 0.0, 0.0]], map=two_link_map, region=[[1, 0], [0, 1]])
+        base_placement(
+            two_link_robot(), [[1.0, 0.0, 0.0]], map=two_link_map, region=[[1, 0], [0, 1]]
+        )
 
 
 def test_a_zarr_older_than_3_is_refused_with_the_reason(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -12,6 +12,7 @@ import pytest
 import toppra
 import toppra.algorithm
 import toppra.constraint
+from conftest import plan_from_q
 from scipy.interpolate import CubicSpline
 from scipy.spatial.transform import Rotation, Slerp
 
@@ -272,7 +273,7 @@ def test_a_spline_that_would_leave_the_limits_becomes_monotone(puma: Robot) -> N
     # The natural cubic through these values overshoots the limit (checked here).
     spline, s = _spline(Q)
     assert spline(np.linspace(0, s[-1], 5000))[:, 1].max() > upper + 1e-6
-    plan = _plan_from_q(puma, Q)
+    plan = plan_from_q(puma, Q)
     trajectory = plan.to_trajectory(VLIM, ALIM, robot=puma)
     (segment,) = trajectory.segments
     assert segment.interpolation == "pchip"
@@ -283,30 +284,13 @@ def test_a_spline_that_would_leave_the_limits_becomes_monotone(puma: Robot) -> N
     np.testing.assert_allclose(q_way, Q, atol=1e-9)
 
 
-def _plan_from_q(robot: Robot, Q: np.ndarray) -> PathPlan:
-    n = len(Q)
-    steps = np.concatenate([[np.nan], np.max(np.abs(np.diff(Q, axis=0)), axis=1)])
-    return PathPlan(
-        poses=robot.fk(Q),
-        mode="pose",
-        q=Q,
-        status=["ok"] * n,
-        limit_margin=np.minimum(Q - robot.lower, robot.upper - Q),
-        manipulability=np.ones(n),
-        step=steps,
-        candidates=np.ones(n, dtype=int),
-        max_joint_step=1.0,
-        joint_names=robot.joint_names,
-    )
-
-
 def test_repeated_and_single_waypoints(puma: Robot) -> None:
     Q = np.array([PUMA_Q0, PUMA_Q0, PUMA_Q0 + 0.05, PUMA_Q0 + 0.1])
-    trajectory = _plan_from_q(puma, Q).to_trajectory(VLIM, ALIM, robot=puma)
+    trajectory = plan_from_q(puma, Q).to_trajectory(VLIM, ALIM, robot=puma)
     (segment,) = trajectory.segments
     q_way, _, _ = trajectory.at(0, segment.waypoint_times)
     np.testing.assert_allclose(q_way, Q, atol=1e-9)
-    single = _plan_from_q(puma, PUMA_Q0[None]).to_trajectory(VLIM, ALIM)
+    single = plan_from_q(puma, PUMA_Q0[None]).to_trajectory(VLIM, ALIM)
     (hold,) = single.segments
     assert hold.duration == 0.0 and hold.interpolation == "hold"
     np.testing.assert_allclose(single.q, PUMA_Q0[None])

@@ -6,11 +6,12 @@ import math
 
 import numpy as np
 import pytest
+from conftest import plan_from_q
 
 import optik.trajectory
 from optik.errors import OptikError
 from optik.model import Robot
-from optik.planning import PathPlan, plan_path
+from optik.planning import plan_path
 from optik.problems import load_problem
 from optik.trajectory import MAX_TRAJECTORY_SAMPLES, MERGE_TOLERANCE, Trajectory
 
@@ -58,23 +59,6 @@ def puma() -> Robot:
     return load_problem("puma560").robot
 
 
-def _plan_from_q(robot: Robot, Q: np.ndarray) -> PathPlan:
-    n = len(Q)
-    steps = np.concatenate([[np.nan], np.max(np.abs(np.diff(Q, axis=0)), axis=1)])
-    return PathPlan(
-        poses=robot.fk(Q),
-        mode="pose",
-        q=Q,
-        status=["ok"] * n,
-        limit_margin=np.minimum(Q - robot.lower, robot.upper - Q),
-        manipulability=np.ones(n),
-        step=steps,
-        candidates=np.ones(n, dtype=int),
-        max_joint_step=1.0,
-        joint_names=robot.joint_names,
-    )
-
-
 def _line(*extra: float) -> np.ndarray:
     """Five waypoints from QA to QB, plus waypoints at the given fractions of the way."""
     s = np.sort(np.concatenate([np.linspace(0.0, 1.0, 5), extra]))
@@ -100,7 +84,7 @@ def test_a_near_duplicate_waypoint_leaves_a_straight_line_time_optimal(puma: Rob
     # optimum is the triangular profile 2 sqrt(0.3 / 1) s. It took 115 s with the
     # duplicate.
     optimum = 2.0 * math.sqrt(0.3)
-    plan = _plan_from_q(puma, _line(0.5 + 3e-11))
+    plan = plan_from_q(puma, _line(0.5 + 3e-11))
     trajectory = plan.to_trajectory(1.0, 1.0, robot=puma)
     assert trajectory.duration == pytest.approx(optimum, rel=1e-5)
     _within_limits(trajectory, 1.0, 1.0)
@@ -109,11 +93,11 @@ def test_a_near_duplicate_waypoint_leaves_a_straight_line_time_optimal(puma: Rob
 def test_near_duplicates_on_a_curved_path_give_a_trajectory_through_every_waypoint(
     puma: Robot,
 ) -> None:
-    plan = _plan_from_q(puma, CURVED)
+    plan = plan_from_q(puma, CURVED)
     trajectory = plan.to_trajectory(1.0, 1.0, robot=puma)  # a bare ValueError before
     _within_limits(trajectory, 1.0, 1.0)
     # The same path without the near duplicates takes the same time.
-    alone = _plan_from_q(puma, DISTINCT).to_trajectory(1.0, 1.0, robot=puma)
+    alone = plan_from_q(puma, DISTINCT).to_trajectory(1.0, 1.0, robot=puma)
     assert trajectory.duration == pytest.approx(alone.duration, rel=1e-6)
     # Each waypoint is held at its stated time to within the documented merge distance.
     (segment,) = trajectory.segments
@@ -131,7 +115,7 @@ def test_a_merged_waypoint_counts_in_the_measured_departure(puma: Robot) -> None
     # Two waypoints 3e-13 rad apart are one point: the segment holds at the first, and
     # the tool's move to the second is the departure recorded.
     Q = np.array([QA, QA + 3e-13])
-    trajectory = _plan_from_q(puma, Q).to_trajectory(1.0, 1.0, robot=puma)
+    trajectory = plan_from_q(puma, Q).to_trajectory(1.0, 1.0, robot=puma)
     (segment,) = trajectory.segments
     assert segment.interpolation == "hold"
     T = puma.fk(Q)
@@ -152,7 +136,7 @@ def test_close_waypoints_with_fast_limits_are_timed_exactly(puma: Robot) -> None
 
 
 def test_a_short_knot_interval_is_not_split_as_finely_as_a_long_one(puma: Robot) -> None:
-    trajectory = _plan_from_q(puma, np.array([QA, QA + 1e-4, QB])).to_trajectory(1.0, 1.0)
+    trajectory = plan_from_q(puma, np.array([QA, QA + 1e-4, QB])).to_trajectory(1.0, 1.0)
     ss = trajectory._timings[0].ss
     length = _chord_length(np.array([QA, QA + 1e-4, QB]))
     # At least 200 intervals (the default grid), none longer than an even share.
@@ -170,7 +154,7 @@ def test_a_zero_speed_inside_the_path_raises(puma: Robot, monkeypatch: pytest.Mo
 
     monkeypatch.setattr(optik.trajectory, "_toppra_speed", stalled)
     with pytest.raises(OptikError, match="not finite"):
-        _plan_from_q(puma, _line()).to_trajectory(1.0, 1.0)
+        plan_from_q(puma, _line()).to_trajectory(1.0, 1.0)
 
 
 # ----------------------------------------------------------------------- sample count
@@ -181,7 +165,7 @@ def test_a_zero_speed_inside_the_path_raises(puma: Robot, monkeypatch: pytest.Mo
 def test_more_than_the_sample_cap_raises_before_allocating(
     puma: Robot, limit: float, dt: float
 ) -> None:
-    plan = _plan_from_q(puma, _line())
+    plan = plan_from_q(puma, _line())
     with pytest.raises(OptikError, match="MAX_TRAJECTORY_SAMPLES") as info:
         plan.to_trajectory(limit, limit, dt=dt)
     assert "dt" in str(info.value) and f"{MAX_TRAJECTORY_SAMPLES:,}" in str(info.value)
