@@ -6,10 +6,12 @@ its own cache directory, so what is compiled, found on disk or refused is known.
 
 from __future__ import annotations
 
+import re
 import threading
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
+import casadi
 import numpy as np
 import pytest
 from conftest import SEED, assert_close
@@ -163,6 +165,52 @@ def test_instrument_keeps_the_loops_count_and_test() -> None:
     # Not exactly one convergence test: not instrumented (the solver is not compiled whole).
     assert instrument(_LOOP.replace("pr_inf < 1e-10 && ", "")) is None
     assert instrument(_LOOP + _LOOP) is None
+
+
+_POOL = """int casadi_f4_checkout(void) {
+  return casadi_f4_unused_stack[casadi_f4_unused_stack_counter--];
+}
+
+void casadi_f4_release(int mem) {
+  casadi_f4_unused_stack[++casadi_f4_unused_stack_counter] = mem;
+}
+"""
+
+
+def test_instrument_takes_and_gives_back_memory_under_a_lock() -> None:
+    """The generated pools' checkout and release run under one mutex per function."""
+    code = instrument(_POOL + _LOOP)
+    assert code is not None
+    assert code.count("static pthread_mutex_t optik_pool_lock_casadi_f4 = ") == 1
+    for definition, inner in (
+        ("int casadi_f4_checkout(void) {", "got = casadi_f4_checkout_unlocked();"),
+        ("void casadi_f4_release(int mem) {", "casadi_f4_release_unlocked(mem);"),
+    ):
+        body = code.split(definition, 1)[1].split("}", 1)[0].split("\n")
+        lines = [line.strip() for line in body if line.strip()]
+        at = lines.index(inner)
+        assert lines[at - 1] == "pthread_mutex_lock(&optik_pool_lock_casadi_f4);"
+        assert lines[at + 1] == "pthread_mutex_unlock(&optik_pool_lock_casadi_f4);"
+    # The original bodies follow under the unlocked names, untouched.
+    assert "static int casadi_f4_checkout_unlocked(void) {\n  return casadi_f4_unused" in code
+
+
+def test_every_memory_pool_the_sqp_loop_takes_is_locked() -> None:
+    """In the real generated solver, every checkout the loop calls is a locked one.
+
+    The SQP loop checks out its QP solver's memory on every iteration: unlocked, two
+    threads took the same memory and the process crashed.
+    """
+    robot = _fresh_robot()
+    backend = nlp_backend(robot, "pose", plugin="sqpmethod", codegen=False)
+    generator = casadi.CodeGenerator("locked.c")
+    generator.add(backend.solver)
+    code = instrument(generator.dump())
+    assert code is not None
+    called = set(re.findall(r"= (casadi_f\d+)_checkout\(\);", code))
+    assert called  # the loop takes its QP solver's memory
+    for name in called:
+        assert f"pthread_mutex_lock(&optik_pool_lock_{name});" in code
 
 
 def test_whole_compiled_sqpmethod_reports_what_nlpsol_reports(

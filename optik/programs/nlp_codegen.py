@@ -251,6 +251,48 @@ _CONVERGENCE_TEST = re.compile(
 )
 
 
+# The memory pool of each generated function: ``int casadi_f4_checkout(void) {`` and
+# ``void casadi_f4_release(int mem) {`` (names of the form casadi_f<N>).
+_POOL_FUNCTION = re.compile(
+    r"^(?P<kind>int|void) (?P<name>casadi_f\d+)_(?P<op>checkout|release)"
+    r"\((?P<args>void|int mem)\) \{$",
+    re.MULTILINE,
+)
+
+
+def _locked_pools(code: str) -> str:
+    """``code`` whose memory pools are taken and given back under a lock per function.
+
+    CasADi's generated checkout and release keep a static stack without a lock, and the
+    SQP loop checks out its QP solver's memory on every iteration (DAQP's), so two
+    threads solving at once could take the same memory: each function gets a mutex.
+    """
+
+    def locked(match: re.Match[str]) -> str:
+        kind, name, op, args = match.group("kind", "name", "op", "args")
+        lock = f"optik_pool_lock_{name}"
+        inner = f"{name}_{op}_unlocked"
+        call = f"{inner}()" if op == "checkout" else f"{inner}(mem)"
+        body = (
+            f"  int got;\n  pthread_mutex_lock(&{lock});\n  got = {call};\n"
+            f"  pthread_mutex_unlock(&{lock});\n  return got;\n"
+            if kind == "int"
+            else f"  pthread_mutex_lock(&{lock});\n  {call};\n  pthread_mutex_unlock(&{lock});\n"
+        )
+        return (
+            f"static {kind} {inner}({args});\n"
+            f"{kind} {name}_{op}({args}) {{\n{body}}}\n"
+            f"static {kind} {inner}({args}) {{"
+        )
+
+    names = sorted({match.group("name") for match in _POOL_FUNCTION.finditer(code)})
+    locks = "".join(
+        f"static pthread_mutex_t optik_pool_lock_{name} = PTHREAD_MUTEX_INITIALIZER;\n"
+        for name in names
+    )
+    return "#include <pthread.h>\n" + locks + _POOL_FUNCTION.sub(locked, code)
+
+
 def instrument(code: str) -> str | None:
     """CasADi's generated ``sqpmethod`` code that also reports how its last solve ended.
 
@@ -259,7 +301,8 @@ def instrument(code: str) -> str | None:
     returns ``2 * iterations + converged`` of the calling thread's last solve (the
     ``iter_count`` and ``success`` of ``casadi.nlpsol``'s ``stats()``). Every exit of
     the loop follows that test except a failed function evaluation, which the solver
-    reports as an error. Returns ``None`` when the test is not found exactly once (a
+    reports as an error. Every generated memory pool is taken and given back under a
+    lock (:func:`_locked_pools`). Returns ``None`` when the test is not found exactly once (a
     CasADi whose generated code reads otherwise): then the solver is not compiled whole.
     """
     matches = list(_CONVERGENCE_TEST.finditer(code))
@@ -281,7 +324,8 @@ def instrument(code: str) -> str | None:
         f"\nCASADI_SYMBOL_EXPORT long long {INFO_SYMBOL}(void) {{\n"
         "  return 2 * optik_iterations + optik_converged;\n}\n"
     )
-    return header + code[: match.start()] + counted + code[match.end() :] + footer
+    code = code[: match.start()] + counted + code[match.end() :]
+    return header + _locked_pools(code) + footer
 
 
 @dataclass(frozen=True, eq=False)
