@@ -12,7 +12,11 @@ exceeds ``max_joint_step`` (branch switches), then the path's cost
 
 (rad, m), where ``d(q)`` is the Euclidean distance of ``q`` to the *comfort box*, the
 limits shrunk by :data:`MARGIN_BAND` (10 %) of each finite range. A branch switch
-therefore happens only where no continuous path exists, and it is flagged. The
+therefore happens only where no continuous path through the candidates exists, and it
+is flagged. With a closed form the candidates are every branch, so a flag is a proof;
+numeric candidates (a redundant task, a robot without a family) sample a continuum, and
+a flagged step may have a continuous way round that they missed (a step spent near a
+wrist singularity, say). The
 candidates prefer margin too: a numeric candidate continuing ``q`` (without a path
 ``posture``) is the answer nearest ``q`` moved towards the comfort box by at most half
 of ``max_joint_step`` per joint (:func:`optik.posture.refine_posture`), and a fresh

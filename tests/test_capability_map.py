@@ -243,6 +243,22 @@ def test_map_interrupted_then_resumed_computes_every_chunk_once(tmp_path: Path) 
     _same_data(open_map(out), reference)
 
 
+def test_a_damaged_marker_file_is_named_on_open_and_on_resume(tmp_path: Path) -> None:
+    """A chunk marker that cannot be decoded is an OptikError naming the map, not zarr's."""
+    box = [[-2.0, 2.0], [-2.0, 2.0], [-0.01, 0.01]]
+    options: dict[str, Any] = {"voxel": 0.2, "bounds": box, "mode": "position", "restarts": 2}
+    out = tmp_path / "map.zarr"
+    capability_map(two_link_robot(), out=out, **options)
+    open_map(out)  # whole, it opens
+    damaged = out / next(iter(_marker_files(out)))
+    damaged.write_bytes(b"not a zstd frame")
+    with pytest.raises(OptikError, match="damaged capability map") as opened:
+        open_map(out)
+    assert str(out) in str(opened.value)
+    with pytest.raises(OptikError, match="damaged capability map"):
+        capability_map(two_link_robot(), out=out, resume=True, **options)
+
+
 def test_the_threads_write_the_map_and_the_client_only_what_they_cannot(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:

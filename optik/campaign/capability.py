@@ -500,8 +500,12 @@ class MapStore:
         return cls(group, spec, str(Path(path).resolve()))
 
     def finished(self) -> set[int]:
-        """Indices (in :attr:`MapSpec.blocks` order) of the chunks with their marker."""
-        done = np.asarray(self.group[_DONE][...]).ravel()
+        """Indices (in :attr:`MapSpec.blocks` order) of the chunks with their marker.
+
+        Raises:
+            OptikError: a marker file that cannot be read (a damaged map).
+        """
+        done = _read_markers(self.group[_DONE], self.path or "the map")
         return {int(i) for i in np.flatnonzero(done)}
 
     def write(self, index: int, result: dict[str, np.ndarray]) -> None:
@@ -516,6 +520,17 @@ class MapStore:
         return MapWriter(self.path, self.run, self.spec.chunk, self.spec.block_grid[1])
 
 
+def _read_markers(marker: Any, where: str) -> np.ndarray:
+    """The chunk markers of a stored map, flattened; a damaged file is an OptikError."""
+    try:
+        return np.asarray(marker[...]).ravel()
+    except Exception as exc:  # zarr's codecs raise what they raise (Zstd: RuntimeError)
+        raise OptikError(
+            f"{where}: damaged capability map, a chunk marker cannot be read ({exc}); "
+            "delete the map and compute it again"
+        ) from None
+
+
 def open_map(path: str | Path) -> Any:
     """A stored capability map as a lazily loaded :class:`xarray.Dataset`.
 
@@ -523,7 +538,8 @@ def open_map(path: str | Path) -> Any:
         path: the map's Zarr folder.
 
     Raises:
-        OptikError: ``path`` is not a finished map (or the cluster extra is missing).
+        OptikError: ``path`` is not a finished map, its chunk markers cannot be read (a
+            damaged map), or the cluster extra is missing.
     """
     xr = require("xarray", "a capability map")
     try:
@@ -533,7 +549,7 @@ def open_map(path: str | Path) -> Any:
     if _DONE in ds:
         # Read by zarr at once, not through a dask graph (60 ms of the client's CPU).
         marker = require_zarr("a capability map").open_array(store=str(path), path=_DONE, mode="r")
-        if not bool(np.all(marker[...])):
+        if not bool(np.all(_read_markers(marker, str(path)))):
             raise OptikError(f"{path}: the map is unfinished (resume the run to finish it)")
         ds = ds.drop_vars(_DONE)
     return ds
