@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from optik._checks import FloatArray
+from optik._checks import MAX_LENGTH_M, FloatArray
 from optik._pyplot import pyplot
 from optik.errors import OptikError
 from optik.model import Robot
@@ -376,7 +376,7 @@ def visual_meshes(
             visual mesh, or link poses that disagree with the robot (another chain).
     """
     try:
-        import trimesh
+        import trimesh  # noqa: F401  (checked here, with yourdfpy; used when placing)
         import yourdfpy
     except ImportError as exc:  # pragma: no cover - both are in the test extra
         raise OptikError("meshes need yourdfpy and trimesh: pip install 'optik[urdf]'") from exc
@@ -392,6 +392,20 @@ def visual_meshes(
         )
     except Exception as exc:  # yourdfpy raises many kinds; a bad file is bad input
         raise OptikError(f"{path}: the URDF's meshes do not load ({exc})") from exc
+    try:
+        return _placed_meshes(model, robot, q, base_link, path)
+    except OptikError:
+        raise
+    except Exception as exc:  # yourdfpy and trimesh, on a file optik's reader accepted
+        raise OptikError(f"{path}: the URDF's meshes cannot be placed ({exc})") from exc
+
+
+def _placed_meshes(
+    model: Any, robot: Robot, q: FloatArray, base_link: str, path: Path
+) -> list[tuple[FloatArray, np.ndarray]]:
+    """The visual meshes of a loaded yourdfpy ``model`` at ``q``, in the base frame."""
+    import trimesh
+
     actuated = list(model.actuated_joint_names)
     missing = [n for n in robot.joint_names if n not in actuated]
     if missing:
@@ -424,7 +438,10 @@ def visual_meshes(
             mesh = mesh.convex_hull
         vertices = np.asarray(mesh.vertices, dtype=float)
         T = to_base @ np.asarray(transform, dtype=float)
-        out.append((vertices @ T[:3, :3].T + T[:3, 3], np.asarray(mesh.faces)))
+        placed = vertices @ T[:3, :3].T + T[:3, 3]
+        if not np.all(np.isfinite(placed)) or float(np.max(np.abs(placed))) > MAX_LENGTH_M:
+            continue  # a NaN or absurd size or scale in the file: that mesh is not drawn
+        out.append((placed, np.asarray(mesh.faces)))
     if not out:
         raise OptikError(f"{path}: no visual mesh below {base_link!r}")
     return out

@@ -602,8 +602,10 @@ def _plan(
     elif (
         family is not None and task.is_pose_or_position and _family_solves(robot, family, task.mode)
     ):
-        # Frozen joints or a margin narrow the box: the branch set proves nothing about it.
-        return closed_form(task.mode, provable=bounds is None)
+        # Frozen joints or a margin narrow the box (the branch set proves nothing about
+        # it), and a numerical family (general_6r) proves nothing at all.
+        provable = bounds is None and family.proves_unreachable
+        return closed_form(task.mode, provable=provable)
     held = _held_joint(robot, bounds) if family is None and warm_start == "analytic" else None
     if held is not None and task.is_pose_or_position and task.mode == "pose":
         # Complete for the held value inside the limits; a margin narrows the others.

@@ -390,6 +390,8 @@ class _CandidateFinder:
         )
         family = family_of(robot)
         self.analytic = family is not None and path_task.analytic_ok and self.mode in family.modes
+        # Whether an empty branch set is a proof (not for the numerical general_6r).
+        self.proves = self.analytic and family is not None and family.proves_unreachable
         # The free roll of an axis task, solved by the full-pose closed form.
         self.roll = (
             family is not None
@@ -502,7 +504,7 @@ class _CandidateFinder:
         task = self.path_task.task
         if task.constrains_position and beyond_reach(self.robot, T[:3, 3], task.position_tol):
             return "unreachable"
-        if self.analytic:
+        if self.proves:
             loose = analytic_ik(self.robot, target, self.mode, within_limits=False)
             return "outside_limits" if loose else "unreachable"
         if self.narrowed:

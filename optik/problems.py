@@ -296,7 +296,7 @@ def _robot(
             if "joints" in robot:
                 raise reader.fail("robot", "joints", "a urdf robot takes its joints from the file")
             urdf = base_dir / reader.string(robot, "robot", "urdf")
-            if not urdf.is_file():
+            if not _is_file(urdf):
                 raise reader.fail("robot", "urdf", f"file not found: {urdf}")
             base_link = reader.string(robot, "robot", "base_link")
             tip_link = reader.string(robot, "robot", "tip_link")

@@ -21,17 +21,21 @@ __all__ = ["UrdfChain", "UrdfTree", "joints_text", "read_urdf_tree", "robot_text
 
 @dataclass(frozen=True)
 class UrdfChain:
-    """A root-to-leaf chain of a URDF: ``base`` link, ``tip`` link and its joints."""
+    """A root-to-leaf chain of a URDF.
+
+    ``base`` and ``tip`` links, its number of joints (``joints``) and of moving (not
+    fixed) ones.
+    """
 
     base: str
     tip: str
-    joints: tuple[str, ...]
+    joints: int
     moving: int
 
     def text(self) -> str:
         """``base -> tip  (N moving joints)``."""
         noun = "moving joint" if self.moving == 1 else "moving joints"
-        return f"{self.base} -> {self.tip}  ({self.moving} {noun}, {len(self.joints)} in all)"
+        return f"{self.base} -> {self.tip}  ({self.moving} {noun}, {self.joints} in all)"
 
 
 @dataclass(frozen=True)
@@ -58,24 +62,30 @@ def read_urdf_tree(source: str | Path) -> UrdfTree:
     by_child = _parent_joints(root)
     parent_of = {child: str(j.find("parent").get("link")) for child, j in by_child.items()}  # type: ignore[union-attr]
     parents = set(parent_of.values())
+    # (root, joints, moving joints) above each link, each link walked once: a leaf's
+    # walk stops at the first link already known (a comb of n leaves is linear, not n^2).
+    above: dict[str, tuple[str, int, int]] = {}
     chains = []
     for leaf in links:
         if leaf in parents:
             continue
-        joints: list[str] = []
-        moving = 0
-        seen = {leaf}
+        path: list[str] = []
+        on_path = {leaf}
         link = leaf
-        while link in by_child:
-            joint = by_child[link]
-            joints.append(str(joint.get("name")))
-            moving += joint.get("type") != "fixed"
-            link = str(joint.find("parent").get("link"))  # type: ignore[union-attr]
-            if link in seen:
-                raise URDFError(f"the joints {joints[::-1]} form a cycle through link {link!r}")
-            seen.add(link)
-        if joints:
-            chains.append(UrdfChain(link, leaf, tuple(reversed(joints)), moving))
+        while link in by_child and link not in above:
+            path.append(link)
+            link = parent_of[link]
+            if link in on_path:
+                names = [str(by_child[k].get("name")) for k in path]
+                raise URDFError(f"the joints {names[::-1]} form a cycle through link {link!r}")
+            on_path.add(link)
+        root_link, count, moving = above.get(link, (link, 0, 0))
+        for child in reversed(path):
+            count += 1
+            moving += by_child[child].get("type") != "fixed"
+            above[child] = (root_link, count, moving)
+        if count:
+            chains.append(UrdfChain(root_link, leaf, count, moving))
     return UrdfTree(str(root.get("name") or Path(source).stem), links, tuple(chains))
 
 

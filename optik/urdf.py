@@ -53,15 +53,16 @@ def _align_z(axis: FloatArray) -> FloatArray:
     """A 4x4 rotation taking the z axis onto the unit vector ``axis``."""
     z = np.array([0.0, 0.0, 1.0])
     c = float(z @ axis)
-    if c > 1.0 - 1e-12:
-        return np.eye(4)
-    if c < -1.0 + 1e-12:
-        return transform(np.diag([1.0, -1.0, -1.0]))
     v = np.cross(z, axis)
     s = float(np.linalg.norm(v))
+    # Only an axis exactly along z is z: a tilt of 1e-6 rad moves a 1 m link by 1e-6 m,
+    # the IK tolerance (a test on the cosine would round it away).
+    if s == 0.0:
+        return np.eye(4) if c > 0.0 else transform(np.diag([1.0, -1.0, -1.0]))
     k = v / s
     K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
-    R = np.eye(3) + s * K + (1.0 - c) * K @ K
+    one_minus_c = s * s / (1.0 + c) if c > 0.0 else 1.0 - c  # no cancellation near z
+    R = np.eye(3) + s * K + one_minus_c * K @ K
     return transform(R)
 
 

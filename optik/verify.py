@@ -48,9 +48,14 @@ def beyond_reach(robot: Robot, points: FloatArray, tol: float = 0.0) -> np.ndarr
     offset = np.asarray(points, dtype=float) - centre
     # One coordinate beyond the bound is enough, and squares nothing: a point 1e155 m
     # away is ruled out without an overflow. The distance of the others is then finite.
-    far = np.max(np.abs(offset), axis=-1) > bound
+    largest = np.max(np.abs(offset), axis=-1)
+    far = largest > bound
     near = np.where(far[..., None], 0.0, offset)
-    return far | (np.linalg.norm(near, axis=-1) > bound)
+    # Scaled by the largest coordinate: a robot whose radius is 1e300 m (a prismatic
+    # mimic of a large multiplier) squares nothing beyond the float range either.
+    scale = np.where(far | (largest == 0.0), 1.0, largest)
+    distance = np.linalg.norm(near / scale[..., None], axis=-1) * scale
+    return far | (distance > bound)
 
 
 class Verdict(NamedTuple):

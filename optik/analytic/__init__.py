@@ -38,6 +38,10 @@ from optik.analytic import spherical_axes  # noqa: F401
 from optik.analytic import rrp_wrist  # noqa: F401
 
 # isort: split
+# Any six revolute joints, numerically: after every exact family.
+from optik.analytic import general_6r  # noqa: F401
+
+# isort: split
 # After the families: the pipeline imports two of them, which would register them first.
 from optik.analytic import _pipeline, _pipeline_args
 from optik.analytic._arguments import (

@@ -70,6 +70,9 @@ class AnalyticFamily(ABC):
     modes: tuple[str, ...] = ("pose",)
     kernel: ClassVar[int] = 0
     """Id of the family's compiled pipeline (0: none, the family runs in Python)."""
+    proves_unreachable: ClassVar[bool] = True
+    """Whether an empty branch set proves the target unreachable (exact closed forms); a
+    numerical family (``general_6r``) sets ``False`` and callers search instead."""
     tool_point: ClassVar[bool] = False
     """Whether position mode solves for the tool point itself, so any tool offset is
     allowed; the others place the flange, so their position mode needs a tool without

@@ -254,7 +254,7 @@ def dh_fk(model: DHModel, q: FloatArray) -> FloatArray:
     return np.asarray(T @ model.T_n_tool, dtype=float)
 
 
-def equivalent_dh(robot: Robot, signs: tuple[int, ...] = ()) -> DHModel:
+def equivalent_dh(robot: Robot, signs: tuple[int, ...] = (), snap: bool = True) -> DHModel:
     """An equivalent standard-DH table of a revolute chain, proved by FK.
 
     The table with near-ideal values set to their ideal when that still reproduces the
@@ -267,6 +267,8 @@ def equivalent_dh(robot: Robot, signs: tuple[int, ...] = ()) -> DHModel:
         robot: a robot whose chain joints are all revolute, without coupling.
         signs: optional sign (+1 or -1) of ``x_i`` for the first rows, for non-parallel
             consecutive axes: the sign of ``alpha_i`` (and of ``a_i``). Default +1.
+        snap: try the snapped table first (default); ``False``: the table of the values
+            as they are, always (for a solver that takes any table and needs it exact).
 
     Returns:
         The table (``source="joint axes"``), with ``T_world_0`` and ``T_n_tool``.
@@ -276,6 +278,10 @@ def equivalent_dh(robot: Robot, signs: tuple[int, ...] = ()) -> DHModel:
             of the difference); not expected for a well-formed chain.
     """
     axes = joint_axes(robot)
+    if not snap:
+        exact = _build(robot, axes, signs, snap=False)
+        _prove(robot, exact, axes.size)
+        return exact
     snapped = _build(robot, axes, signs, snap=True)
     mismatch = fk_mismatch(robot, snapped, axes.size)
     if mismatch <= FK_TOL:
