@@ -276,6 +276,20 @@ def _frame_inverses(robot: Robot) -> tuple[FloatArray, FloatArray]:
     return inverses
 
 
+FREE_REFERENCES = 16
+"""References spread over the limits that a degenerate pose's closed form is rerun from
+when every branch lies outside the limits (:func:`_degenerate`)."""
+
+SINGULAR_GATE = 1e-6
+"""Smallest singular value of the Jacobian (m or rad per rad) below which a branch is
+taken as singular, one point of a continuum of answers (:func:`_degenerate`)."""
+
+
+def _singular(robot: Robot, q: FloatArray) -> bool:
+    """Whether ``q`` is a singular configuration (:data:`SINGULAR_GATE`)."""
+    return bool(np.linalg.svd(robot.jacobian(q), compute_uv=False)[-1] < SINGULAR_GATE)
+
+
 def _degenerate(
     robot: Robot,
     family: AnalyticFamily,
@@ -288,17 +302,41 @@ def _degenerate(
 ) -> list[FloatArray]:
     """Branches the closed form's rounding lost at a degenerate pose (:mod:`._polish`).
 
-    Runs only when no branch passed the FK check: the raw candidates and the reference
-    are polished by Gauss–Newton, then wrapped, filtered and verified as usual.
+    Runs only when no branch passed the FK check or the limits: the raw candidates and
+    the reference are polished by Gauss–Newton, then wrapped, filtered and verified as
+    usual. If every branch then lies outside the limits, they are clipped into them and
+    polished again: at a singular pose the answers form a continuum (a shoulder over its
+    axis leaves joint 1 free, an aligned wrist only fixes ``q4 + q6``) of which the
+    closed form returns one point, the reference's, and the continuum may enter the
+    limits elsewhere.
     """
     if _beyond_reach(robot, T_target):
         return []
     if raw is None:
         inverse_base, inverse_tool = robot.cached(_frame_inverses)
         raw = family.candidates(robot, inverse_base @ T_target @ inverse_tool, mode, ref)
-    starts = [*raw, ref]
-    polished = polish(robot, T_target, mode, starts, 0.1 * VERIFY_TOLERANCE)
-    return _finish(robot, polished, T_target, mode, ref, sort, within_limits)
+    tol = 0.1 * VERIFY_TOLERANCE
+    polished = polish(robot, T_target, mode, [*raw, ref], tol)
+    found = _finish(robot, polished, T_target, mode, ref, sort, within_limits)
+    if found or not within_limits:
+        return found
+    outside = _finish(robot, [*raw, *polished], T_target, mode, ref, sort, False)
+    if not any(_singular(robot, q) for q in outside):
+        return []  # isolated branches: outside the limits, no continuum to follow
+    bounds = (robot.lower, robot.upper)
+    inside = polish(robot, T_target, mode, outside, tol, bounds=bounds, give_up=math.inf)
+    found = _finish(robot, inside, T_target, mode, ref, sort, True)
+    if found:
+        return found
+    # A joint left free takes the reference's value, which may be the one that puts the
+    # others out of their limits (the drill's shoulder over its axis): other references.
+    inverse_base, inverse_tool = robot.cached(_frame_inverses)
+    T_0 = inverse_base @ T_target @ inverse_tool
+    low = np.where(np.isfinite(robot.lower), robot.lower, -math.pi)
+    high = np.where(np.isfinite(robot.upper), robot.upper, math.pi)
+    others = [low + (k + 0.5) / FREE_REFERENCES * (high - low) for k in range(FREE_REFERENCES)]
+    raws = [q for other in others for q in family.candidates(robot, T_0, mode, other)]
+    return _finish(robot, polish(robot, T_target, mode, raws, tol), T_target, mode, ref, sort, True)
 
 
 def _compiled_plan(robot: Robot) -> CompiledPipeline | None:

@@ -49,6 +49,8 @@ def polish(
     starts: list[FloatArray],
     tol: float,
     held: int | None = None,
+    bounds: tuple[FloatArray, FloatArray] | None = None,
+    give_up: float = GIVE_UP,
 ) -> list[FloatArray]:
     """Candidates refined towards ``target`` (4x4 world pose; a point in position mode).
 
@@ -60,6 +62,12 @@ def polish(
         tol: stop a candidate once both errors are below this (m, rad).
         held: index of a joint that keeps its start value (its Jacobian column is
             zeroed, so the pseudoinverse never moves it).
+        bounds: ``(lower, upper)`` (dof,): a projected Gauss–Newton inside them, each
+            start clipped into them; a joint on a bound that the step would push
+            outwards is held there for that step (its column zeroed), so the others
+            take the whole correction.
+        give_up: drop a candidate still this far (m, rad) after three steps (default
+            :data:`GIVE_UP`; a start clipped into the bounds may begin farther).
 
     Returns:
         The refined configurations, unverified (the caller's FK check decides).
@@ -72,23 +80,37 @@ def polish(
         q = np.array(start, dtype=np.float64)
         if not np.all(np.isfinite(q)):
             continue
+        if bounds is not None:
+            q = np.clip(q, bounds[0], bounds[1])
         for step in range(POLISH_STEPS):
             T, J = robot.fk_jacobian(q)
             position, orientation = task_error(T, target, task.packed, e, M)
             if position <= tol and orientation <= tol:
                 break
-            if step >= 3 and max(position, orientation) > GIVE_UP:
+            if step >= 3 and max(position, orientation) > give_up:
                 break
             rows = np.ascontiguousarray(J)
             m = task_rows(rows, target, task.packed)
             if held is not None:
                 rows[:m, held] = 0.0
-            dq = np.linalg.pinv(rows[:m], rcond=1e-10) @ e[:m]
+            dq = _step(rows[:m], e[:m])
+            if bounds is not None:
+                pushed = ((q <= bounds[0]) & (dq < 0.0)) | ((q >= bounds[1]) & (dq > 0.0))
+                if pushed.any():
+                    rows[:m, pushed] = 0.0
+                    dq = _step(rows[:m], e[:m])
             norm = float(np.linalg.norm(dq))
             if not np.isfinite(norm):
                 break
             if norm > MAX_STEP:
                 dq *= MAX_STEP / norm
             q = q + dq
+            if bounds is not None:
+                q = np.clip(q, bounds[0], bounds[1])
         out.append(q)
     return out
+
+
+def _step(rows: FloatArray, error: FloatArray) -> FloatArray:
+    """The Gauss–Newton step: the pseudoinverse of the task rows times the error."""
+    return np.asarray(np.linalg.pinv(rows, rcond=1e-10) @ error)

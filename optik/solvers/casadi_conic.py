@@ -108,8 +108,12 @@ EXCLUDED_PLUGINS: Final[dict[str, str]] = {
 #: construction and first call run with the process's stdout sent to /dev/null.
 _BANNER_PLUGINS: Final[frozenset[str]] = frozenset({"qpoases"})
 
+# Creation under one lock: a banner plugin's redirects the whole process's stdout.
 _lock = threading.Lock()
-_SOLVERS: dict[tuple[str, int, int], casadi.Function] = {}
+# One solver per thread and shape: a casadi.Function's call and its stats() share one
+# memory, and the plugins (daqp, proxqp, qrqp) crashed the process when two threads
+# called the same Function.
+_local = threading.local()
 
 
 @contextlib.contextmanager
@@ -146,13 +150,15 @@ def _new_solver(plugin: str, n: int, m: int) -> casadi.Function:
 
 
 def _solver(plugin: str, n: int, m: int) -> casadi.Function:
-    """The cached conic solver for ``(plugin, n, m)``, built on first use."""
+    """The calling thread's conic solver for ``(plugin, n, m)``, built on its first use."""
+    solvers: dict[tuple[str, int, int], casadi.Function] | None = getattr(_local, "solvers", None)
+    if solvers is None:
+        solvers = _local.solvers = {}
     key = (plugin, n, m)
-    with _lock:
-        solver = _SOLVERS.get(key)
-        if solver is None:
-            solver = _new_solver(plugin, n, m)
-            _SOLVERS[key] = solver
+    solver = solvers.get(key)
+    if solver is None:
+        with _lock:
+            solver = solvers[key] = _new_solver(plugin, n, m)
     return solver
 
 

@@ -420,6 +420,9 @@ class _Osqp(DirectBackend):
             self._solver = solver
         else:
             self._solver.update(Px=Px, Ax=Ax, q=qp.c, l=self._l, u=self._u)
+            # The step size rho adapts during a solve and would carry over: reset, so an
+            # answer does not depend on what this thread solved before.
+            self._solver.update_settings(rho=_OSQP_RHO)
             if not warm:
                 self._solver.warm_start(x=self._zeros_x, y=self._zeros_y)
         result = self._solver.solve(raise_error=False)
@@ -428,6 +431,9 @@ class _Osqp(DirectBackend):
         found = result.info.status_val == 1 and x is not None
         return x, bool(found), status, int(result.info.iter)
 
+
+#: OSQP's initial step size (its default), restored before every solve.
+_OSQP_RHO: Final[float] = 0.1
 
 #: Backends called through their own API (the others through ``qpsolvers``): measured in
 #: ``benchmarks/bench_programs.py``.
