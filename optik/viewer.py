@@ -26,6 +26,7 @@ from __future__ import annotations
 import contextlib
 import io
 import math
+import socket
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -124,6 +125,60 @@ def _cylinder_pose(T_axis: FloatArray) -> tuple[FloatArray, FloatArray]:
     return T_axis[:3, 3], to_quat_wxyz(T_axis)
 
 
+def _dragged_pose(position: Any, wxyz: Any) -> FloatArray:
+    """The 4x4 pose of a gizmo update from the page (position (3,) m, quaternion (4,)).
+
+    Raises:
+        OptikError: not 3 and 4 finite numbers, or a zero quaternion.
+    """
+    try:
+        p = np.asarray(position, dtype=float)
+        w = np.asarray(wxyz, dtype=float)
+    except (TypeError, ValueError):
+        raise OptikError("dragged target: position and quaternion must be numbers") from None
+    if p.shape != (3,) or w.shape != (4,):
+        raise OptikError(
+            f"dragged target: expected a position (3,) and a quaternion (4,), got "
+            f"{p.shape} and {w.shape}"
+        )
+    if not (np.all(np.isfinite(p)) and np.all(np.isfinite(w))):
+        raise OptikError("dragged target: position and quaternion must be finite")
+    largest = float(np.max(np.abs(w)))
+    if largest == 0.0:
+        raise OptikError("dragged target: zero quaternion")
+    w = w / largest  # no overflow in the norm (1e308 entries)
+    return pose(p, quat_wxyz=w / float(np.linalg.norm(w)))
+
+
+def _check_bindable(host: str, port: int) -> None:
+    """Refuse an address the server could not listen on, before viser starts.
+
+    viser waits for its server thread without a timeout, and that thread never signals
+    when it cannot bind (an address of another machine, a malformed host, the last port
+    taken): the process would hang.
+
+    Raises:
+        OptikError: ``host`` does not resolve or is not an address of this machine, or
+            ``port`` is taken and no higher port is left to try.
+    """
+    try:
+        infos = socket.getaddrinfo(host, port, type=socket.SOCK_STREAM)
+    except (OSError, UnicodeError) as exc:
+        raise OptikError(f"host {host!r} does not resolve: {exc}") from None
+    family, kind, proto, _, address = infos[0]
+    with socket.socket(family, kind, proto) as probe:
+        try:
+            probe.bind((address[0], 0))
+        except OSError as exc:
+            raise OptikError(f"cannot listen on host {host!r}: {exc.strerror}") from None
+    if port == 65535:  # viser moves to the next port when one is taken: none after this
+        with socket.socket(family, kind, proto) as probe:
+            try:
+                probe.bind((address[0], port))
+            except OSError as exc:
+                raise OptikError(f"port {port} on {host!r} is taken: {exc.strerror}") from None
+
+
 class Viewer(Closing):
     """A local web page that shows a robot and solves IK as its target is dragged.
 
@@ -185,6 +240,7 @@ class Viewer(Closing):
         self.error: str = ""
         """The last error message shown on the page (empty when the last call worked)."""
 
+        _check_bindable(host, port)
         viser = _viser()
         with _quiet():
             self._server = viser.ViserServer(host=host, port=port, verbose=False)
@@ -389,7 +445,11 @@ class Viewer(Closing):
             self._branch_buttons = (previous, following)
         self._plan_folder = gui.add_folder("Plan", visible=False)
         with self._plan_folder:
-            self._waypoint = gui.add_slider("waypoint", min=0, max=1, step=1, initial_value=0)
+            # Float values: viser converts a client's value to the slider's initial type,
+            # and int(1e300) cannot be sent to the next client (the page would not load).
+            self._waypoint = gui.add_slider(
+                "waypoint", min=0.0, max=1.0, step=1.0, initial_value=0.0
+            )
             self._play = gui.add_checkbox("play", False)
             self._waypoint_text = gui.add_markdown("")
 
@@ -400,7 +460,7 @@ class Viewer(Closing):
         following.on_click(self._gui(lambda: self.next_branch(+1)))
         for k, slider in enumerate(self._sliders):
             slider.on_update(self._gui(self._slider_moved(k)))
-        self._waypoint.on_update(self._gui(lambda: self.show_waypoint(int(self._waypoint.value))))
+        self._waypoint.on_update(self._gui(self._waypoint_moved))
         self._play.on_update(self._gui(lambda: self.play(bool(self._play.value))))
 
     def _branch_help(self) -> str:
@@ -432,6 +492,14 @@ class Viewer(Closing):
             self.set_q(q)
 
         return moved
+
+    def _waypoint_moved(self) -> None:
+        """The waypoint slider from the page: the nearest waypoint, whatever was sent."""
+        value = float(self._waypoint.value)
+        with self._lock:
+            last = 0 if self._plan is None else len(self._plan.status) - 1
+        index = round(min(max(value, 0.0), float(last))) if math.isfinite(value) else 0
+        self.show_waypoint(index)  # puts the slider back on the waypoint shown
 
     def _show_error(self, message: str) -> None:
         self.error = " ".join(message.split())
@@ -523,11 +591,11 @@ class Viewer(Closing):
         if self._closed:
             return
         handle = event.target
-        wxyz = np.asarray(handle.wxyz, dtype=float)
-        norm = float(np.linalg.norm(wxyz))
-        if not (np.all(np.isfinite(wxyz)) and norm > 0.0):
+        try:
+            T = _dragged_pose(handle.position, handle.wxyz)
+        except OptikError as exc:  # a malformed update from the page
+            self._show_error(str(exc))
             return
-        T = pose(np.asarray(handle.position, dtype=float), quat_wxyz=wxyz / norm)
         with self._lock:
             self._pending = T
             if self._following:  # the thread already solving will take this one next
@@ -682,8 +750,8 @@ class Viewer(Closing):
                     )
                 )
             with self._from_python():
-                self._waypoint.max = max(len(plan.status) - 1, 1)
-                self._waypoint.value = 0
+                self._waypoint.max = float(max(len(plan.status) - 1, 1))
+                self._waypoint.value = 0.0
             self._plan_folder.visible = True
             self.show_waypoint(0)
 
@@ -714,7 +782,7 @@ class Viewer(Closing):
                 + (f" · step {step:.3g} rad or m" if math.isfinite(step) else "")
             )
             with self._from_python():
-                self._waypoint.value = index
+                self._waypoint.value = float(index)
 
     def play(self, playing: bool = True) -> None:
         """Start or stop playing the loaded plan (one waypoint per 0.1 s, then again).

@@ -27,6 +27,7 @@ import time
 import urllib.request
 from collections.abc import Callable, Iterator
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
@@ -475,6 +476,8 @@ def test_a_plan_plays_back_with_its_flags_coloured() -> None:
         ({"port": True}, "port"),
         ({"port": "8080"}, "port"),
         ({"host": ""}, "host"),
+        ({"host": "1.2.3.4"}, "host"),  # not this machine's: viser waited forever
+        ({"host": "bad host!"}, "host"),
         ({"q": [0.0]}, "q"),
         ({"q": [0.0, 10.0]}, "q"),
         ({"q": [0.0, math.nan]}, "q"),
@@ -486,6 +489,39 @@ def test_a_plan_plays_back_with_its_flags_coloured() -> None:
 def test_bad_arguments_raise_optik_errors_naming_them(kwargs: dict[str, Any], match: str) -> None:
     with pytest.raises(OptikError, match=match):
         Viewer(robot_of("planar_2r"), **kwargs).close()
+
+
+def test_a_malformed_drag_from_the_page_is_an_error_line(puma_viewer: Viewer) -> None:
+    """A gizmo update with a bad position or quaternion: shown, never raised."""
+    q_before = puma_viewer.q
+    for position, wxyz in (
+        ([math.nan, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0]),
+        ([0.1, 0.0, 0.3, 0.0], [1.0, 0.0, 0.0, 0.0]),
+        ([0.1, 0.0, 0.3], [1.0, 0.0, 0.0]),
+        ([0.1, 0.0, 0.3], [0.0, 0.0, 0.0, 0.0]),
+    ):
+        event = SimpleNamespace(target=SimpleNamespace(position=position, wxyz=wxyz))
+        puma_viewer._on_drag(event)
+        assert "dragged target" in puma_viewer.error
+        assert_close(puma_viewer.q, q_before, atol=0.0, what="q after a malformed drag")
+    # Entries of 1e308 overflow a plain norm; scaled first, the quaternion is (1, 1, 0, 0).
+    target = puma_viewer.robot.fk(puma_viewer.robot.mid_limits)
+    huge = SimpleNamespace(position=target[:3, 3].tolist(), wxyz=[1e308, 1e308, 0.0, 0.0])
+    puma_viewer._on_drag(SimpleNamespace(target=huge))
+    expected = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
+    assert_close(puma_viewer.target[:3, :3], expected, atol=1e-12, what="normalised drag")
+
+
+def test_a_waypoint_slider_value_out_of_range_shows_the_nearest_waypoint() -> None:
+    """viser stored int(1e300) on an integer slider, which no page could then load."""
+    robot = robot_of("planar_2r")
+    plan = plan_path(robot, np.array([(1.0 + 0.1 * k, 0.2, 0.0) for k in range(4)]))
+    with Viewer(robot, port=0) as viewer:
+        viewer.load_plan(plan)
+        for sent, shown in ((1e300, 3), (-5.0, 0), (2.4, 2), (math.nan, 0), (math.inf, 0)):
+            viewer._waypoint.value = sent  # the page's slider
+            assert viewer._waypoint.value == float(shown)
+            assert f"waypoint {shown + 1} of 4" in viewer._waypoint_text.content
 
 
 def test_bad_calls_raise_optik_errors_naming_the_argument(puma_viewer: Viewer) -> None:

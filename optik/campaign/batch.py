@@ -115,7 +115,11 @@ def _read(file: Path) -> tuple[FloatArray, bool]:
         Q = np.column_stack([_column(file, table, c) for c in QUATERNION_COLUMNS])
         if len(P) == 0:
             return np.empty((0, 4, 4)), True
-        return np.asarray(pose(P, quat_wxyz=Q), dtype=np.float64).reshape(-1, 4, 4), True
+        try:
+            poses = pose(P, quat_wxyz=Q)
+        except OptikError as exc:
+            raise OptikError(f"{file}: {exc}") from None
+        return np.asarray(poses, dtype=np.float64).reshape(-1, 4, 4), True
     raise OptikError(f"{file}: targets must be a .npy or .parquet file, not {suffix or 'none'!r}")
 
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 from optik.cli._common import (
@@ -105,8 +105,19 @@ def config_from_args(args: argparse.Namespace) -> RunConfig:
     )
 
 
+def _check_caps(config: RunConfig, caps: Mapping[str, int]) -> None:
+    """Each ``--cap`` names a solver of the run (or ``peer:NAME``): a typo is an error."""
+    known = {*config.solvers, *(f"peer:{name}" for name in config.peers)}
+    unknown = sorted(name for name in caps if name not in known)
+    if unknown:
+        raise OptikError(
+            f"--cap names {unknown}, not solvers of this run (solvers: {sorted(known)})"
+        )
+
+
 def _cmd_report(args: argparse.Namespace) -> int:
     config = config_from_args(args)
+    _check_caps(config, _caps(args.cap))
     command = "optik " + " ".join(sys.argv[1:]) if sys.argv and sys.argv[0] else ""
     report = make_report(config, args.out, resume=args.resume, command=command)
     print(report.summary_text())

@@ -2,18 +2,30 @@
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
-from optik._checks import FloatArray
+from optik._checks import FloatArray, check_bool, check_int, check_real
 from optik.compare.peer_runs import PeerStatus
 from optik.compare.results import Key, ResultRow, settings_json
 from optik.errors import OptikError
 from optik.peers import UnknownPeerError, peer_names
 from optik.problems import Problem
 from optik.solvers import available_solvers
+
+#: Largest ``n`` and ``closed_form_configs`` (targets or configurations per robot).
+MAX_TARGETS = 1_000_000
+#: Largest ``seed`` (numpy's seeds of the targets take 32 bits).
+MAX_SEED = 2**32 - 1
+#: Largest ``timeout_s``: a day (the report's figures scale their axes by it).
+MAX_TIMEOUT_S = 86_400.0
+
+
+def available_step_backends() -> tuple[str, ...]:
+    """Step backends installed here (``qp:<name>``, ``casadi:<plugin>``)."""
+    return tuple(available_solvers(kind="step"))
+
 
 __all__ = ["RunConfig", "RunStats", "ik_settings"]
 
@@ -58,12 +70,26 @@ class RunConfig:
     peers: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
-        if self.n < 0 or self.closed_form_configs < 0:
-            raise OptikError("n and closed_form_configs must be non-negative")
-        if not (self.tol > 0 and math.isfinite(self.tol)):
-            raise OptikError(f"tol must be positive and finite, got {self.tol!r}")
-        if not (self.timeout_s > 0 and math.isfinite(self.timeout_s)):
-            raise OptikError(f"timeout_s must be positive and finite, got {self.timeout_s!r}")
+        count = {"minimum": 0, "maximum": MAX_TARGETS}
+        object.__setattr__(self, "n", check_int("n", self.n, **count))
+        configs = check_int("closed_form_configs", self.closed_form_configs, **count)
+        object.__setattr__(self, "closed_form_configs", configs)
+        object.__setattr__(self, "seed", check_int("seed", self.seed, minimum=0, maximum=MAX_SEED))
+        object.__setattr__(self, "tol", check_real("tol", self.tol, positive=True))
+        timeout = check_real("timeout_s", self.timeout_s, positive=True, maximum=MAX_TIMEOUT_S)
+        object.__setattr__(self, "timeout_s", timeout)
+        object.__setattr__(self, "seeds", check_bool("seeds", self.seeds))
+        if not isinstance(self.caps, Mapping):
+            raise OptikError(f"caps must be a mapping of solver names to counts, got {self.caps!r}")
+        for name, cap in self.caps.items():
+            check_int(f"caps[{name!r}]", cap, **count)
+        if self.step_backends is not None:
+            unknown_steps = [b for b in self.step_backends if b not in available_step_backends()]
+            if unknown_steps:
+                raise OptikError(
+                    f"unknown or unavailable step backend(s) {unknown_steps}; available: "
+                    f"{list(available_step_backends())}"
+                )
         if self.mode not in ("pose", "position"):
             raise OptikError(f"mode must be 'pose' or 'position', got {self.mode!r}")
         known = {"auto", *available_solvers()}

@@ -205,8 +205,16 @@ def read_results(path: str | Path) -> list[ResultRow]:
             not UTF-8), or two rows have the same key (:meth:`ResultRow.key`); the
             message names the file and the line (both lines for a duplicate).
     """
-    raw = Path(path).read_bytes()
+    raw = _read_bytes(Path(path))
     return _parse(raw[: raw.rfind(b"\n") + 1], Path(path))
+
+
+def _read_bytes(path: Path) -> bytes:
+    """The bytes of a results file; an unreadable one is a ResultsFileError naming it."""
+    try:
+        return path.read_bytes()
+    except OSError as exc:
+        raise ResultsFileError(str(path), 0, f"cannot read it: {exc.strerror or exc}") from None
 
 
 def _parse(raw: bytes, path: Path) -> list[ResultRow]:
@@ -284,19 +292,36 @@ class ResultsFile(Closing):
             raise OutputFileError(str(self.path), "it is a folder")
         prepare_folder(self.path.parent)
         self.rows: list[ResultRow] = []
-        if resume and self.path.exists():
-            raw = self.path.read_bytes()
-            complete = raw[: raw.rfind(b"\n") + 1]
-            if len(complete) != len(raw):
-                with open(self.path, "r+b") as f:
-                    f.truncate(len(complete))
-            self.rows = _parse(complete, self.path)
-            if not complete:
+        try:
+            if resume and self.path.exists():
+                raw = _read_bytes(self.path)
+                complete = raw[: raw.rfind(b"\n") + 1]
+                if len(complete) != len(raw):
+                    with open(self.path, "r+b") as f:
+                        f.truncate(len(complete))
+                self.rows = _parse(complete, self.path)
+                if not complete:
+                    self._start()
+            else:
+                self._refuse_foreign()
                 self._start()
-        else:
-            self._start()
-        self._keys = {row.key() for row in self.rows}
-        self._file: TextIO = open(self.path, "a", encoding="utf-8", newline="")  # noqa: SIM115
+            self._keys = {row.key() for row in self.rows}
+            self._file: TextIO = open(self.path, "a", encoding="utf-8", newline="")  # noqa: SIM115
+        except OSError as exc:
+            raise OutputFileError(str(self.path), exc.strerror or str(exc)) from None
+
+    def _refuse_foreign(self) -> None:
+        """Refuse to start over a file that is not an optik results table (user data)."""
+        if not self.path.is_file() or self.path.stat().st_size == 0:
+            return
+        with open(self.path, "rb") as f:
+            first = f.readline()
+        if first != _csv_line(list(COLUMNS)).encode():
+            raise OutputFileError(
+                str(self.path),
+                "it exists and is not an optik results table; remove it or choose another "
+                "folder (a results table of an earlier run is started over)",
+            )
 
     def _start(self) -> None:
         with open(self.path, "w", encoding="utf-8", newline="") as f:
