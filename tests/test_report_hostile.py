@@ -9,9 +9,11 @@ import os
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 
-from optik import OptikError
+from optik import OptikError, load_problem
+from optik.campaign import solve_batch
 from optik.cli import main
 from optik.compare import RunConfig, read_results
 from optik.compare.results import COLUMNS, ResultsFile
@@ -117,3 +119,17 @@ def test_a_bad_quaternion_in_a_targets_file_names_the_file(tmp_path: Path) -> No
     parquet.write_table(pa.table({**columns, "qz": [0.0]}), targets)
     code, err = _cli(["batch", "ur5", str(targets), "--out", str(tmp_path / "out")])
     assert code == 2 and "zero_quaternion.parquet" in err and "quaternion" in err
+
+
+def test_a_stray_part_file_in_a_batch_folder_is_an_error(tmp_path: Path) -> None:
+    """A part file copied in from another run was counted on --resume (7 rows for 6
+    targets, exit 0); one of another schema raised pyarrow's error."""
+    robot = load_problem("planar_2r").robot
+    targets = robot.fk(np.random.default_rng(3).uniform(-1.0, 1.0, (6, 2)))[:, :3, 3]
+    options: dict[str, Any] = {"mode": "position", "restarts": 1}
+    solve_batch(robot, targets, out=tmp_path / "a", **options)
+    solve_batch(robot, targets, out=tmp_path / "b", chunk=1, **options)
+    stray = (tmp_path / "b" / "part-000003.parquet").read_bytes()
+    (tmp_path / "a" / "part-000007.parquet").write_bytes(stray)
+    with pytest.raises(OptikError, match="7 rows for 6 targets"):
+        solve_batch(robot, targets, out=tmp_path / "a", resume=True, **options)

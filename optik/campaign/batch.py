@@ -351,7 +351,13 @@ class PartStore:
             parts = [_read_part(pq, f) for f in files]
         if not parts:
             return None
-        return pa.concat_tables(parts).sort_by("index")
+        try:
+            return pa.concat_tables(parts).sort_by("index")
+        except (pa.ArrowInvalid, pa.ArrowTypeError, KeyError) as exc:
+            raise OptikError(
+                f"{self.folder}: its part files do not fit together ({exc}); a part of "
+                "another run? remove the folder and run again"
+            ) from None
 
 
 def solve_batch(
@@ -459,7 +465,18 @@ def solve_batch(
         pa = require("pyarrow", "a batch")
         empty = solve_chunk(spec, (0, np.empty((0, 4, 4))))
         table = pa.table(empty)
+    _check_rows(table, len(poses), folder)
     return table
+
+
+def _check_rows(table: Any, n: int, folder: Path | None) -> None:
+    """Every target's row once, in order: a stray part file in the folder is an error."""
+    index = np.asarray(table.column("index").to_numpy(zero_copy_only=False))
+    if len(index) != n or not np.array_equal(index, np.arange(n)):
+        raise OptikError(
+            f"{folder}: its part files hold {len(index)} rows for {n} targets (a part "
+            "file of another run, or copied in?); remove the folder and run again"
+        )
 
 
 def _as_poses(targets: Any, mode: str) -> FloatArray:
