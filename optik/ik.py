@@ -7,7 +7,9 @@ Warm-start policy: when the robot has a closed-form family that solves the mode,
 branches inside the limits (nearest ``q0`` first) are the starting points; with
 ``solver="auto"`` the nearest branch *is* the answer (it is exact, verified by FK). An
 empty set of branches is a proof: the result says ``"unreachable"``, or
-``"outside_limits"`` when branches exist only outside the limits. In ``mode="axis"`` a
+``"outside_limits"`` when branches exist only outside the limits (a family that is not
+``fast``, ``general_6r``, is left to :func:`solve_ik_all`: the numeric solvers answer in
+a twentieth of its time, and its empty set proves nothing). In ``mode="axis"`` a
 family that solves full poses solves the free roll (:mod:`optik.analytic.roll`): the
 answers are the local minima of the distance to ``q0`` along each branch's continuation
 over a grid of rolls, refined, nearest first; there an empty grid proves nothing, and
@@ -444,7 +446,8 @@ def solve_ik_all(
     plan = _plan(
         robot, target, solver=solver, q0=q0, warm_start=warm_start, max_iter=max_iter,
         timeout_s=timeout_s, restarts=restarts, seed=seed, frozen=frozen,
-        limit_margin=limit_margin, mode=mode, axis=axis, weights=weights, tol=tol,
+        limit_margin=limit_margin, slow_families=True, mode=mode, axis=axis,
+        weights=weights, tol=tol,
     )  # fmt: skip
     if plan.early is not None:
         return [plan.early] if plan.early.success else []
@@ -505,12 +508,14 @@ def _plan(
     seed: Any = 0,
     frozen: Any = None,
     limit_margin: Any = 0.0,
+    slow_families: bool = False,
     **task_keywords: Unpack[TaskKeywords],
 ) -> _Plan:
     """Validate a query, run the closed form and the proofs; the rest is for a solver.
 
     The keywords' defaults are those :func:`solve_ik` documents (the task's are
-    :func:`optik.task.make_task`'s).
+    :func:`optik.task.make_task`'s). ``slow_families``: use a family that is not
+    ``fast`` too (``general_6r``), as :func:`solve_ik_all` does.
     """
     start_time = now()
     if not isinstance(robot, Robot):
@@ -586,6 +591,8 @@ def _plan(
         return plan([np.clip(b, lower, upper) for b in given], [])
 
     family = family_of(robot) if warm_start == "analytic" else None
+    if family is not None and not family.fast and not slow_families:
+        family = None  # general_6r's 2 ms: the numeric solvers answer sooner
     starts_given = [q_start] if q0 is not None else []
     if family is not None and solves_axis_task(family, task):
         box = bounds if bounds is not None else (robot.lower, robot.upper)

@@ -104,12 +104,17 @@ def test_the_xarm6_from_its_urdf_gets_every_branch() -> None:
     assert_batch_equals_single(robot, robot.fk(random_q(robot, rng, 6)), "pose")
 
 
-def test_solve_ik_answers_the_xarm6_with_the_closed_form() -> None:
+def test_solve_ik_all_answers_the_xarm6_with_the_closed_form() -> None:
+    """``solve_ik_all`` takes every branch; ``solve_ik`` keeps its faster numeric solver."""
     robot = _xarm6()
     rng = np.random.default_rng(SEED + 7)
     for q in random_q(robot, rng, 5):
-        result = optik.solve_ik(robot, robot.fk(q))
-        assert result.success and result.solver == "analytic"
+        T = robot.fk(q)
+        answers = optik.solve_ik_all(robot, T, k=16, min_separation=1e-6)
+        assert answers and all(a.success and a.solver == "analytic" for a in answers)
+        assert len(answers) == len(analytic_ik(robot, T))
+        result = optik.solve_ik(robot, T)
+        assert result.success and result.solver == "dls"
 
 
 def test_an_empty_branch_set_of_the_numerical_family_proves_nothing() -> None:

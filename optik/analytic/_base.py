@@ -70,6 +70,11 @@ class AnalyticFamily(ABC):
     modes: tuple[str, ...] = ("pose",)
     kernel: ClassVar[int] = 0
     """Id of the family's compiled pipeline (0: none, the family runs in Python)."""
+    fast: ClassVar[bool] = True
+    """Whether :func:`optik.solve_ik` answers with the family by default (microseconds);
+    ``general_6r`` (an eigenproblem in Python, about 2 ms, 18 times a numeric solve) sets
+    ``False``: ``solve_ik`` then solves numerically, while ``analytic_ik``,
+    ``solve_ik_all`` and ``plan_path`` use its branches."""
     proves_unreachable: ClassVar[bool] = True
     """Whether an empty branch set proves the target unreachable (exact closed forms); a
     numerical family (``general_6r``) sets ``False`` and callers search instead."""
