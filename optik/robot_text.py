@@ -11,7 +11,7 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-from optik.analytic import family_of, free_joint_reason
+from optik.analytic import family_of, free_joint_reason, match_families
 from optik.errors import URDFError
 from optik.model import Robot
 from optik.urdf import _parent_joints, _read_root
@@ -111,8 +111,10 @@ def joints_text(robot: Robot) -> str:
 def robot_text(robot: Robot) -> str:
     """The joints and the closed-form family of a robot (see :func:`joints_text`).
 
-    A seven-joint arm without a family gets one more line: the joints around which, held
-    (``frozen`` in :func:`optik.solve_ik`), the six others have a closed form.
+    An arm of at most six joints without a family gets one line per registered family:
+    why it does not fit (:func:`optik.analytic.match_families`). A seven-joint arm
+    without a family gets one more line: the joints around which, held (``frozen`` in
+    :func:`optik.solve_ik`), the six others have a closed form.
     """
     family = family_of(robot)
     lines = [
@@ -120,6 +122,9 @@ def robot_text(robot: Robot) -> str:
         joints_text(robot),
         f"closed-form family: {family.name if family else 'none (numeric solvers)'}",
     ]
+    if family is None and robot.dof <= 6:
+        # Why each family declines (for seven joints and more: they take at most six).
+        lines += [f"  {m.family}: {m.reason}" for m in match_families(robot)]
     if family is None and robot.dof == 7:
         held = [name for name in robot.joint_names if not free_joint_reason(robot, name)]
         lines.append(f"closed form with one joint frozen: {', '.join(held) or 'none'}")

@@ -463,3 +463,17 @@ def plan_from_q(robot: Robot, Q: np.ndarray) -> Any:
         max_joint_step=1.0,
         joint_names=robot.joint_names,
     )
+
+
+def run_cli(argv: list[str]) -> tuple[int, str]:
+    """``optik`` run in this process on ``argv``: its exit code and what it printed to
+    stderr (stdout is dropped)."""
+    import contextlib
+    import io
+
+    from optik.cli import main
+
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+        code = main(argv)
+    return code, err.getvalue()

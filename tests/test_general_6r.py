@@ -27,6 +27,7 @@ from scipy.optimize import least_squares
 import optik
 from optik.analytic import FAMILIES, analytic_ik, explain_family, family_of
 from optik.analytic.general_6r import general_plan
+from optik.robot_text import robot_text
 
 XARM6_URDF = Path(pybullet_data.getDataPath()) / "xarm" / "xarm6_robot.urdf"
 
@@ -148,3 +149,18 @@ def test_arms_with_an_exact_family_keep_it() -> None:
 def test_arms_that_are_not_six_revolute_joints_are_declined_with_the_reason() -> None:
     assert general_plan(robot_of("panda")).reason == "7 joints (the family takes 6)"
     assert "revolute" in general_plan(robot_of("stanford_arm")).reason
+
+
+def test_the_robot_text_of_an_arm_without_a_family_says_why_per_family() -> None:
+    rng = np.random.default_rng(SEED)
+    rows = [
+        {"a": 0.3, "alpha": float(rng.uniform(0.2, 1.3)), "d": 0.1, "lower": -3, "upper": 3}
+        for _ in range(4)
+    ]
+    robot = optik.Robot.from_dh(rows, name="four")
+    assert family_of(robot) is None
+    lines = robot_text(robot).splitlines()
+    at = lines.index("closed-form family: none (numeric solvers)")
+    reasons = lines[at + 1 :]
+    assert [line.split(":")[0].strip() for line in reasons] == list(FAMILIES)
+    assert "  general_6r: 4 joints (the family takes 6)" in reasons

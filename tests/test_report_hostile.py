@@ -3,18 +3,16 @@ a search, kept from coming back."""
 
 from __future__ import annotations
 
-import contextlib
-import io
 import os
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
+from conftest import run_cli
 
 from optik import OptikError, load_problem
 from optik.campaign import solve_batch
-from optik.cli import main
 from optik.compare import RunConfig, read_results
 from optik.compare.results import COLUMNS, ResultsFile
 from optik.errors import OutputFileError, ResultsFileError
@@ -31,20 +29,13 @@ BASE: dict[str, Any] = {
 SMALL_REPORT = ["report", "--quick", "-n", "1", "--problems", "planar_2r", "--solvers", "dls"]
 
 
-def _cli(argv: list[str]) -> tuple[int, str]:
-    err = io.StringIO()
-    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
-        code = main(argv)
-    return code, err.getvalue()
-
-
 def test_a_foreign_results_file_is_not_overwritten(tmp_path: Path) -> None:
     """A results.csv that is not an optik table was truncated by a run without --resume."""
     (tmp_path / "results.csv").write_text("precious user data\n")
     with pytest.raises(OutputFileError, match="not an optik results table"):
         ResultsFile(tmp_path / "results.csv")
     assert (tmp_path / "results.csv").read_text() == "precious user data\n"
-    code, err = _cli([*SMALL_REPORT, "--out", str(tmp_path)])
+    code, err = run_cli([*SMALL_REPORT, "--out", str(tmp_path)])
     assert code == 2 and "not an optik results table" in err
     assert (tmp_path / "results.csv").read_text() == "precious user data\n"
 
@@ -100,13 +91,13 @@ def test_a_run_configuration_checks_every_field(override: dict[str, Any], field:
 
 def test_report_refuses_a_timeout_beyond_a_day(tmp_path: Path) -> None:
     """--timeout-ms 1e300 ran the whole comparison, then the figures overflowed."""
-    code, err = _cli([*SMALL_REPORT, "--timeout-ms", "1e300", "--out", str(tmp_path / "r")])
+    code, err = run_cli([*SMALL_REPORT, "--timeout-ms", "1e300", "--out", str(tmp_path / "r")])
     assert code == 2 and "timeout_s" in err
     assert not (tmp_path / "r" / "results.csv").exists()
 
 
 def test_a_cap_on_no_solver_of_the_run_is_an_error(tmp_path: Path) -> None:
-    code, err = _cli([*SMALL_REPORT, "--cap", "casadi_ipopt=1", "--out", str(tmp_path / "r")])
+    code, err = run_cli([*SMALL_REPORT, "--cap", "casadi_ipopt=1", "--out", str(tmp_path / "r")])
     assert code == 2 and "casadi_ipopt" in err
 
 
@@ -117,7 +108,7 @@ def test_a_bad_quaternion_in_a_targets_file_names_the_file(tmp_path: Path) -> No
     targets = tmp_path / "zero_quaternion.parquet"
     columns = {"x": [0.3], "y": [0.1], "z": [0.4], "qw": [0.0], "qx": [0.0], "qy": [0.0]}
     parquet.write_table(pa.table({**columns, "qz": [0.0]}), targets)
-    code, err = _cli(["batch", "ur5", str(targets), "--out", str(tmp_path / "out")])
+    code, err = run_cli(["batch", "ur5", str(targets), "--out", str(tmp_path / "out")])
     assert code == 2 and "zero_quaternion.parquet" in err and "quaternion" in err
 
 

@@ -7,19 +7,17 @@ chains.
 
 from __future__ import annotations
 
-import contextlib
-import io
 import warnings
 from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import run_cli
 from scipy.spatial.transform import Rotation
 
 import optik
 from optik import Mimic, OptikError
 from optik.chain import ChainLink
-from optik.cli import main
 from optik.errors import ModelError
 from optik.robot_text import read_urdf_tree
 
@@ -28,13 +26,6 @@ TWO_LINK = """<robot name="r"><link name="a"/><link name="b"/><link name="c"/>
  <limit lower="-2" upper="2" effort="1" velocity="1"/></joint>
 <joint name="j2" type="revolute"><parent link="b"/><child link="c"/><origin xyz="0.3 0 0"/>
  <axis xyz="0 1 0"/><limit lower="-2" upper="2" effort="1" velocity="1"/></joint></robot>"""
-
-
-def _cli(argv: list[str]) -> tuple[int, str]:
-    err = io.StringIO()
-    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
-        code = main(argv)
-    return code, err.getvalue()
 
 
 def test_a_problem_files_overlong_urdf_name_is_not_found(tmp_path: Path) -> None:
@@ -46,7 +37,7 @@ def test_a_problem_files_overlong_urdf_name_is_not_found(tmp_path: Path) -> None
     )
     with pytest.raises(OptikError, match="file not found"):
         optik.load_problem(toml)
-    code, err = _cli(["robot", str(toml)])
+    code, err = run_cli(["robot", str(toml)])
     assert code == 2 and "file not found" in err
 
 
@@ -154,7 +145,7 @@ def test_show_of_a_file_yourdfpy_cannot_place_exits_2(tmp_path: Path) -> None:
     path = _write(tmp_path, urdf)
     optik.Robot.from_urdf(path, "a", "c")
     out = tmp_path / "x.png"
-    code, err = _cli(["show", "--urdf", path, "--base", "a", "--tip", "c", "--out", str(out)])
+    code, err = run_cli(["show", "--urdf", path, "--base", "a", "--tip", "c", "--out", str(out)])
     assert code in (0, 2), err
     assert "Traceback" not in err
 
@@ -169,7 +160,9 @@ def test_show_skips_a_visual_of_non_finite_size(tmp_path: Path, size: str) -> No
     out = tmp_path / "x.png"
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # trimesh's own warnings about the box
-        code, err = _cli(["show", "--urdf", path, "--base", "a", "--tip", "c", "--out", str(out)])
+        code, err = run_cli(
+            ["show", "--urdf", path, "--base", "a", "--tip", "c", "--out", str(out)]
+        )
     assert code in (0, 2), err
     assert "Traceback" not in err
     if code == 0:

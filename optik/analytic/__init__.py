@@ -304,11 +304,13 @@ def _degenerate(
 
     Runs only when no branch passed the FK check or the limits: the raw candidates and
     the reference are polished by Gauss–Newton, then wrapped, filtered and verified as
-    usual. If every branch then lies outside the limits, they are clipped into them and
-    polished again: at a singular pose the answers form a continuum (a shoulder over its
-    axis leaves joint 1 free, an aligned wrist only fixes ``q4 + q6``) of which the
-    closed form returns one point, the reference's, and the continuum may enter the
-    limits elsewhere.
+    usual. If every branch then lies outside the limits and one of them is singular
+    (:data:`SINGULAR_GATE`), the answers form a continuum (a shoulder over its axis
+    leaves joint 1 free, an aligned wrist only fixes ``q4 + q6``) of which the closed
+    form returned one point, the reference's, and the continuum may enter the limits
+    elsewhere: the branches are polished inside the limits (projected Gauss–Newton), and
+    failing that the closed form is rerun from :data:`FREE_REFERENCES` references
+    spread over the limits. Isolated branches outside the limits stay a proof.
     """
     if _beyond_reach(robot, T_target):
         return []

@@ -52,7 +52,7 @@ import scipy.linalg
 
 from optik._checks import FloatArray
 from optik.analytic._base import AnalyticFamily, register
-from optik.analytic.geometry import NoTable, equivalent_dh, revolute_chain_reason
+from optik.analytic.geometry import NoTable, dh_matrix, equivalent_dh, revolute_chain_reason
 from optik.errors import AnalyticIKError
 from optik.model import Robot
 
@@ -105,9 +105,9 @@ class Plan(NamedTuple):
     Attributes:
         reason: ``""`` when the family fits, else why not (one line).
         order: the order that passed the self-test.
-        T_world_0: (4, 4) world pose of the DH frame 0; ``T_n_tool`` (4, 4) the tool in
-            the last DH frame; ``offsets`` (6,) the table's ``theta`` at ``q = 0``;
-            ``senses`` (6,) the table's variable is ``senses * q``.
+        T_world_0: (4, 4) world pose of the DH frame 0.
+        T_n_tool: (4, 4) the tool in the last DH frame.
+        senses: (6,) +1 or -1: the table's joint variable is ``senses * q``.
     """
 
     reason: str
@@ -137,26 +137,11 @@ def _dh(rows: FloatArray, theta: FloatArray) -> FloatArray:
     )
 
 
-def _dh_one(row: FloatArray, theta: float) -> FloatArray:
-    """:func:`_dh` of one row and angle (scalar arithmetic: a per-branch hot path)."""
-    t = float(row[0]) + theta
-    d, a, alpha = float(row[1]), float(row[2]), float(row[3])
-    ct, st, ca, sa = math.cos(t), math.sin(t), math.cos(alpha), math.sin(alpha)
-    return np.array(
-        [
-            [ct, -st * ca, st * sa, a * ct],
-            [st, ct * ca, -ct * sa, a * st],
-            [0.0, sa, ca, d],
-            [0.0, 0.0, 0.0, 1.0],
-        ]
-    )
-
-
 def _chain(rows: FloatArray, theta: FloatArray) -> FloatArray:
     """The product of the rows' transforms at ``theta`` (n,): (4, 4)."""
     T = np.eye(4)
-    for row, angle in zip(rows, theta.tolist(), strict=True):
-        T = T @ _dh_one(row, angle)
+    for row, angle in zip(rows.tolist(), theta.tolist(), strict=True):
+        T = T @ dh_matrix(row[2], row[3], row[1], row[0] + angle)
     return T
 
 
@@ -250,9 +235,9 @@ def _newton(rows: FloatArray, theta: FloatArray, X: FloatArray) -> FloatArray:
     for _ in range(NEWTON_STEPS):
         T = np.eye(4)
         axes, origins = np.empty((6, 3)), np.empty((6, 3))
-        for i, (row, angle) in enumerate(zip(rows, theta.tolist(), strict=True)):
+        for i, (row, angle) in enumerate(zip(rows.tolist(), theta.tolist(), strict=True)):
             axes[i], origins[i] = T[:3, 2], T[:3, 3]
-            T = T @ _dh_one(row, angle)
+            T = T @ dh_matrix(row[2], row[3], row[1], row[0] + angle)
         # Half the sum of t_i x x_i over the columns: the vee of M - M^T, M = X R^T.
         M = X[:3, :3] @ T[:3, :3].T
         rotation_error = 0.5 * np.array([M[2, 1] - M[1, 2], M[0, 2] - M[2, 0], M[1, 0] - M[0, 1]])

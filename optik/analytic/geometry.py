@@ -231,7 +231,7 @@ def _snap_length(value: float, tol: float) -> float:
     return 0.0 if abs(value) < tol else value
 
 
-def _dh_matrix(a: float, alpha: float, d: float, theta: float) -> FloatArray:
+def dh_matrix(a: float, alpha: float, d: float, theta: float) -> FloatArray:
     """``Rz(theta) Tz(d) Tx(a) Rx(alpha)``."""
     ct, st = math.cos(theta), math.sin(theta)
     ca, sa = math.cos(alpha), math.sin(alpha)
@@ -250,7 +250,7 @@ def dh_fk(model: DHModel, q: FloatArray) -> FloatArray:
     T = model.T_world_0.copy()
     senses = model.senses or (1.0,) * len(model.rows)
     for row, qi, si in zip(model.rows, q.tolist(), senses, strict=True):
-        T = T @ _dh_matrix(row.a, row.alpha, row.d, row.theta + si * qi)
+        T = T @ dh_matrix(row.a, row.alpha, row.d, row.theta + si * qi)
     return np.asarray(T @ model.T_n_tool, dtype=float)
 
 
