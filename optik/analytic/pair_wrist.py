@@ -240,8 +240,8 @@ def wrist_branches(
     n45, ta, tb, tc, td = sp2_angles(z4, z5, z6, Hz6, ref[3], ref[4], trig_tol, axis_tol)
     Ha = apply(H, across)
     # Axes 4 and 6 aligned (sp2_angles's test): q4 took its reference. A second row is
-    # the split nearest the reference (q4 and q6 each off theirs by half q6's excess),
-    # inside the limits where keeping q4 pushes q6 out of them.
+    # the split nearest the reference (q4 and q6 each off theirs by half q6's excess);
+    # analytic_ik polishes them into narrow limits that neither row meets.
     aligned = norm(cross(z4, Hz6)) <= axis_tol
     t6 = 0.0
     for i45 in range(2 if aligned else n45):

@@ -121,9 +121,10 @@ def _sw_wrist(
     Writes rows ``n, n + 1`` of ``cand`` and returns the new row count. At the wrist
     singularity (``|sin q5| < wrist_tol``) only ``q4 +- q6`` is defined: the first row
     keeps ``q4`` at its reference, the second is the split nearest the reference
-    (``q4`` and ``q6`` each off theirs by half the excess), which lies inside the limits
-    where keeping ``q4`` would push ``q6`` out of them (the same row when the reference
-    fits both).
+    (``q4`` and ``q6`` each off theirs by half the excess; the same row when the
+    reference fits both). When neither row is inside narrow limits that the singular
+    set still enters, ``analytic_ik`` polishes them into the limits
+    (``optik.analytic._degenerate``).
     """
     _, _, _, th4, _, ca4, sa4, s4 = dh_row(dh, 3)
     _, _, _, th5, _, ca5, sa5, s5 = dh_row(dh, 4)
