@@ -123,9 +123,9 @@ def test_an_empty_branch_set_of_the_numerical_family_proves_nothing() -> None:
     robot = _xarm6()
     assert not FAMILIES["general_6r"].proves_unreachable
     centre, radius = robot.reach_sphere
-    # Straight up at 99.9 % of the sphere's radius, the flange turned back down: past
-    # what the arm reaches (its sphere is a bound, not its reach), but not provably so
-    # by the sphere.
+    # Straight up at 99.9 % of the sphere's radius with the base's orientation: past what
+    # the arm reaches (its sphere is a bound, not its reach), but not provably so by the
+    # sphere. solve_ik does not use the family (not fast); plan_path does.
     T = np.eye(4)
     T[:3, 3] = centre + np.array([0.0, 0.0, 0.999 * radius])
     assert analytic_ik(robot, T, within_limits=False) == []
