@@ -276,7 +276,7 @@ def _frame_inverses(robot: Robot) -> tuple[FloatArray, FloatArray]:
     return inverses
 
 
-FREE_REFERENCES = 16
+FREE_REFERENCES = 8
 """References spread over the limits that a degenerate pose's closed form is rerun from
 when every branch lies outside the limits (:func:`_degenerate`)."""
 
@@ -336,9 +336,14 @@ def _degenerate(
     T_0 = inverse_base @ T_target @ inverse_tool
     low = np.where(np.isfinite(robot.lower), robot.lower, -math.pi)
     high = np.where(np.isfinite(robot.upper), robot.upper, math.pi)
-    others = [low + (k + 0.5) / FREE_REFERENCES * (high - low) for k in range(FREE_REFERENCES)]
-    raws = [q for other in others for q in family.candidates(robot, T_0, mode, other)]
-    return _finish(robot, polish(robot, T_target, mode, raws, tol), T_target, mode, ref, sort, True)
+    for k in range(FREE_REFERENCES):
+        other = low + (k + 0.5) / FREE_REFERENCES * (high - low)
+        # The closed form's own branches at that reference: exact, the FK check decides.
+        raws = family.candidates(robot, T_0, mode, other)
+        found = _finish(robot, raws, T_target, mode, ref, sort, True)
+        if found:
+            return found  # a point of the continuum inside the limits
+    return []
 
 
 def _compiled_plan(robot: Robot) -> CompiledPipeline | None:

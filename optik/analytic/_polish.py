@@ -25,6 +25,10 @@ the rest serve rank-deficient Jacobians, where convergence is linear)."""
 MAX_STEP = 0.5
 """Largest step (rad or m): a pseudoinverse step next to a singularity can be huge."""
 
+STALL = 0.5
+"""A candidate whose error did not fall below this fraction of its value three steps
+before is dropped (a projected search that has stalled on a bound)."""
+
 GIVE_UP = 1e-3
 """A candidate still this far (m or rad) from the target after three steps is dropped:
 the polish refines near-solutions, it does not search."""
@@ -82,13 +86,18 @@ def polish(
             continue
         if bounds is not None:
             q = np.clip(q, bounds[0], bounds[1])
+        errors: list[float] = []
         for step in range(POLISH_STEPS):
             T, J = robot.fk_jacobian(q)
             position, orientation = task_error(T, target, task.packed, e, M)
             if position <= tol and orientation <= tol:
                 break
-            if step >= 3 and max(position, orientation) > give_up:
+            worst = max(position, orientation)
+            if step >= 3 and worst > give_up:
                 break
+            if step >= 3 and worst > STALL * errors[-3]:
+                break  # not converging: three steps did not halve the error
+            errors.append(worst)
             rows = np.ascontiguousarray(J)
             m = task_rows(rows, target, task.packed)
             if held is not None:

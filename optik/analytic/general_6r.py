@@ -25,8 +25,10 @@ A_6``:
    eigenvalues of a 24 x 24 pencil (two of degree 4 in ``x_3 = +-i`` aside).
 4. Each real eigenvalue's eigenvector gives ``x_4`` and ``x_5``; the eight products give
    ``theta_1`` and ``theta_2`` (least squares over the 14 equations); ``A_6 = (A_1 ...
-   A_5)^-1 X`` gives ``theta_6``. Two Gauss-Newton steps on the table's own chain restore
-   each to rounding; the caller verifies every branch by the robot's FK.
+   A_5)^-1 X`` gives ``theta_6``. Gauss-Newton steps on the table's own chain (none for
+   most roots, more for a double root) restore each to rounding; the caller verifies
+   every branch by the robot's FK. Lengths are in units of the arm's largest ``a`` or
+   ``d``, so that the same geometry at another size gives the same branches.
 
 A fixed shift of ``theta_3``, ``theta_4`` and ``theta_5`` (:data:`SHIFTS`) keeps an answer
 at 180 degrees off the pencil's infinite eigenvalue. Some geometries make the pencil
@@ -59,18 +61,20 @@ from optik.model import Robot
 SHIFTS: tuple[float, ...] = (0.0, 0.0, 0.3141, 0.7071, 1.1347, 0.0)
 """Fixed shifts (rad) of the solver's angle variables (any values away from 0 and pi)."""
 
-SELF_TEST_POSES = 8
+SELF_TEST_POSES = 16
 """Random configurations whose poses an order of the chain must solve back to fit."""
 
-IMAG_TOL = 1e-6
-"""An eigenvalue ``x_3`` with ``|Im| <= IMAG_TOL max(1, |x_3|)`` is taken as real (the
-Newton steps and the FK check judge it)."""
+IMAG_TOL = 1e-3
+"""An eigenvalue ``x_3`` with ``|Im| <= IMAG_TOL max(1, |x_3|)`` is taken as real: at a
+singular configuration the answer is a double root, which rounding splits into a
+complex pair (the Newton steps and the FK check judge every candidate)."""
 
 FOUND_TOL = 1e-6
 """How close (rad) a self-test branch must come to the configuration it was posed from."""
 
-NEWTON_STEPS = 2
-"""Gauss-Newton steps at most per branch, on the table's own chain."""
+NEWTON_STEPS = 20
+"""Gauss-Newton steps at most per branch, on the table's own chain (most roots take
+none or one; a double root converges only linearly)."""
 
 NEWTON_SKIP = 1e-13
 """A branch whose pose error (m, rad) is at most this takes no step."""
@@ -108,6 +112,7 @@ class Plan(NamedTuple):
         T_world_0: (4, 4) world pose of the DH frame 0.
         T_n_tool: (4, 4) the tool in the last DH frame.
         senses: (6,) +1 or -1: the table's joint variable is ``senses * q``.
+        length: the unit of the order's lengths (m): the arm's largest ``a`` or ``d``.
     """
 
     reason: str
@@ -115,6 +120,7 @@ class Plan(NamedTuple):
     T_world_0: FloatArray | None = None
     T_n_tool: FloatArray | None = None
     senses: FloatArray | None = None
+    length: float = 1.0
 
 
 def _dh(rows: FloatArray, theta: FloatArray) -> FloatArray:
@@ -312,15 +318,21 @@ def general_plan(robot: Robot) -> Plan:
     except NoTable as exc:
         return Plan(str(exc))
     rows = np.array([[r.theta, r.d, r.a, r.alpha] for r in model.rows])
+    # In units of the arm's largest length: the 14 equations mix terms in 1, L and L^2,
+    # and the same geometry at another size must give the same branches.
+    length = float(np.max(np.abs(rows[:, 1:3])))
+    if not length > 0.0:
+        return Plan("every length of the arm is zero")
+    rows[:, 1:3] /= length
     base_rows = rows.copy()
     for reverse in (False, True):
         order = _order(rows, reverse)
         if _passes(order, base_rows):
             senses = np.array(model.senses or (1.0,) * 6)
-            return Plan("", order, model.T_world_0, model.T_n_tool, senses)
+            return Plan("", order, model.T_world_0, model.T_n_tool, senses, length)
     return Plan(
-        "the elimination is singular for this geometry in both orders of the chain "
-        "(special axes: a decomposition family should fit)"
+        "the elimination is singular (or too ill-conditioned) for this geometry in both "
+        "orders of the chain"
     )
 
 
@@ -357,4 +369,5 @@ class General6R(AnalyticFamily):
         X = np.linalg.solve(T_world_0, world) @ np.linalg.inv(T_n_tool)
         if not np.all(np.isfinite(X)):
             return []
+        X[:3, 3] /= plan.length
         return [senses * theta for theta in solve_angles(order, X)]
