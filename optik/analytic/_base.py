@@ -72,7 +72,7 @@ class AnalyticFamily(ABC):
     """Id of the family's compiled pipeline (0: none, the family runs in Python)."""
     fast: ClassVar[bool] = True
     """Whether :func:`optik.solve_ik` answers with the family by default (microseconds);
-    ``general_6r`` (an eigenproblem in Python, about 2 ms, 18 times a numeric solve) sets
+    ``general_6r`` (an eigenproblem in Python, about 2 ms, 20 times a numeric solve) sets
     ``False``: ``solve_ik`` then solves numerically, while ``analytic_ik``,
     ``solve_ik_all`` and ``plan_path`` use its branches."""
     proves_unreachable: ClassVar[bool] = True
