@@ -200,10 +200,11 @@ def read_results(path: str | Path) -> list[ResultRow]:
         path: the results file.
 
     Raises:
-        ResultsFileError: the header is not :data:`COLUMNS` (another schema or another
-            file), a row is corrupted (wrong number of cells, a cell that does not parse,
-            not UTF-8), or two rows have the same key (:meth:`ResultRow.key`); the
-            message names the file and the line (both lines for a duplicate).
+        ResultsFileError: the file cannot be read (missing, a folder, no access), its
+            header is not :data:`COLUMNS` (another schema or another file), a row is
+            corrupted (wrong number of cells, a cell that does not parse, not UTF-8), or
+            two rows have the same key (:meth:`ResultRow.key`); the message names the file
+            and the line (both lines for a duplicate; line 0 when it cannot be read).
     """
     raw = _read_bytes(Path(path))
     return _parse(raw[: raw.rfind(b"\n") + 1], Path(path))
@@ -281,7 +282,8 @@ class ResultsFile(Closing):
         resume: continue an existing file instead of starting a new one.
 
     Raises:
-        OutputFileError: ``path`` is a folder, or its folder cannot be created or written.
+        OutputFileError: ``path`` is a folder, its folder cannot be created or written,
+            or (without ``resume``) it holds a file that is not an optik results table.
         ResultsFileError: resuming a file whose header is not :data:`COLUMNS`, with a
             corrupted row or with two rows of the same key (see :func:`read_results`).
     """
