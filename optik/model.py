@@ -13,7 +13,6 @@ as the DOBOT Magician, where the forearm keeps its angle to the horizontal.
 from __future__ import annotations
 
 import copy
-import dataclasses
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
@@ -24,7 +23,6 @@ import numpy as np
 
 from optik import _kernels
 from optik._checks import (
-    MAX_LENGTH_M,
     FloatArray,
     as_float_array,
     check_bool,
@@ -35,6 +33,7 @@ from optik._checks import (
 )
 from optik._clock import one_time_setup
 from optik.chain import Chain, ChainLink, JointKind, Mimic, read_only
+from optik.chain_checks import JOINT_KINDS, check_mimic_range, checked_link, rigid
 from optik.errors import ArgumentError, InvalidLimitsError, ModelError, OptikError, ShapeError
 from optik.limits import (
     check_limit_magnitude,
@@ -45,7 +44,7 @@ from optik.limits import (
 )
 from optik.spatial import as_pose, rot_x, rot_z, transform
 
-_KINDS = ("revolute", "prismatic")
+_KINDS = JOINT_KINDS
 
 
 @dataclass(frozen=True)
@@ -124,66 +123,6 @@ def _rx(t: float) -> FloatArray:
 
 def _motion(kind: str, t: float) -> FloatArray:
     return _tz(t) if kind == "prismatic" else _rz(t)
-
-
-def _rigid(T: FloatArray) -> FloatArray:
-    """``T`` with its rotation made exactly orthonormal (the nearest rotation, by SVD).
-
-    :func:`optik.spatial.as_pose` accepts a rotation within its tolerance (1e-6); kept as
-    given, a base or tool would scale the robot's own FK, which then fails that check.
-    """
-    R = T[:3, :3]
-    if float(np.max(np.abs(R.T @ R - np.eye(3)))) <= 4e-16:
-        return T  # orthonormal to rounding already: kept bit for bit
-    U, _, Vt = np.linalg.svd(R)
-    out = np.array(T, dtype=float)
-    out[:3, :3] = U @ Vt
-    return out
-
-
-def _checked_link(robot: str, i: int, link: Any) -> ChainLink:
-    """``link`` checked as a chain link (rigid finite frames, a known kind), frames made rigid."""
-    where = f"robot {robot!r}: link {i}"
-    if not isinstance(link, ChainLink):
-        raise ModelError(
-            f"{where} is a {type(link).__name__}, expected a ChainLink (build robots "
-            "from DH rows with Robot.from_dh or from_mdh, or with Robot.from_urdf)"
-        )
-    if not isinstance(link.name, str) or not link.name:
-        raise ModelError(f"{where}: name must be a non-empty string, got {link.name!r}")
-    where = f"robot {robot!r}: joint {link.name!r}"
-    if link.kind not in _KINDS:
-        raise ModelError(f"{where}: unknown joint type {link.kind!r} (expected {_KINDS})")
-    try:
-        offset = check_real("offset", link.offset)
-        before = _rigid(as_pose("before", link.before))
-        after = _rigid(as_pose("after", link.after))
-    except OptikError as exc:
-        raise ModelError(f"{where}: {exc}") from None
-    for key in ("velocity", "acceleration"):
-        value = getattr(link, key)
-        if value is not None and not (
-            isinstance(value, int | float) and not isinstance(value, bool) and value > 0.0
-        ):
-            raise ModelError(f"{where}: {key} must be a positive number or None, got {value!r}")
-    return dataclasses.replace(link, offset=offset, before=before, after=after)
-
-
-def _check_mimic_range(link: ChainLink, driver: Joint, multiplier: float) -> None:
-    """A prismatic mimic's stroke stays within :data:`~optik._checks.MAX_LENGTH_M`."""
-    if link.kind != "prismatic":
-        return
-    reach = max(abs(driver.lower), abs(driver.upper))
-    if not math.isfinite(reach):
-        raise ModelError(
-            f"joint {link.name!r}: a prismatic joint cannot mimic {driver.name!r}, whose "
-            "range is unbounded (its stroke would be too)"
-        )
-    if abs(multiplier) * reach > MAX_LENGTH_M:
-        raise ModelError(
-            f"joint {link.name!r}: mimic multiplier {multiplier:g} times the range of "
-            f"{driver.name!r} makes a stroke beyond {MAX_LENGTH_M:g} m"
-        )
 
 
 def _finite_multiplier(name: str, mimic: Mimic) -> float:
@@ -404,9 +343,9 @@ class Robot:
             )
         if not links:
             raise ModelError(f"robot {name!r}: a chain needs at least one joint")
-        links = [_checked_link(name, i, link) for i, link in enumerate(links)]
-        T_base = np.eye(4) if base is None else _rigid(as_pose("base", base))
-        T_tool = np.eye(4) if tool is None else _rigid(as_pose("tool", tool))
+        links = [checked_link(name, i, link) for i, link in enumerate(links)]
+        T_base = np.eye(4) if base is None else rigid(as_pose("base", base))
+        T_tool = np.eye(4) if tool is None else rigid(as_pose("tool", tool))
         names = [link.name for link in links]
         if len(set(names)) != len(names):
             raise ModelError(f"robot {name!r}: duplicate joint names in {names}")
@@ -433,7 +372,7 @@ class Robot:
                 raise ModelError(f"joint {link.name!r}: a mimic joint takes no limits")
             driver = joints[index[link.mimic.joint]]
             multiplier = _finite_multiplier(link.name, link.mimic)
-            _check_mimic_range(link, driver, multiplier)
+            check_mimic_range(link, driver.name, driver.lower, driver.upper, multiplier)
             coupling[i, index[link.mimic.joint]] = multiplier
 
         n = len(links)

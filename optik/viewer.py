@@ -26,7 +26,6 @@ from __future__ import annotations
 import contextlib
 import io
 import math
-import socket
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -36,13 +35,14 @@ import numpy as np
 
 from optik._checks import FloatArray, check_bool, check_choice, check_int, check_real
 from optik._closing import Closing
+from optik._viewer_checks import check_bindable, dragged_pose
 from optik.analytic import analytic_ik, family_of
 from optik.drawing import joint_frames, link_points
 from optik.errors import AnalyticIKError, OptikError
 from optik.ik import IKResult, solve_ik
 from optik.model import Robot
 from optik.planning import PathPlan
-from optik.poses import as_target_pose, pose, to_quat_wxyz
+from optik.poses import as_target_pose, to_quat_wxyz
 from optik.solvers import available_solvers
 
 VIEW_MODES = ("pose", "axis", "position")
@@ -125,60 +125,6 @@ def _cylinder_pose(T_axis: FloatArray) -> tuple[FloatArray, FloatArray]:
     return T_axis[:3, 3], to_quat_wxyz(T_axis)
 
 
-def _dragged_pose(position: Any, wxyz: Any) -> FloatArray:
-    """The 4x4 pose of a gizmo update from the page (position (3,) m, quaternion (4,)).
-
-    Raises:
-        OptikError: not 3 and 4 finite numbers, or a zero quaternion.
-    """
-    try:
-        p = np.asarray(position, dtype=float)
-        w = np.asarray(wxyz, dtype=float)
-    except (TypeError, ValueError):
-        raise OptikError("dragged target: position and quaternion must be numbers") from None
-    if p.shape != (3,) or w.shape != (4,):
-        raise OptikError(
-            f"dragged target: expected a position (3,) and a quaternion (4,), got "
-            f"{p.shape} and {w.shape}"
-        )
-    if not (np.all(np.isfinite(p)) and np.all(np.isfinite(w))):
-        raise OptikError("dragged target: position and quaternion must be finite")
-    largest = float(np.max(np.abs(w)))
-    if largest == 0.0:
-        raise OptikError("dragged target: zero quaternion")
-    w = w / largest  # no overflow in the norm (1e308 entries)
-    return pose(p, quat_wxyz=w / float(np.linalg.norm(w)))
-
-
-def _check_bindable(host: str, port: int) -> None:
-    """Refuse an address the server could not listen on, before viser starts.
-
-    viser waits for its server thread without a timeout, and that thread never signals
-    when it cannot bind (an address of another machine, a malformed host, the last port
-    taken): the process would hang.
-
-    Raises:
-        OptikError: ``host`` does not resolve or is not an address of this machine, or
-            ``port`` is taken and no higher port is left to try.
-    """
-    try:
-        infos = socket.getaddrinfo(host, port, type=socket.SOCK_STREAM)
-    except (OSError, UnicodeError) as exc:
-        raise OptikError(f"host {host!r} does not resolve: {exc}") from None
-    family, kind, proto, _, address = infos[0]
-    with socket.socket(family, kind, proto) as probe:
-        try:
-            probe.bind((address[0], 0))
-        except OSError as exc:
-            raise OptikError(f"cannot listen on host {host!r}: {exc.strerror}") from None
-    if port == 65535:  # viser moves to the next port when one is taken: none after this
-        with socket.socket(family, kind, proto) as probe:
-            try:
-                probe.bind((address[0], port))
-            except OSError as exc:
-                raise OptikError(f"port {port} on {host!r} is taken: {exc.strerror}") from None
-
-
 class Viewer(Closing):
     """A local web page that shows a robot and solves IK as its target is dragged.
 
@@ -240,7 +186,7 @@ class Viewer(Closing):
         self.error: str = ""
         """The last error message shown on the page (empty when the last call worked)."""
 
-        _check_bindable(host, port)
+        check_bindable(host, port)
         viser = _viser()
         with _quiet():
             self._server = viser.ViserServer(host=host, port=port, verbose=False)
@@ -592,7 +538,7 @@ class Viewer(Closing):
             return
         handle = event.target
         try:
-            T = _dragged_pose(handle.position, handle.wxyz)
+            T = dragged_pose(handle.position, handle.wxyz)
         except OptikError as exc:  # a malformed update from the page
             self._show_error(str(exc))
             return

@@ -18,6 +18,7 @@ from typing import Any, NoReturn
 import numpy as np
 
 from optik._checks import MAX_LENGTH_M
+from optik.compare.config import MAX_SEED, MAX_TARGETS
 from optik.errors import OptikError
 from optik.model import Robot
 from optik.paths import read_path
@@ -95,12 +96,6 @@ def positive_int(text: str) -> int:
     if value < 1:
         raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {text!r:.40}")
     return value
-
-
-#: Largest ``--seed`` (the planner's bound, so that one seed works for every command).
-MAX_SEED = 2**32 - 1
-#: Largest ``-n`` of ``optik report`` (targets per robot).
-MAX_TARGETS = 1_000_000
 
 
 def length_float(text: str) -> float:

@@ -7,6 +7,7 @@ from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
 from optik._checks import FloatArray, check_bool, check_int, check_real
+from optik.compare.backends import step_backends
 from optik.compare.peer_runs import PeerStatus
 from optik.compare.results import Key, ResultRow, settings_json
 from optik.errors import OptikError
@@ -14,17 +15,13 @@ from optik.peers import UnknownPeerError, peer_names
 from optik.problems import Problem
 from optik.solvers import available_solvers
 
-#: Largest ``n`` and ``closed_form_configs`` (targets or configurations per robot).
+#: Largest ``n`` and ``closed_form_configs`` (targets or configurations per robot; the
+#: CLI's ``-n`` takes the same bound).
 MAX_TARGETS = 1_000_000
-#: Largest ``seed`` (numpy's seeds of the targets take 32 bits).
+#: Largest ``seed`` (numpy's seeds of the targets take 32 bits; the CLI's ``--seed`` too).
 MAX_SEED = 2**32 - 1
 #: Largest ``timeout_s``: a day (the report's figures scale their axes by it).
 MAX_TIMEOUT_S = 86_400.0
-
-
-def available_step_backends() -> tuple[str, ...]:
-    """Step backends installed here (``qp:<name>``, ``casadi:<plugin>``)."""
-    return tuple(available_solvers(kind="step"))
 
 
 __all__ = ["RunConfig", "RunStats", "ik_settings"]
@@ -84,11 +81,11 @@ class RunConfig:
         for name, cap in self.caps.items():
             check_int(f"caps[{name!r}]", cap, **count)
         if self.step_backends is not None:
-            unknown_steps = [b for b in self.step_backends if b not in available_step_backends()]
+            unknown_steps = [b for b in self.step_backends if b not in step_backends()]
             if unknown_steps:
                 raise OptikError(
                     f"unknown or unavailable step backend(s) {unknown_steps}; available: "
-                    f"{list(available_step_backends())}"
+                    f"{list(step_backends())}"
                 )
         if self.mode not in ("pose", "position"):
             raise OptikError(f"mode must be 'pose' or 'position', got {self.mode!r}")
