@@ -149,32 +149,31 @@ def trig_branches(
     """The two branches of ``a cos t + b sin t = c``: ``(count, t_plus, t_minus)``.
 
     ``t+- = atan2(b, a) +- atan2(sqrt(r^2 - c^2), c)`` (seed 000, eq. 20), each wrapped
-    into (-pi, pi] and kept in that order, so a caller can follow one branch:
+    into (-pi, pi] and kept in that order, so a caller can follow one branch. The tests
+    are linear in the coefficients, so they mean the same at every size of ``r``:
 
-    - ``r^2 = a^2 + b^2 <= tol``: every angle solves it, ``(1, free, free)``, when
-      ``c^2 <= tol``; else no root;
-    - otherwise ``gap = (r^2 - c^2) / max(r^2, 1)``, formed as ``(r - |c|)(r + |c|)``
-      without the cancellation of ``a^2 + b^2 - c^2`` (and relative to ``r^2`` when
-      ``r >= 1``, so it cannot overflow): ``gap < -tol`` no root; ``|gap| <= tol`` one
-      tangent root ``atan2(b, a) + atan2(0, c)`` (count 1, both branches equal); else two.
+    - ``r = hypot(a, b) <= tol``: every angle solves it, ``(1, free, free)``, when
+      ``|c| <= tol``; else no root;
+    - otherwise ``gap = (r - |c|) / max(r, 1)`` (absolute below 1: SI inputs round
+      absolutely there): ``gap < -tol`` no root; ``|gap| <= tol`` one tangent root
+      ``atan2(b, a) + atan2(0, c)`` (count 1, both branches equal); else two, the square
+      root formed as ``(r - |c|)(r + |c|)`` without the cancellation of ``a^2 + b^2 -
+      c^2`` (and relative to ``r^2`` when ``r >= 1``, so it cannot overflow).
 
+    Every angle returned leaves a residual ``|a cos t + b sin t - c|`` of at most
+    ``2 tol max(r, 1)``. (A test on ``r^2`` instead would call ``r = 1e-7``, ``c = 0`` a
+    tangent or free case and return an angle a right angle off the roots.)
     Where there is no root both angles are 0.
     """
     r = math.sqrt(a * a + b * b)  # hypot's value without its libm call (O(1) coefficients)
     if not r < 1e150:  # a * a overflowed (or a NaN): the libm call is exact there
         r = math.hypot(a, b)
-    if r * r <= tol:
-        if c * c <= tol:
+    ac = abs(c)
+    if r <= tol:
+        if ac <= tol:
             return 1, free, free
         return 0, 0.0, 0.0
-    ac = abs(c)
-    if r >= 1.0:
-        rho = ac / r
-        gap = (1.0 - rho) * (1.0 + rho)
-        root = r * math.sqrt(gap) if gap > 0.0 else 0.0
-    else:
-        gap = (r - ac) * (r + ac)
-        root = math.sqrt(gap) if gap > 0.0 else 0.0
+    gap = (r - ac) / r if r >= 1.0 else r - ac
     if gap < -tol:
         return 0, 0.0, 0.0
     # atan2(+0, a) is 0 or pi: skip the libm call when b is +0 (a constant b = 0 is common).
@@ -185,6 +184,11 @@ def trig_branches(
     if gap <= tol:
         t = wrap_angle(phi + math.atan2(0.0, c))  # tangent: the root is taken as 0
         return 1, t, t
+    if r >= 1.0:
+        rho = ac / r
+        root = r * math.sqrt((1.0 - rho) * (1.0 + rho))
+    else:
+        root = math.sqrt((r - ac) * (r + ac))
     psi = math.atan2(root, c)
     return 2, wrap_angle(phi + psi), wrap_angle(phi - psi)
 
@@ -198,7 +202,8 @@ def trig_roots(
     First the closed forms' singular-coefficient rule: with ``|a|, |b| <= eps * scale``
     (``scale = max(|a|, |b|, |c|, 1)``) the joint is free, ``(1, free, free)``, when
     ``|c| <= free_tol * scale``, else there is no root. Otherwise :func:`trig_branches`
-    with tolerance ``trig_tol`` (:data:`optik.trig.TRIG_TOL`), the roots in ascending
+    with tolerance ``trig_tol`` (:data:`optik.analytic._base.TANGENT_TOL` for the closed
+    forms, :data:`optik.trig.TRIG_TOL` for :func:`optik.solve_trig`), the roots in ascending
     order. A negative ``eps`` switches the first rule off (:func:`optik.solve_trig`).
     """
     scale = max(abs(a), abs(b), abs(c), 1.0)

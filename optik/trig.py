@@ -10,22 +10,25 @@ which exists when ``c^2 <= r^2`` (eq. 19). No step divides, and ``atan2`` never 
 undefined quotient: this is the point of the seed's method. ``c = 0`` gives eq. 22,
 ``t = atan2(b, a) +/- pi/2``.
 
-Tolerance (``tol``, default :data:`TRIG_TOL` = 1e-12), with ``r^2 = a^2 + b^2``:
+Tolerance (``tol``, default :data:`TRIG_TOL` = 1e-12), with ``r = hypot(a, b)``; every
+test is linear in the coefficients, so it means the same for a wrist centre 1 m or 1e-7 m
+from an axis:
 
-* degenerate coefficients, ``r^2 <= tol``: the equation no longer depends on ``t``.
-  If also ``c^2 <= tol`` every angle solves it (a free joint, e.g. a shoulder whose wrist
+* degenerate coefficients, ``r <= tol``: the equation no longer depends on ``t``.
+  If also ``|c| <= tol`` every angle solves it (a free joint, e.g. a shoulder whose wrist
   centre lies on its axis) and the caller's ``free_value`` is returned, wrapped; else
   there is no solution;
-* otherwise, with ``delta = c^2 - r^2`` and ``scale = max(r^2, 1)``:
-  ``delta > tol * scale``: no solution; ``|delta| <= tol * scale``: one (double, tangent)
-  root ``atan2(b, a) + atan2(0, c)``; ``delta < -tol * scale``: two roots.
+* otherwise, with ``gap = (r - |c|) / max(r, 1)``: ``gap < -tol``: no solution;
+  ``|gap| <= tol``: one (double, tangent) root ``atan2(b, a) + atan2(0, c)``;
+  ``gap > tol``: two roots.
 
-The floor 1 in ``scale`` makes the tolerance absolute for coefficients below 1: inputs
+The floor 1 in ``max(r, 1)`` makes the tolerance absolute for coefficients below 1: inputs
 are taken to be in SI units (metres), whose rounding errors are absolute at that scale.
 Every returned angle then satisfies the equation to a residual
-``|a cos t + b sin t - c| <= 2 sqrt(tol) max(1, r)`` (the tangent and degenerate cases;
-the two-root case is accurate to a few ulps of ``r + |c|``). Pass ``tol=0`` for exact
-tests.
+``|a cos t + b sin t - c| <= 2 tol max(1, r)`` (the tangent and degenerate cases; the
+two-root case is accurate to a few ulps of ``r + |c|``). Pass ``tol=0`` for exact tests.
+(A test on ``r^2`` would take ``r = 1e-7``, ``c = 0`` as free or tangent and answer an
+angle a right angle off its two roots ``atan2(b, a) +/- pi/2``.)
 
 The arithmetic is compiled once, in :func:`optik._math.trig_branches` (the closed forms
 call the same code); the functions here validate their arguments and call it.
@@ -44,7 +47,7 @@ from optik.errors import NonFiniteError, ShapeError
 
 __all__ = ["TRIG_TOL", "solve_trig", "solve_trig_batch", "solve_trig_zero", "wrap_angle"]
 
-#: Default tolerance of :func:`solve_trig`, on ``c^2 - r^2`` relative to ``max(r^2, 1)``.
+#: Default tolerance of :func:`solve_trig`, on ``|c| - r`` relative to ``max(r, 1)``.
 TRIG_TOL: Final[float] = 1e-12
 
 _TWO_PI: Final[float] = 2.0 * math.pi
@@ -125,7 +128,7 @@ def solve_trig_zero(
     """Solve ``a cos t + b sin t = 0`` (seed 000, eq. 21-22): ``t = atan2(b, a) +/- pi/2``.
 
     The special case ``c = 0`` of :func:`solve_trig`: two angles ``pi`` apart when
-    ``a^2 + b^2 > tol``, otherwise ``(free_value,)`` (every angle solves it).
+    ``hypot(a, b) > tol``, otherwise ``(free_value,)`` (every angle solves it).
 
     Args:
         a: coefficient of ``cos t``.

@@ -42,12 +42,12 @@ def test_generated_angle_is_recovered(a: float, b: float, t: float) -> None:
     c = a * math.cos(t) + b * math.sin(t)
     roots = solve_trig(a, b, c)
     assert_well_formed(roots)
-    if r * r <= TRIG_TOL:  # degenerate coefficients: the free-joint answer
+    if r <= TRIG_TOL:  # degenerate coefficients: the free-joint answer
         assert roots == (0.0,)
         return
     assert roots, (a, b, c)
     for u in roots:
-        assert residual(a, b, c, u) <= 2.0 * math.sqrt(TRIG_TOL) * max(1.0, r)
+        assert residual(a, b, c, u) <= 2.0 * TRIG_TOL * max(1.0, r) + 1e-15 * max(1.0, r)
     if 1.0 - (c / r) ** 2 > 1e-6:
         # Clearly two roots: well conditioned (d t = d c / (r |sin(t - phi)|)), so the
         # generating angle is recovered to rounding level and both roots are exact.
@@ -55,8 +55,8 @@ def test_generated_angle_is_recovered(a: float, b: float, t: float) -> None:
         assert min(angular_distance(u, t) for u in roots) <= 1e-9
         for u in roots:
             assert residual(a, b, c, u) <= 1e-14 * max(1.0, r)
-    # Nearer tangency (and in the absolute band of small r) only the residual, which
-    # is the IK position error, is resolvable; it is checked above.
+    # Nearer tangency only the residual, which is the IK position error, is
+    # resolvable; it is checked above.
 
 
 @settings(max_examples=400, deadline=None, derandomize=True)
@@ -66,11 +66,12 @@ def test_every_returned_angle_solves_and_none_means_none(a: float, b: float, c: 
     roots = solve_trig(a, b, c)
     assert_well_formed(roots)
     for u in roots:
-        # documented worst case (tangent / degenerate bands): 2 sqrt(tol) max(1, r)
-        assert residual(a, b, c, u) <= 2.0 * math.sqrt(TRIG_TOL) * max(1.0, r)
+        # documented worst case (tangent / degenerate bands): 2 tol max(1, r), plus
+        # the rounding of the residual itself
+        assert residual(a, b, c, u) <= 2.0 * TRIG_TOL * max(1.0, r) + 1e-15 * max(1.0, r)
     if not roots:
         # no solution: |c| exceeds r beyond the tolerance band
-        assert c * c - r * r > TRIG_TOL * max(r * r, 1.0) * 0.5 or r * r <= TRIG_TOL
+        assert abs(c) - r > TRIG_TOL * max(r, 1.0) * 0.5 or r <= TRIG_TOL
     if len(roots) == 2:
         assert c * c < r * r
 
@@ -108,18 +109,32 @@ def test_tangent_root_is_single_and_correct(phi: float, r: float) -> None:
 
 
 def test_tangent_band_edges() -> None:
-    # scale = max(r^2, 1) = 4 for r = 2: the band on c^2 - r^2 is +/- 4e-12.
+    # For r = 2 the band on (|c| - r) / r is +/- 1e-12.
     r = 2.0
-    inside = math.sqrt(r * r + 1e-12)  # delta = 1e-12 < 4e-12: one root
-    outside = math.sqrt(r * r + 1e-10)  # delta = 1e-10 > 4e-12: no root
-    below = math.sqrt(r * r - 1e-10)  # clearly two roots
+    inside = r * (1.0 + 5e-13)  # one root
+    outside = r * (1.0 + 1e-10)  # no root
+    below = r * (1.0 - 1e-10)  # clearly two roots
     assert len(solve_trig(r, 0.0, inside)) == 1
     assert solve_trig(r, 0.0, outside) == ()
     assert len(solve_trig(r, 0.0, below)) == 2
     # with tol = 0 the exact rules apply
     assert solve_trig(r, 0.0, inside, tol=0.0) == ()
-    # below 1 the tolerance is absolute: r = 0.1, delta = 5e-13 is inside
-    assert len(solve_trig(0.1, 0.0, math.sqrt(0.01 + 5e-13))) == 1
+    # below 1 the band is absolute: r = 0.1, |c| - r = 5e-13 is inside, 5e-12 is not
+    assert len(solve_trig(0.1, 0.0, 0.1 + 5e-13)) == 1
+    assert solve_trig(0.1, 0.0, 0.1 + 5e-12) == ()
+
+
+@pytest.mark.parametrize("r", [1e-9, 1e-7, 1e-5])
+def test_small_coefficients_keep_their_roots(r: float) -> None:
+    # A wrist centre 1e-7 m from a shoulder axis: r = 1e-7, c = 0 has the two roots
+    # phi +/- pi/2. A test on r^2 (1e-14 < 1e-12) would call it free or tangent and
+    # return an angle a right angle off; the linear rule keeps both roots.
+    phi = 0.7
+    roots = solve_trig(r * math.cos(phi), r * math.sin(phi), 0.0, free_value=2.0)
+    assert roots == pytest.approx(sorted((phi - math.pi / 2, phi + math.pi / 2)), abs=1e-9)
+    # and a near-tangent right-hand side keeps two roots while |c| - r exceeds the band
+    c = r * (1.0 - 1e-3)
+    assert len(solve_trig(r * math.cos(phi), r * math.sin(phi), c)) == 2
 
 
 def test_no_solution() -> None:
@@ -137,8 +152,9 @@ def test_degenerate_coefficients() -> None:
     # a = b = 0 != c: no angle
     assert solve_trig(0.0, 0.0, 1.0) == ()
     assert solve_trig(0.0, 0.0, -1e-3) == ()
-    # round-off sized coefficients count as zero (r^2 <= tol) ...
-    assert solve_trig(1e-9, -2e-9, 1e-10, free_value=0.5) == (0.5,)
+    # round-off sized coefficients count as zero (r <= tol and |c| <= tol) ...
+    assert solve_trig(1e-13, -2e-13, 1e-13, free_value=0.5) == (0.5,)
+    assert solve_trig(1e-13, -2e-13, 1e-11) == ()
     # ... unless tol = 0, where the exact equation has two roots
     roots = solve_trig(1e-9, 0.0, 0.0, tol=0.0)
     assert roots == pytest.approx((-math.pi / 2, math.pi / 2), abs=1e-15)
@@ -158,7 +174,7 @@ def test_large_magnitudes_do_not_overflow() -> None:
 def test_zero_right_hand_side_matches_independent_formula(a: float, b: float) -> None:
     # a cos t + b sin t = 0  <=>  (cos t, sin t) = +/-(-b, a) / r
     roots = solve_trig_zero(a, b, free_value=0.1)
-    if a * a + b * b <= TRIG_TOL:
+    if math.hypot(a, b) <= TRIG_TOL:
         assert roots == (0.1,)
         return
     expected = [math.atan2(a, -b), math.atan2(-a, b)]

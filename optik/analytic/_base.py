@@ -15,7 +15,14 @@ from optik.analytic.geometry import DHModel, NoTable, equivalent_dh, revolute_ch
 from optik.errors import AnalyticIKError
 from optik.model import DHJoint, Robot
 from optik.spatial import invert_transform
-from optik.trig import TRIG_TOL
+
+TANGENT_TOL = 1e-11
+"""Tolerance of the closed forms' trig equations (``tol`` of :func:`optik._math.trig_roots`,
+linear: ``|r - |c|| <= TANGENT_TOL max(r, 1)`` is a tangent, double root). Ten times the
+public :data:`optik.trig.TRIG_TOL`: a geometry read from a URDF's 12-digit numbers meets
+its ideal arm only to about 1e-11, and a stretched arm's double root must stay one root
+(two roots ``sqrt(2e-11 / r)`` apart would not give back the stretched configuration).
+Its tangent root leaves a residual of at most 1e-11 m, far inside the FK check."""
 
 SINGULAR_EPS = 1e-12
 """Below this magnitude (relative to ``max(|a|, |b|, |c|, 1)``) a coefficient pair of the
@@ -275,11 +282,11 @@ def angles(a: float, b: float, c: float, free: float) -> tuple[float, ...]:
     ``a = b = 0`` arises at singular configurations (a shoulder over the base, a wrist
     aligned): the joint is then free when ``c = 0`` and the caller's reference is used.
     The compiled :func:`optik._math.trig_roots` with the closed forms' tolerances
-    (:data:`SINGULAR_EPS`, :data:`FREE_RHS_TOL`, :data:`optik.trig.TRIG_TOL`); the
+    (:data:`SINGULAR_EPS`, :data:`FREE_RHS_TOL`, :data:`TANGENT_TOL`); the
     compiled families call it directly.
     """
     n, t1, t2 = trig_roots(
-        float(a), float(b), float(c), float(free), TRIG_TOL, SINGULAR_EPS, FREE_RHS_TOL
+        float(a), float(b), float(c), float(free), TANGENT_TOL, SINGULAR_EPS, FREE_RHS_TOL
     )
     return (float(t1), float(t2))[:n]
 

@@ -10,7 +10,7 @@ transforms held in scalars (:func:`dh_rot`, :func:`mul3`, :func:`times_inverse_d
 Robot data travel as one flat float64 vector, ``params`` (built once per robot by
 :func:`pack_params`; layout in :data:`PARAMS_LAYOUT`), so that a call pays the numba
 dispatcher's per-argument cost for few arguments. ``params`` also carries the tolerances
-read from their home modules (``TRIG_TOL``, ``LIMIT_TOLERANCE``, ...): numba freezes a
+read from their home modules (``TANGENT_TOL``, ``LIMIT_TOLERANCE``, ...): numba freezes a
 global's value into its on-disk cache, which is not invalidated when another module
 changes, so a tolerance defined elsewhere must be passed, never read as a global. (The
 layout indices below are structure, not tolerances: the kernels of the family modules
@@ -45,6 +45,7 @@ from optik.analytic._base import (
     FAMILIES,
     FREE_RHS_TOL,
     SINGULAR_EPS,
+    TANGENT_TOL,
     VERIFY_TOLERANCE,
     WRIST_SINGULAR,
     AnalyticFamily,
@@ -56,7 +57,6 @@ from optik.analytic.geometry import DHModel, joint_axes, wrist_centre
 from optik.errors import AnalyticIKError
 from optik.limits import LIMIT_TOLERANCE
 from optik.spatial import ROTATION_TOLERANCE, invert_transform
-from optik.trig import TRIG_TOL
 
 if TYPE_CHECKING:
     from optik.model import DHJoint, Robot
@@ -101,7 +101,7 @@ AT_SENSES = AT_FLIPPED + 1  # (6,) table variable = sense * q (DHModel.senses)
 AT_WRIST = AT_SENSES + DOF  # (3,) where axes 4, 5, 6 meet, in the tool's frame (m), or NaN
 AT_TOLS = AT_WRIST + 3  # tolerances, in the order of _TOL_NAMES
 _TOL_NAMES = (
-    "TRIG_TOL",  # optik.trig: trig equation tangent / degenerate tests
+    "TANGENT_TOL",  # optik.analytic._base: trig equation tangent / degenerate tests
     "SINGULAR_EPS",  # optik.analytic._base: a = b = 0 in angles()
     "FREE_RHS_TOL",  # optik.analytic._base: c = 0 in angles() (free joint)
     "LIMIT_TOLERANCE",  # optik.limits: slack on a bound
@@ -209,7 +209,7 @@ def tolerance_block() -> FloatArray:
     """The tolerances, from their home modules, in the order of ``_TOL_NAMES``."""
     return np.array(
         [
-            TRIG_TOL,
+            TANGENT_TOL,
             SINGULAR_EPS,
             FREE_RHS_TOL,
             LIMIT_TOLERANCE,
@@ -463,7 +463,7 @@ def store_branch(
 def closed_form_tols(tols: np.ndarray) -> tuple[float, float, float, float]:
     """The closed forms' tolerances from the tolerance block (:func:`tolerances`).
 
-    ``(TRIG_TOL, SINGULAR_EPS, FREE_RHS_TOL, WRIST_SINGULAR)``; the first three are
+    ``(TANGENT_TOL, SINGULAR_EPS, FREE_RHS_TOL, WRIST_SINGULAR)``; the first three are
     :func:`optik._math.trig_roots`'s.
     """
     return tols[TOL_TRIG], tols[TOL_SINGULAR], tols[TOL_FREE_RHS], tols[TOL_WRIST]

@@ -205,7 +205,16 @@ def free_joint_fallback(
         polished = polish(robot, T_target, "pose", starts, 0.1 * VERIFY_TOLERANCE, held=k)
         kept = [q for q, ok in zip(raw, exact.tolist(), strict=True) if ok]
         branches = _finish(robot, kept + polished, T_target, "pose", ref, sort, within, held)
-    if branches or not within or not np.any(exact):
+    if branches or not raw:
+        return branches
+    if not np.any(exact):
+        # Nothing verified nor polished: where a singularity left an angle free (the
+        # candidates change with the reference) its reference's value may be the one
+        # from which no Gauss-Newton step reaches the target (the iiwa held at joint 1,
+        # its elbow 1e-8 rad from straight: the bend is below the distance equation's
+        # resolution, and it points the right way only with the free angle turned).
+        return _polished_from_references(robot, plan, value, T_target, ref, sort, within, raw)
+    if not within:
         return branches
     # Branches exist, all outside the limits. At a singularity a free angle took the
     # reference and pushed a dependent one out: other references for the free angles.
@@ -234,7 +243,44 @@ def free_joint_fallback(
 
 _FREE_RETRIES = (0.5, 0.25, 0.75, 0.1, 0.9)
 """References (fractions of each joint's range) retried for the angles a singularity
-leaves free, when the reference's own choice puts every branch outside the limits."""
+leaves free, when the reference's own choice puts every branch outside the limits or
+leaves every candidate where no polish reaches the target."""
+
+
+def _polished_from_references(
+    robot: Robot,
+    plan: free_joint.FreeJointPlan,
+    value: float,
+    T_target: FloatArray,
+    ref: FloatArray,
+    sort: bool,
+    within: bool,
+    raw: list[FloatArray],
+) -> list[FloatArray]:
+    """The first of :data:`_FREE_RETRIES`' references whose polished candidates verify.
+
+    ``raw`` holds the reference's own candidates: another reference that gives the same
+    ones shows that no angle is free, and the search stops (a target out of reach costs
+    one more closed-form call).
+    """
+    k = plan.held
+    for fraction in _FREE_RETRIES:
+        trial = np.where(
+            np.isfinite(robot.lower + robot.upper),
+            robot.lower + fraction * (robot.upper - robot.lower),
+            ref,
+        )
+        trial[k] = value
+        if np.array_equal(trial, ref):
+            continue
+        candidates = free_joint_raw(plan, value, T_target, trial)
+        if np.array_equal(np.array(candidates), np.array(raw), equal_nan=True):
+            return []
+        polished = polish(robot, T_target, "pose", candidates, 0.1 * VERIFY_TOLERANCE, held=k)
+        found = _finish(robot, polished, T_target, "pose", ref, sort, within, (k, value))
+        if found:
+            return found
+    return []
 
 
 def free_joint_raw(
