@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from optik._pyplot import pyplot
+from optik.drawing import save_figure
 from optik.errors import OptikError
 
 if TYPE_CHECKING:
@@ -239,10 +240,7 @@ def plot_reachability(
     ax.legend(loc="upper right", fontsize=8)
     ax.set_title(f"Reachability, slice {axis} = {level:.3g} m")
     fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path)
 
 
 def plot_planar_trajectory(
@@ -285,7 +283,4 @@ def plot_planar_trajectory(
     ax.set_title(f"IK trajectory: {K - 1} iterations, arm drawn every {step}")
     ax.legend(loc="lower right", fontsize=8)
     fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path)

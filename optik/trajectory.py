@@ -53,8 +53,10 @@ if TYPE_CHECKING:
     from optik.planning import PathPlan
 
 __all__ = [
+    "MAX_RATE_LIMIT",
     "MAX_TRAJECTORY_SAMPLES",
     "MERGE_TOLERANCE",
+    "MIN_RATE_LIMIT",
     "Trajectory",
     "TrajectorySegment",
     "plan_trajectory",
@@ -62,6 +64,13 @@ __all__ = [
 
 MAX_TRAJECTORY_SAMPLES = 10_000_000
 """Most samples a trajectory may hold (10 million samples of a 6-joint robot are 1.5 GB)."""
+
+MIN_RATE_LIMIT = 1e-9
+"""Smallest accepted velocity or acceleration limit (rad or m per s, or per s^2): the time
+scale of a segment, about its length over the limit, is squared on the way to TOPP-RA,
+which must stay finite."""
+MAX_RATE_LIMIT = 1e9
+"""Largest accepted velocity or acceleration limit (same units)."""
 
 MERGE_TOLERANCE = 1e-6
 """Waypoints of a segment closer than this fraction of its joint-space chord length are one."""
@@ -353,7 +362,8 @@ def rate_limits(
     """Per-joint limits (dof,): ``given`` (a scalar or one per joint), else ``known``.
 
     Raises:
-        OptikError: ``given`` of the wrong length, NaN, infinite, zero or negative; or
+        OptikError: ``given`` of the wrong length, NaN, or outside [:data:`MIN_RATE_LIMIT`,
+            :data:`MAX_RATE_LIMIT`]; or
             ``given`` is ``None`` and some joint has no known limit (the message names the
             joints and how to give them).
     """
@@ -378,10 +388,13 @@ def rate_limits(
         values = np.full(dof, float(values))
     if values.shape != (dof,):
         raise ShapeError(name, f"a scalar or ({dof},), one per joint {tuple(names)}", values.shape)
-    bad = ~(np.isfinite(values) & (values > 0))
+    bad = ~((values >= MIN_RATE_LIMIT) & (values <= MAX_RATE_LIMIT))
     if bad.any():
         joints = [f"{n}={v!r}" for n, v, b in zip(names, values.tolist(), bad, strict=True) if b]
-        raise OptikError(f"{name}: limits must be finite and positive, got {', '.join(joints)}")
+        raise OptikError(
+            f"{name}: limits must lie in [{MIN_RATE_LIMIT:g}, {MAX_RATE_LIMIT:g}] "
+            f"(rad or m per s, or per s^2), got {', '.join(joints)}"
+        )
     return values
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import shutil
 import sys
 import threading
 import types
@@ -259,6 +260,58 @@ def test_a_damaged_marker_file_is_named_on_open_and_on_resume(tmp_path: Path) ->
         capability_map(two_link_robot(), out=out, resume=True, **options)
 
 
+def test_missing_markers_or_a_damaged_data_chunk_are_named(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A map without its chunk markers is not taken as finished (nor resumed), and a data
+    chunk that cannot be decoded is an OptikError naming the map and the variable: on
+    the command line (exit 2), through base_placement(map=path), and read_variable."""
+    from optik.cli import main
+
+    box = [[-2.0, 2.0], [-2.0, 2.0], [-0.01, 0.01]]
+    options: dict[str, Any] = {"voxel": 0.2, "bounds": box, "mode": "position", "restarts": 2}
+    robot = two_link_robot()
+    out = tmp_path / "map.zarr"
+    capability_map(robot, out=out, **options)
+    no_markers = tmp_path / "no_markers.zarr"
+    shutil.copytree(out, no_markers)
+    shutil.rmtree(no_markers / "chunk_done")
+    with pytest.raises(OptikError, match="no chunk markers"):
+        open_map(no_markers)
+    with pytest.raises(OptikError, match=r"not a capability map to resume .*no chunk_done"):
+        capability_map(robot, out=no_markers, resume=True, **options)
+    _damage_a_chunk(out / "reachability")
+    ds = open_map(out)  # the markers are whole: it opens, and reads lazily
+    with pytest.raises(OptikError, match="damaged capability map, 'reachability' cannot be read"):
+        capability.read_variable(ds, "reachability", str(out))
+    with pytest.raises(OptikError, match="damaged capability map") as placed:
+        base_placement(robot, np.array([[0.5, 0.5, 0.0]]), map=out, top=0)
+    assert str(out) in str(placed.value)
+    cli_out = tmp_path / "cli.zarr"
+    argv = ["map", "planar_2r", "--voxel", "0.5", "--mode", "position", "--out", str(cli_out)]
+    assert main(argv) == 0
+    _damage_a_chunk(cli_out / "reachability")
+    capsys.readouterr()
+    assert main([*argv, "--resume"]) == 2
+    assert "damaged capability map, 'reachability' cannot be read" in capsys.readouterr().err
+
+
+def _damage_a_chunk(variable: Path) -> None:
+    chunk = next(f for f in variable.rglob("*") if f.is_file() and f.name != "zarr.json")
+    chunk.write_bytes(b"\x00\x01")
+
+
+def test_a_chunk_too_large_for_memory_is_refused_before_any_file(tmp_path: Path) -> None:
+    """The whole map goes to Zarr chunk by chunk, but one chunk is still held in memory:
+    (221 x 221 columns x 100 orientations with q) would ask numpy for 48 GiB."""
+    out = tmp_path / "big.zarr"
+    with pytest.raises(OptikError, match=r"one chunk of .* GiB in memory"):
+        capability_map(
+            robot_of("ur5"), voxel=0.01, orientations=100, keep_q=True, chunk=300, out=out
+        )
+    assert not out.exists()
+
+
 def test_the_threads_write_the_map_and_the_client_only_what_they_cannot(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -370,6 +423,30 @@ def test_base_placement_ranks_and_reverifies_by_the_annulus(two_link_map: Any) -
     assert result.best.verified == 1.0 and result.best.coverage == 1.0
     scores = [(p.coverage, p.score) for p in result.placements[15:]]
     assert scores == sorted(scores, reverse=True)
+
+
+def test_base_placement_in_small_blocks_ranks_as_in_one(
+    two_link_map: Any, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Candidates x task poses are looked up block by block (8 million floor candidates
+    and 20 task poses asked numpy for 19 GiB at once): blocks of one or a few candidates,
+    and rows split inside a block, give the one-block ranking exactly."""
+    from optik.campaign import placement
+
+    robot = two_link_robot()
+    tasks = np.array([[2.0, 0.5, 0.0], [2.3, -0.4, 0.0], [1.6, -0.2, 0.0]])
+    options: dict[str, Any] = {"region": [[0.5, 3.5], [-1.5, 1.5]], "step": 0.2, "yaws": 3}
+    whole = base_placement(robot, tasks, map=two_link_map, top=0, **options)
+    for entries in (1, 7):  # 1: one row per lookup, one candidate per block
+        monkeypatch.setattr(placement, "LOOKUP_ENTRIES", entries)
+        blocked = base_placement(robot, tasks, map=two_link_map, top=0, **options)
+        assert [(p.coverage, p.score) for p in blocked.placements] == [
+            (p.coverage, p.score) for p in whole.placements
+        ]
+        assert all(
+            np.array_equal(a.T_cell_base, b.T_cell_base)
+            for a, b in zip(blocked.placements, whole.placements, strict=True)
+        )
 
 
 def test_base_placement_checks_its_map(two_link_map: Any) -> None:

@@ -174,6 +174,17 @@ def test_plots_render(tmp_path) -> None:  # type: ignore[no-untyped-def]
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     with pytest.raises(OptikError, match="axis"):
         result.plot_slice(tmp_path / "bad.png", "w")
+    # written whole or not at all, with the reason as an OptikError (not matplotlib's)
+    (tmp_path / "folder.png").mkdir()
+    (tmp_path / "afile").write_text("")
+    for bad, reason in (
+        ("slice.xyz", "cannot write 'xyz' images"),
+        ("folder.png", "it is a folder"),
+        ("afile/slice.png", "is a file, not a folder"),
+    ):
+        with pytest.raises(OptikError, match=reason):
+            result.plot_slice(tmp_path / bad)
+    assert not (tmp_path / "slice.xyz").exists()
 
 
 @pytest.mark.parametrize(

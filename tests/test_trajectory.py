@@ -301,10 +301,13 @@ def test_repeated_and_single_waypoints(puma: Robot) -> None:
 @pytest.mark.parametrize(
     ("velocity", "acceleration", "match"),
     [
-        (-1.0, 2.0, "finite and positive"),
-        (np.array([1.0, 1.0, np.nan, 1.0, 1.0, 1.0]), 2.0, "finite and positive"),
-        (1.0, np.array([2.0, 0.0, 2.0, 2.0, 2.0, 2.0]), "finite and positive"),
-        (math.inf, 2.0, "finite and positive"),
+        (-1.0, 2.0, "must lie in"),
+        (np.array([1.0, 1.0, np.nan, 1.0, 1.0, 1.0]), 2.0, "must lie in"),
+        (1.0, np.array([2.0, 0.0, 2.0, 2.0, 2.0, 2.0]), "must lie in"),
+        (math.inf, 2.0, "must lie in"),
+        # 1e-155: the time scale squared overflowed (a bare OverflowError)
+        (1e-155, 1.0, r"velocity_limits: limits must lie in \[1e-09"),
+        (1.0, 1e10, r"acceleration_limits: limits must lie in \[1e-09, 1e\+09\]"),
         (np.ones(5), 2.0, "one per joint"),
         (1.0, np.ones((6, 2)), "one per joint"),
         ("fast", 2.0, "velocity_limits"),
@@ -466,6 +469,12 @@ def test_optik_plan_trajectory_writes_csv_and_ros_json(tmp_path: Path) -> None:
     assert not (tmp_path / "x" / "plan.csv").exists()
     assert main([*args, "--trajectory", "--acceleration-limits", "1", "2", "--out", str(out)]) == 2
     assert main([*args, "--velocity-limits", "1", "--out", str(out)]) == 2
+    # Limits the trajectory cannot meet (more than MAX_TRAJECTORY_SAMPLES samples): exit
+    # 2 before any file is written, not after the plan's files.
+    slow = tmp_path / "slow"
+    limits = ["--velocity-limits", "1e-6", "--acceleration-limits", "1e-6"]
+    assert main([*args, "--trajectory", *limits, "--out", str(slow)]) == 2
+    assert not slow.exists() or not any(slow.iterdir())
 
 
 def test_at_checks_its_arguments(puma_trajectory: Trajectory) -> None:

@@ -311,6 +311,27 @@ def _check_memory(spec: MapSpec) -> None:
         )
 
 
+def _check_chunk_memory(spec: MapSpec) -> None:
+    """Refuse a chunk larger than :data:`MAX_MEMORY_BYTES` to solve, before solving any.
+
+    A chunk holds ``chunk x chunk`` columns of voxels, every sample of each (``reached``,
+    and ``q`` with ``keep_q``), and one row of them at a time as poses and answers.
+    """
+    nx, ny, nz = spec.shape
+    bx, by = min(spec.chunk, nx), min(spec.chunk, ny)
+    dof = spec.robot.dof
+    per_sample = 1 + (8 * dof if spec.keep_q else 0)
+    per_row_sample = 16 * 8 + 3 * 8 * dof  # a pose, and the batch's answers
+    size = float(bx * by * nz * spec.samples) * per_sample
+    size += float(by * nz * spec.samples) * per_row_sample
+    if size > MAX_MEMORY_BYTES:
+        raise OptikError(
+            f"one chunk of {bx} x {by} columns would take {size / 2**30:.3g} GiB in memory, "
+            f"more than {MAX_MEMORY_BYTES / 2**30:g} GiB: give a smaller chunk, a larger "
+            "voxel, or fewer orientations"
+        )
+
+
 class MemoryMapStore:
     """A map in NumPy arrays (no ``out``): the same layout as :class:`MapStore`."""
 
@@ -494,8 +515,14 @@ class MapStore:
         try:
             group = zarr.open_group(store=str(path), mode="r+")
             stored = dict(group.attrs.get("settings", {}))
+            missing = [name for name in (_DONE, "reached", "reachability") if name not in group]
         except Exception as exc:  # not a Zarr group, or a damaged one
             raise OptikError(f"{path}: not a capability map to resume ({exc})") from None
+        if missing:
+            raise OptikError(
+                f"{path}: not a capability map to resume (no {', '.join(missing)}: a damaged "
+                "map; delete it and compute it again)"
+            )
         check_same_run(str(path), stored, settings)
         return cls(group, spec, str(Path(path).resolve()))
 
@@ -538,21 +565,41 @@ def open_map(path: str | Path) -> Any:
         path: the map's Zarr folder.
 
     Raises:
-        OptikError: ``path`` is not a finished map, its chunk markers cannot be read (a
-            damaged map), or the cluster extra is missing.
+        OptikError: ``path`` is not a finished map, its chunk markers are missing or
+            cannot be read (a damaged map), or the cluster extra is missing. The data are
+            read lazily: a damaged data chunk raises when it is read
+            (:func:`read_variable` says which, as an OptikError).
     """
     xr = require("xarray", "a capability map")
     try:
         ds = xr.open_zarr(str(path), consolidated=False)
     except Exception as exc:
         raise OptikError(f"{path}: not a capability map ({exc})") from None
-    if _DONE in ds:
-        # Read by zarr at once, not through a dask graph (60 ms of the client's CPU).
-        marker = require_zarr("a capability map").open_array(store=str(path), path=_DONE, mode="r")
-        if not bool(np.all(_read_markers(marker, str(path)))):
-            raise OptikError(f"{path}: the map is unfinished (resume the run to finish it)")
-        ds = ds.drop_vars(_DONE)
-    return ds
+    if _DONE not in ds:
+        raise OptikError(
+            f"{path}: no chunk markers ({_DONE}): not a map written by capability_map(out=...), "
+            "or a damaged one"
+        )
+    # Read by zarr at once, not through a dask graph (60 ms of the client's CPU).
+    marker = require_zarr("a capability map").open_array(store=str(path), path=_DONE, mode="r")
+    if not bool(np.all(_read_markers(marker, str(path)))):
+        raise OptikError(f"{path}: the map is unfinished (resume the run to finish it)")
+    return ds.drop_vars(_DONE)
+
+
+def read_variable(ds: Any, name: str, where: str) -> np.ndarray:
+    """``ds[name]`` of a map, loaded (a stored map is read lazily, chunk by chunk).
+
+    Raises:
+        OptikError: a chunk of it cannot be read (a damaged map), naming ``where``.
+    """
+    try:
+        return np.asarray(ds[name].values)
+    except Exception as exc:  # zarr's codecs raise what they raise (Zstd: RuntimeError)
+        raise OptikError(
+            f"{where}: damaged capability map, {name!r} cannot be read ({exc}); delete the "
+            "map and compute it again"
+        ) from None
 
 
 # ---------------------------------------------------------------------------- the API
@@ -673,6 +720,7 @@ def capability_map(
     )  # fmt: skip
     if target is None:
         _check_memory(spec)
+    _check_chunk_memory(spec)
     with open_engine(client=client, workers=workers, scheduler=scheduler) as engine:
         spec = replace(spec, threads=engine.threads_for(len(spec.blocks)))
         settings = _settings(spec, float(voxel), int(orientations), int(rolls))
@@ -724,5 +772,6 @@ __all__ = [
     "capability_map",
     "manipulability",
     "open_map",
+    "read_variable",
     "solve_block",
 ]

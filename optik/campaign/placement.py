@@ -22,6 +22,7 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -33,7 +34,7 @@ from optik._checks import (
     check_length_array,
     check_real,
 )
-from optik.campaign.capability import open_map
+from optik.campaign.capability import open_map, read_variable
 from optik.campaign.engine import open_engine
 from optik.campaign.sampling import AXES
 from optik.errors import OptikError, ShapeError
@@ -155,42 +156,118 @@ def planar_candidates(region: Any, step: Any, yaws: Any, height: Any = 0.0) -> F
     return out.reshape(-1, 4, 4)
 
 
+LOOKUP_ENTRIES = 2**22
+"""Most (pose, sample orientation) pairs compared at once in a map lookup: 32 MB of
+scores, whatever the number of candidates, task poses and orientations."""
+
+
+@dataclass(frozen=True)
+class MapGrids:
+    """The arrays of a capability map that a lookup reads, loaded once.
+
+    Attributes:
+        voxel: the voxel edge (m).
+        mode: the map's task mode.
+        axis: the tool axis of an ``axis`` map.
+        coords: the voxel centres along x, y and z (m).
+        samples: (S, 3, 3) the sampled orientations.
+        reached: (nx, ny, nz, S) whether each sample was reached.
+        index: (nx, ny, nz) the reachability index of each voxel.
+    """
+
+    voxel: float
+    mode: str
+    axis: str
+    coords: tuple[np.ndarray, np.ndarray, np.ndarray]
+    samples: np.ndarray
+    reached: np.ndarray
+    index: np.ndarray
+
+
+def map_grids(ds: Any, where: str = "the map") -> MapGrids:
+    """:class:`MapGrids` of a capability map (an :class:`xarray.Dataset`).
+
+    Raises:
+        OptikError: a chunk of the map cannot be read (a damaged stored map).
+    """
+    settings = ds.attrs["settings"]
+    x, y, z = (read_variable(ds, a, where) for a in ("x", "y", "z"))
+    return MapGrids(
+        float(settings["voxel_m"]),
+        settings["mode"],
+        settings.get("axis", "z"),
+        (x, y, z),
+        read_variable(ds, "rotation", where),
+        read_variable(ds, "reached", where),
+        read_variable(ds, "reachability", where),
+    )
+
+
 def map_cells(ds: Any, T_robot_tool: FloatArray) -> tuple[np.ndarray, np.ndarray]:
     """The map cell of each tool pose (robot frame): reached? and the voxel's index.
 
     Args:
-        ds: a capability map.
+        ds: a capability map, or its :class:`MapGrids`.
         T_robot_tool: (..., 4, 4) tool poses in the robot's frame (m).
 
     Returns:
         ``(reached, index)``, each of shape ``(...)``: whether the nearest sample was
         reached, and the voxel's reachability index (0 outside the grid).
     """
-    settings = ds.attrs["settings"]
-    voxel = float(settings["voxel_m"])
-    coords = [ds[a].values for a in ("x", "y", "z")]
+    grids = ds if isinstance(ds, MapGrids) else map_grids(ds)
     shape = T_robot_tool.shape[:-2]
-    P = T_robot_tool[..., :3, 3].reshape(-1, 3)
-    idx = [np.rint((P[:, i] - coords[i][0]) / voxel).astype(np.int64) for i in range(3)]
+    T = T_robot_tool.reshape(-1, 4, 4)
+    reached = np.empty(len(T), dtype=bool)
+    index = np.empty(len(T))
+    rows = max(1, LOOKUP_ENTRIES // max(len(grids.samples), 1))
+    for start in range(0, len(T), rows):
+        part = slice(start, start + rows)
+        reached[part], index[part] = _cells(grids, T[part])
+    return reached.reshape(shape), index.reshape(shape)
+
+
+def _cells(grids: MapGrids, T: FloatArray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`map_cells` of (N, 4, 4) poses, at once."""
+    coords = grids.coords
+    P = T[:, :3, 3]
+    idx = [np.rint((P[:, i] - coords[i][0]) / grids.voxel).astype(np.int64) for i in range(3)]
     inside = np.ones(len(P), dtype=bool)
     for i in range(3):
         inside &= (idx[i] >= 0) & (idx[i] < len(coords[i]))
         idx[i] = np.clip(idx[i], 0, len(coords[i]) - 1)
-    mode = settings["mode"]
-    R = T_robot_tool[..., :3, :3].reshape(-1, 3, 3)
-    samples = ds["rotation"].values
-    if mode == "position":
+    R = T[:, :3, :3]
+    samples = grids.samples
+    if grids.mode == "position":
         nearest = np.zeros(len(P), dtype=np.int64)
-    elif mode == "axis":
-        k = AXES.index(settings["axis"])
+    elif grids.mode == "axis":
+        k = AXES.index(grids.axis)
         nearest = np.argmax(R[:, :, k] @ samples[:, :, k].T, axis=1)
     else:  # the smallest relative angle: the largest trace(R_s^T R)
         nearest = np.argmax(np.einsum("nij,sij->ns", R, samples), axis=1)
-    reached_grid = np.asarray(ds["reached"].values)
-    index_grid = np.asarray(ds["reachability"].values)
-    reached = reached_grid[idx[0], idx[1], idx[2], nearest] & inside
-    index = np.where(inside, index_grid[idx[0], idx[1], idx[2]], 0.0)
-    return reached.reshape(shape), index.reshape(shape)
+    reached = grids.reached[idx[0], idx[1], idx[2], nearest] & inside
+    index = np.where(inside, grids.index[idx[0], idx[1], idx[2]], 0.0)
+    return reached, index
+
+
+def _votes(grids: MapGrids, bases: FloatArray, tasks: FloatArray) -> tuple[np.ndarray, np.ndarray]:
+    """Each candidate's ``(coverage, score)`` (K,) over the task poses, block by block.
+
+    A block of candidates holds about :data:`LOOKUP_ENTRIES` (pose, orientation) pairs,
+    so memory stays bounded for any number of candidates and task poses.
+    """
+    K, n_tasks = len(bases), len(tasks)
+    coverage = np.empty(K)
+    score = np.empty(K)
+    inverse = invert_transform(bases)
+    block = max(1, LOOKUP_ENTRIES // (n_tasks * max(len(grids.samples), 1)))
+    for start in range(0, K, block):
+        part = slice(start, start + block)
+        # (k, P, 4, 4): every task pose seen from each candidate, in the robot's frame.
+        local = np.einsum("kij,pjl->kpil", inverse[part], tasks)
+        reached, index = map_cells(grids, local)
+        coverage[part] = reached.mean(axis=1)
+        score[part] = np.where(reached, index, 0.0).mean(axis=1)
+    return coverage, score
 
 
 @dataclass(frozen=True)
@@ -300,11 +377,8 @@ def base_placement(
         if len(bases) == 0:
             raise OptikError("candidates: give at least one base pose")
         check_length_array("candidates translation", bases[:, :3, 3])
-    # (K, P, 4, 4): every task pose seen from every candidate, in the robot's frame.
-    local = np.einsum("kij,pjl->kpil", invert_transform(bases), tasks)
-    reached, index = map_cells(ds, local)
-    coverage = reached.mean(axis=1)
-    score = np.where(reached, index, 0.0).mean(axis=1)
+    where = str(map) if isinstance(map, (str, Path)) else "map"
+    coverage, score = _votes(map_grids(ds, where), bases, tasks)
     order = np.lexsort((-score, -coverage))
     placements = [Placement(bases[k], float(coverage[k]), float(score[k])) for k in order]
     chosen = placements[:top]
@@ -334,10 +408,13 @@ def _task_poses(task_poses: Any) -> FloatArray:
 
 
 __all__ = [
+    "LOOKUP_ENTRIES",
     "MAX_CANDIDATES",
     "BasePlacements",
+    "MapGrids",
     "Placement",
     "base_placement",
     "map_cells",
+    "map_grids",
     "planar_candidates",
 ]

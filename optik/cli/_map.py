@@ -9,6 +9,7 @@ import numpy as np
 
 from optik._files import check_folder
 from optik.campaign import capability_map, plot_map
+from optik.campaign.capability import read_variable
 from optik.cli._campaign import add_campaign_ik_arguments, add_engine_arguments, run_campaign
 from optik.cli._common import (
     EXIT_OK,
@@ -37,8 +38,9 @@ def _cmd_map(args: argparse.Namespace) -> int:
         keep_q=args.keep_q,
     )
     settings = ds.attrs["settings"]
-    inside = ds["inside"].values
-    index = ds["reachability"].values
+    where = str(args.out) if args.out is not None else "the map"
+    inside = read_variable(ds, "inside", where)
+    index = read_variable(ds, "reachability", where)
     samples = int(inside.sum()) * int(settings["samples_per_voxel"])
     print(
         f"{problem.name}: {settings['mode']} map, voxel {settings['voxel_m']:g} m, "

@@ -94,9 +94,14 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     for status in PLAN_STATUSES:
         if summary[status]:
             print(f"  {status:<16}{summary[status]}")
+    # The trajectory before any file: a limit it cannot meet leaves the folder untouched.
+    trajectory = _trajectory(plan, robot, args) if args.trajectory else None
     written = [plan.save(out / f"plan.{ext}") for ext in ("csv", "npz", "json")]
-    if args.trajectory:
-        written += _write_trajectory(plan, robot, args, out)
+    if trajectory is not None:
+        written += [
+            trajectory.save(out / "trajectory.csv"),
+            trajectory.save(out / "trajectory.json"),
+        ]
     try:
         written.append(plan.plot(out / "plan.png", robot))
     except OptikError as exc:  # pragma: no cover - only without matplotlib
@@ -105,8 +110,8 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _write_trajectory(plan: Any, robot: Any, args: argparse.Namespace, out: Any) -> list[Any]:
-    """``--trajectory``: the time-optimal trajectory as OUT/trajectory.csv and .json."""
+def _trajectory(plan: Any, robot: Any, args: argparse.Namespace) -> Any:
+    """``--trajectory``: the time-optimal trajectory (written as OUT/trajectory.csv, .json)."""
     trajectory = plan.to_trajectory(*_trajectory_limits(robot, args), robot=robot)
     print(
         f"  trajectory: {len(trajectory.segments)} segment(s), {trajectory.duration:.4g} s "
@@ -117,7 +122,7 @@ def _write_trajectory(plan: Any, robot: Any, args: argparse.Namespace, out: Any)
             f"    waypoints {seg.first}-{seg.last}: {seg.duration:.4g} s, tool within "
             f"{seg.position_deviation:.3g} m / {seg.orientation_deviation:.3g} rad of the path"
         )
-    return [trajectory.save(out / "trajectory.csv"), trajectory.save(out / "trajectory.json")]
+    return trajectory
 
 
 def _trajectory_limits(robot: Any, args: argparse.Namespace) -> tuple[Any, Any]:
