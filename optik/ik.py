@@ -335,10 +335,15 @@ def solve_ik(
         limit_margin=limit_margin, mode=mode, axis=axis, weights=weights, tol=tol,
     )  # fmt: skip
     check_choice("select", select, ("first", "nearest"))
+    if posture is not None:  # checked before any answer, an early one included
+        q_ref = finite_array("posture", posture, (robot.dof,))
+        norm = check_joint_weights(joint_weights, robot.dof)
+    elif joint_weights is not None:
+        raise OptikError("joint_weights is the norm of posture: give posture too")
     if plan.early is not None:
         return plan.early
     if posture is not None:
-        return _posture_answer(plan, posture, joint_weights)
+        return _posture_answer(plan, q_ref, norm)
     if plan.branches and plan.numeric is None:
         return _answer(plan, plan.branches[0], "analytic")
     numeric = plan.numeric or get_solver(AUTO_NUMERIC_SOLVER)
@@ -352,11 +357,8 @@ def solve_ik(
     return _answer(plan, nearest[0], numeric.name, last_run.iterations, last_run.restarts)
 
 
-def _posture_answer(plan: _Plan, posture: Any, joint_weights: Any) -> IKResult:
-    """The answer of :func:`solve_ik` with a ``posture`` (see its docstring)."""
-    robot = plan.query.robot
-    q_ref = finite_array("posture", posture, (robot.dof,))
-    weights = check_joint_weights(joint_weights, robot.dof)
+def _posture_answer(plan: _Plan, q_ref: FloatArray, weights: FloatArray) -> IKResult:
+    """The answer of :func:`solve_ik` with a checked ``posture`` and its norm's weights."""
     if plan.branches and plan.numeric is None:
         found = [(q, 0, 0) for q in plan.branches]
         solver_name = "analytic"
@@ -722,11 +724,14 @@ def _collect(
         )
         iterations += run.iterations
         first += run.restarts + 1
-        if verify_one(plan.query.robot, run.q, plan.query.target, plan.query.spec)[3]:
-            found = _distinct([*found, (run.q, iterations, first - 1)], min_separation)
-            if want is not None and len(found) >= want:
-                break
-        if not run.converged or budget_now() > plan.deadline:
+        # A run stops at its first verified answer, whatever the backend claims (CasADi's
+        # iteration cap on an answer optik verifies): the next run goes on from there.
+        if not verify_one(plan.query.robot, run.q, plan.query.target, plan.query.spec)[3]:
+            break  # every start left was tried, or the deadline passed
+        found = _distinct([*found, (run.q, iterations, first - 1)], min_separation)
+        if want is not None and len(found) >= want:
+            break
+        if budget_now() > plan.deadline:
             break
     if run is None:  # pragma: no cover - the budget always admits one attempt
         raise OptikError("no IK attempt ran")

@@ -392,9 +392,12 @@ class _CandidateFinder:
         self.analytic = family is not None and path_task.analytic_ok and self.mode in family.modes
         # Whether an empty branch set is a proof (not for the numerical general_6r).
         self.proves = self.analytic and family is not None and family.proves_unreachable
-        # The free roll of an axis task, solved by the full-pose closed form.
+        # The free roll of an axis task, solved by the full-pose closed form: a fast one
+        # (the roll's search solves it hundreds of times a waypoint; general_6r's 2 ms
+        # each made 2 to 6 s a waypoint, where the numeric search takes milliseconds).
         self.roll = (
             family is not None
+            and family.fast
             and not path_task.frozen.any()
             and solves_axis_task(family, path_task.task)
         )

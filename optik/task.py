@@ -177,6 +177,7 @@ def _weights_key(weights: Any) -> tuple[Any, ...] | None:
 def _make_task(mode: Any, axis: Any, weights: Any, tol: Any) -> Task:
     """:func:`make_task` without the cache of tasks without weights."""
     check_choice("mode", mode, MODES)
+    given_mode = mode
     axis_name = check_choice("axis", axis, AXES)
     position_tol, orientation_tol = _parse_tol(tol)
     if weights is None:
@@ -212,6 +213,13 @@ def _make_task(mode: Any, axis: Any, weights: Any, tol: Any) -> Task:
             mode = pattern
         if pattern != mode:
             raise OptikError(f"weights {w.tolist()} do not describe mode {mode!r} ({pattern})")
+        if mode == "axis" and given_mode == "axis" and AXES[zeros[0]] != axis_name:
+            # Never guessed: the weights' free rotation and the axis named must agree.
+            raise OptikError(
+                f"axis={axis_name!r} (the default is 'z') but the weights {w.tolist()} free "
+                f"the rotation about {AXES[zeros[0]]}: give axis={AXES[zeros[0]]!r}, or "
+                f"weights whose zero rotational weight is on {axis_name}"
+            )
         if mode == "axis":
             axis_name = AXES[zeros[0]]
     if not np.any(w > 0.0):

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import optik
-from optik.errors import OptikError
+from optik.errors import OptikError, SolverError
 from optik.problems import builtin_problems
 
 DT = 0.01  # s
@@ -187,3 +187,54 @@ def test_joint_weights_far_apart_within_their_range_are_taken() -> None:
     dq = optik.diff_ik(robot, q, twist, dt=DT, solver="qp:daqp", joint_weights=weights)
     assert abs(dq[2]) < 1e-12
     np.testing.assert_allclose(robot.jacobian(q) @ dq, twist * DT, atol=1e-9)
+
+
+@pytest.mark.parametrize("solver", STEP_BACKENDS)
+@pytest.mark.parametrize(
+    "weights", [[1e12, 1, 1, 1, 1, 1], [1, 1, 1, 1e-8, 1e-8, 1e-8], [1, 3, 1, 0.5, 2, 1]]
+)
+@pytest.mark.parametrize("vmax", [None, 0.3])
+def test_weighted_least_squares_step_is_the_bounded_optimum(
+    solver: str, weights: list[float], vmax: float | None
+) -> None:
+    """The least-squares step against scipy's bounded least squares (``lsq_linear`` on the
+    stacked square-root rows), with and without velocity bounds that bind. One weight
+    1e12 times the others put every backend 1e-3 to 3 rad off the optimum (the QP's
+    Hessian squares the rows' condition number) and the KKT test, relative to the
+    weights, passed it; each step is now solved again on its active set in square-root
+    form."""
+    from scipy.optimize import lsq_linear
+
+    from optik.programs.diff_qp import DEFAULT_DAMPING
+
+    panda = ROBOTS["panda"]
+    q = panda.mid_limits + 0.2
+    twist = np.array([0.5, -0.2, 0.3, 1.0, 0.0, -1.0])
+    dt = 0.1
+    v = twist * dt
+    J = panda.jacobian(q)
+    w = np.sqrt(np.array(weights))
+    A = np.vstack([w[:, None] * J, DEFAULT_DAMPING * np.eye(7)])
+    b = np.concatenate([w * v, np.zeros(7)])
+    lower = panda.lower - q
+    upper = panda.upper - q
+    if vmax is not None:
+        lower = np.maximum(lower, -vmax * dt)
+        upper = np.minimum(upper, vmax * dt)
+    reference = lsq_linear(A, b, bounds=(lower, upper), method="bvls", tol=1e-15).x
+    if vmax is not None:  # the bounds bind: the unbounded optimum lies outside them
+        free, *_ = np.linalg.lstsq(A, b, rcond=None)
+        assert np.any(free < lower) or np.any(free > upper)
+    velocity = None if vmax is None else np.full(7, vmax)
+    try:
+        dq = optik.diff_ik(
+            panda, q, twist, dt=dt, solver=solver, objective="least_squares", weights=weights,
+            velocity_limits=velocity,
+        )  # fmt: skip
+    except SolverError as exc:
+        # A backend may fail the 1e12 weight outright (CasADi's daqp and qrqp with bounds
+        # binding): an error that says so, never a step off the optimum.
+        assert weights[0] == 1e12 and vmax is not None, exc
+        assert "failed" in str(exc), exc
+        return
+    assert np.max(np.abs(dq - reference)) <= 1e-8 * max(1.0, float(np.max(np.abs(reference))))

@@ -118,6 +118,30 @@ def test_solve_ik_all_answers_the_xarm6_with_the_closed_form() -> None:
         assert result.success and result.solver == "dls"
 
 
+def test_an_axis_path_does_not_search_the_roll_with_the_numerical_family(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """plan_path(mode="axis") on the xArm6 searched the free roll with general_6r (hundreds
+    of 2 ms solves a waypoint: 47 s for 8 waypoints, tool axis x): the roll's search is
+    for the fast families; here the numeric candidates plan it, each waypoint verified."""
+    robot = _xarm6()
+
+    def no_closed_form(*args: object, **kwargs: object) -> None:
+        raise AssertionError("the roll's search called general_6r")
+
+    monkeypatch.setattr(FAMILIES["general_6r"], "candidates", no_closed_form)
+    rng = np.random.default_rng(3)
+    qa = robot.lower + (robot.upper - robot.lower) * rng.uniform(0.3, 0.7, robot.dof)
+    qb = qa + rng.uniform(-0.3, 0.3, robot.dof)
+    poses = robot.fk(np.array([qa + t * (qb - qa) for t in np.linspace(0.0, 1.0, 8)]))
+    plan = optik.plan_path(robot, poses, mode="axis", axis="x", max_joint_step=0.5)
+    assert list(plan.status) == ["ok"] * 8
+    for q, T in zip(plan.q, poses, strict=True):
+        F = robot.fk(q)
+        assert np.linalg.norm(F[:3, 3] - T[:3, 3]) <= 1e-6
+        assert float(F[:3, 0] @ T[:3, 0]) >= math.cos(1e-6)
+
+
 def test_an_empty_branch_set_of_the_numerical_family_proves_nothing() -> None:
     """Inside the reach sphere but unreachable: no branch, yet never 'unreachable'."""
     robot = _xarm6()

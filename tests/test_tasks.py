@@ -173,6 +173,42 @@ def test_weight_pattern_chooses_the_mode() -> None:
     assert make_task("pose").is_pose_or_position and not make_task("axis").is_pose_or_position
 
 
+def test_an_axis_that_contradicts_the_weights_is_refused() -> None:
+    """mode="axis", axis="x" with the rotation about z freed by the weights: the z axis
+    was solved (the tool's x 157 deg off the target's, reported as success)."""
+    panda = load_problem("panda").robot
+    T = panda.fk(panda.mid_limits) @ np.block([[rot_z(1.0), np.zeros((3, 1))], [0, 0, 0, 1]])
+    weights = [1, 1, 1, 1, 1, 0]
+    with pytest.raises(OptikError, match=r"axis='x' .* free the rotation about z"):
+        optik.solve_ik(panda, T, mode="axis", axis="x", weights=weights)
+    with pytest.raises(OptikError, match="axis='x'"):
+        optik.plan_path(panda, T[None], mode="axis", axis="x", weights=weights)
+    with pytest.raises(OptikError, match="axis='x'"):
+        optik.solve_ik_batch(panda, T[None], mode="axis", axis="x", weights=weights)
+    agreeing = optik.solve_ik(panda, T, mode="axis", axis="z", weights=weights)
+    assert agreeing.success
+    tool_z = panda.fk(agreeing.q)[:3, 2]
+    assert float(tool_z @ T[:3, 2]) >= math.cos(1e-6)
+
+
+def test_pinv_with_a_frozen_joint_steps_without_its_column() -> None:
+    """pinv (and transpose) computed the step with the frozen joint's column, then
+    clipped the joint back: the other joints fell short (3 of 8 Panda targets failed
+    with pinv, 0.4 mm off). Without its column every target its own q meets is solved."""
+    panda = load_problem("panda").robot
+    rng = np.random.default_rng(0)
+    for _ in range(8):
+        q = rng.uniform(panda.lower, panda.upper)
+        q[2] = 0.2
+        T = panda.fk(q)
+        result = optik.solve_ik(panda, T, solver="pinv", restarts=20, frozen={"panda_joint3": 0.2})
+        assert result.success, result.status
+        assert result.q[2] == 0.2
+        F = panda.fk(result.q)
+        assert np.linalg.norm(F[:3, 3] - T[:3, 3]) <= 1e-6
+        assert rotation_angle(F[:3, :3].T @ T[:3, :3]) <= 1e-6
+
+
 def test_frozen_joints_are_held() -> None:
     panda = load_problem("panda").robot
     rng = np.random.default_rng(21)
@@ -249,6 +285,35 @@ def test_solve_ik_all_numeric_answers_are_distinct_and_verified() -> None:
             assert np.linalg.norm(a.q - b.q) >= 0.2
 
 
+def test_several_answers_do_not_depend_on_the_backends_claim() -> None:
+    """casadi:sqpmethod reports its iteration cap on answers optik verifies: solve_ik_all
+    stopped after the first (1 answer where dls finds 4) and select="nearest" after one
+    attempt. The verification, not the claim, decides whether the search goes on."""
+    panda = load_problem("panda").robot
+    # A target and start where it does (found by a hostile-input search).
+    T = np.eye(4)
+    T[:3, :3] = [
+        [-0.10872640795929356, 0.14955135076065393, 0.982757834717146],
+        [-0.3114158976959213, -0.9439788971739071, 0.10919697959457197],
+        [0.9440332128026601, -0.2941738179648178, 0.14920810282786098],
+    ]
+    T[:3, 3] = [0.4378275227098115, 0.15787111313471255, 1.065407010727888]
+    q0 = np.array([-0.3913636670, -0.7661416332, 0.9052387628, -0.6829068059, -1.2238381494,
+                   2.3485633455, 1.1310505222])  # fmt: skip
+    options: dict[str, object] = {"q0": q0, "restarts": 30, "mode": "axis"}
+    for solver in ("dls", "casadi:sqpmethod"):
+        sols = optik.solve_ik_all(panda, T, solver=solver, k=4, min_separation=0.2, **options)
+        assert len(sols) == 4, (solver, len(sols))
+        for i, a in enumerate(sols):
+            assert float(panda.fk(a.q)[:3, 2] @ T[:3, 2]) >= math.cos(1e-6)
+            assert np.linalg.norm(panda.fk(a.q)[:3, 3] - T[:3, 3]) <= 1e-6
+            for b in sols[i + 1 :]:
+                assert np.linalg.norm(a.q - b.q) >= 0.2
+        nearest = optik.solve_ik(panda, T, solver=solver, select="nearest", **options)
+        assert nearest.success
+        assert np.linalg.norm(nearest.q - q0) <= min(np.linalg.norm(a.q - q0) for a in sols) + 1e-9
+
+
 @pytest.mark.parametrize(
     ("kwargs", "field"),
     [
@@ -315,12 +380,20 @@ def test_posture_on_a_closed_form_picks_the_nearest_branch() -> None:
         ({"posture": np.zeros(3)}, "posture"),
         ({"posture": np.zeros(7), "joint_weights": -np.ones(7)}, "joint_weights"),
         ({"posture": np.zeros(7), "joint_weights": np.ones(6)}, "joint_weights"),
+        # joint_weights alone were ignored, whatever they held
+        ({"joint_weights": -np.ones(7)}, "joint_weights is the norm of posture"),
+        ({"joint_weights": "abc"}, "joint_weights is the norm of posture"),
     ],
 )
 def test_bad_posture(kwargs: dict[str, object], field: str) -> None:
     panda = load_problem("panda").robot
     with pytest.raises(OptikError, match=field):
         optik.solve_ik(panda, panda.fk(panda.mid_limits), **kwargs)  # type: ignore[arg-type]
+    # also where an answer comes before any solve (a target beyond the reach sphere)
+    far = np.eye(4)
+    far[:3, 3] = [50.0, 0.0, 0.0]
+    with pytest.raises(OptikError, match=field):
+        optik.solve_ik(panda, far, **kwargs)  # type: ignore[arg-type]
 
 
 def test_position_weights_are_on_the_targets_axes() -> None:
@@ -350,6 +423,22 @@ def test_position_weights_are_on_the_targets_axes() -> None:
     assert point.success
     offset = panda.fk(point.q)[:3, 3] - T[:3, 3]
     assert np.linalg.norm(offset[:2]) < 2e-6
+
+
+@pytest.mark.parametrize("solver", ["dls", "qp:daqp", "casadi:sqpmethod", "casadi:ipopt"])
+def test_position_weights_on_the_targets_axes_through_every_program(solver: str) -> None:
+    """The CasADi programs took the identity as the target frame in position mode (and
+    the verification the target's rotation): y of the target frame freed, a UR5 pose
+    that its own configuration meets exactly ended in ``max_iter`` (0.019 m off), or
+    spent a whole timeout in restarts."""
+    ur5 = load_problem("ur5").robot
+    source = ur5.mid_limits + 0.3
+    T = ur5.fk(source)
+    result = optik.solve_ik(ur5, T, solver=solver, mode="position", weights=[1, 0, 1, 0, 0, 0])
+    assert result.success, result
+    offset = T[:3, :3].T @ (ur5.fk(result.q)[:3, 3] - T[:3, 3])  # in the target frame
+    assert math.hypot(offset[0], offset[2]) <= 1e-6, offset
+    assert _in_limits(ur5, result.q)
 
 
 @pytest.mark.parametrize("scale", [1e-10, 1e10])

@@ -228,13 +228,13 @@ class NLPProgram:
             OptikError: bad weights, or weights of another task shape; a negative or
                 non-finite ``mu``.
         """
-        p, R = _target(self.mode, target)
         if weights is None:
             task = self.default_task()
         elif isinstance(weights, Task):
             task = weights
         else:
             task = make_task(self.mode, axis=AXES[max(self.axis, 0)], weights=weights)
+        p, R = _target(task, target)
         if task_shape(task) != self.shape:
             raise OptikError(
                 f"weights: task {task_shape(task)} does not match the program's {self.shape}"
@@ -257,13 +257,18 @@ class NLPProgram:
         return np.concatenate([p, R.ravel(order="F"), np.sqrt(task.weights), [number], ref])
 
 
-def _target(mode: str, target: Any) -> tuple[FloatArray, FloatArray]:
-    """Target position (3,) and rotation (3, 3) (identity in position mode)."""
-    if mode == "position" and np.shape(target) == (3,):
+def _target(task: Task, target: Any) -> tuple[FloatArray, FloatArray]:
+    """Target position (3,) and rotation (3, 3).
+
+    In position mode the rotation is the identity, unless the weights differ between the
+    axes and the target has one: then they are on its axes (:attr:`Task.needs_target_frame`,
+    as every solver and the verification read them).
+    """
+    if task.mode == "position" and np.shape(target) == (3,):
         return finite_array("target", target, (3,)), np.eye(3)
     T = as_pose("target", target)
-    R = np.eye(3) if mode == "position" else T[:3, :3]
-    return T[:3, 3].copy(), np.array(R)
+    framed = task.mode != "position" or task.needs_target_frame
+    return T[:3, 3].copy(), np.array(T[:3, :3] if framed else np.eye(3))
 
 
 def _rotation_rows(E: casadi.SX, s: casadi.SX, mode: str, axis: int) -> list[casadi.SX]:

@@ -592,8 +592,10 @@ class CasadiNLPSolver(IKSolver):
         target = query.target
         # The parameters [p*, vec(R*), sqrt(w), mu, q_ref] (NLPProgram.parameter_vector)
         # of the query's target and task, validated by the query already; mu = 0, so
-        # q_ref does not enter.
-        rotation = np.eye(3) if task.mode == "position" else target[:3, :3]
+        # q_ref does not enter. Position weights that differ between the axes are on the
+        # target's axes (Task.needs_target_frame), as the verification reads them.
+        framed = task.mode != "position" or task.needs_target_frame
+        rotation = target[:3, :3] if framed else np.eye(3)
         params = np.concatenate(
             [
                 target[:3, 3],

@@ -40,6 +40,9 @@ class _JacobianIteration(IKSolver):
         """Iterate the Jacobian update from ``q0`` (see the class docstring)."""
         robot = query.robot
         lower, upper = query.lower, query.upper
+        # A frozen joint (its bounds one value) has no column: the step of the others must
+        # not count on it moving (clipped back after the step, it left them short).
+        held = np.flatnonzero(lower == upper)
         q = np.clip(q0, lower, upper)
         for it in range(max_iter + 1):
             T, J = robot.fk_jacobian(q)
@@ -50,7 +53,11 @@ class _JacobianIteration(IKSolver):
                 return SolverOutput(q, it, False, "max_iter")
             if budget_now() > deadline:
                 return SolverOutput(q, it, False, "timeout")
-            dq = self.direction(query.task_rows(J), e)
+            rows = query.task_rows(J)
+            if held.size:
+                rows = rows.copy()
+                rows[:, held] = 0.0
+            dq = self.direction(rows, e)
             if not np.all(np.isfinite(dq)):
                 return SolverOutput(q, it, False, "non-finite step", failed=True)
             q = np.clip(q + self.step * dq, lower, upper)
