@@ -220,13 +220,7 @@ def free_joint_fallback(
     # reference and pushed a dependent one out: other references for the free angles.
     found: list[FloatArray] = []
     trials: list[FloatArray] = []
-    for fraction in _FREE_RETRIES:
-        trial = np.where(
-            np.isfinite(robot.lower + robot.upper),
-            robot.lower + fraction * (robot.upper - robot.lower),
-            ref,
-        )
-        trial[k] = value
+    for trial in _free_trials(robot, ref, k, value):
         trials.append(trial)
         found += free_joint_raw(plan, value, T_target, trial)
     if np.array_equal(np.array(found), np.array(raw * len(_FREE_RETRIES)), equal_nan=True):
@@ -247,6 +241,23 @@ leaves free, when the reference's own choice puts every branch outside the limit
 leaves every candidate where no polish reaches the target."""
 
 
+def _free_trials(robot: Robot, ref: FloatArray, k: int, value: float) -> list[FloatArray]:
+    """The references (dof,) of :data:`_FREE_RETRIES`, joint ``k`` held at ``value``.
+
+    A joint without finite limits keeps ``ref``'s value.
+    """
+    trials = []
+    for fraction in _FREE_RETRIES:
+        trial = np.where(
+            np.isfinite(robot.lower + robot.upper),
+            robot.lower + fraction * (robot.upper - robot.lower),
+            ref,
+        )
+        trial[k] = value
+        trials.append(trial)
+    return trials
+
+
 def _polished_from_references(
     robot: Robot,
     plan: free_joint.FreeJointPlan,
@@ -264,13 +275,7 @@ def _polished_from_references(
     one more closed-form call).
     """
     k = plan.held
-    for fraction in _FREE_RETRIES:
-        trial = np.where(
-            np.isfinite(robot.lower + robot.upper),
-            robot.lower + fraction * (robot.upper - robot.lower),
-            ref,
-        )
-        trial[k] = value
+    for trial in _free_trials(robot, ref, k, value):
         if np.array_equal(trial, ref):
             continue
         candidates = free_joint_raw(plan, value, T_target, trial)
