@@ -38,6 +38,7 @@ from optik.programs.diff_qp import (
     MAX_DAMPING,
     OBJECTIVES,
     DiffIKProgram,
+    KKTReport,
     Objective,
     QPSolution,
     _check_positive,
@@ -170,31 +171,33 @@ def verify_step(program: DiffIKProgram, solution: QPSolution) -> tuple[FloatArra
             f"(scale {kkt.scale:.3g}) ({solution.status})"
         )
     if program.objective == "least_squares":
-        return _polished(program, dq, kkt.active_lower | kkt.active_upper, tol), ""
+        return _polished(program, dq, kkt, tol), ""
     return dq, ""
 
 
-def _polished(program: DiffIKProgram, dq: FloatArray, active: np.ndarray, tol: float) -> FloatArray:
+def _polished(program: DiffIKProgram, dq: FloatArray, kkt: KKTReport, tol: float) -> FloatArray:
     """A verified least-squares step solved again in square-root form.
 
     The unconstrained minimiser if it lies in the bounds (the problem is convex: it is
-    then the answer, whatever bounds the backend took as active), else the minimiser on
-    the backend's active set (:func:`polish_least_squares`), else scipy's bounded least
-    squares (BVLS) on the same rows; ``dq`` itself if none passes the KKT test.
+    then the answer, whatever bounds the backend took as active); else the minimiser with
+    the backend's active bounds held (:func:`polish_least_squares`) if the gradient
+    pushes each of them outwards (the KKT signs: the free joints' gradient is zero by
+    construction); else scipy's bounded least squares (BVLS) on the same rows; ``dq``
+    itself if none lies in the bounds.
     """
-    candidates = (
-        lambda: polish_least_squares(program, dq, np.zeros(program.dof, dtype=bool)),
-        lambda: polish_least_squares(program, dq, active),
-        lambda: bounded_least_squares(program),
-    )
-    for candidate in candidates:
-        polished = candidate()
-        if polished is None or program.bound_violation(polished) > tol:
-            continue
-        polished = program.clip(polished)
-        again = program.kkt(polished, active_tol=tol)
-        if again.stationarity <= KKT_RTOL * again.scale + FEASIBILITY_ATOL:
-            return polished
+    free = polish_least_squares(program, dq, np.zeros(program.dof, dtype=bool))
+    if free is not None and program.bound_violation(free) <= tol:
+        return program.clip(free)
+    lower, upper = kkt.active_lower, kkt.active_upper
+    held = polish_least_squares(program, dq, lower | upper)
+    if held is not None and program.bound_violation(held) <= tol:
+        g = program.gradient(held)
+        slack = KKT_RTOL * kkt.scale + FEASIBILITY_ATOL
+        if np.all(g[lower] >= -slack) and np.all(g[upper] <= slack):
+            return program.clip(held)
+    exact = bounded_least_squares(program)
+    if exact is not None and program.bound_violation(exact) <= tol:
+        return program.clip(exact)
     return dq
 
 
@@ -223,12 +226,28 @@ def polish_least_squares(
 
 def _stacked_rows(program: DiffIKProgram) -> tuple[FloatArray, FloatArray]:
     """``(A, b)`` with ``||A dq - b||^2`` twice the least-squares objective."""
-    root_task = _psd_root(program.Wt)
-    root_joint = _psd_root(program.W)
     offset = np.zeros(program.dof) if program.offset is None else program.offset
-    A = np.vstack([root_task @ program.J, program.damping * root_joint])
-    b = np.concatenate([root_task @ program.v, program.damping * (root_joint @ offset)])
+    lam = program.damping
+    A = np.vstack([_root_times(program.Wt, program.J), lam * _root_times(program.W, None)])
+    b = np.concatenate([_root_times(program.Wt, program.v), lam * _root_times(program.W, offset)])
     return A, b
+
+
+def _root_times(M: FloatArray, X: FloatArray | None) -> FloatArray:
+    """``M^(1/2) X`` for a symmetric positive semidefinite ``M`` (``X = None``: ``I``).
+
+    A diagonal ``M`` (the weights of ``diff_ik``) scales rows; another one is rooted by
+    its eigendecomposition.
+    """
+    d = np.diagonal(M)
+    if np.array_equal(M, np.diag(d)):
+        root = np.sqrt(np.maximum(d, 0.0))
+        if X is None:
+            return np.diag(root)
+        return root[:, None] * X if X.ndim == 2 else root * X
+    values, vectors = np.linalg.eigh(M)
+    full = (vectors * np.sqrt(np.maximum(values, 0.0))) @ vectors.T
+    return np.asarray(full if X is None else full @ X)
 
 
 def bounded_least_squares(program: DiffIKProgram) -> FloatArray | None:
@@ -242,14 +261,6 @@ def bounded_least_squares(program: DiffIKProgram) -> FloatArray | None:
         return None
     x = np.asarray(result.x, dtype=np.float64)
     return x if np.all(np.isfinite(x)) else None
-
-
-def _psd_root(M: FloatArray) -> FloatArray:
-    """The symmetric square root of a symmetric positive semidefinite matrix."""
-    if np.count_nonzero(M - np.diag(np.diagonal(M))) == 0:
-        return np.diag(np.sqrt(np.maximum(np.diagonal(M), 0.0)))
-    values, vectors = np.linalg.eigh(M)
-    return np.asarray((vectors * np.sqrt(np.maximum(values, 0.0))) @ vectors.T)
 
 
 def _inconsistent(program: DiffIKProgram) -> NoSolutionError:

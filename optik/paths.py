@@ -227,8 +227,9 @@ def read_path(path: str | Path) -> tuple[FloatArray, str]:
             unknown extension, or malformed content: a CSV whose first line is not one of
             :data:`CSV_HEADERS`, a TOML key other than ``positions``, ``rpy``,
             ``length_unit``, ``angle_unit``, an ``.npz`` that is not an archive (a bare
-            ``.npy`` array), no waypoints, a coordinate beyond ``MAX_LENGTH_M`` (the
-            message names the file and the line or key).
+            ``.npy`` array) or holds an array it does not read, no waypoints, a
+            coordinate beyond ``MAX_LENGTH_M`` (the message names the file and the line or
+            key).
     """
     if not isinstance(path, str | os.PathLike) or isinstance(path, bytes):
         raise PathFileError(f"path: expected a file path, got {path!r:.80}")
@@ -291,16 +292,45 @@ def _read_npz(file: Path) -> tuple[FloatArray, str]:
             "np.savez(file, poses=...) or np.savez(file, positions=...)"
         )
     with loaded as data:
-        if "poses" in data:
+        names = set(data.files)
+        if "poses" in names:
+            # A saved PathPlan (PathPlan.save) holds its poses and its results.
+            _refuse_npz_arrays(file, names - {"poses", *_PLAN_ARRAYS}, "poses")
             # One (4, 4) pose is one waypoint, as a single CSV or TOML position is.
             poses = as_pose("poses", data["poses"], batch=True).reshape(-1, 4, 4).copy()
             return _nonempty(file, _check_poses("poses", poses)), "pose"
-        if "positions" in data:
-            positions = finite_array("positions", data["positions"], (3,), batch=True)
+        if "positions" in names:
+            _refuse_npz_arrays(file, names - {"positions", "rpy"}, "positions")
+            positions = np.atleast_2d(
+                finite_array("positions", data["positions"], (3,), batch=True)
+            )
             check_length_array("positions", positions)
-            poses = _positions_to_poses(np.atleast_2d(positions), None)
-            return _nonempty(file, poses), "position"
-    raise PathFileError(f"{file}: expected an array named 'poses' (N, 4, 4) or 'positions' (N, 3)")
+            rpy = None
+            if "rpy" in names:
+                rpy = np.atleast_2d(finite_array("rpy", data["rpy"], (3,), batch=True))
+                if len(rpy) != len(positions):
+                    raise PathFileError(
+                        f"{file}: 'rpy' holds {len(rpy)} rows for {len(positions)} positions"
+                    )
+            poses = _positions_to_poses(positions, rpy)
+            return _nonempty(file, poses), "position" if rpy is None else "pose"
+    raise PathFileError(
+        f"{file}: expected an array named 'poses' (N, 4, 4), or 'positions' (N, 3) in m "
+        "with 'rpy' (N, 3) in rad or without"
+    )
+
+
+_PLAN_ARRAYS = ("q", "status", "limit_margin", "manipulability", "step", "candidates")
+"""The arrays a saved :class:`optik.planning.PathPlan` holds beside its ``poses``."""
+
+
+def _refuse_npz_arrays(file: Path, unknown: set[str], read: str) -> None:
+    """An array the path would not use is an error, not silently dropped."""
+    if unknown:
+        raise PathFileError(
+            f"{file}: array {sorted(unknown)[0]!r} is not read beside {read!r} (give 'poses' "
+            "(N, 4, 4), or 'positions' (N, 3) in m with 'rpy' (N, 3) in rad or without)"
+        )
 
 
 def _nonempty(file: Path, poses: FloatArray) -> FloatArray:

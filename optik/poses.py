@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from optik._checks import FloatArray, as_float_array, check_finite
+from optik._checks import FloatArray, as_float_array, check_bool, check_finite
 from optik.errors import OptikError, ShapeError
 from optik.spatial import as_pose, check_rotation
 
@@ -464,6 +464,7 @@ def as_target_pose(
         PositionOnlyTargetError: a target without an orientation in pose mode.
         PoseArgumentError: an unknown ``mode``, an unknown mapping key, a mapping without
             ``"position"``, a bare ``Rotation``, or an argument error of :func:`pose`.
+        ArgumentError: ``batch`` not a bool.
         ShapeError: wrong shape (single where a batch is expected, or the reverse).
         NonFiniteError: a NaN or infinite entry.
         InvalidQuaternionError: a zero quaternion or one too far from unit norm.
@@ -471,6 +472,8 @@ def as_target_pose(
     """
     if not isinstance(mode, str) or mode not in _MODES:
         raise PoseArgumentError("mode", f'expected "pose" or "position", got {mode!r}')
+    if type(batch) is not bool:
+        batch = check_bool("batch", batch)
     if type(value) is np.ndarray and value.dtype.kind == "f":  # the common case first
         T = _from_array(name, value, mode, batch)
     elif isinstance(value, Mapping):

@@ -14,6 +14,7 @@ from optik.cli._common import (
     positive_int,
     problem_from_args,
 )
+from optik.errors import OptikError
 from optik.problems import Problem
 
 
@@ -50,6 +51,7 @@ def add_campaign_ik_arguments(
     seed: str,
     chunk: int,
     chunk_help: str,
+    axis_modes: Sequence[str] = ("axis",),
     max_iter: bool = False,
 ) -> None:
     """The IK options of a campaign: --mode, --axis, --tol, --restarts, --seed, --chunk.
@@ -66,13 +68,15 @@ def add_campaign_ik_arguments(
         seed: what ``--seed`` seeds.
         chunk: the default of ``--chunk``.
         chunk_help: what a chunk is counted in.
+        axis_modes: the modes that read ``--axis`` (with another, it is an error).
         max_iter: also ``--max-iter`` (iterations per attempt, after ``--restarts``).
     """
+    p.set_defaults(axis_modes=tuple(axis_modes))
     p.add_argument(
         "--mode", choices=list(modes), default="pose", help=f"{mode_help} (no unit; default pose)"
     )
     p.add_argument(
-        "--axis", choices=["x", "y", "z"], default="z", help=f"{axis_help} (no unit; default z)"
+        "--axis", choices=["x", "y", "z"], default=None, help=f"{axis_help} (no unit; default z)"
     )
     add_tol_argument(p, "IK tolerance")
     p.add_argument(
@@ -106,8 +110,18 @@ CAMPAIGN_OPTIONS: tuple[str, ...] = (
 
 
 def campaign_keywords(args: argparse.Namespace) -> dict[str, Any]:
-    """:data:`CAMPAIGN_OPTIONS` of ``args`` as keywords of a campaign function."""
-    return {name: getattr(args, name) for name in CAMPAIGN_OPTIONS}
+    """:data:`CAMPAIGN_OPTIONS` of ``args`` as keywords of a campaign function.
+
+    Raises:
+        OptikError: ``--axis`` given with a mode that does not read it (it would be
+            ignored).
+    """
+    keywords = {name: getattr(args, name) for name in CAMPAIGN_OPTIONS}
+    if keywords["axis"] is None:
+        keywords["axis"] = "z"
+    elif args.mode not in args.axis_modes:
+        raise OptikError(f"--axis {args.axis} does not apply to --mode {args.mode}")
+    return keywords
 
 
 def run_campaign(

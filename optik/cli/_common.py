@@ -464,11 +464,33 @@ def add_out_argument(
     )
 
 
-def add_tol_argument(p: Any, what: str = "tolerance") -> None:
-    """``--tol``: one tolerance for the position (m) and the orientation (rad), 1e-6 by default."""
+def add_tol_argument(p: Any, what: str = "tolerance", *, of_target: bool = False) -> None:
+    """``--tol``: one tolerance for the position (m) and the orientation (rad), 1e-6 by default.
+
+    With ``of_target`` the default is ``None``: the named target's own tolerances
+    (:func:`target_tolerance`), else 1e-6.
+    """
+    if of_target:
+        p.add_argument(
+            "--tol",
+            type=positive_float,
+            default=None,
+            help=f"{what}, m and rad (default: the --target's own tolerances, else 1e-6)",
+        )
+        return
     p.add_argument(
         "--tol", type=positive_float, default=1e-6, help=f"{what}, m and rad (default 1e-6)"
     )
+
+
+def target_tolerance(problem: Problem, args: argparse.Namespace) -> float | tuple[float, float]:
+    """``--tol``, else the ``--target``'s ``(tolerance, angle_tolerance)``, else 1e-6."""
+    if args.tol is not None:
+        return float(args.tol)
+    if args.target is not None:
+        target = problem.targets[args.target]
+        return (target.tolerance, target.angle_tolerance)
+    return 1e-6
 
 
 def add_seed_argument(p: Any, what: str, *, show_default: bool = False) -> None:

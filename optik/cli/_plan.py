@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from optik._files import prepare_folder
+from optik._files import check_folder, prepare_folder
 from optik._progress import Progress
 from optik.cli._common import (
     EXIT_OK,
@@ -32,6 +32,13 @@ from optik.planning import PLAN_STATUSES, plan_path
 from optik.problems import Problem
 from optik.trajectory import rate_limits
 
+DEFAULT_STEP = 0.01
+"""Sampling step of ``--line`` (m)."""
+
+#: Files of an earlier run that this one may not write (a stale trajectory would sit
+#: beside the new plan): removed when this run does not write them.
+_OPTIONAL_OUTPUTS = ("trajectory.csv", "trajectory.json")
+
 
 def _plan_poses(problem: Problem, args: argparse.Namespace) -> tuple[np.ndarray, str]:
     orientation = orientation_flag(args)
@@ -42,10 +49,17 @@ def _plan_poses(problem: Problem, args: argparse.Namespace) -> tuple[np.ndarray,
             "orientations (in rad) or none"
         )
     if args.line is not None:
+        if args.mode == "position" and orientation is not None:
+            raise OptikError(f"--mode position ignores the orientation: drop {orientation}")
         mode = "pose" if orientation is not None else "position"
+        step = DEFAULT_STEP if args.step is None else args.step
         return line(
-            pose_from_args(args.line[:3], args), pose_from_args(args.line[3:], args), args.step
+            pose_from_args(args.line[:3], args), pose_from_args(args.line[3:], args), step
         ), mode
+    if args.step is not None:
+        raise OptikError(
+            "--step samples --line only: a --path or --problem-path keeps its waypoints"
+        )
     stored = path_from_args(problem, args)
     if stored is not None:
         return stored
@@ -64,7 +78,7 @@ def _task_mode(args: argparse.Namespace, path_mode: str) -> str:
 
 
 def _cmd_plan(args: argparse.Namespace) -> int:
-    out = prepare_folder(args.out)  # fail before the work, not after it
+    check_folder(args.out)  # fail before the work; the folder is made when written to
     problem = problem_from_args(args)
     robot = problem.robot
     if args.trajectory:  # limits are checked before the work, not after it
@@ -83,6 +97,8 @@ def _cmd_plan(args: argparse.Namespace) -> int:
             limit_margin=args.limit_margin,
             q_start=args.q0,
             seed=args.seed,
+            # a problem's path carries its tolerance (m and rad)
+            tol=1e-6 if args.problem_path is None else problem.paths[args.problem_path].tolerance,
             progress=lambda done, total: bar.advance(note=f"plan {problem.name}"),
         )
     summary = plan.summary()
@@ -96,6 +112,9 @@ def _cmd_plan(args: argparse.Namespace) -> int:
             print(f"  {status:<16}{summary[status]}")
     # The trajectory before any file: a limit it cannot meet leaves the folder untouched.
     trajectory = _trajectory(plan, robot, args) if args.trajectory else None
+    out = prepare_folder(args.out)
+    for name in _OPTIONAL_OUTPUTS if trajectory is None else ():
+        (out / name).unlink(missing_ok=True)
     written = [plan.save(out / f"plan.{ext}") for ext in ("csv", "npz", "json")]
     if trajectory is not None:
         written += [
@@ -165,8 +184,8 @@ def add_plan_command(sub: Any) -> None:
     p.add_argument(
         "--step",
         type=positive_float,
-        default=0.01,
-        help="sampling step of --line, m (default 0.01)",
+        default=None,
+        help=f"sampling step of --line, m (default {DEFAULT_STEP:g})",
     )
     add_orientation_arguments(path_group, "constant orientation along --line (a pose path)")
     add_task_arguments(p, "pose for a path with orientations, else position")

@@ -21,6 +21,7 @@ from optik.cli._common import (
     positive_float,
     problem_from_args,
     target_from_args,
+    target_tolerance,
     value_text,
 )
 from optik.cli._task import ORIENTED_MODES, add_task_arguments, task_keywords, task_mode
@@ -80,7 +81,7 @@ def _cmd_solve(args: argparse.Namespace) -> int:
         mode=mode,
         solver=args.solver,
         q0=args.q0,
-        tol=args.tol,
+        tol=target_tolerance(problem, args),
         timeout_s=None if args.timeout_ms is None else args.timeout_ms / 1000.0,
         seed=args.seed,
         posture=args.posture,
@@ -152,7 +153,7 @@ def add_solve_command(sub: Any) -> None:
         choices=["auto", *available_solvers()],
         help="solver name (no unit; default auto)",
     )
-    add_tol_argument(p)
+    add_tol_argument(p, of_target=True)
     p.add_argument(
         "--q0",
         nargs="+",
