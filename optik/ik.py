@@ -350,11 +350,12 @@ def solve_ik(
     if select == "first":
         run = numeric.run(plan.query, plan.starts, plan.max_iter, plan.last, plan.deadline)
         return _from_run(plan.query, plan.start_time, numeric.name, run)
-    found, last_run = _collect(plan, numeric, want=None, min_separation=0.0)
+    found, last_run, searched = _collect(plan, numeric, want=None, min_separation=0.0)
     if not found:
         return _from_run(plan.query, plan.start_time, numeric.name, last_run)
     nearest = min(found, key=lambda f: float(np.linalg.norm(f[0] - plan.q_start)))
-    return _answer(plan, nearest[0], numeric.name, last_run.iterations, last_run.restarts)
+    # The whole search's iterations and attempts, not those of the run that ended it.
+    return _answer(plan, nearest[0], numeric.name, *searched)
 
 
 def _posture_answer(plan: _Plan, q_ref: FloatArray, weights: FloatArray) -> IKResult:
@@ -459,7 +460,7 @@ def solve_ik_all(
         solver_name = "analytic"
     else:
         numeric = plan.numeric or get_solver(AUTO_NUMERIC_SOLVER)
-        found, _ = _collect(plan, numeric, want=count, min_separation=separation)
+        found, _, _ = _collect(plan, numeric, want=count, min_separation=separation)
         solver_name = numeric.name
     found.sort(key=lambda f: float(np.linalg.norm(f[0] - plan.q_start)))
     results = [_answer(plan, q, solver_name, its, used) for q, its, used in found[:count]]
@@ -708,11 +709,11 @@ def _distinct(
 
 def _collect(
     plan: _Plan, numeric: IKSolver, want: int | None, min_separation: float
-) -> tuple[list[tuple[FloatArray, int, int]], RunOutput]:
+) -> tuple[list[tuple[FloatArray, int, int]], RunOutput, tuple[int, int]]:
     """Verified answers from successive runs over the start sequence (see the callers).
 
-    Returns the distinct answers ``(q, iterations so far, restarts so far)`` and the last
-    run's output.
+    Returns the distinct answers ``(q, iterations so far, restarts so far)``, the last
+    run's output, and the whole search's ``(iterations, restarts)``.
     """
     found: list[tuple[FloatArray, int, int]] = []
     first = 0
@@ -735,7 +736,7 @@ def _collect(
             break
     if run is None:  # pragma: no cover - the budget always admits one attempt
         raise OptikError("no IK attempt ran")
-    return found, run
+    return found, run, (iterations, first - 1)
 
 
 __all__ = [

@@ -24,6 +24,7 @@ from optik._ik_options import (
     check_q0,
     query_bounds,
 )
+from optik.diffik import clip_into_limits
 from optik.errors import ArgumentError, OptikError, ShapeError
 from optik.model import Robot
 from optik.solvers._base import now
@@ -70,7 +71,10 @@ def _given_starts(
         return np.empty((1, 0, robot.dof))
     array = as_float_array("q0", q0)
     if array.ndim == 2 and array.shape[1] == robot.dof and len(array) == n:
-        rows = np.array([check_q0(robot, row) for row in array]).reshape(n, 1, robot.dof)
+        # Each row named by its index (a NaN in row 1 was reported at "index (2,)").
+        rows = np.array(
+            [clip_into_limits(robot, f"q0[{k}]", row) for k, row in enumerate(array)]
+        ).reshape(n, 1, robot.dof)
     elif array.ndim == 1:
         rows = check_q0(robot, array).reshape(1, 1, robot.dof)
     else:

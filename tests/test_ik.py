@@ -242,6 +242,15 @@ def test_batch_reports_status_and_limit_violation_per_target(rng: np.random.Gene
         assert p <= 1e-6 and r <= 1e-6
 
 
+def test_a_bad_row_of_a_batchs_q0_is_named() -> None:
+    panda = load_problem("panda").robot
+    targets = np.stack([panda.fk(panda.mid_limits)] * 3)
+    q0 = np.stack([panda.mid_limits] * 3)
+    q0[1, 2] = math.nan  # row 1 (it was reported at "index (2,)", the row unnamed)
+    with pytest.raises(OptikError, match=r"q0\[1\]: values must be finite"):
+        optik.solve_ik_batch(panda, targets, q0=q0)
+
+
 def test_batch_of_zero_targets() -> None:
     panda = load_problem("panda").robot
     res = optik.solve_ik_batch(panda, np.empty((0, 4, 4)))
