@@ -82,7 +82,7 @@ from optik.solvers._base import IKQuery, IKSolver, RunOutput, budget_now, now
 from optik.solvers._seeds import start_sequence
 from optik.solvers._starts import StartSequence
 from optik.task import Task, make_task
-from optik.verify import beyond_reach, verify_one
+from optik.verify import beyond_reach_task, verify_one
 
 if TYPE_CHECKING:
     from typing_extensions import Unpack  # Python 3.10 has no typing.Unpack
@@ -621,12 +621,21 @@ def _plan(
         # Complete for the held value inside the limits; a margin narrows the others.
         return closed_form("pose", provable=float(limit_margin) == 0.0, held=held)
     # No closed form: the reach sphere still proves a target unreachable.
-    if task.constrains_position and beyond_reach(robot, T_target[:3, 3], task.position_tol):
+    if beyond_reach_task(robot, T_target, task):
         centre, radius = robot.reach_sphere
-        # math.dist is exact in the range (no overflow: a target 1e155 m away is beyond).
-        distance = math.dist(T_target[:3, 3].tolist(), centre.tolist())
+        free = [axis for axis, w in zip("xyz", task.weights[:3], strict=True) if w == 0.0]
+        # Over the constrained axes of the target frame; math.hypot is exact in the range
+        # (no overflow: a target 1e155 m away is beyond).
+        local = T_target[:3, :3].T @ (T_target[:3, 3] - centre)
+        distance = math.hypot(*(v for v, w in zip(local, task.weights[:3], strict=True) if w))
+        where = (
+            "the target lies"
+            if not free
+            else f"the target's {'line' if len(free) == 1 else 'plane'} along its free "
+            f"{' and '.join(free)} passes"
+        )
         reason = (
-            f"the target lies {distance:.6g} m from "
+            f"{where} {distance:.6g} m from "
             f"the reach sphere's centre, beyond its radius {radius:.6g} m"
         )
         early = _result(

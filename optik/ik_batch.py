@@ -33,7 +33,7 @@ from optik.solvers._seeds import seed_table
 from optik.solvers.iterative import DLSSolver
 from optik.spatial import as_pose
 from optik.task import make_task
-from optik.verify import beyond_reach, verify
+from optik.verify import beyond_reach_task, verify
 
 PARALLEL_BATCH = 64
 """Batches at least this large run in parallel threads; smaller ones on one thread."""
@@ -206,9 +206,8 @@ def solve_ik_batch(
     Q = np.full((N, robot.dof), math.nan)
     iterations = np.zeros(N, dtype=np.int64)
     used = np.zeros(N, dtype=np.int64)
-    reachable = ~beyond_reach(robot, poses[:, :3, 3], task.position_tol)
-    if not task.constrains_position:  # a freed position axis: the sphere proves nothing
-        reachable = np.ones(N, dtype=bool)
+    # Beyond the reach sphere: a freed position axis leaves a line (or plane) to miss it.
+    reachable = ~beyond_reach_task(robot, poses, task)
     rows = np.flatnonzero(reachable)
     table = seed_table(robot)
     given = _given_starts(robot, q0, N, bounds)

@@ -59,7 +59,7 @@ from optik.model import Robot
 from optik.posture import check_joint_weights
 from optik.spatial import as_pose
 from optik.task import AXES, MODES, Task, make_task, task_rows
-from optik.verify import beyond_reach
+from optik.verify import beyond_reach_task
 
 if TYPE_CHECKING:
     from optik.trajectory import Trajectory
@@ -497,15 +497,16 @@ class _CandidateFinder:
     def why_unsolved(self, T: FloatArray) -> str:
         """Why a waypoint has no candidate: a proved status, or ``"not_found"``.
 
-        ``unreachable`` beyond the reach sphere (when the task constrains every position
-        axis) or when the closed form has no branch even outside the limits;
+        ``unreachable`` beyond the reach sphere (the line or plane of a task's free
+        position axes missing it: :func:`optik.verify.beyond_reach_task`) or when the
+        closed form has no branch even outside the limits;
         ``outside_limits`` when an answer exists with the limits lifted (frozen joints
         stay held), or inside the limits but not inside the margin; otherwise
         ``not_found``: the numeric search failed, which proves nothing.
         """
         target = self.path_task.target(T)
         task = self.path_task.task
-        if task.constrains_position and beyond_reach(self.robot, T[:3, 3], task.position_tol):
+        if beyond_reach_task(self.robot, T, task):
             return "unreachable"
         if self.proves:
             loose = analytic_ik(self.robot, target, self.mode, within_limits=False)

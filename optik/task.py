@@ -285,6 +285,16 @@ def _axis_rotation(T: np.ndarray, G: np.ndarray, k: int, out: np.ndarray) -> flo
     return theta
 
 
+@inline
+def _norm3(a: float, b: float, c: float) -> float:
+    """``sqrt(a^2 + b^2 + c^2)``, scaled when the squares would overflow (1e200 m away)."""
+    s = a * a + b * b + c * c
+    if s < 1e300:
+        return math.sqrt(s)
+    m = max(abs(a), abs(b), abs(c))
+    return m * math.sqrt((a / m) ** 2 + (b / m) ** 2 + (c / m) ** 2)
+
+
 @jit
 def task_error(
     T: np.ndarray, target: np.ndarray, task: np.ndarray, e: np.ndarray, M: np.ndarray
@@ -304,7 +314,7 @@ def task_error(
     dz = target[2, 3] - T[2, 3]
     if fast == 2.0:
         e[0], e[1], e[2] = dx, dy, dz
-        return math.sqrt(dx * dx + dy * dy + dz * dz), 0.0
+        return _norm3(dx, dy, dz), 0.0
     w = M[:, 3]
     rot = 0.0
     if kind == FULL_ROTATION:
@@ -320,10 +330,11 @@ def task_error(
     if fast == 1.0:
         e[0], e[1], e[2] = dx, dy, dz
         e[3], e[4], e[5] = w[0], w[1], w[2]
-        return math.sqrt(dx * dx + dy * dy + dz * dz), rot
+        return _norm3(dx, dy, dz), rot
     # Target frame: R*^T d and R*^T r, each weighted; the position error over the
     # constrained axes only.
     pos2 = 0.0
+    big = 0.0
     for i in range(3):
         d = target[0, i] * dx + target[1, i] * dy + target[2, i] * dz
         v = target[0, i] * w[0] + target[1, i] * w[1] + target[2, i] * w[2]
@@ -332,7 +343,16 @@ def task_error(
         e[3 + i] = math.sqrt(task[_W + 3 + i]) * v
         if wp > 0.0:
             pos2 += d * d
-    return math.sqrt(pos2), rot
+            big = max(big, abs(d))
+    if pos2 < 1e300:
+        return math.sqrt(pos2), rot
+    # Squares beyond the float range (a target 1e200 m away): scaled by the largest.
+    scaled = 0.0
+    for i in range(3):
+        if task[_W + i] > 0.0:
+            d = (target[0, i] * dx + target[1, i] * dy + target[2, i] * dz) / big
+            scaled += d * d
+    return big * math.sqrt(scaled), rot
 
 
 @jit

@@ -44,8 +44,43 @@ def beyond_reach(robot: Robot, points: FloatArray, tol: float = 0.0) -> np.ndarr
         (N,) booleans, or one numpy boolean for a single point.
     """
     centre, radius = robot.reach_sphere
-    bound = radius * (1.0 + REACH_SLACK) + tol
-    offset = np.asarray(points, dtype=float) - centre
+    return _beyond(np.asarray(points, dtype=float) - centre, radius * (1.0 + REACH_SLACK) + tol)
+
+
+def beyond_reach_task(robot: Robot, poses: FloatArray, task: Task) -> np.ndarray:
+    """:func:`beyond_reach` for a task whose weights may free position axes.
+
+    A zero position weight frees that axis of the target frame: the tool may lie anywhere
+    on the line (or plane) through the target along the free axes, and the target is out
+    of reach when that line or plane misses the reach sphere, i.e. when the sphere
+    centre's offset over the constrained axes (target frame) exceeds the bound. With
+    every axis constrained this is :func:`beyond_reach`; with none, nothing is proven.
+
+    Args:
+        robot: the robot.
+        poses: (N, 4, 4) or (4, 4) world targets (m); their rotations are the frames of
+            the weights (identity for a point target).
+        task: the task (its weights and position tolerance).
+
+    Returns:
+        (N,) booleans, or one numpy boolean for a single pose.
+    """
+    constrained = task.weights[:3] > 0.0
+    T = np.asarray(poses, dtype=float)
+    if not constrained.any():
+        return np.zeros(T.shape[:-2], dtype=bool)
+    centre, radius = robot.reach_sphere
+    world = T[..., :3, 3] - centre
+    # R^T (p - c): the offset in the target frame; a product, no square, overflows nothing
+    # a coordinate alone would not.
+    local = np.einsum("...ji,...j->...i", T[..., :3, :3], world)
+    return _beyond(
+        np.where(constrained, local, 0.0), radius * (1.0 + REACH_SLACK) + task.position_tol
+    )
+
+
+def _beyond(offset: np.ndarray, bound: float) -> np.ndarray:
+    """Whether each offset (..., 3) is longer than ``bound``, without squaring a large one."""
     # One coordinate beyond the bound is enough, and squares nothing: a point 1e155 m
     # away is ruled out without an overflow. The distance of the others is then finite.
     largest = np.max(np.abs(offset), axis=-1)

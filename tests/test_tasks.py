@@ -467,3 +467,39 @@ def test_scaling_every_weight_keeps_the_answers(scale: float) -> None:
 def test_weights_beyond_their_range_are_refused(weight: float) -> None:
     with pytest.raises(OptikError, match=r"weights must be 0 or lie within \[1e-100, 1e\+100\]"):
         make_task(weights=[1.0, 1.0, weight, 1.0, 1.0, 1.0])
+
+
+def test_a_free_position_axis_proves_unreachable_by_its_line() -> None:
+    """A zero position weight frees the tool along the target's axis: the target is out
+    of reach when that line misses the reach sphere (distance from the centre by the
+    cross product, numpy's), and not when it passes through, however far the target
+    point itself lies along it. Before, a free axis proved nothing: a target 1e10 m away
+    ran to max_iter, 1e200 m away to its timeout with position_error=inf."""
+    panda = load_problem("panda").robot
+    centre, radius = panda.reach_sphere
+    T = panda.fk(panda.mid_limits + 0.3)
+    z = T[:3, 2]
+    weights = [1, 1, 0, 1, 1, 1]
+    # Far out along its own free z: the line passes where the arm reaches.
+    along = T.copy()
+    along[:3, 3] = T[:3, 3] + 100.0 * z
+    result = optik.solve_ik(panda, along, weights=weights)
+    assert result.status != "unreachable"
+    assert result.success
+    # Off the line by more than the radius, in every batch and plan too.
+    side = np.cross(z, [1.0, 0.0, 0.0])
+    side /= np.linalg.norm(side)
+    for far in (1e1, 1e10, 1e200):
+        off = T.copy()
+        off[:3, 3] = centre + far * side
+        distance = math.hypot(*np.cross(off[:3, 3] - centre, z))  # z is a unit vector
+        assert distance > radius
+        single = optik.solve_ik(panda, off, weights=weights, timeout_s=5.0)
+        assert single.status == "unreachable", (far, single.status)
+        assert "line along its free z passes" in single.message
+        assert math.isfinite(single.position_error) and single.position_error > radius
+        batch = optik.solve_ik_batch(panda, off[None], weights=weights)
+        assert batch.status[0] == "unreachable"
+        if far <= 1e9:  # a path's coordinates are capped (MAX_LENGTH_M)
+            plan = optik.plan_path(panda, off[None], weights=weights)
+            assert plan.status[0] == "unreachable"
