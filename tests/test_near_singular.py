@@ -11,6 +11,7 @@ FK of a known configuration, and each branch is checked by FK.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from pathlib import Path
 
@@ -87,3 +88,26 @@ def test_iiwa_held_at_an_end_joint_with_its_elbow_nearly_straight(held: int, ben
             assert b[held] == q[held]
             assert robot.within_limits(b)
             assert _reaches(robot, b, T, "pose")
+
+
+def test_a_kilometre_arm_keeps_its_branches_next_to_the_shoulder_singularity() -> None:
+    """The Puma's DH table times 1e3, 1e-6 rad (joint 2) from its shoulder singularity:
+    the shoulder equation (r = 150 m) sits in the tangent band, and a band of 1e-11
+    relative left the tangent root 1.5e-9 m off, past the FK check (no branch, where
+    the metre Puma has two). The closed forms take 1e-12 relative where r >= 1."""
+    puma = optik.load_problem("puma560").robot
+    q = np.array([-0.2584250071226406, 2.284848693656862, -2.950965457619555,
+                  -0.122477361310241, 1.054894231360011, 3.388437355306377])  # fmt: skip
+    for scale in (1.0, 1e3):
+        rows = [dataclasses.replace(r, a=r.a * scale, d=r.d * scale) for r in puma.dh]
+        robot = optik.Robot.from_dh(rows, name=f"puma_x{scale:g}")
+        assert robot.within_limits(q)
+        T = robot.fk(q)
+        branches = analytic_ik(robot, T)
+        assert branches, scale
+        for b in branches:
+            F = robot.fk(b)
+            assert np.linalg.norm(F[:3, 3] - T[:3, 3]) <= 1e-9
+            assert Rotation.from_matrix(F[:3, :3].T @ T[:3, :3]).magnitude() <= 1e-9
+        # 1e-6 rad from a singularity the source is resolved only to about that much
+        assert min(_wrapped_distance(b, q) for b in branches) <= 1e-5
