@@ -166,7 +166,7 @@ def trig_branches(
     Where there is no root both angles are 0.
     """
     r = math.sqrt(a * a + b * b)  # hypot's value without its libm call (O(1) coefficients)
-    if not r < 1e150:  # a * a overflowed (or a NaN): the libm call is exact there
+    if not 1e-150 < r < 1e150:  # a * a overflowed or underflowed (or a NaN): libm's is exact
         r = math.hypot(a, b)
     ac = abs(c)
     if r <= tol:
@@ -184,7 +184,7 @@ def trig_branches(
     if gap <= tol:
         t = wrap_angle(phi + math.atan2(0.0, c))  # tangent: the root is taken as 0
         return 1, t, t
-    if r >= 1.0:
+    if r >= 1.0 or r < 1e-150:  # relative to r: nothing squared over- or underflows
         rho = ac / r
         root = r * math.sqrt((1.0 - rho) * (1.0 + rho))
     else:

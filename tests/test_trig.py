@@ -48,8 +48,9 @@ def test_generated_angle_is_recovered(a: float, b: float, t: float) -> None:
     assert roots, (a, b, c)
     for u in roots:
         assert residual(a, b, c, u) <= 2.0 * TRIG_TOL * max(1.0, r) + 1e-15 * max(1.0, r)
-    if 1.0 - (c / r) ** 2 > 1e-6:
-        # Clearly two roots: well conditioned (d t = d c / (r |sin(t - phi)|)), so the
+    if 1.0 - (c / r) ** 2 > 1e-6 and r - abs(c) > 2.0 * TRIG_TOL * max(1.0, r):
+        # Clearly two roots (and beyond the tangent band, absolute below r = 1: a = b =
+        # 1e-12 is a tangent): well conditioned (d t = d c / (r |sin(t - phi)|)), so the
         # generating angle is recovered to rounding level and both roots are exact.
         assert len(roots) == 2
         assert min(angular_distance(u, t) for u in roots) <= 1e-9
@@ -158,6 +159,18 @@ def test_degenerate_coefficients() -> None:
     # ... unless tol = 0, where the exact equation has two roots
     roots = solve_trig(1e-9, 0.0, 0.0, tol=0.0)
     assert roots == pytest.approx((-math.pi / 2, math.pi / 2), abs=1e-15)
+
+
+def test_tiny_magnitudes_do_not_underflow() -> None:
+    # a * a underflows below 1e-154: r was 0 (or inexact) and the roots lost (tol=0).
+    assert solve_trig(2e-170, 0.0, 1e-170, tol=0.0) == pytest.approx(
+        (-math.pi / 3, math.pi / 3), abs=1e-14
+    )
+    assert solve_trig(1e-170, 0.0, 0.0, tol=0.0) == pytest.approx(
+        (-math.pi / 2, math.pi / 2), abs=1e-14
+    )
+    for t in solve_trig(3e-160, 4e-160, 1e-160, tol=0.0):
+        assert abs(3.0 * math.cos(t) + 4.0 * math.sin(t) - 1.0) <= 1e-14
 
 
 def test_large_magnitudes_do_not_overflow() -> None:
