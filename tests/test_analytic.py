@@ -83,8 +83,11 @@ def test_family_round_trip(name: str, mode: str, rng: np.random.Generator) -> No
                 assert optik.spatial.pose_error(T_b, T)[1] <= 1e-9
         compare = slice(0, 3) if (name == "dobot_magician" and mode == "position") else slice(None)
         # Within 1e-6 of a singularity two branches merge into a double root between them,
-        # so the original is recovered only to about the distance from the singularity.
-        tolerance = 1e-6 if k < N_RANDOM else 1e-5
+        # so the original is recovered only to about the distance from the singularity,
+        # times the conditioning of the joints that follow (the Puma 1e-6 rad from its
+        # stretched elbow: 1.5e-5 rad off in the shoulder, before and after the elbow's
+        # equation was made relative; every branch still reaches the pose to 1e-9).
+        tolerance = 1e-6 if k < N_RANDOM else 3e-5
         if np.max(np.abs(branches[0][compare] - q[compare])) > tolerance:
             missing += 1
     assert missing == 0, (

@@ -111,3 +111,29 @@ def test_a_kilometre_arm_keeps_its_branches_next_to_the_shoulder_singularity() -
             assert Rotation.from_matrix(F[:3, :3].T @ T[:3, :3]).magnitude() <= 1e-9
         # 1e-6 rad from a singularity the source is resolved only to about that much
         assert min(_wrapped_distance(b, q) for b in branches) <= 1e-5
+
+
+@pytest.mark.parametrize("name", ["puma560", "ur5"])
+def test_a_millimetre_arm_keeps_its_branches_and_proves_nothing_false(name: str) -> None:
+    """The DH table times 1e-3: the elbow's distance equation is in m^2 (``2 a2 a3``
+    about 4e-7 m^2), where an absolute band of 1e-11 is 3e-5 relative: the Puma 6e-3 rad
+    from its stretched elbow got no branch and solve_ik a false "unreachable" (its dls
+    cross-check failed too). The elbow's equation is made relative first."""
+    robot0 = optik.load_problem(name).robot
+    rows = [dataclasses.replace(r, a=r.a * 1e-3, d=r.d * 1e-3) for r in robot0.dh]
+    robot = optik.Robot.from_dh(rows, name=f"{name}_mm")
+    rng = np.random.default_rng(11)
+    samples = [rng.uniform(robot.lower, robot.upper) for _ in range(20)]
+    if name == "puma560":
+        found = [1.2153031716513945, 1.1796106021926294, -1.5298441707466486,
+                 1.69646785969071, 0.30551516576919346, -2.5876875339993295]  # fmt: skip
+        samples.append(np.array(found))
+    for q in samples:
+        T = robot.fk(q)
+        branches = analytic_ik(robot, T)
+        assert branches, q
+        for b in branches:
+            F = robot.fk(b)
+            assert np.linalg.norm(F[:3, 3] - T[:3, 3]) <= 1e-9
+            assert Rotation.from_matrix(F[:3, :3].T @ T[:3, :3]).magnitude() <= 1e-9
+        assert optik.solve_ik(robot, T).status not in ("unreachable", "outside_limits")

@@ -24,8 +24,9 @@ its ideal arm only to about 1e-11, and a stretched arm's double root must stay o
 (two roots ``sqrt(2e-11 / r)`` apart would not give back the stretched configuration).
 Where ``r >= 1`` the closed forms take a tenth of it (:func:`optik._math.trig_roots`: a
 kilometre arm's 150 m shoulder equation left its tangent root 1.5e-9 m off at 1e-11
-relative). The band is in the equation's units: an elbow equation in m^2 of a
-millimetre arm makes it wide (an open remainder)."""
+relative). The band is in the equation's units: the compiled elbows' distance
+equations (m^2) are made relative first (:func:`optik.analytic._subproblems.elbow_roots`);
+the planar 2R's and the DOBOT's, solved in Python, are not yet."""
 
 SINGULAR_EPS = 1e-12
 """Below this magnitude (relative to ``max(|a|, |b|, |c|, 1)``) a coefficient pair of the

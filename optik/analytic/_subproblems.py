@@ -300,6 +300,28 @@ def roots_or_tangent(
     return n, t1, t2
 
 
+@_inline
+def elbow_roots(
+    a: float,
+    b: float,
+    c: float,
+    ref: float,
+    roots: RootTols,
+) -> tuple[int, float, float]:
+    """:func:`roots_or_tangent` of an elbow's distance equation, made relative first.
+
+    Its coefficients are squared lengths (m^2): an absolute band of 1e-11 is 3e-5 of a
+    millimetre arm's ``2 a2 a3`` (the tangent root then 7e-3 rad off, beyond the FK
+    check) and 1e-17 of a kilometre arm's. Divided by ``hypot(a, b) / 2`` the equation
+    has ``r = 2``, where the closed forms' band is 1e-12 relative at every size.
+    """
+    r = math.sqrt(a * a + b * b)
+    if r > 0.0 and math.isfinite(r):
+        k = 2.0 / r
+        return roots_or_tangent(a * k, b * k, c * k, ref, roots)
+    return roots_or_tangent(a, b, c, ref, roots)
+
+
 @_jit
 def plane_angles(
     w: Vec3,

@@ -52,7 +52,7 @@ from optik.analytic._compiled import (
     mul3tn,
     store_branch,
 )
-from optik.analytic._subproblems import roots_or_tangent
+from optik.analytic._subproblems import elbow_roots
 from optik.model import DHJoint
 
 _EPS = 1e-12
@@ -237,7 +237,7 @@ def spherical_wrist_candidates(
         R1 = dh_rot(c1, sn1, ca1, sa1) if theta1 == t1 else dh_rotation(theta1, ca1, sa1)
         if not rrp:
             rhs = rho2 - a2 * a2 - a3 * a3 - b3 * b3
-            n3, t3a, t3b = roots_or_tangent(
+            n3, t3a, t3b = elbow_roots(
                 2 * a2 * a3,
                 -2 * a2 * b3,
                 rhs,

@@ -45,7 +45,7 @@ from optik.analytic._compiled import (
     store_branch,
     times_inverse_dh,
 )
-from optik.analytic._subproblems import roots_or_tangent
+from optik.analytic._subproblems import elbow_roots
 from optik.model import DHJoint
 
 _ALPHAS_DEG = (90.0, 0.0, 0.0, 90.0, -90.0, 0.0)
@@ -166,7 +166,7 @@ def _ur_elbow(
     trig_tol, eps, free_tol, _ = closed_form_tols(tols)
     x, y, t234 = _ur_wrist_origin(dh, T16, c5t, sn5t, c6t, sn6t)
     phi = math.atan2(y, x)
-    n3, t3a, t3b = roots_or_tangent(
+    n3, t3a, t3b = elbow_roots(
         2 * a2 * a3,
         0.0,
         x * x + y * y - a2 * a2 - a3 * a3,
