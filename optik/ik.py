@@ -41,7 +41,6 @@ from optik._checks import (
     check_choice,
     check_int,
     check_real,
-    finite_array,
 )
 from optik._ik_options import (
     DEFAULT_RESTARTS,
@@ -76,7 +75,7 @@ from optik.ik_batch import (
 from optik.limits import LIMIT_TOLERANCE
 from optik.model import Robot
 from optik.poses import PositionOnlyTargetError, as_target_pose
-from optik.posture import check_joint_weights, posture_answers, refine_posture
+from optik.posture import check_posture, posture_answers, refine_posture
 from optik.solvers import get_solver
 from optik.solvers._base import IKQuery, IKSolver, RunOutput, budget_now, now
 from optik.solvers._seeds import start_sequence
@@ -335,14 +334,11 @@ def solve_ik(
         limit_margin=limit_margin, mode=mode, axis=axis, weights=weights, tol=tol,
     )  # fmt: skip
     check_choice("select", select, ("first", "nearest"))
-    if posture is not None:  # checked before any answer, an early one included
-        q_ref = finite_array("posture", posture, (robot.dof,))
-        norm = check_joint_weights(joint_weights, robot.dof)
-    elif joint_weights is not None:
-        raise OptikError("joint_weights is the norm of posture: give posture too")
+    # Checked before any answer, an early one included.
+    q_ref, norm = check_posture(posture, joint_weights, robot.dof)
     if plan.early is not None:
         return plan.early
-    if posture is not None:
+    if q_ref is not None and norm is not None:
         return _posture_answer(plan, q_ref, norm)
     if plan.branches and plan.numeric is None:
         return _answer(plan, plan.branches[0], "analytic")

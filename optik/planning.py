@@ -46,7 +46,6 @@ from optik._checks import (
     check_length_array,
     check_progress,
     check_real,
-    finite_array,
 )
 from optik._files import write_atomic_with
 from optik._ik_options import query_bounds
@@ -56,7 +55,7 @@ from optik.diffik import clip_into_limits
 from optik.errors import OptikError, ShapeError
 from optik.ik import solve_ik
 from optik.model import Robot
-from optik.posture import check_joint_weights
+from optik.posture import check_posture
 from optik.spatial import as_pose
 from optik.task import AXES, MODES, Task, make_task, task_rows
 from optik.verify import beyond_reach_task
@@ -619,10 +618,7 @@ def _path_task(
     task = make_task(mode, axis=axis, weights=weights, tol=tol)
     names = frozen or {}
     held = np.array([name in names for name in robot.joint_names])
-    q_ref = None if posture is None else finite_array("posture", posture, (robot.dof,))
-    if joint_weights is not None and q_ref is None:
-        raise OptikError("joint_weights is the norm of posture: give posture too")
-    w = None if q_ref is None else check_joint_weights(joint_weights, robot.dof)
+    q_ref, w = check_posture(posture, joint_weights, robot.dof)
     return _PathTask(task, q_ref, w, held)
 
 

@@ -52,6 +52,7 @@ __all__ = [
     "TIGHTEN",
     "Refinement",
     "check_joint_weights",
+    "check_posture",
     "posture_answers",
     "posture_candidates",
     "refine",
@@ -78,6 +79,25 @@ def check_joint_weights(weights: object, dof: int) -> FloatArray:
             f"finite and normal in float64), got {w.tolist()}"
         )
     return w
+
+
+def check_posture(
+    posture: object, joint_weights: object, dof: int
+) -> tuple[FloatArray | None, FloatArray | None]:
+    """``(q_ref, weights)`` of the ``posture`` and ``joint_weights`` options (rad / m).
+
+    ``(None, None)`` without a posture; the weights default to ones with one.
+
+    Raises:
+        OptikError: ``posture`` not a finite (dof,) array, ``joint_weights`` invalid
+            (:func:`check_joint_weights`), or given without ``posture`` (they are its
+            norm, and would be ignored).
+    """
+    if posture is None:
+        if joint_weights is not None:
+            raise OptikError("joint_weights is the norm of posture: give posture too")
+        return None, None
+    return finite_array("posture", posture, (dof,)), check_joint_weights(joint_weights, dof)
 
 
 class Refinement(NamedTuple):
