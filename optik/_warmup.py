@@ -201,6 +201,9 @@ def _numeric() -> None:
     optik.solve_ik(robot, targets[1], timeout_s=1.0)
     for solver in ("pinv", "transpose"):
         optik.solve_ik(robot, targets[2], solver=solver, restarts=0, max_iter=5)
+    # Graded weights: one iteration fails the search, so the compromise's kernel runs.
+    graded = [1.0, 1.0, 1.0, 0.5, 0.5, 0.5]
+    optik.solve_ik(robot, targets[0], weights=graded, q0=robot.lower, restarts=0, max_iter=1)
     # The report's reference steps: this worker has time for their kernel.
     J = robot.jacobian(robot.mid_limits)
     optik.min_norm(J, J[:, 0])
@@ -212,7 +215,10 @@ def _batch() -> None:
     import optik
 
     robot = _problem_robot("panda")
-    optik.solve_ik_batch(robot, _targets(robot, 16, 2))
+    targets = _targets(robot, 16, 2)
+    optik.solve_ik_batch(robot, targets)
+    graded = [1.0, 1.0, 1.0, 0.5, 0.5, 0.5]
+    optik.solve_ik_batch(robot, targets[:1], weights=graded, q0=robot.lower, restarts=0, max_iter=1)
 
 
 def _programs() -> None:

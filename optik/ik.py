@@ -242,7 +242,8 @@ def _closed_form_proof(
         else f"{form}: no branch reaches the target"
     )
     reason += f" (a {numeric.name} cross-check found no answer either)"
-    q = outside[0] if outside else q_start
+    # Graded weights ask for a compromise where the target cannot be met: the run's.
+    q = run.q if query.spec.is_graded else (outside[0] if outside else q_start)
     outcome = _without_run(q, status, reason, run.iterations, run.restarts)
     return _result(query, start_time, "analytic", outcome, None)
 
@@ -606,14 +607,17 @@ def _plan(
         clipped = [np.clip(q, box[0], box[1]) for q in roll.outside[:ROLL_STARTS]]
         starts_given = [*starts_given, *clipped]
     elif (
-        family is not None and task.is_pose_or_position and _family_solves(robot, family, task.mode)
+        family is not None
+        and task.search.is_pose_or_position
+        and _family_solves(robot, family, task.mode)
     ):
         # Frozen joints or a margin narrow the box (the branch set proves nothing about
-        # it), and a numerical family (general_6r) proves nothing at all.
+        # it), and a numerical family (general_6r) proves nothing at all. Graded positive
+        # weights have the same exact answers (optik.task): the branches answer them.
         provable = bounds is None and family.proves_unreachable
         return closed_form(task.mode, provable=provable)
     held = _held_joint(robot, bounds) if family is None and warm_start == "analytic" else None
-    if held is not None and task.is_pose_or_position and task.mode == "pose":
+    if held is not None and task.search.is_pose_or_position and task.mode == "pose":
         # Complete for the held value inside the limits; a margin narrows the others.
         return closed_form("pose", provable=float(limit_margin) == 0.0, held=held)
     # No closed form: the reach sphere still proves a target unreachable.

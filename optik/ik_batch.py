@@ -29,10 +29,11 @@ from optik.errors import ArgumentError, OptikError, ShapeError
 from optik.model import Robot
 from optik.solvers._base import now
 from optik.solvers._batch_threads import solve_batch
+from optik.solvers._lm_kernel import lm_compromise
 from optik.solvers._seeds import seed_table
 from optik.solvers.iterative import DLSSolver
 from optik.spatial import as_pose
-from optik.task import make_task
+from optik.task import Task, make_task
 from optik.verify import beyond_reach_task, verify
 
 PARALLEL_BATCH = 64
@@ -139,6 +140,27 @@ def _batch_poses(targets: Any, mode: str, framed: bool = False) -> FloatArray:
     return _bad(array)
 
 
+def _compromise(
+    chain: Any,
+    job: tuple[Task, FloatArray, int],
+    Q: FloatArray,
+    iterations: np.ndarray,
+    failed: np.ndarray,
+) -> None:
+    """The graded task's compromise from each failed row's best ``Q`` (in place).
+
+    ``job`` is ``(task, poses (N, 4, 4), max_iter)``. The search ran on
+    :attr:`optik.task.Task.search`; where it found no answer, the graded weights choose
+    the compromise (as :meth:`optik.solvers.IKSolver.run` does for one target).
+    """
+    task, poses, max_iter = job
+    for k in failed:
+        q, it, _, _, _ = lm_compromise(chain, poses[k], task.packed, Q[k], max_iter,
+                                       DLSSolver.w_bias)  # fmt: skip
+        Q[k] = q
+        iterations[k] += it
+
+
 def _bad(array: np.ndarray) -> FloatArray:
     raise ShapeError("targets", "(N, 4, 4) (or (N, 3) in position mode)", array.shape)
 
@@ -214,6 +236,8 @@ def solve_ik_batch(
     chain = robot.chain.kernel_args(bounds)
     iterations_each = DLSSolver.default_max_iter if max_iter is None else int(max_iter)
     settings = (iterations_each, DLSSolver.w_bias, int(restarts))
+    # Graded weights: searched with the task's search twin (optik.task), the same success.
+    search = task.search
     for lo in range(0, len(rows), BATCH_SLICE):
         part = rows[lo : lo + BATCH_SLICE]
         workers = threads if len(part) >= PARALLEL_BATCH else 1
@@ -221,10 +245,14 @@ def solve_ik_batch(
         targets_part = np.ascontiguousarray(poses[part])
         seeds = part.astype(np.int64) + int(seed)
         own = given[part] if given.shape[0] == N else given  # per-target or shared
-        job = (targets_part, task.packed, own, table.kernel_args(), settings, seeds)
+        job = (targets_part, search.packed, own, table.kernel_args(), settings, seeds)
         Qp, it, u, _ = solve_batch(chain, job, workers)
         Q[part], iterations[part], used[part] = Qp, it, u
     verdict = verify(robot, Q, poses, task)
+    if search is not task:
+        failed = rows[~verdict.success[rows]]
+        _compromise(chain, (task, poses, iterations_each), Q, iterations, failed)
+        verdict = verify(robot, Q, poses, task)
     status = np.where(verdict.success, "converged", np.where(reachable, "max_iter", "unreachable"))
     return IKBatchResult(
         Q,

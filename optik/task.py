@@ -23,10 +23,18 @@ orientation error is ``angle(R*^T R)`` for a full orientation, the angle between
 tool axis and the target's for ``axis``, and 0 without orientation (rad). Success:
 position error <= ``position_tol`` and orientation error <= ``orientation_tol`` (and the
 limits, judged by :mod:`optik.verify`).
+
+Positive weights do not change what success is, nor the answers of a reachable target
+(a zero residual is a zero residual under any weights): they choose the compromise when
+the target cannot be met. Graded weights slow a search, though: with rows 1e-6 of the
+others, each step that keeps the heavy rows met may cut the light rows' error only by
+about that ratio. The solvers therefore search with :attr:`Task.search` (the positive
+weights set to 1) and take the graded task only for the compromise of a failed search.
 """
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import Any
@@ -98,6 +106,25 @@ class Task:
     def is_pose_or_position(self) -> bool:
         """A plain full pose or a point with unit weights: what the closed forms solve."""
         return int(self.packed[_FAST]) != 0
+
+    @property
+    def is_graded(self) -> bool:
+        """Whether the positive weights differ (then :attr:`search` is another task)."""
+        positive = self.weights[self.weights > 0.0]
+        return bool(np.any(positive != 1.0))
+
+    @functools.cached_property
+    def search(self) -> Task:
+        """The task with every positive weight set to 1 (``self`` if none is graded).
+
+        The same success and the same answers of a reachable target, with a search
+        unslowed by graded weights (see the module).
+        """
+        if not self.is_graded:
+            return self
+        axis = AXES[self.axis] if self.axis >= 0 else "z"
+        binary = (self.weights > 0.0).astype(float)
+        return _make_task(self.mode, axis, binary, (self.position_tol, self.orientation_tol))
 
 
 WEIGHT_RANGE = (1e-100, 1e100)

@@ -15,7 +15,7 @@ import math
 import time
 from abc import ABC, abstractmethod
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -91,6 +91,15 @@ class IKQuery:
             np.ascontiguousarray(T, dtype=np.float64), self.target, self.spec.packed
         )
         return float(position), float(orientation)
+
+    def searching(self) -> IKQuery:
+        """This query with its task's search twin (``self`` when that is its task).
+
+        See :attr:`optik.task.Task.search`.
+        """
+        task = self.spec
+        search = task.search
+        return self if search is task else replace(self, task=search)
 
     def converged(self, T: FloatArray) -> bool:
         """Both judged errors within the task's tolerances."""
@@ -179,6 +188,49 @@ class IKSolver(ABC):
         start: int = 0,
     ) -> RunOutput:
         """Attempts from starts ``start..last`` until one is verified, or the deadline passes.
+
+        A task with graded weights is searched with :attr:`optik.task.Task.search` (the
+        same success, see :mod:`optik.task`); when no attempt succeeds, one more attempt
+        from the best answer on the graded task itself gives its compromise.
+        """
+        search = query.searching()
+        found = self.attempts(search, starts, max_iter, last, deadline, start)
+        if search is query or found.converged or found.status_if_failed == "solver_failed":
+            return found
+        if budget_now() > deadline:
+            return found  # out of time: the search's best, not its compromise
+        try:
+            output = self.compromise(query, found.q, max_iter, deadline)
+        except Exception:  # the search's answer stands; its run reported no crash
+            return found
+        return RunOutput(
+            output.q,
+            found.iterations + output.iterations,
+            found.restarts,
+            output.converged,
+            output.message,
+            found.status_if_failed,
+        )
+
+    def compromise(
+        self, query: IKQuery, q0: FloatArray, max_iter: int, deadline: float
+    ) -> SolverOutput:
+        """The graded task's compromise from ``q0``, a failed search's best (:meth:`run`).
+
+        :meth:`solve`, unless a solver can run to the weighted minimum itself.
+        """
+        return self.solve(query, q0, max_iter, deadline)
+
+    def attempts(
+        self,
+        query: IKQuery,
+        starts: StartSequence,
+        max_iter: int,
+        last: int,
+        deadline: float,
+        start: int = 0,
+    ) -> RunOutput:
+        """:meth:`run` on ``query``'s own task (no search task).
 
         Each attempt's answer is verified from FK (:func:`optik.verify.verify_one`); the
         first verified one is returned, else the one with the smallest sum of errors.

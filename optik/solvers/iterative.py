@@ -20,7 +20,7 @@ from optik.solvers._base import (
     budget_now,
     register,
 )
-from optik.solvers._lm_kernel import lm_solve, lm_solve_restarts
+from optik.solvers._lm_kernel import lm_compromise, lm_solve, lm_solve_restarts
 from optik.solvers._starts import StartSequence
 
 
@@ -126,7 +126,21 @@ class DLSSolver(IKSolver):
         )
         return SolverOutput(q, int(it), bool(ok), "converged" if ok else "stalled or max_iter")
 
-    def run(
+    def compromise(
+        self, query: IKQuery, q0: FloatArray, max_iter: int, deadline: float
+    ) -> SolverOutput:
+        """The compiled LM from ``q0`` to the graded cost's minimum (:func:`lm_compromise`)."""
+        q, it, ok, _, _ = lm_compromise(
+            query.robot.chain.kernel_args(query.bounds),
+            query.target,
+            query.spec.packed,
+            np.ascontiguousarray(q0, dtype=float),
+            int(max_iter),
+            self.w_bias,
+        )
+        return SolverOutput(q, int(it), bool(ok), "converged" if ok else "compromise")
+
+    def attempts(
         self,
         query: IKQuery,
         starts: StartSequence,
@@ -135,7 +149,7 @@ class DLSSolver(IKSolver):
         deadline: float,
         start: int = 0,
     ) -> RunOutput:
-        """:meth:`IKSolver.run` in the compiled kernel, in slices of attempts.
+        """:meth:`IKSolver.attempts` in the compiled kernel, in slices of attempts.
 
         The attempts run inside :func:`optik.solvers._lm_kernel.lm_solve_restarts`, a slice
         at a time: between slices Python checks the deadline and lets a ``KeyboardInterrupt``

@@ -1,0 +1,124 @@
+"""Graded task weights: the search on the binary twin, the compromise on the weights.
+
+Positive weights far apart (1e-6 of each other) used to slow the numeric search until
+most reachable targets ended in ``max_iter``; they now search with ``Task.search`` and
+keep the graded weights for the compromise of an unreachable target, which must be a
+KKT point of the weighted cost (checked by finite differences, independently of optik's
+residual code).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+import optik
+from optik.spatial import rot_x
+from optik.task import make_task
+
+HEAVY_POSITION = [1.0, 1.0, 1.0, 1e-3, 1e-3, 1e-3]
+HEAVY_ROTATION = [1e-3, 1e-3, 1e-3, 1.0, 1.0, 1.0]
+
+
+def test_search_twin_has_unit_weights_and_the_same_success() -> None:
+    task = make_task(weights=[2.0, 1.0, 1.0, 1e-6, 1e-6, 0.0], tol=(1e-5, 1e-4))
+    twin = task.search
+    assert task.is_graded and not twin.is_graded
+    assert twin.mode == task.mode == "axis" and twin.axis == task.axis == 2
+    np.testing.assert_array_equal(twin.weights, [1, 1, 1, 1, 1, 0])
+    assert (twin.position_tol, twin.orientation_tol) == (1e-5, 1e-4)
+    assert task.search is twin  # made once
+    plain = make_task("position")
+    assert not plain.is_graded and plain.search is plain
+    # Graded position weights on every axis: the twin is the plain point (any frame).
+    point = make_task("position", weights=[3.0, 1.0, 1.0, 0.0, 0.0, 0.0]).search
+    assert point.is_pose_or_position and point.mode == "position"
+
+
+def _poses(robot: optik.Robot, n: int, seed: int) -> list[np.ndarray]:
+    rng = np.random.default_rng(seed)
+    return [robot.fk(rng.uniform(robot.lower, robot.upper)) for _ in range(n)]
+
+
+@pytest.mark.parametrize("ratio", [1e-6, 1e-8])
+@pytest.mark.parametrize("light", ["rotation", "position"])
+def test_reachable_targets_with_weights_far_apart_are_solved(ratio: float, light: str) -> None:
+    # Before: 3 of 20 (1e-6) and 0 of 20 (1e-8) random Panda poses with light position
+    # rows ended in max_iter.
+    panda = optik.load_problem("panda").robot
+    weights = [1, 1, 1, ratio, ratio, ratio] if light == "rotation" else [ratio] * 3 + [1] * 3
+    targets = _poses(panda, 10, seed=3)
+    for T in targets:
+        result = optik.solve_ik(panda, T, weights=weights)
+        assert result.success, (result.status, result.position_error, result.orientation_error)
+        F = panda.fk(result.q)
+        assert np.linalg.norm(F[:3, 3] - T[:3, 3]) <= 1e-6
+        assert Rotation.from_matrix(T[:3, :3].T @ F[:3, :3]).magnitude() <= 1e-6
+    batch = optik.solve_ik_batch(panda, np.array(targets), weights=weights)
+    assert batch.success.all(), batch.status
+
+
+def test_closed_form_answers_graded_full_pose_weights() -> None:
+    ur5 = optik.load_problem("ur5").robot
+    for T in _poses(ur5, 5, seed=4):
+        result = optik.solve_ik(ur5, T, weights=[1, 1, 1, 1e-8, 1e-8, 1e-8])
+        assert result.success and result.solver == "analytic"
+        np.testing.assert_allclose(ur5.fk(result.q), T, atol=1e-9)
+
+
+def _weighted_cost(robot: optik.Robot, q: np.ndarray, T: np.ndarray, w: list[float]) -> float:
+    """0.5 sum w_i e_i^2, e = [R*^T (p - p*); rotvec(R*^T R)] (target frame)."""
+    F = robot.fk(q)
+    d = T[:3, :3].T @ (F[:3, 3] - T[:3, 3])
+    r = Rotation.from_matrix(T[:3, :3].T @ F[:3, :3]).as_rotvec()
+    e = np.concatenate([d, r])
+    return 0.5 * float(np.sum(np.asarray(w) * e * e))
+
+
+def _kkt_violation(robot: optik.Robot, q: np.ndarray, T: np.ndarray, w: list[float]) -> float:
+    """Largest projected gradient of the weighted cost inside the box (central differences)."""
+    h = 1e-6
+    steps = np.eye(len(q)) * h
+    g = np.array(
+        [
+            (_weighted_cost(robot, q + s, T, w) - _weighted_cost(robot, q - s, T, w)) / (2 * h)
+            for s in steps
+        ]
+    )
+    at_lower = q <= robot.lower + 1e-9
+    at_upper = q >= robot.upper - 1e-9
+    projected = np.where(at_lower, np.minimum(g, 0.0), np.where(at_upper, np.maximum(g, 0.0), g))
+    return float(np.max(np.abs(projected)))
+
+
+@pytest.mark.parametrize("name", ["ur5", "panda"])
+def test_unreachable_target_gets_the_weighted_compromise(name: str) -> None:
+    base = optik.load_problem(name).robot
+    centre = base.mid_limits + 0.2
+    robot = base.with_limits(centre - 0.3, centre + 0.3)
+    T = robot.fk(centre)
+    T[:3, :3] = T[:3, :3] @ rot_x(1.2)  # a turn the narrowed wrist cannot make
+    results = {}
+    for label, weights in (("position", HEAVY_POSITION), ("rotation", HEAVY_ROTATION)):
+        single = optik.solve_ik(robot, T, weights=weights)
+        batch = optik.solve_ik_batch(robot, T[None], weights=weights)
+        assert not single.success and not batch.success[0]
+        assert robot.within_limits(single.q) and robot.within_limits(batch.q[0])
+        # A stationary point of the weighted cost (an unweighted answer is not: its
+        # projected gradient is 0.1 to 0.16 here).
+        assert _kkt_violation(robot, single.q, T, weights) <= 1e-4
+        assert _kkt_violation(robot, batch.q[0], T, weights) <= 1e-4
+        results[label] = single
+    assert results["position"].position_error < 0.1 * results["rotation"].position_error
+    assert results["rotation"].orientation_error < results["position"].orientation_error
+
+
+def test_graded_path_uses_every_waypoint() -> None:
+    ur5 = optik.load_problem("ur5").robot
+    start = np.array([0.3, -1.2, 1.5, -0.9, 1.1, 0.4])
+    waypoints = np.array([ur5.fk(start + 0.02 * k) for k in range(5)])
+    path = optik.plan_path(ur5, waypoints, weights=[1, 1, 1, 1e-7, 1e-7, 1e-7])
+    assert path.status == ["ok"] * 5
+    for q, T in zip(path.q, waypoints, strict=True):
+        np.testing.assert_allclose(ur5.fk(q), T, atol=1e-6)
