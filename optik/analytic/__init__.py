@@ -192,8 +192,10 @@ def analytic_ik(
 
     Returns:
         A list of joint vectors (dof,), possibly empty (unreachable, or reachable only
-        outside the limits). Each reaches the target within ``VERIFY_TOLERANCE``; with
-        ``free_joint``, each has exactly ``free_value`` there.
+        outside the limits). Each reaches the target within ``VERIFY_TOLERANCE`` (rad;
+        in metres relative to an arm larger than 1 m,
+        :func:`optik.analytic._base.verify_position_tolerance`); with ``free_joint``,
+        each has exactly ``free_value`` there.
 
     Raises:
         AnalyticIKError: the robot has no family, or the family does not solve ``mode``

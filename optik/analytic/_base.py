@@ -36,7 +36,27 @@ FREE_RHS_TOL = 1e-9
 """With ``a = b = 0``, ``|c|`` below this (relative, as above) makes the joint free."""
 
 VERIFY_TOLERANCE = 1e-9
-"""Largest position (m) and orientation (rad) error of a returned branch."""
+"""Largest orientation error (rad) of a returned branch, and its position error (m) on an
+arm of up to 1 m at the world's origin (:func:`verify_position_tolerance`)."""
+
+ROUNDING_ULPS = 256.0
+"""Rounding allowed in the FK check's positions, in units of ``eps`` times the world
+coordinates' size (:func:`verify_position_tolerance`)."""
+
+
+def verify_position_tolerance(robot: Robot) -> float:
+    """Largest position error (m) of a returned branch of ``robot``.
+
+    :data:`VERIFY_TOLERANCE` relative to the arm's size where it exceeds 1 m (the reach
+    sphere's radius ``r``), plus the rounding of world coordinates as large as the reach
+    sphere's far side (``|c| + r``): ``1e-9 max(1, r) + 256 eps (|c| + r)``. A 1e8 m arm's
+    forward kinematics rounds at about 1e-8 m, and an absolute 1e-9 m check rejected
+    every exact branch of it (an unsound "unreachable").
+    """
+    centre, radius = robot.reach_sphere
+    far = float(np.linalg.norm(centre)) + radius
+    return VERIFY_TOLERANCE * max(1.0, radius) + ROUNDING_ULPS * np.finfo(float).eps * far
+
 
 DUPLICATE_TOLERANCE = 1e-9
 """Two branches closer than this (max-abs, rad or m) are one."""

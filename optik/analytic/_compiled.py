@@ -52,6 +52,7 @@ from optik.analytic._base import (
     fit_model,
     is_right_angle,
     table_target,
+    verify_position_tolerance,
 )
 from optik.analytic.geometry import DHModel, joint_axes, wrist_centre
 from optik.errors import AnalyticIKError
@@ -110,9 +111,10 @@ _TOL_NAMES = (
     "ROTATION_TOLERANCE",  # optik.spatial: max |R^T R - I| of a target
     "BOTTOM_ROW_TOL",  # optik.spatial.as_pose: |last row - (0 0 0 1)|
     "WRIST_SINGULAR",  # optik.analytic._base: |sin q5| of an aligned wrist
+    "VERIFY_POSITION",  # optik.analytic._base.verify_position_tolerance: FK check, m
 )
 TOL_TRIG, TOL_SINGULAR, TOL_FREE_RHS, TOL_LIMIT, TOL_VERIFY, TOL_DUPLICATE = range(6)
-TOL_ROTATION, TOL_BOTTOM_ROW, TOL_WRIST = range(6, 9)
+TOL_ROTATION, TOL_BOTTOM_ROW, TOL_WRIST, TOL_VERIFY_POSITION = range(6, 10)
 """Indices of the tolerances in the block (:func:`tolerances`), in ``_TOL_NAMES``'s order."""
 _N_PARAMS = AT_TOLS + len(_TOL_NAMES)
 PARAMS_LAYOUT: dict[str, tuple[int, tuple[int, ...]]] = {
@@ -202,6 +204,7 @@ def pack_params(robot: Robot, family: int) -> FloatArray:
     if family == SPHERICAL_WRIST:
         params[AT_WRIST:AT_TOLS] = wrist_centre(joint_axes(robot))
     params[AT_TOLS:] = tolerance_block()
+    params[AT_TOLS + TOL_VERIFY_POSITION] = verify_position_tolerance(robot)
     return params
 
 
@@ -218,6 +221,7 @@ def tolerance_block() -> FloatArray:
             ROTATION_TOLERANCE,
             _BOTTOM_ROW_TOL,
             WRIST_SINGULAR,
+            VERIFY_TOLERANCE,  # a robot's own: set where its parameters are packed
         ]
     )
 
@@ -296,6 +300,7 @@ def pack_axes_vector(
     params[at.points : at.tool] = points.reshape(-1)
     params[at.tool : at.tols] = tool.reshape(-1)
     params[at.tols :] = tols
+    params[at.tols + TOL_VERIFY_POSITION] = verify_position_tolerance(robot)
     return params
 
 

@@ -67,6 +67,7 @@ from optik.analytic._compiled import (
     TOL_DUPLICATE,
     TOL_LIMIT,
     TOL_VERIFY,
+    TOL_VERIFY_POSITION,
     UR,
     mul3tn,
 )
@@ -305,16 +306,20 @@ def _wrap_row(
 
 
 @_inline
-def _pose_verified(pre: np.ndarray, i: int, T: np.ndarray, k: int, verify_tol: float) -> bool:
+def _pose_verified(
+    pre: np.ndarray, i: int, T: np.ndarray, k: int, verify_tol: float, position_tol: float
+) -> bool:
     """Whether the pose in ``pre[i]`` (top rows, row-major) reaches ``T[k]``.
 
-    Position error (m) and the robust rotation angle of ``R_fk^T R_target`` (rad, the
-    ``atan2`` of :func:`optik.spatial.rotation_angle`) both within ``verify_tol``.
+    Position error within ``position_tol`` (m, the robot's
+    :func:`optik.analytic._base.verify_position_tolerance`) and the robust rotation angle
+    of ``R_fk^T R_target`` (rad, the ``atan2`` of :func:`optik.spatial.rotation_angle`)
+    within ``verify_tol``.
     """
     dx = pre[i, 3] - T[k, 0, 3]
     dy = pre[i, 7] - T[k, 1, 3]
     dz = pre[i, 11] - T[k, 2, 3]
-    if not math.sqrt(dx * dx + dy * dy + dz * dz) <= verify_tol:
+    if not math.sqrt(dx * dx + dy * dy + dz * dz) <= position_tol:
         return False
     # R_rel = R_fk^T R_target; angle = atan2(|vee(R_rel - R_rel^T)| / 2, (tr - 1) / 2).
     rr = mul3tn(
@@ -569,6 +574,7 @@ def postprocess_rows(
     strict_tol = params[tols + TOL_LIMIT]
     limit_tol = strict_tol + (REFINE_MAX_STEP if refine else 0.0)
     verify_tol = params[tols + TOL_VERIFY]
+    position_tol = params[tols + TOL_VERIFY_POSITION]
     dup_tol = params[tols + TOL_DUPLICATE]
     # 1. Finite rows, wrapped, inside the limits (when asked): compacted to rows[:kept].
     kept = 0
@@ -619,7 +625,7 @@ def postprocess_rows(
                 depth = _onto_bounds_fk(
                     params, _runtime(layout), np.int64(dof), np.int64(held), rows, r, pre
                 )
-        if not _pose_verified(pre, dof, T, k, verify_tol):
+        if not _pose_verified(pre, dof, T, k, verify_tol, position_tol):
             continue
         duplicate = False
         for other in range(m):

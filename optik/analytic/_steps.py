@@ -13,7 +13,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from optik._checks import FloatArray
-from optik.analytic._base import DUPLICATE_TOLERANCE, LIMIT_CLIP, VERIFY_TOLERANCE
+from optik.analytic._base import (
+    DUPLICATE_TOLERANCE,
+    LIMIT_CLIP,
+    VERIFY_TOLERANCE,
+    verify_position_tolerance,
+)
 from optik.model import Robot
 from optik.spatial import rotation_angle
 
@@ -145,11 +150,12 @@ def _verified(robot: Robot, Q: FloatArray, T_target: FloatArray, mode: str) -> N
     """(k,) whether each row of ``Q`` (k, dof) reaches its target by ``Robot.fk``.
 
     ``T_target`` is one target (4, 4) for every row or one per row (k, 4, 4). Position
-    error (m) and, in pose mode, the rotation angle (rad) within :data:`VERIFY_TOLERANCE`;
-    a row with a NaN is not verified.
+    error within :func:`verify_position_tolerance` (m) and, in pose mode, the rotation
+    angle within :data:`VERIFY_TOLERANCE` (rad); a row with a NaN is not verified.
     """
     T = robot.fk(Q)
-    good = np.linalg.norm(T[:, :3, 3] - T_target[..., :3, 3], axis=1) <= VERIFY_TOLERANCE
+    position_tol = robot.cached(verify_position_tolerance)
+    good = np.linalg.norm(T[:, :3, 3] - T_target[..., :3, 3], axis=1) <= position_tol
     if mode == "pose":
         R_rel = np.swapaxes(T[:, :3, :3], 1, 2) @ T_target[..., :3, :3]
         angle = np.asarray(rotation_angle(R_rel), dtype=float).reshape(-1)
