@@ -27,13 +27,13 @@ from optik._ik_options import (
 from optik.diffik import clip_into_limits
 from optik.errors import ArgumentError, OptikError, ShapeError
 from optik.model import Robot
-from optik.solvers._base import now
+from optik.solvers._base import now, search_length
 from optik.solvers._batch_threads import solve_batch
 from optik.solvers._lm_kernel import lm_compromise
 from optik.solvers._seeds import seed_table
 from optik.solvers.iterative import DLSSolver
 from optik.spatial import as_pose
-from optik.task import Task, make_task
+from optik.task import Task, balanced_search, make_task
 from optik.verify import beyond_reach_task, verify
 
 PARALLEL_BATCH = 64
@@ -236,8 +236,9 @@ def solve_ik_batch(
     chain = robot.chain.kernel_args(bounds)
     iterations_each = DLSSolver.default_max_iter if max_iter is None else int(max_iter)
     settings = (iterations_each, DLSSolver.w_bias, int(restarts))
-    # Graded weights: searched with the task's search twin (optik.task), the same success.
-    search = task.search
+    # Searched with the task's search twin (optik.task), the same success: graded weights
+    # at 1, the units balanced for the arm's size.
+    search = balanced_search(task, search_length(robot))
     for lo in range(0, len(rows), BATCH_SLICE):
         part = rows[lo : lo + BATCH_SLICE]
         workers = threads if len(part) >= PARALLEL_BATCH else 1

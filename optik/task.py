@@ -56,7 +56,8 @@ _AXIS = 7  # tool axis index (axis kind)
 _PTOL = 8  # position tolerance (m)
 _RTOL = 9  # orientation tolerance (rad)
 _FAST = 10  # 1: full pose, unit weights (world-frame residual); 2: position, unit weights
-_PACKED = 11
+_BIAS = 11  # factor on the LM damping's bias (a length-balanced search task's, else 1)
+_PACKED = 12
 
 NO_ROTATION = 0
 FULL_ROTATION = 1
@@ -201,8 +202,8 @@ def _weights_key(weights: Any) -> tuple[Any, ...] | None:
     return None
 
 
-def _make_task(mode: Any, axis: Any, weights: Any, tol: Any) -> Task:
-    """:func:`make_task` without the cache of tasks without weights."""
+def _make_task(mode: Any, axis: Any, weights: Any, tol: Any, bias: float = 1.0) -> Task:
+    """:func:`make_task` without the cache of tasks without weights (``bias``: ``_BIAS``)."""
     check_choice("mode", mode, MODES)
     given_mode = mode
     axis_name = check_choice("axis", axis, AXES)
@@ -271,11 +272,39 @@ def _make_task(mode: Any, axis: Any, weights: Any, tol: Any) -> Task:
     packed[_PTOL] = position_tol
     packed[_RTOL] = orientation_tol
     packed[_FAST] = fast
+    packed[_BIAS] = bias
     packed.flags.writeable = False
     features = task_features(packed)
     features.flags.writeable = False
     w.flags.writeable = False
     return Task(str(mode), axis_index, w, position_tol, orientation_tol, packed, features)
+
+
+@functools.lru_cache(maxsize=256)
+def balanced_search(task: Task, length: float) -> Task:
+    """:attr:`Task.search` for an arm of size ``length`` (m), its units balanced.
+
+    On an arm smaller than a metre the position rows (m) are small beside the rotation
+    rows (rad) and beside the damping's bias (``e^T e`` units), just as graded weights
+    make them: a 2 mm Puma's damped least squares failed 37 of 40 targets. Measured in
+    the arm's size, ``e = [dp / L; dtheta]``, every row is of order one: the rotational
+    weights times ``L^2`` and the bias times ``L^2`` (``_BIAS``) solve exactly that
+    (the normal equations multiplied by ``L^2``), with ``L = min(1, length)``; an arm of
+    a metre or more keeps :attr:`Task.search`. Success is judged as before.
+
+    Args:
+        task: the query's task.
+        length: the arm's size (m), e.g. its reach radius.
+    """
+    search = task.search
+    scale = min(1.0, float(length))
+    if scale >= 1.0 or not np.any(search.weights[:3] > 0.0):
+        return search
+    weights = search.weights.copy()
+    weights[3:] *= scale * scale
+    axis = AXES[search.axis] if search.axis >= 0 else "z"
+    tol = (search.position_tol, search.orientation_tol)
+    return _make_task(search.mode, axis, weights, tol, bias=scale * scale)
 
 
 def as_task(mode: Any = "pose", tol: Any = 1e-6) -> Task:

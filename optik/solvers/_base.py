@@ -26,8 +26,13 @@ from optik.errors import OptikError, SolverError, UnknownSolverError
 from optik.model import Robot
 from optik.programs.diff_qp import DiffIKProgram, QPSolution
 from optik.solvers._starts import StartSequence
-from optik.task import Task, as_task, task_error, task_errors_of, task_rows
+from optik.task import Task, as_task, balanced_search, task_error, task_errors_of, task_rows
 from optik.verify import verify_one
+
+
+def search_length(robot: Robot) -> float:
+    """The size (m) a search balances its units by: the robot's reach radius."""
+    return robot.reach_sphere[1]
 
 
 @dataclass(frozen=True)
@@ -92,13 +97,15 @@ class IKQuery:
         )
         return float(position), float(orientation)
 
-    def searching(self) -> IKQuery:
+    def searching(self, balanced: bool = False) -> IKQuery:
         """This query with its task's search twin (``self`` when that is its task).
 
-        See :attr:`optik.task.Task.search`.
+        See :attr:`optik.task.Task.search`; ``balanced``: its units balanced for the
+        robot's size (:func:`optik.task.balanced_search`, for the damped least squares
+        whose damping reads them).
         """
         task = self.spec
-        search = task.search
+        search = balanced_search(task, search_length(self.robot)) if balanced else task.search
         return self if search is task else replace(self, task=search)
 
     def converged(self, T: FloatArray) -> bool:
@@ -193,7 +200,7 @@ class IKSolver(ABC):
         same success, see :mod:`optik.task`); when no attempt succeeds, one more attempt
         from the best answer on the graded task itself gives its compromise.
         """
-        search = query.searching()
+        search = self.searched(query)
         found = self.attempts(search, starts, max_iter, last, deadline, start)
         if search is query or found.converged or found.status_if_failed == "solver_failed":
             return found
@@ -211,6 +218,10 @@ class IKSolver(ABC):
             output.message,
             found.status_if_failed,
         )
+
+    def searched(self, query: IKQuery) -> IKQuery:
+        """The query :meth:`run` searches with: the search twin (:meth:`IKQuery.searching`)."""
+        return query.searching()
 
     def compromise(
         self, query: IKQuery, q0: FloatArray, max_iter: int, deadline: float

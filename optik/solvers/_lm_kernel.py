@@ -191,7 +191,7 @@ def lm_attempt(
             break
         history[it % 16] = E
         it += 1
-        lam = scale * (0.5 * E + w_bias)
+        lam = scale * (0.5 * E + w_bias * task[11])  # optik.task._BIAS: a search's factor
         for a in range(dof):
             if lower[a] == upper[a]:
                 # A frozen joint (a zero-width box): its column is out of the step.

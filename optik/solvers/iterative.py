@@ -126,6 +126,10 @@ class DLSSolver(IKSolver):
         )
         return SolverOutput(q, int(it), bool(ok), "converged" if ok else "stalled or max_iter")
 
+    def searched(self, query: IKQuery) -> IKQuery:
+        """The search twin, its units balanced for the arm (:meth:`IKQuery.searching`)."""
+        return query.searching(balanced=True)
+
     def compromise(
         self, query: IKQuery, q0: FloatArray, max_iter: int, deadline: float
     ) -> SolverOutput:
