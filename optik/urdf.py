@@ -68,11 +68,17 @@ def _align_z(axis: FloatArray) -> FloatArray:
 
 def _read_root(source: str | Path) -> ET.Element:
     text: str
+    if isinstance(source, str) and not source.strip():
+        raise URDFError("source: empty (expected a URDF path or XML text)")
     if isinstance(source, Path) or (isinstance(source, str) and "<" not in source):
         path = Path(source)
         try:
-            if not path.is_file():
-                raise URDFError(f"URDF file not found: {path}")
+            found = path.is_file()
+        except (OSError, ValueError) as exc:
+            raise URDFError(f"{path}: cannot read the URDF file ({exc})") from exc
+        if not found:
+            raise URDFError(f"URDF file not found: {path}")
+        try:
             text = path.read_text(encoding="utf-8")
         except UnicodeDecodeError as exc:
             raise URDFError(f"{path}: not a UTF-8 text file ({exc})") from exc
@@ -90,7 +96,21 @@ def _read_root(source: str | Path) -> ET.Element:
         raise URDFError(f"URDF is not well-formed XML: {exc}") from exc
     if root.tag != "robot":
         raise URDFError(f"URDF root element is <{root.tag}>, expected <robot>")
+    _check_names(root)
     return root
+
+
+def _check_names(root: ET.Element) -> None:
+    """Every ``<link>`` and ``<joint>`` named, and no name used twice by one kind."""
+    for kind in ("link", "joint"):
+        seen: set[str] = set()
+        for index, element in enumerate(root.findall(kind)):
+            name = element.get("name")
+            if name is None or not name.strip():
+                raise URDFError(f"<{kind}> number {index + 1} has no name")
+            if name in seen:
+                raise URDFError(f"two <{kind}> elements are named {name!r}")
+            seen.add(name)
 
 
 def _parent_joints(root: ET.Element) -> dict[str, ET.Element]:

@@ -304,3 +304,36 @@ def test_no_moving_joint() -> None:
 
 def test_urdf_error_is_model_error() -> None:
     assert issubclass(URDFError, ModelError)
+
+
+_JOINT = (
+    '<joint {name} type="revolute"><parent link="{parent}"/><child link="{child}"/>'
+    '<origin xyz="0 0 0.1"/><axis xyz="0 0 1"/><limit lower="-1" upper="1"/></joint>'
+)
+
+
+def test_unnamed_and_twice_named_elements_rejected() -> None:
+    links = '<link name="l0"/><link name="l1"/><link name="l2"/>'
+    unnamed = (
+        f'<robot name="r">{links}'
+        + _JOINT.format(name='name="j0"', parent="l0", child="l1")
+        + _JOINT.format(name="", parent="l1", child="l2")
+        + "</robot>"
+    )
+    with pytest.raises(URDFError, match=r"<joint> number 2 has no name"):
+        Robot.from_urdf(unnamed, "l0", "l2")
+    twice = (
+        '<robot name="r"><link name="l0"/><link name="l0"/><link name="l1"/>'
+        + _JOINT.format(name='name="j0"', parent="l0", child="l1")
+        + "</robot>"
+    )
+    with pytest.raises(URDFError, match=r"two <link> elements are named 'l0'"):
+        Robot.from_urdf(twice, "l0", "l1")
+
+
+def test_empty_source_and_missing_file_named_once(tmp_path: Path) -> None:
+    with pytest.raises(URDFError, match=r"^source: empty"):
+        Robot.from_urdf("", "a", "b")
+    missing = tmp_path / "none.urdf"
+    with pytest.raises(URDFError, match=r"^URDF file not found: .*none\.urdf$"):
+        Robot.from_urdf(missing, "a", "b")
