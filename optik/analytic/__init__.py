@@ -19,6 +19,7 @@ import math
 from typing import Any, cast
 
 import numpy as np
+from scipy.optimize import minimize_scalar
 
 from optik._checks import FloatArray
 from optik.analytic import (  # noqa: F401  (importing a family registers it: this order)
@@ -278,9 +279,9 @@ def _frame_inverses(robot: Robot) -> tuple[FloatArray, FloatArray]:
     return inverses
 
 
-FREE_REFERENCES = 8
+FREE_REFERENCES = 24
 """References spread over the limits that a degenerate pose's closed form is rerun from
-when every branch lies outside the limits (:func:`_degenerate`)."""
+when every branch lies outside the limits (:func:`_free_references`)."""
 
 SINGULAR_GATE = 1e-6
 """Smallest singular value of the Jacobian (m or rad per rad) below which a branch is
@@ -334,18 +335,89 @@ def _degenerate(
         return found
     # A joint left free takes the reference's value, which may be the one that puts the
     # others out of their limits (the drill's shoulder over its axis): other references.
+    return _free_references(robot, family, T_target, mode, ref, sort)
+
+
+def _free_references(
+    robot: Robot,
+    family: AnalyticFamily,
+    T_target: FloatArray,
+    mode: str,
+    ref: FloatArray,
+    sort: bool,
+) -> list[FloatArray]:
+    """In-limit branches of a continuum, the closed form rerun from other references.
+
+    References ``low + s (high - low)`` over the limits: :data:`FREE_REFERENCES` values
+    of ``s`` spread over ``[0, 1]``, then, around each of the lowest :data:`FREE_DIPS`
+    local minima of the branches' excursion beyond the limits (the least sum over
+    joints, :func:`_excursion`), a bounded scalar search of ``s`` down to
+    :data:`FREE_REFINE_XTOL`: along a branch the excursion is continuous, so a window of
+    in-limit answers narrower than the spread (the drill with narrowed limits: 3 % of
+    joint 1's range) is found from its edge. The closed form's own branches at each
+    reference are exact; the FK check decides. Not a proof either way.
+    """
     inverse_base, inverse_tool = robot.cached(_frame_inverses)
     T_0 = inverse_base @ T_target @ inverse_tool
     low = np.where(np.isfinite(robot.lower), robot.lower, -math.pi)
     high = np.where(np.isfinite(robot.upper), robot.upper, math.pi)
-    for k in range(FREE_REFERENCES):
-        other = low + (k + 0.5) / FREE_REFERENCES * (high - low)
-        # The closed form's own branches at that reference: exact, the FK check decides.
+    found: list[FloatArray] = []
+
+    def excursion(s: float) -> float:
+        nonlocal found
+        other = low + s * (high - low)
         raws = family.candidates(robot, T_0, mode, other)
-        found = _finish(robot, raws, T_target, mode, ref, sort, True)
+        if not found:
+            found = _finish(robot, raws, T_target, mode, ref, sort, True)
+        return 0.0 if found else _excursion(robot, _finish(robot, raws, T_target, mode, other,
+                                                           False, False))  # fmt: skip
+
+    grid = (np.arange(FREE_REFERENCES) + 0.5) / FREE_REFERENCES
+    values = []
+    for s in grid:
+        values.append(excursion(float(s)))
         if found:
             return found  # a point of the continuum inside the limits
-    return []
+    padded = np.concatenate([[math.inf], values, [math.inf]])
+    dips = [
+        i for i in range(len(grid))
+        if math.isfinite(values[i]) and values[i] <= min(padded[i], padded[i + 2])
+    ]  # fmt: skip
+    # The excursion jumps where the nearest branch changes: each dip of the spread is
+    # searched, lowest first.
+    for i in sorted(dips, key=lambda i: values[i])[:FREE_DIPS]:
+        lo = grid[i - 1] if i > 0 else 0.0
+        hi = grid[i + 1] if i + 1 < len(grid) else 1.0
+        minimize_scalar(
+            excursion, bounds=(lo, hi), method="bounded",
+            options={"xatol": FREE_REFINE_XTOL, "maxiter": FREE_REFINE_STEPS},
+        )  # fmt: skip
+        if found:
+            break
+    return found
+
+
+FREE_REFINE_XTOL = 1e-6
+"""Smallest step (a fraction of each joint's range) of :func:`_free_references`' search."""
+
+FREE_REFINE_STEPS = 40
+"""Most closed-form runs of each bounded search of :func:`_free_references`."""
+
+FREE_DIPS = 3
+"""Local minima of the spread's excursions that :func:`_free_references` searches."""
+
+
+def _excursion(robot: Robot, branches: list[FloatArray]) -> float:
+    """The least excursion beyond the limits among ``branches``; ``inf`` without any.
+
+    Per branch (verified, wrapped) the sum over joints of how far each lies beyond its
+    limits (rad or m).
+    """
+    if not branches:
+        return math.inf
+    rows = np.array(branches)
+    beyond = np.maximum(robot.lower - rows, 0.0) + np.maximum(rows - robot.upper, 0.0)
+    return float(np.min(np.sum(beyond, axis=1)))
 
 
 def _compiled_plan(robot: Robot) -> CompiledPipeline | None:
