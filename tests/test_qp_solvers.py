@@ -149,3 +149,33 @@ def test_qp_solver_stops_at_max_iter_and_deadline() -> None:
     assert out.iterations == 1 and not out.converged and out.message == "max_iter"
     out = solver.solve(query, robot.mid_limits, 100, budget_now() - 1.0)
     assert out.iterations == 0 and out.message == "timeout"
+
+
+def test_a_stalled_proxqp_step_is_capped(monkeypatch: pytest.MonkeyPatch) -> None:
+    # A kilometre UR5 stretched: one ProxQP step used to run 15 million iterations (its
+    # default inner loop of 1,500 under 10,000 outer ones), 30-60 s past any timeout_s.
+    from dataclasses import replace
+
+    import optik
+    from optik.solvers import qp_direct
+
+    iterations: list[int] = []
+    solve = qp_direct._Proxqp._solve
+
+    def counted(self: qp_direct._Proxqp, qp: object, warm: bool) -> qp_direct.DirectAnswer:
+        answer = solve(self, qp, warm)  # type: ignore[arg-type]
+        iterations.append(int(self._qp.results.info.iter))
+        return answer
+
+    monkeypatch.setattr(qp_direct._Proxqp, "_solve", counted)
+    base = robot_of("ur5")
+    robot = optik.Robot.from_dh([replace(r, a=r.a * 1e3, d=r.d * 1e3) for r in base.dh])
+    q = np.array([-5.03394836, -0.62097304, -6.42976063e-09, 1.51138766, 0.0504474737, 5.49581603])
+    result = optik.solve_ik(
+        robot, robot.fk(q), solver="qp:proxqp", warm_start="q0", restarts=2, max_iter=40
+    )
+    cap = qp_direct.BACKEND_OPTIONS["proxqp"]["max_iter"] * qp_direct.PROXQP_MAX_ITER_IN
+    # The third start stalls: 90,834 iterations in one step (15 million before the cap).
+    assert iterations and 10_000 < max(iterations) <= cap == 100_000
+    if result.success:  # whatever the outcome, an honest one
+        np.testing.assert_allclose(robot.fk(result.q), robot.fk(q), atol=1e-6)
