@@ -128,6 +128,19 @@ def workspace(n_chain: int, dof: int) -> tuple[np.ndarray, ...]:
     )
 
 
+@inline
+def _slides(view: KernelChain, a: int) -> bool:
+    """Whether joint ``a`` drives a prismatic joint of the chain ``view``."""
+    prismatic = view[1]
+    if view[3]:  # no coupling: joint a is chain joint a
+        return bool(prismatic[a])
+    coupling = view[2]
+    for c in range(prismatic.shape[0]):  # noqa: SIM110 (a loop: numba has no any() of this)
+        if prismatic[c] and coupling[c, a] != 0.0:
+            return True
+    return False
+
+
 @jit
 def lm_attempt(
     chain: KernelChain,
@@ -183,6 +196,8 @@ def lm_attempt(
     for r in range(m):
         E += e[r] * e[r]
     scale = 1.0
+    # A balanced search (optik.task._LENGTH) measures a slide's travel in the arm's size.
+    slide_damping = 1.0 / (task[12] * task[12]) if task[12] > 0.0 else 1.0
     it = 0
     while it < max_iter:
         if task_converged(pos, rot, task):
@@ -213,6 +228,8 @@ def lm_attempt(
                 A[a, b] = s
                 A[b, a] = s
             s = lam
+            if slide_damping != 1.0 and _slides(view, a):
+                s = lam * slide_damping
             for r in range(m):
                 s += J[r, a] * J[r, a]
             A[a, a] = s
