@@ -344,6 +344,10 @@ class _Proxqp(DirectBackend):
         qp.settings.eps_rel = options["eps_rel"]
         qp.settings.max_iter = options["max_iter"]
         qp.settings.max_iter_in = PROXQP_MAX_ITER_IN
+        # Its infeasibility tests (1e-4) called feasible steps of a millimetre arm (rows
+        # of 1e-3 m) infeasible; optik's own check judges an unsolved step anyway.
+        qp.settings.eps_primal_inf = 1e-12
+        qp.settings.eps_dual_inf = 1e-12
         qp.settings.verbose = False
         self._qp = qp
         self._initialized = False
