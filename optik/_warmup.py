@@ -201,7 +201,7 @@ def _numeric() -> None:
     optik.solve_ik(robot, targets[1], timeout_s=1.0)
     for solver in ("pinv", "transpose"):
         optik.solve_ik(robot, targets[2], solver=solver, restarts=0, max_iter=5)
-    # Graded weights: one iteration fails the search, so the compromise's kernel runs.
+    # Graded weights: one iteration fails the search, so the compromise (lm_solve) runs.
     graded = [1.0, 1.0, 1.0, 0.5, 0.5, 0.5]
     optik.solve_ik(robot, targets[0], weights=graded, q0=robot.lower, restarts=0, max_iter=1)
     # The report's reference steps: this worker has time for their kernel.

@@ -29,7 +29,12 @@ from optik.errors import ArgumentError, OptikError, ShapeError
 from optik.model import Robot
 from optik.solvers._base import now, search_length
 from optik.solvers._batch_threads import solve_batch
-from optik.solvers._lm_kernel import lm_compromise
+from optik.solvers._lm_kernel import (
+    COMPROMISE_MAX_ITER,
+    COMPROMISE_RATIO,
+    COMPROMISE_WINDOW,
+    lm_solve,
+)
 from optik.solvers._seeds import seed_table
 from optik.solvers.iterative import DLSSolver
 from optik.spatial import as_pose
@@ -154,9 +159,12 @@ def _compromise(
     the compromise (as :meth:`optik.solvers.IKSolver.run` does for one target).
     """
     task, poses, max_iter = job
+    iterations_each = min(max_iter, COMPROMISE_MAX_ITER)
     for k in failed:
-        q, it, _, _, _ = lm_compromise(chain, poses[k], task.packed, Q[k], max_iter,
-                                       DLSSolver.w_bias)  # fmt: skip
+        q, it, _, _, _ = lm_solve(
+            chain, poses[k], task.packed, Q[k], iterations_each, DLSSolver.w_bias,
+            COMPROMISE_WINDOW, COMPROMISE_RATIO,
+        )  # fmt: skip
         Q[k] = q
         iterations[k] += it
 

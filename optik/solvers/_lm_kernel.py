@@ -280,8 +280,15 @@ def lm_solve(
     q0: np.ndarray,
     max_iter: int,
     w_bias: float,
+    window: int,
+    ratio: float,
 ) -> tuple[np.ndarray, int, bool, float, float]:
-    """Projected Levenberg–Marquardt from ``q0`` (one attempt, the patient stall rule).
+    """Projected Levenberg–Marquardt from ``q0``: one attempt, stall rule ``(window, ratio)``.
+
+    A search's rule is ``(STALL_WINDOW, STALL_RATIO)``; a compromise's (the weighted
+    cost's minimum of a target that cannot be met, :mod:`optik.task`) is
+    ``(COMPROMISE_WINDOW, COMPROMISE_RATIO)``, which waits for no progress at all. One
+    kernel for both: a second would compile :func:`lm_attempt` into itself again.
 
     Returns:
         ``(q, iterations, converged, position_error, orientation_error)``; ``converged``
@@ -289,45 +296,18 @@ def lm_solve(
     """
     q = q0.copy()
     scratch = workspace(chain[1].shape[0], q0.shape[0])
-    # np.int64: a literal argument would compile lm_attempt once more, for that literal.
-    it, ok, pos, rot = lm_attempt(
-        chain, target, task, q, max_iter, w_bias, np.int64(STALL_WINDOW), STALL_RATIO, scratch
-    )
+    it, ok, pos, rot = lm_attempt(chain, target, task, q, max_iter, w_bias, window, ratio, scratch)
     return q, it, ok, pos, rot
 
 
-COMPROMISE_WINDOW = 16
+COMPROMISE_WINDOW = np.int64(16)
 COMPROMISE_RATIO = 1.0 - 1e-12
-"""The stall rule of :func:`lm_compromise`: stop when 16 iterations cut ``e^T e`` by
-less than a relative 1e-12 (its minimum reached to rounding), not by half."""
+"""The stall rule of a compromise (:func:`lm_solve`): stop when 16 iterations cut
+``e^T e`` by less than a relative 1e-12 (its minimum reached to rounding), not by half."""
 
 COMPROMISE_MAX_ITER = 1000
-"""The most iterations :func:`lm_compromise` runs, whatever the caller's ``max_iter``: it
-runs after the search, and a timeout's deadline cannot stop a compiled loop."""
-
-
-@jit
-def lm_compromise(
-    chain: KernelChain,
-    target: np.ndarray,
-    task: np.ndarray,
-    q0: np.ndarray,
-    max_iter: int,
-    w_bias: float,
-) -> tuple[np.ndarray, int, bool, float, float]:
-    """:func:`lm_solve` run to the weighted cost's minimum; the same returns.
-
-    The compromise of a target that cannot be met (:mod:`optik.task`): the stall rule
-    waits for no progress at all (:data:`COMPROMISE_RATIO`) instead of a restart's.
-    """
-    q = q0.copy()
-    scratch = workspace(chain[1].shape[0], q0.shape[0])
-    iterations = min(max_iter, COMPROMISE_MAX_ITER)
-    it, ok, pos, rot = lm_attempt(
-        chain, target, task, q, iterations, w_bias, np.int64(COMPROMISE_WINDOW),
-        COMPROMISE_RATIO, scratch,
-    )  # fmt: skip
-    return q, it, ok, pos, rot
+"""The most iterations a compromise runs, whatever the caller's ``max_iter``: it runs
+after the search, and a timeout's deadline cannot stop a compiled loop."""
 
 
 @jit

@@ -20,7 +20,15 @@ from optik.solvers._base import (
     budget_now,
     register,
 )
-from optik.solvers._lm_kernel import lm_compromise, lm_solve, lm_solve_restarts
+from optik.solvers._lm_kernel import (
+    COMPROMISE_MAX_ITER,
+    COMPROMISE_RATIO,
+    COMPROMISE_WINDOW,
+    STALL_RATIO,
+    STALL_WINDOW,
+    lm_solve,
+    lm_solve_restarts,
+)
 from optik.solvers._starts import StartSequence
 
 
@@ -116,15 +124,8 @@ class DLSSolver(IKSolver):
 
     def solve(self, query: IKQuery, q0: FloatArray, max_iter: int, deadline: float) -> SolverOutput:
         """Run the compiled projected LM from ``q0``."""
-        q, it, ok, _, _ = lm_solve(
-            query.robot.chain.kernel_args(query.bounds),
-            query.target,
-            query.spec.packed,
-            np.ascontiguousarray(q0, dtype=float),
-            int(max_iter),
-            self.w_bias,
-        )
-        return SolverOutput(q, int(it), bool(ok), "converged" if ok else "stalled or max_iter")
+        q, it, ok = self._lm(query, q0, int(max_iter), STALL_WINDOW, STALL_RATIO)
+        return SolverOutput(q, it, ok, "converged" if ok else "stalled or max_iter")
 
     def searched(self, query: IKQuery) -> IKQuery:
         """The search twin, its units balanced for the arm (:meth:`IKQuery.searching`)."""
@@ -133,16 +134,26 @@ class DLSSolver(IKSolver):
     def compromise(
         self, query: IKQuery, q0: FloatArray, max_iter: int, deadline: float
     ) -> SolverOutput:
-        """The compiled LM from ``q0`` to the graded cost's minimum (:func:`lm_compromise`)."""
-        q, it, ok, _, _ = lm_compromise(
+        """The compiled LM from ``q0`` to the graded cost's minimum (its compromise rule)."""
+        iterations = min(int(max_iter), COMPROMISE_MAX_ITER)
+        q, it, ok = self._lm(query, q0, iterations, COMPROMISE_WINDOW, COMPROMISE_RATIO)
+        return SolverOutput(q, it, ok, "converged" if ok else "compromise")
+
+    def _lm(
+        self, query: IKQuery, q0: FloatArray, max_iter: int, window: int, ratio: float
+    ) -> tuple[FloatArray, int, bool]:
+        """:func:`lm_solve` of ``query`` from ``q0``: ``(q, iterations, converged)``."""
+        q, it, ok, _, _ = lm_solve(
             query.robot.chain.kernel_args(query.bounds),
             query.target,
             query.spec.packed,
             np.ascontiguousarray(q0, dtype=float),
-            int(max_iter),
+            max_iter,
             self.w_bias,
+            np.int64(window),
+            float(ratio),
         )
-        return SolverOutput(q, int(it), bool(ok), "converged" if ok else "compromise")
+        return q, int(it), bool(ok)
 
     def attempts(
         self,
