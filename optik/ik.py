@@ -77,9 +77,10 @@ from optik.model import Robot
 from optik.poses import PositionOnlyTargetError, as_target_pose
 from optik.posture import check_posture, posture_answers, refine_posture
 from optik.solvers import get_solver
-from optik.solvers._base import IKQuery, IKSolver, RunOutput, budget_now, now
+from optik.solvers._base import IKQuery, IKSolver, RunOutput, budget_now, compromise, now
 from optik.solvers._seeds import start_sequence
 from optik.solvers._starts import StartSequence
+from optik.solvers.iterative import DLSSolver
 from optik.task import Task, make_task
 from optik.verify import beyond_reach_task, verify_one
 
@@ -638,9 +639,12 @@ def _plan(
             f"{where} {distance:.6g} m from "
             f"the reach sphere's centre, beyond its radius {radius:.6g} m"
         )
-        early = _result(
-            query, start_time, "reach", _without_run(q_start, "unreachable", reason), None
-        )
+        # Graded weights ask for a compromise even here: the weighted minimum from q0.
+        q_end, used = q_start, 0
+        if task.is_graded:
+            q_end, used, _ = compromise(query, q_start, DLSSolver.default_max_iter)
+        outcome = _without_run(q_end, "unreachable", reason, used)
+        early = _result(query, start_time, "reach", outcome, None)
         return plan([], [], early)
     return plan(starts_given, [])
 

@@ -27,14 +27,8 @@ from optik._ik_options import (
 from optik.diffik import clip_into_limits
 from optik.errors import ArgumentError, OptikError, ShapeError
 from optik.model import Robot
-from optik.solvers._base import now, search_length
+from optik.solvers._base import IKQuery, compromise, now, search_length
 from optik.solvers._batch_threads import solve_batch
-from optik.solvers._lm_kernel import (
-    COMPROMISE_MAX_ITER,
-    COMPROMISE_RATIO,
-    COMPROMISE_WINDOW,
-    lm_solve,
-)
 from optik.solvers._seeds import seed_table
 from optik.solvers.iterative import DLSSolver
 from optik.spatial import as_pose
@@ -146,26 +140,22 @@ def _batch_poses(targets: Any, mode: str, framed: bool = False) -> FloatArray:
 
 
 def _compromise(
-    chain: Any,
-    job: tuple[Task, FloatArray, int],
+    robot: Robot,
+    job: tuple[Task, FloatArray, Any, int],
     Q: FloatArray,
     iterations: np.ndarray,
     failed: np.ndarray,
 ) -> None:
     """The graded task's compromise from each failed row's best ``Q`` (in place).
 
-    ``job`` is ``(task, poses (N, 4, 4), max_iter)``. The search ran on
-    :attr:`optik.task.Task.search`; where it found no answer, the graded weights choose
-    the compromise (as :meth:`optik.solvers.IKSolver.run` does for one target).
+    ``job`` is ``(task, poses (N, 4, 4), bounds, max_iter)``. The search ran on the
+    task's search twin; where it found no answer, the graded weights choose the
+    compromise (:func:`optik.solvers._base.compromise`, as for one target).
     """
-    task, poses, max_iter = job
-    iterations_each = min(max_iter, COMPROMISE_MAX_ITER)
+    task, poses, bounds, max_iter = job
     for k in failed:
-        q, it, _, _, _ = lm_solve(
-            chain, poses[k], task.packed, Q[k], iterations_each, DLSSolver.w_bias,
-            COMPROMISE_WINDOW, COMPROMISE_RATIO,
-        )  # fmt: skip
-        Q[k] = q
+        query = IKQuery(robot, poses[k], task.mode, task.position_tol, task, bounds)
+        Q[k], it, _ = compromise(query, Q[k], max_iter)
         iterations[k] += it
 
 
@@ -260,7 +250,7 @@ def solve_ik_batch(
     verdict = verify(robot, Q, poses, task)
     if search is not task:
         failed = rows[~verdict.success[rows]]
-        _compromise(chain, (task, poses, iterations_each), Q, iterations, failed)
+        _compromise(robot, (task, poses, bounds, iterations_each), Q, iterations, failed)
         verdict = verify(robot, Q, poses, task)
     status = np.where(verdict.success, "converged", np.where(reachable, "max_iter", "unreachable"))
     return IKBatchResult(

@@ -136,8 +136,11 @@ def refine(
         max_iter: most SQP steps.
     """
     out = np.array(q, dtype=np.float64)
+    # The task's search twin: graded weights (1e-100 on a row) do not loosen what the
+    # refinement keeps solved (optik.task.Task.search: the same success).
+    task = query.spec.search
     iterations, converged, measure = posture_refine(
-        query.robot.chain.kernel_args(query.bounds), query.target, query.spec.packed, out,
+        query.robot.chain.kernel_args(query.bounds), query.target, task.packed, out,
         np.ascontiguousarray(q_ref, dtype=np.float64),
         np.ascontiguousarray(weights, dtype=np.float64), int(max_iter),
     )  # fmt: skip
@@ -247,7 +250,7 @@ def posture_answers(
     starts = start_sequence(robot, query.target, query.spec, [start, *given], seed, query.bounds)
     stop = min(last, POSTURE_ATTEMPTS)
     _, refined_q, kept, _, _, count, iterations, attempts = posture_search(
-        robot.chain.kernel_args(query.bounds), query.target, query.spec.packed,
+        robot.chain.kernel_args(query.bounds), query.target, query.spec.search.packed,
         starts.given, *starts.table, int(max_iter), numeric.w_bias, stop, starts.seed,
         np.ascontiguousarray(q_ref, dtype=np.float64),
         np.ascontiguousarray(weights, dtype=np.float64), POSTURE_ANSWERS, POSTURE_STEPS,

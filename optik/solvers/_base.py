@@ -25,9 +25,42 @@ from optik._clock import budget_clock
 from optik.errors import OptikError, SolverError, UnknownSolverError
 from optik.model import Robot
 from optik.programs.diff_qp import DiffIKProgram, QPSolution
+from optik.solvers._lm_kernel import (
+    COMPROMISE_MAX_ITER,
+    COMPROMISE_RATIO,
+    COMPROMISE_WINDOW,
+    lm_solve,
+)
 from optik.solvers._starts import StartSequence
 from optik.task import Task, as_task, balanced_search, task_error, task_errors_of, task_rows
 from optik.verify import verify_one
+
+
+def compromise(query: IKQuery, q0: FloatArray, max_iter: int) -> tuple[FloatArray, int, bool]:
+    """The task's weighted least-squares minimum from ``q0``: ``(q, iterations, converged)``.
+
+    The compromise of a target that cannot be met (:mod:`optik.task`): the compiled LM
+    on the query's own (graded) task, inside its box, until no progress is left
+    (:data:`~optik.solvers._lm_kernel.COMPROMISE_RATIO`), at most
+    ``min(max_iter, COMPROMISE_MAX_ITER)`` iterations. Whatever solver searched: the
+    minimum is the task's, not the solver's.
+    """
+    iterations = min(int(max_iter), COMPROMISE_MAX_ITER)
+    q, it, ok, _, _ = lm_solve(
+        query.robot.chain.kernel_args(query.bounds),
+        query.target,
+        query.spec.packed,
+        np.ascontiguousarray(q0, dtype=float),
+        iterations,
+        COMPROMISE_BIAS,
+        COMPROMISE_WINDOW,
+        COMPROMISE_RATIO,
+    )
+    return q, int(it), bool(ok)
+
+
+COMPROMISE_BIAS = 1e-3
+"""The damping's bias of :func:`compromise` (``dls``'s ``w_bias``)."""
 
 
 def search_length(robot: Robot) -> float:
@@ -197,40 +230,29 @@ class IKSolver(ABC):
         """Attempts from starts ``start..last`` until one is verified, or the deadline passes.
 
         A task with graded weights is searched with :attr:`optik.task.Task.search` (the
-        same success, see :mod:`optik.task`); when no attempt succeeds, one more attempt
-        from the best answer on the graded task itself gives its compromise.
+        same success, see :mod:`optik.task`); when no attempt succeeds, the best answer
+        is taken to the graded task's compromise (:func:`compromise`), also after a
+        timeout: it is bounded (at most ``COMPROMISE_MAX_ITER`` compiled iterations, a
+        few milliseconds).
         """
         search = self.searched(query)
         found = self.attempts(search, starts, max_iter, last, deadline, start)
         if search is query or found.converged or found.status_if_failed == "solver_failed":
             return found
-        if budget_now() > deadline:
-            return found  # out of time: the search's best, not its compromise
-        try:
-            output = self.compromise(query, found.q, max_iter, deadline)
-        except Exception:  # the search's answer stands; its run reported no crash
-            return found
+        q, iterations, converged = compromise(query, found.q, max_iter)
+        message = "converged" if converged else found.message
         return RunOutput(
-            output.q,
-            found.iterations + output.iterations,
+            q,
+            found.iterations + iterations,
             found.restarts,
-            output.converged,
-            output.message,
+            converged,
+            message,
             found.status_if_failed,
         )
 
     def searched(self, query: IKQuery) -> IKQuery:
         """The query :meth:`run` searches with: the search twin (:meth:`IKQuery.searching`)."""
         return query.searching()
-
-    def compromise(
-        self, query: IKQuery, q0: FloatArray, max_iter: int, deadline: float
-    ) -> SolverOutput:
-        """The graded task's compromise from ``q0``, a failed search's best (:meth:`run`).
-
-        :meth:`solve`, unless a solver can run to the weighted minimum itself.
-        """
-        return self.solve(query, q0, max_iter, deadline)
 
     def attempts(
         self,

@@ -21,9 +21,6 @@ from optik.solvers._base import (
     register,
 )
 from optik.solvers._lm_kernel import (
-    COMPROMISE_MAX_ITER,
-    COMPROMISE_RATIO,
-    COMPROMISE_WINDOW,
     STALL_RATIO,
     STALL_WINDOW,
     lm_solve,
@@ -130,14 +127,6 @@ class DLSSolver(IKSolver):
     def searched(self, query: IKQuery) -> IKQuery:
         """The search twin, its units balanced for the arm (:meth:`IKQuery.searching`)."""
         return query.searching(balanced=True)
-
-    def compromise(
-        self, query: IKQuery, q0: FloatArray, max_iter: int, deadline: float
-    ) -> SolverOutput:
-        """The compiled LM from ``q0`` to the graded cost's minimum (its compromise rule)."""
-        iterations = min(int(max_iter), COMPROMISE_MAX_ITER)
-        q, it, ok = self._lm(query, q0, iterations, COMPROMISE_WINDOW, COMPROMISE_RATIO)
-        return SolverOutput(q, it, ok, "converged" if ok else "compromise")
 
     def _lm(
         self, query: IKQuery, q0: FloatArray, max_iter: int, window: int, ratio: float
