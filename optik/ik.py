@@ -343,7 +343,8 @@ def solve_ik(
     if q_ref is not None and norm is not None:
         return _posture_answer(plan, q_ref, norm)
     if plan.branches and plan.numeric is None:
-        return _answer(plan, plan.branches[0], "analytic")
+        answer = _answer(plan, plan.branches[0], "analytic")
+        return answer if answer.success else _polished_branches(plan, answer)
     numeric = plan.numeric or get_solver(AUTO_NUMERIC_SOLVER)
     if select == "first":
         run = numeric.run(plan.query, plan.starts, plan.max_iter, plan.last, plan.deadline)
@@ -354,6 +355,21 @@ def solve_ik(
     nearest = min(found, key=lambda f: float(np.linalg.norm(f[0] - plan.q_start)))
     # The whole search's iterations and attempts, not those of the run that ended it.
     return _answer(plan, nearest[0], numeric.name, *searched)
+
+
+def _polished_branches(plan: _Plan, answer: IKResult) -> IKResult:
+    """The closed form's branches polished numerically, when its first misses ``tol``.
+
+    A branch is verified to the closed form's own tolerance (1e-9, relative on large
+    arms); a tighter ``tol``, or a tiny arm whose closed form rounds coarser, asks for
+    more: ``dls`` from the branches (nearest ``q0`` first). Its verified answer, else
+    ``answer`` as it was.
+    """
+    numeric = get_solver(AUTO_NUMERIC_SOLVER)
+    last = len(plan.branches) - 1
+    run = numeric.run(plan.query, plan.starts, plan.max_iter, last, plan.deadline)
+    polished = _from_run(plan.query, plan.start_time, numeric.name, run)
+    return polished if polished.success else answer
 
 
 def _posture_answer(plan: _Plan, q_ref: FloatArray, weights: FloatArray) -> IKResult:
