@@ -36,6 +36,27 @@ from optik.task import Task, as_task, balanced_search, task_error, task_errors_o
 from optik.verify import verify_one
 
 
+def run_lm(
+    query: IKQuery, q0: FloatArray, max_iter: int, w_bias: float, window: int, ratio: float
+) -> tuple[FloatArray, int, bool]:
+    """One compiled LM attempt on ``query`` from ``q0``: ``(q, iterations, converged)``.
+
+    :func:`optik.solvers._lm_kernel.lm_solve` with the damping's bias ``w_bias`` and the
+    stall rule ``(window, ratio)``.
+    """
+    q, it, ok, _, _ = lm_solve(
+        query.robot.chain.kernel_args(query.bounds),
+        query.target,
+        query.spec.packed,
+        np.ascontiguousarray(q0, dtype=float),
+        int(max_iter),
+        float(w_bias),
+        np.int64(window),
+        float(ratio),
+    )
+    return q, int(it), bool(ok)
+
+
 def compromise(query: IKQuery, q0: FloatArray, max_iter: int) -> tuple[FloatArray, int, bool]:
     """The task's weighted least-squares minimum from ``q0``: ``(q, iterations, converged)``.
 
@@ -46,17 +67,7 @@ def compromise(query: IKQuery, q0: FloatArray, max_iter: int) -> tuple[FloatArra
     minimum is the task's, not the solver's.
     """
     iterations = min(int(max_iter), COMPROMISE_MAX_ITER)
-    q, it, ok, _, _ = lm_solve(
-        query.robot.chain.kernel_args(query.bounds),
-        query.target,
-        query.spec.packed,
-        np.ascontiguousarray(q0, dtype=float),
-        iterations,
-        COMPROMISE_BIAS,
-        COMPROMISE_WINDOW,
-        COMPROMISE_RATIO,
-    )
-    return q, int(it), bool(ok)
+    return run_lm(query, q0, iterations, COMPROMISE_BIAS, COMPROMISE_WINDOW, COMPROMISE_RATIO)
 
 
 COMPROMISE_BIAS = 1e-3

@@ -19,13 +19,9 @@ from optik.solvers._base import (
     SolverOutput,
     budget_now,
     register,
+    run_lm,
 )
-from optik.solvers._lm_kernel import (
-    STALL_RATIO,
-    STALL_WINDOW,
-    lm_solve,
-    lm_solve_restarts,
-)
+from optik.solvers._lm_kernel import STALL_RATIO, STALL_WINDOW, lm_solve_restarts
 from optik.solvers._starts import StartSequence
 
 
@@ -121,28 +117,12 @@ class DLSSolver(IKSolver):
 
     def solve(self, query: IKQuery, q0: FloatArray, max_iter: int, deadline: float) -> SolverOutput:
         """Run the compiled projected LM from ``q0``."""
-        q, it, ok = self._lm(query, q0, int(max_iter), STALL_WINDOW, STALL_RATIO)
+        q, it, ok = run_lm(query, q0, max_iter, self.w_bias, STALL_WINDOW, STALL_RATIO)
         return SolverOutput(q, it, ok, "converged" if ok else "stalled or max_iter")
 
     def searched(self, query: IKQuery) -> IKQuery:
         """The search twin, its units balanced for the arm (:meth:`IKQuery.searching`)."""
         return query.searching(balanced=True)
-
-    def _lm(
-        self, query: IKQuery, q0: FloatArray, max_iter: int, window: int, ratio: float
-    ) -> tuple[FloatArray, int, bool]:
-        """:func:`lm_solve` of ``query`` from ``q0``: ``(q, iterations, converged)``."""
-        q, it, ok, _, _ = lm_solve(
-            query.robot.chain.kernel_args(query.bounds),
-            query.target,
-            query.spec.packed,
-            np.ascontiguousarray(q0, dtype=float),
-            max_iter,
-            self.w_bias,
-            np.int64(window),
-            float(ratio),
-        )
-        return q, int(it), bool(ok)
 
     def attempts(
         self,
