@@ -625,7 +625,7 @@ def _plan(
         starts_given = [*starts_given, *clipped]
     elif (
         family is not None
-        and task.search.is_pose_or_position
+        and (task.is_pose_or_position or task.search.is_pose_or_position)
         and _family_solves(robot, family, task.mode)
     ):
         # Frozen joints or a margin narrow the box (the branch set proves nothing about

@@ -115,18 +115,25 @@ class Task:
         positive = self.weights[self.weights > 0.0]
         return bool(np.any(positive != 1.0))
 
-    @functools.cached_property
+    @property
     def search(self) -> Task:
         """The task with every positive weight set to 1 (``self`` if none is graded).
 
         The same success and the same answers of a reachable target, with a search
-        unslowed by graded weights (see the module).
+        unslowed by graded weights (see the module). Made once per task: every query
+        asks for it (a plain property, not ``functools.cached_property``, whose lock
+        costs half a microsecond a call on Python 3.11).
         """
-        if not self.is_graded:
-            return self
-        axis = AXES[self.axis] if self.axis >= 0 else "z"
-        binary = (self.weights > 0.0).astype(float)
-        return _make_task(self.mode, axis, binary, (self.position_tol, self.orientation_tol))
+        twin = self.__dict__.get("_search")
+        if twin is None:
+            twin = self
+            if self.is_graded:
+                axis = AXES[self.axis] if self.axis >= 0 else "z"
+                binary = (self.weights > 0.0).astype(float)
+                tol = (self.position_tol, self.orientation_tol)
+                twin = _make_task(self.mode, axis, binary, tol)
+            object.__setattr__(self, "_search", twin)  # a frozen dataclass: kept by hand
+        return twin
 
 
 WEIGHT_RANGE = (1e-100, 1e100)
@@ -311,7 +318,9 @@ def balanced_search(task: Task, length: float) -> Task:
     """
     search = task.search
     length = float(length)
-    if BALANCE_BAND[0] <= length <= BALANCE_BAND[1] or not np.any(search.weights[:3] > 0.0):
+    if not 0.0 < length < math.inf or BALANCE_BAND[0] <= length <= BALANCE_BAND[1]:
+        return search  # a pure wrist (radius 0) has no size to measure in
+    if not np.any(search.weights[:3] > 0.0):
         return search
     weights = search.weights.copy()
     weights[:3] /= length * length  # the residual [dp / L; dtheta]

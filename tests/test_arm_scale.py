@@ -138,3 +138,21 @@ def test_proxqp_steps_of_a_millimetre_arm_agree_with_an_active_set_solver(name: 
         J = robot.jacobian(q)
         np.testing.assert_allclose(J @ step, 0.01 * twist, atol=1e-9)
         np.testing.assert_allclose(step, exact, atol=1e-7)
+
+
+def test_a_pure_wrist_has_no_size_to_balance() -> None:
+    # Three axes through one point, the tool on it: reach radius 0 (a division by it
+    # made the search's weights infinite).
+    wrist = optik.Robot.from_dh(
+        [
+            {"alpha": np.pi / 2, "lower": -3.0, "upper": 3.0},
+            {"alpha": -np.pi / 2, "lower": -3.0, "upper": 3.0},
+            {"lower": -3.0, "upper": 3.0},
+        ]
+    )
+    assert wrist.reach_sphere[1] == 0.0
+    task = make_task()
+    assert balanced_search(task, 0.0) is task
+    T = wrist.fk(np.array([0.3, 0.2, 0.1]))
+    assert optik.solve_ik(wrist, T, solver="dls", warm_start="q0").success
+    assert optik.solve_ik_batch(wrist, T[None]).success[0]

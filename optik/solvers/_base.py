@@ -76,7 +76,11 @@ COMPROMISE_BIAS = 1e-3
 
 def search_length(robot: Robot) -> float:
     """The size (m) a search balances its units by: the robot's reach radius."""
-    return robot.reach_sphere[1]
+    return robot.cached(_reach_radius)
+
+
+def _reach_radius(robot: Robot) -> float:
+    return float(robot.reach_sphere[1])
 
 
 @dataclass(frozen=True)
