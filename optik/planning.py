@@ -332,10 +332,7 @@ class _PathTask:
 
     @property
     def analytic_ok(self) -> bool:
-        """Whether a closed form can give the candidates: a plain task, no joint held.
-
-        Graded positive weights count as plain: the same answers (:mod:`optik.task`).
-        """
+        """Whether a closed form gives the candidates: a plain (or graded) task, no joint held."""
         return self.task.search.is_pose_or_position and not self.frozen.any()
 
     def target(self, T: FloatArray) -> FloatArray:
@@ -626,12 +623,8 @@ def _path_task(
 
 
 def _task_jacobian(robot: Robot, q: FloatArray, T: FloatArray, path_task: _PathTask) -> FloatArray:
-    """The task's Jacobian rows at ``q`` (those with a positive weight), free joints only.
-
-    Unweighted (:attr:`optik.task.Task.search`): graded weights say which compromise to
-    make, not how near a singularity the arm is.
-    """
-    task = path_task.task.search
+    """The task's unweighted Jacobian rows at ``q`` (positive weights), free joints only."""
+    task = path_task.task.search  # graded weights choose a compromise, not a singularity
     J = np.array(robot.jacobian(q), dtype=np.float64, order="C")  # a copy: changed in place
     frame = np.array(T, dtype=np.float64, order="C")
     if task.mode == "position" and not task.needs_target_frame:

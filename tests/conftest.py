@@ -197,6 +197,22 @@ def general_arm(limit: float = 4.0, tool: np.ndarray | None = None) -> Robot:
     return Robot.from_dh(rows, name="general", tool=tool)
 
 
+def scaled_dh(rows: Any, scale: float, limit: float, base: np.ndarray | None = None) -> Robot:
+    """A DH arm from ``rows`` (mappings of ``a``, ``d`` in m, ``alpha`` in rad), every
+    length times ``scale``, joints in ``[-limit, limit]`` rad, ``base`` its base pose."""
+    scaled = [
+        {
+            "a": row.get("a", 0.0) * scale,
+            "d": row.get("d", 0.0) * scale,
+            "alpha": row.get("alpha", 0.0),
+            "lower": -limit,
+            "upper": limit,
+        }
+        for row in rows
+    ]
+    return Robot.from_dh(scaled, base=base)
+
+
 def random_q(robot: Robot, rng: np.random.Generator, n: int | None = None) -> np.ndarray:
     """Configurations inside the limits: uniform over a finite range, [-pi, pi] if unbounded.
 

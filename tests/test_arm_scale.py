@@ -14,6 +14,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from conftest import scaled_dh
 from scipy.spatial.transform import Rotation
 
 import optik
@@ -30,17 +31,7 @@ def _puma(scale: float) -> optik.Robot:
         {"a": 1e-5, "alpha": -np.pi / 2},
         {},
     ]
-    scaled = [
-        {
-            "a": row.get("a", 0.0) * scale,
-            "d": row.get("d", 0.0) * scale,
-            "alpha": row.get("alpha", 0.0),
-            "lower": -2.5,
-            "upper": 2.5,
-        }
-        for row in rows
-    ]
-    return optik.Robot.from_dh(scaled)
+    return scaled_dh(rows, scale, 2.5)
 
 
 def test_balanced_search_weights_bias_and_length() -> None:

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import scaled_dh
 
 import optik
 from optik.analytic import family_of
@@ -28,17 +29,7 @@ UR5_ROWS = (
 def _scaled(
     rows: tuple[dict[str, float], ...], scale: float, base: np.ndarray | None = None
 ) -> optik.Robot:
-    scaled = [
-        {
-            "a": row.get("a", 0.0) * scale,
-            "d": row.get("d", 0.0) * scale,
-            "alpha": row.get("alpha", 0.0),
-            "lower": -6.28,
-            "upper": 6.28,
-        }
-        for row in rows
-    ]
-    return optik.Robot.from_dh(scaled, base=base)
+    return scaled_dh(rows, scale, 6.28, base)
 
 
 def _wrapped_distance(a: np.ndarray, b: np.ndarray) -> float:
