@@ -118,6 +118,25 @@ def test_solve_and_plan_take_the_problems_own_tolerance(tmp_path: Path) -> None:
     assert not set(plan["status"]) & {"unreachable", "outside_limits", "not_found"}
 
 
+def test_plan_tol_overrides_the_default_and_the_paths_own(tmp_path: Path) -> None:
+    problem = tmp_path / "edge.toml"
+    problem.write_text(EDGE_PROBLEM)
+    line = ["--line", "2.005", "0", "0", "2.005", "0.001", "0", "--step", "0.001"]
+
+    def bad(args: list[str], out: str) -> set[str]:
+        code, _ = run_cli(["plan", str(problem), *args, "--out", str(tmp_path / out)])
+        assert code == 0
+        status = json.loads((tmp_path / out / "plan.json").read_text())["status"]
+        assert len(status) == 2
+        return set(status) & {"unreachable", "outside_limits", "not_found"}
+
+    # 5 mm beyond the reach: met with --tol 1 cm, not with the default 1e-6 ...
+    assert bad(line, "default")
+    assert not bad([*line, "--tol", "0.01"], "loose")
+    # ... and a path's own 1 cm gives way to --tol
+    assert bad(["--problem-path", "edgepath", "--tol", "1e-6"], "strict")
+
+
 def test_batch_refuses_an_axis_without_axis_mode(tmp_path: Path) -> None:
     targets = tmp_path / "t.npy"
     np.save(targets, optik.pose(np.array([[1.0, 1.0, 0.0]]), rpy=np.array([[0.0, 0.0, 1.0]]),

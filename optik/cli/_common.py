@@ -464,18 +464,23 @@ def add_out_argument(
     )
 
 
-def add_tol_argument(p: Any, what: str = "tolerance", *, of_target: bool = False) -> None:
+def add_tol_argument(
+    p: Any, what: str = "tolerance", *, of_target: bool = False, own: str | None = None
+) -> None:
     """``--tol``: one tolerance for the position (m) and the orientation (rad), 1e-6 by default.
 
     With ``of_target`` the default is ``None``: the named target's own tolerances
-    (:func:`target_tolerance`), else 1e-6.
+    (:func:`target_tolerance`), else 1e-6. ``own`` names another source of that default
+    (e.g. ``"a --problem-path's own tolerance"``), read by the command.
     """
     if of_target:
+        own = "the --target's own tolerances"
+    if own is not None:
         p.add_argument(
             "--tol",
             type=positive_float,
             default=None,
-            help=f"{what}, m and rad (default: the --target's own tolerances, else 1e-6)",
+            help=f"{what}, m and rad (default: {own}, else 1e-6)",
         )
         return
     p.add_argument(

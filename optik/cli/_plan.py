@@ -16,6 +16,7 @@ from optik.cli._common import (
     add_path_group,
     add_robot_arguments,
     add_seed_argument,
+    add_tol_argument,
     command,
     finite_float,
     non_negative_float,
@@ -97,8 +98,7 @@ def _cmd_plan(args: argparse.Namespace) -> int:
             limit_margin=args.limit_margin,
             q_start=args.q0,
             seed=args.seed,
-            # a problem's path carries its tolerance (m and rad)
-            tol=1e-6 if args.problem_path is None else problem.paths[args.problem_path].tolerance,
+            tol=_path_tolerance(problem, args),
             progress=lambda done, total: bar.advance(note=f"plan {problem.name}"),
         )
     summary = plan.summary()
@@ -127,6 +127,15 @@ def _cmd_plan(args: argparse.Namespace) -> int:
         print(f"  (no plot: {exc})")
     print("  wrote " + ", ".join(str(p) for p in written))
     return EXIT_OK
+
+
+def _path_tolerance(problem: Problem, args: argparse.Namespace) -> float:
+    """``--tol``, else a ``--problem-path``'s own tolerance (m and rad), else 1e-6."""
+    if args.tol is not None:
+        return float(args.tol)
+    if args.problem_path is not None:
+        return float(problem.paths[args.problem_path].tolerance)
+    return 1e-6
 
 
 def _trajectory(plan: Any, robot: Any, args: argparse.Namespace) -> Any:
@@ -208,6 +217,7 @@ def add_plan_command(sub: Any) -> None:
         metavar="Q",
         help="current configuration, one value per joint: rad (revolute) or m (prismatic)",
     )
+    add_tol_argument(p, "IK tolerance of every waypoint", own="a --problem-path's own tolerance")
     add_seed_argument(p, "seed of the restarts")
     timing = p.add_argument_group("trajectory (time-optimal, TOPP-RA)")
     timing.add_argument(
