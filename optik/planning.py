@@ -127,8 +127,8 @@ class PathPlan:
         limit_margin: (N, dof) distance of each joint to its nearer limit (rad or m).
         manipulability: (N,) ``sqrt(det(J J^T))`` of the task rows, over the joints that
             are not frozen (NaN where unsolved).
-        step: (N,) largest single-joint step from the previous solved waypoint (NaN for the
-            first of a stretch and where unsolved).
+        step: (N,) largest single-joint step from the previous solved waypoint, or for the
+            first from ``q_start`` (NaN for the first of a stretch and where unsolved).
         candidates: (N,) number of candidate configurations found at each waypoint.
         max_joint_step: the bound on a continuous step (rad or m).
         greedy: whether the choice was greedy (nearest to the previous) instead of optimal.
@@ -536,7 +536,8 @@ def _choose(
     The cost of a stretch of solved waypoints: :data:`_SWITCH_PENALTY` per step larger
     than ``max_step``, plus the joint motion ``sum ||q_k - q_k-1||``, plus
     :data:`MARGIN_WEIGHT` times ``sum d(q_k)``, the distance of each waypoint's
-    configuration to the comfort box (:class:`_Comfort`). ``greedy`` ignores the margin.
+    configuration to the comfort box (:class:`_Comfort`); with ``start``, the move from
+    it to the first waypoint is a step too. ``greedy`` ignores the margin.
     """
     choice = [-1] * len(layers)
     if greedy:
@@ -564,16 +565,15 @@ def _choose(
         stretch = [np.array(layers[i]) for i in range(k, end)]
         cost = MARGIN_WEIGHT * comfort.distance(stretch[0])
         if start is not None and k == 0:
-            cost = cost + np.linalg.norm(stretch[0] - start, axis=1)
+            # The move from the current configuration is a step like the others.
+            cost = cost + _step_cost(start[None, :] - stretch[0], max_step)
         back: list[np.ndarray] = []
         for i in range(1, len(stretch)):
             diff = stretch[i][None, :, :] - stretch[i - 1][:, None, :]
-            linf = np.max(np.abs(diff), axis=2)
-            step_cost = np.linalg.norm(diff, axis=2) + np.where(
-                linf > max_step, _SWITCH_PENALTY, 0.0
-            )
             total = (
-                cost[:, None] + step_cost + MARGIN_WEIGHT * comfort.distance(stretch[i])[None, :]
+                cost[:, None]
+                + _step_cost(diff, max_step)
+                + MARGIN_WEIGHT * comfort.distance(stretch[i])[None, :]
             )
             back.append(np.argmin(total, axis=0))
             cost = total[back[-1], np.arange(total.shape[1])]
@@ -584,6 +584,12 @@ def _choose(
                 j = int(back[i - 1][j])
         k = end
     return choice
+
+
+def _step_cost(diff: np.ndarray, max_step: float) -> np.ndarray:
+    """Euclidean motion of steps ``diff`` (..., dof), plus the switch penalty past ``max_step``."""
+    switch = np.max(np.abs(diff), axis=-1) > max_step
+    return np.asarray(np.linalg.norm(diff, axis=-1) + np.where(switch, _SWITCH_PENALTY, 0.0))
 
 
 MAX_RESTARTS = 10_000
@@ -685,7 +691,8 @@ def plan_path(
             stay as they are. The choice between candidates is still by continuity.
         joint_weights: (dof,) in [1e-100, 1e100], the norm of ``posture`` (default ones).
         q_start: current configuration (dof,), inside the limits (a hair outside is clipped
-            onto them): the first waypoint's choice is the nearest to it.
+            onto them): the move from it to the first waypoint is a step like the others
+            (``step[0]``, flagged ``discontinuity`` beyond ``max_joint_step``).
         tol: IK tolerance for both errors, or ``(position_tol_m, orientation_tol_rad)``.
         restarts: numeric restarts per waypoint (robots without a closed form).
         seed: seed of the restarts.
@@ -753,31 +760,24 @@ def plan_path(
     status = ["ok"] * n
     steps = np.full(n, np.nan)
     manip = np.full(n, np.nan)
-    previous: FloatArray | None = None
+    # With q_start, the first waypoint's step is the move from it (flagged like any).
+    previous: FloatArray | None = start
     for k in range(n):
         if choice[k] < 0:
             status[k] = finder.why_unsolved(poses[k])
             previous = None
             continue
-        q = layers[k][choice[k]]
-        Q[k] = q
+        q = Q[k] = layers[k][choice[k]]
         rows = _task_jacobian(robot, q, poses[k], path_task)
-        if rows.shape[1] == 0:
-            # Every joint frozen: the tool cannot move at all (manipulability 0; no
-            # singular direction to flag, as no joint could ever move along one).
-            manip[k] = 0.0
-            Q[k] = q
-            if previous is not None:
-                steps[k] = float(np.max(np.abs(q - previous)))
-            previous = q
-            continue
-        singular_values = np.linalg.svd(rows, compute_uv=False)
-        manip[k] = float(np.prod(singular_values[: min(rows.shape)]))
+        # Every joint frozen: the tool cannot move at all (manipulability 0; no singular
+        # direction to flag, as no joint could ever move along one).
+        sv = np.linalg.svd(rows, compute_uv=False) if rows.shape[1] else np.zeros(0)
+        manip[k] = float(np.prod(sv[: min(rows.shape)])) if rows.shape[1] else 0.0
         if previous is not None:
             steps[k] = float(np.max(np.abs(q - previous)))
-        if previous is not None and steps[k] > max_joint_step:
+        if steps[k] > max_joint_step:
             status[k] = "discontinuity"
-        elif singular_values[min(rows.shape) - 1] < singular_threshold:
+        elif len(sv) and sv[min(rows.shape) - 1] < singular_threshold:
             status[k] = "near_singular"
         previous = q
     margin = np.minimum(Q - robot.lower, robot.upper - Q)

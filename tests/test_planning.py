@@ -308,3 +308,38 @@ def test_a_start_outside_the_limits_is_refused_and_an_empty_plan_is_not_drawn(
     # A hair outside (a measured configuration) is clipped onto the limits.
     plan = plan_path(robot, robot.fk(robot.upper - 0.1)[None], q_start=robot.upper + 1e-9)
     assert plan.status[0] != "not_found" and robot.within_limits(plan.q[0])
+
+
+def test_the_plan_starts_at_q_start_and_a_needed_jump_is_flagged_on_the_path() -> None:
+    """The move from ``q_start`` is a step like the others (a hostile search's find).
+
+    Waypoint 0 is ``fk(q_now)`` and the path crosses the wrist's singular range, where
+    the branch must switch. The plan had started on another branch 1.25 rad from
+    ``q_now``, status ``ok``, 0 flagged: the jump hidden before waypoint 0. Now it starts
+    at ``q_now`` and the jump is flagged where it happens.
+    """
+    robot = load_problem("puma560").robot
+    q_now = np.array([0.3, 0.6, -0.9, 0.4, 0.3, 0.2])
+    q_end = np.array([0.5, 0.6, -0.9, 0.4, -0.3, 0.2])
+    poses = line(robot.fk(q_now), robot.fk(q_end), 0.005)
+    plan = plan_path(robot, poses, max_joint_step=0.1, q_start=q_now)
+    _verify_plan(robot, plan)
+    assert np.max(np.abs(plan.q[0] - q_now)) < 1e-9
+    assert plan.status[0] == "ok" and plan.step[0] < 1e-9
+    assert plan.status.count("discontinuity") == 1  # the switch, on the path
+    greedy = plan_path(robot, poses, max_joint_step=0.1, q_start=q_now, greedy=True)
+    assert greedy.status.count("discontinuity") >= 1  # measured 3: a switch is needed
+
+
+def test_a_start_far_from_every_branch_flags_the_first_waypoint() -> None:
+    """A planar 2R: the first branch nearest ``q_start`` is taken, and the move is flagged."""
+    robot = load_problem("planar_2r").robot
+    path = line(robot.fk(np.array([-2.31, 1.1668])), robot.fk(np.array([-2.0, 1.2])), 0.02)
+    near = plan_path(robot, path[:, :3, 3], max_joint_step=0.2, q_start=[-2.31, 1.166])
+    assert np.max(np.abs(near.q[0] - [-2.31, 1.1668])) < 1e-3  # not the other elbow
+    assert "discontinuity" not in near.status
+    start = np.array([1.0, 1.0])  # 2 rad and more from both branches of waypoint 0
+    far = plan_path(robot, path[:, :3, 3], max_joint_step=0.2, q_start=start)
+    _verify_plan(robot, far)
+    assert far.step[0] == np.max(np.abs(far.q[0] - start)) > 0.2
+    assert far.status[0] == "discontinuity" and far.status[1:] == ["ok"] * (len(path) - 1)

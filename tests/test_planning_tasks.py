@@ -223,7 +223,10 @@ def test_posture_candidates_are_first_order_optimal() -> None:
     q_ref = q0 + np.array([0.4, -0.3, 0.5, -0.3, 0.4, 0.3, -0.5])
     plain = plan_path(panda, poses, mode="axis", max_joint_step=0.3, q_start=q0)
     near = plan_path(panda, poses, mode="axis", max_joint_step=0.3, q_start=q0, posture=q_ref)
-    assert near.status == ["ok"] * len(poses)
+    # The first answer, near q_ref, is a move from q_start, flagged when it is long.
+    assert near.step[0] == pytest.approx(np.max(np.abs(near.q[0] - q0)), abs=0.0)
+    assert near.status[0] == ("discontinuity" if near.step[0] > 0.3 else "ok")
+    assert near.status[1:] == ["ok"] * (len(poses) - 1)
     _check_axis_plan(panda, near)
     for k in range(len(poses)):
         q = near.q[k]
