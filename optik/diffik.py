@@ -19,7 +19,14 @@ from typing import Any, Final
 
 import numpy as np
 
-from optik._checks import MAX_LENGTH_M, FloatArray, check_bool, check_real, finite_array
+from optik._checks import (
+    MAX_LENGTH_M,
+    FloatArray,
+    check_bool,
+    check_real,
+    finite_array,
+    finite_length_array,
+)
 from optik.errors import (
     ArgumentError,
     JointLimitError,
@@ -406,7 +413,8 @@ def diff_ik(
             ``limit_gain`` outside (0, 1], a bad ``damping``, ``objective`` or ``rows``;
             ``weights`` not (6,) finite and >= 0, conflicting with ``rows``, or freeing
             every least-norm row; ``joint_weights`` not (dof,) finite and > 0;
-            ``posture`` not (dof,) finite; ``posture_gain`` outside (0, 1].
+            ``posture`` not (dof,) finite or an entry beyond ``MAX_LENGTH_M``;
+            ``posture_gain`` outside (0, 1].
     """
     if not isinstance(robot, Robot):
         raise OptikError(f"robot must be an optik.Robot, got {type(robot).__name__}")
@@ -515,7 +523,11 @@ def _task_options(
         else:
             Wt = w[list(picked)].copy()
     W = None if joint_weights is None else check_joint_weights(joint_weights, robot.dof)
-    q_ref = None if posture is None else finite_array("posture", posture, (robot.dof,)).copy()
+    q_ref = (
+        None
+        if posture is None
+        else finite_length_array("posture", posture, (robot.dof,), unit="rad or m").copy()
+    )
     return _Tasks(rows, Wt, W, q_ref)
 
 

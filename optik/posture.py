@@ -27,7 +27,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from optik._checks import FloatArray, finite_array
+from optik._checks import FloatArray, finite_array, finite_length_array
 from optik.errors import OptikError
 from optik.solvers._base import IKQuery, IKSolver, RunOutput, budget_now
 from optik.solvers._posture_kernel import TIGHTEN, posture_refine, posture_search
@@ -89,7 +89,8 @@ def check_posture(
     ``(None, None)`` without a posture; the weights default to ones with one.
 
     Raises:
-        OptikError: ``posture`` not a finite (dof,) array, ``joint_weights`` invalid
+        OptikError: ``posture`` not a finite (dof,) array of entries of magnitude at
+            most :data:`~optik._checks.MAX_LENGTH_M`, ``joint_weights`` invalid
             (:func:`check_joint_weights`), or given without ``posture`` (they are its
             norm, and would be ignored).
     """
@@ -97,7 +98,8 @@ def check_posture(
         if joint_weights is not None:
             raise OptikError("joint_weights is the norm of posture: give posture too")
         return None, None
-    return finite_array("posture", posture, (dof,)), check_joint_weights(joint_weights, dof)
+    q_ref = finite_length_array("posture", posture, (dof,), unit="rad or m")
+    return q_ref, check_joint_weights(joint_weights, dof)
 
 
 class Refinement(NamedTuple):
@@ -256,8 +258,8 @@ def posture_answers(
         np.ascontiguousarray(weights, dtype=np.float64), POSTURE_ANSWERS, POSTURE_STEPS,
     )  # fmt: skip
     used = int(attempts) - 1
-    if count > 0:
-        found = [(refined_q[k].copy(), int(iterations), used) for k in range(int(count)) if kept[k]]
+    found = [(refined_q[k].copy(), int(iterations), used) for k in range(int(count)) if kept[k]]
+    if found:
         run = RunOutput(found[0][0], int(iterations), used, True, "converged", "max_iter")
         return sorted(found, key=lambda f: cost(f[0])), run
     run = RunOutput(start, int(iterations), used, False, "stalled or max_iter", "max_iter")

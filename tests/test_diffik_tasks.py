@@ -162,6 +162,7 @@ BAD = [
     ({"joint_weights": [1, 1, 1e300, 1, 1, 1, 1]}, r"joint_weights must lie within"),
     ({"joint_weights": [1, 1, 1e-300, 1, 1, 1, 1]}, r"joint_weights must lie within"),
     ({"posture": np.zeros(6)}, "posture"),
+    ({"posture": np.full(7, 1e200)}, "posture"),
     ({"posture": [0, 0, np.nan, 0, 0, 0, 0]}, "posture"),
     ({"posture": [0, 0, np.inf, 0, 0, 0, 0]}, "posture"),
     ({"posture": np.zeros(7), "posture_gain": 0.0}, "posture_gain"),

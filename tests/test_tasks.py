@@ -380,6 +380,8 @@ def test_posture_on_a_closed_form_picks_the_nearest_branch() -> None:
     ("kwargs", "field"),
     [
         ({"posture": np.zeros(3)}, "posture"),
+        # the weighted distance overflowed: a raw IndexError from the posture search
+        ({"posture": np.full(7, 1e200)}, r"posture\[0\].*magnitude <= 1e\+09"),
         ({"posture": np.zeros(7), "joint_weights": -np.ones(7)}, "joint_weights"),
         ({"posture": np.zeros(7), "joint_weights": np.ones(6)}, "joint_weights"),
         # joint_weights alone were ignored, whatever they held
