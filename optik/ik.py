@@ -80,7 +80,6 @@ from optik.solvers import get_solver
 from optik.solvers._base import IKQuery, IKSolver, RunOutput, budget_now, compromise, now
 from optik.solvers._seeds import start_sequence
 from optik.solvers._starts import StartSequence
-from optik.solvers.iterative import DLSSolver
 from optik.task import Task, make_task
 from optik.verify import beyond_reach_task, verify_one
 
@@ -658,7 +657,7 @@ def _plan(
         # Graded weights ask for a compromise even here: the weighted minimum from q0.
         q_end, used = q_start, 0
         if task.is_graded:
-            q_end, used, _ = compromise(query, q_start, DLSSolver.default_max_iter)
+            q_end, used, _ = compromise(query, q_start)
         outcome = _without_run(q_end, "unreachable", reason, used)
         early = _result(query, start_time, "reach", outcome, None)
         return plan([], [], early)

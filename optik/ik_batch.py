@@ -141,21 +141,21 @@ def _batch_poses(targets: Any, mode: str, framed: bool = False) -> FloatArray:
 
 def _compromise(
     robot: Robot,
-    job: tuple[Task, FloatArray, Any, int],
+    job: tuple[Task, FloatArray, Any],
     Q: FloatArray,
     iterations: np.ndarray,
     failed: np.ndarray,
 ) -> None:
     """The graded task's compromise from each failed row's best ``Q`` (in place).
 
-    ``job`` is ``(task, poses (N, 4, 4), bounds, max_iter)``. The search ran on the
+    ``job`` is ``(task, poses (N, 4, 4), bounds)``. The search ran on the
     task's search twin; where it found no answer, the graded weights choose the
     compromise (:func:`optik.solvers._base.compromise`, as for one target).
     """
-    task, poses, bounds, max_iter = job
+    task, poses, bounds = job
     for k in failed:
         query = IKQuery(robot, poses[k], task.mode, task.position_tol, task, bounds)
-        Q[k], it, _ = compromise(query, Q[k], max_iter)
+        Q[k], it, _ = compromise(query, Q[k])
         iterations[k] += it
 
 
@@ -250,7 +250,7 @@ def solve_ik_batch(
     verdict = verify(robot, Q, poses, task)
     if search is not task:
         failed = rows[~verdict.success[rows]]
-        _compromise(robot, (task, poses, bounds, iterations_each), Q, iterations, failed)
+        _compromise(robot, (task, poses, bounds), Q, iterations, failed)
         verdict = verify(robot, Q, poses, task)
     status = np.where(verdict.success, "converged", np.where(reachable, "max_iter", "unreachable"))
     return IKBatchResult(

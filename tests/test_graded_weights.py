@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
 import optik
@@ -188,3 +189,75 @@ def test_unequal_rotational_weights_reach_the_weighted_minimum() -> None:
         result = optik.solve_ik(robot, T, weights=weights, solver=solver)
         assert not result.success
         assert _kkt_violation(robot, result.q, T, weights) <= 1e-5
+
+
+def _left_to_descend(robot: optik.Robot, q: np.ndarray, T: np.ndarray, w: list[float]) -> float:
+    """Relative weighted cost that scipy's bounded least squares (TRF) still removes from q."""
+
+    def residual(x: np.ndarray) -> np.ndarray:
+        F = robot.fk(x)
+        d = T[:3, :3].T @ (F[:3, 3] - T[:3, 3])
+        r = Rotation.from_matrix(T[:3, :3].T @ F[:3, :3]).as_rotvec()
+        return np.sqrt(np.asarray(w)) * np.concatenate([d, r])
+
+    found = least_squares(
+        residual, q, bounds=(robot.lower, robot.upper), xtol=1e-15, ftol=1e-15, gtol=1e-15,
+        max_nfev=500,
+    )  # fmt: skip
+    before = float(residual(q) @ residual(q))
+    return (before - float(found.fun @ found.fun)) / before
+
+
+# A narrowed Puma whose compromise rests on a bound (a hostile search's case).
+PUMA_CENTRE = [0.81018222, 0.41577736, -1.45446491, 0.54638816, 0.77773137, -0.77291055]
+# A Panda target beyond the reach sphere (the same search).
+PANDA_FAR = [
+    [0.23529298386330305, 0.679060534245923, 0.6953517114197278, 0.5478757108097195],
+    [-0.9232583830054841, 0.379713998998636, -0.05840579743965935, 1.0698481889378508],
+    [-0.3036958510661648, -0.6282468223509812, 0.7162923706497876, 0.3794743055061174],
+    [0.0, 0.0, 0.0, 1.0],
+]
+
+
+def test_a_compromise_on_a_bound_is_the_constrained_minimum() -> None:
+    # The LM held a joint on its bound when its weakly damped step pointed outward,
+    # although the cost's gradient pointed inward: the compromise stopped 0.4 % above the
+    # minimum (scipy moved it 0.055 rad), its gradient 4.7e-5 into the box.
+    puma = optik.load_problem("puma560").robot
+    centre = np.array(PUMA_CENTRE)
+    robot = puma.with_limits(
+        np.maximum(centre - 0.3, puma.lower), np.minimum(centre + 0.3, puma.upper)
+    )
+    T = robot.fk(centre)
+    T[:3, :3] = T[:3, :3] @ rot_x(1.2)
+    result = optik.solve_ik(robot, T, weights=HEAVY_POSITION)
+    assert result.status == "outside_limits"
+    assert np.any(result.q <= robot.lower + 1e-12) or np.any(result.q >= robot.upper - 1e-12)
+    assert _left_to_descend(robot, result.q, T, HEAVY_POSITION) <= 1e-9
+
+
+def test_the_compromise_is_not_cut_by_the_searchs_iterations() -> None:
+    # The compromise ran at most the search's max_iter (100): 1.3 % above the minimum,
+    # which this redundant arm reaches after about 425 iterations.
+    panda = optik.load_problem("panda").robot
+    T = np.array(PANDA_FAR)
+    result = optik.solve_ik(panda, T, weights=HEAVY_POSITION)
+    assert result.status == "unreachable" and result.iterations > 100
+    assert _left_to_descend(panda, result.q, T, HEAVY_POSITION) <= 1e-9
+
+
+@pytest.mark.parametrize("name", ["ur5", "puma560"])
+def test_rows_weighted_1e_minus_12_still_reach_their_compromise(name: str) -> None:
+    # The damping's bias (1e-3, a search's) swamped rows weighted 1e-12: the UR5's
+    # compromises stopped 0.3 to 0.8 % above the weighted minimum (the Puma's 6e-8).
+    robot = optik.load_problem(name).robot
+    centre, radius = robot.reach_sphere
+    rng = np.random.default_rng(11)
+    weights = [1e-12, 1e-12, 1e-12, 1.0, 1.0, 1.0]
+    for _ in range(3):
+        T = robot.fk(robot.lower + (robot.upper - robot.lower) * rng.uniform(0.2, 0.8, 6))
+        direction = rng.normal(size=3)
+        T[:3, 3] = centre + 1.5 * radius * direction / np.linalg.norm(direction)
+        result = optik.solve_ik(robot, T, weights=weights)
+        assert result.status == "unreachable"
+        assert _left_to_descend(robot, result.q, T, weights) <= 1e-6

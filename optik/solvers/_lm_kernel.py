@@ -272,20 +272,23 @@ def lm_attempt(
             for r in range(m):
                 s += J[r, a] * J[r, a]
             A[a, a] = s
+        # Joints resting on a bound that the descent direction g pushes outward stay on
+        # it (projected Newton's active set): their columns leave the step. Chosen by
+        # the step instead, a joint that g moves inward could be held by the coupling
+        # of a weakly damped step, and the compromise stalled short of its minimum.
+        for i in range(dof):
+            if (q[i] <= lower[i] and g[i] < 0.0) or (q[i] >= upper[i] and g[i] > 0.0):
+                _hold(A, g, i, dof)
         if not cholesky_solve(A, g, dq, L):
             scale *= 10.0
             continue
-        # Joints resting on a bound whose step points outward would be clamped back: fix
-        # them (drop their columns) and re-solve for the others, so the step still helps.
+        # Joints on a bound whose step still points outward would be clamped back: hold
+        # them too and re-solve for the others, so the step still helps.
         blocked = False
         for i in range(dof):
             if (q[i] <= lower[i] and dq[i] < 0.0) or (q[i] >= upper[i] and dq[i] > 0.0):
                 blocked = True
-                for b in range(dof):
-                    A[i, b] = 0.0
-                    A[b, i] = 0.0
-                A[i, i] = 1.0
-                g[i] = 0.0
+                _hold(A, g, i, dof)
         if blocked and not cholesky_solve(A, g, dq, L):
             scale *= 10.0
             continue
@@ -309,6 +312,16 @@ def lm_attempt(
             if scale > 1e12:
                 break
     return it, task_converged(pos, rot, task), pos, rot
+
+
+@inline
+def _hold(A: np.ndarray, g: np.ndarray, i: int, dof: int) -> None:
+    """Take joint ``i`` out of the step ``A dq = g``: its row and column become ``e_i``."""
+    for b in range(dof):
+        A[i, b] = 0.0
+        A[b, i] = 0.0
+    A[i, i] = 1.0
+    g[i] = 0.0
 
 
 @jit
@@ -345,8 +358,9 @@ COMPROMISE_RATIO = 1.0 - 1e-12
 ``e^T e`` by less than a relative 1e-12 (its minimum reached to rounding), not by half."""
 
 COMPROMISE_MAX_ITER = 1000
-"""The most iterations a compromise runs, whatever the caller's ``max_iter``: it runs
-after the search, and a timeout's deadline cannot stop a compiled loop."""
+"""The iterations a compromise may run, whatever the caller's ``max_iter`` (a search's,
+per attempt): it runs after the search, and a timeout's deadline cannot stop a compiled
+loop (1,000 iterations take a few milliseconds)."""
 
 
 @jit
