@@ -11,7 +11,7 @@ exceeds ``max_joint_step`` (branch switches), then the path's cost
     sum_k ||q_k - q_k-1||  +  MARGIN_WEIGHT * sum_k d(q_k)
 
 (rad, m), where ``d(q)`` is the Euclidean distance of ``q`` to the *comfort box*, the
-limits shrunk by :data:`MARGIN_BAND` (10 %) of each finite range. A branch switch
+limits shrunk by :data:`~optik.plan_choice.MARGIN_BAND` (10 %) of each finite range. A branch switch
 therefore happens only where no continuous path through the candidates exists, and it
 is flagged. With a closed form the candidates are every branch, so a flag is a proof;
 numeric candidates (a redundant task, a robot without a family) sample a continuum, and
@@ -28,6 +28,7 @@ Reachability of many points at once is :mod:`optik.reachability`.
 
 from __future__ import annotations
 
+import csv
 import json
 import math
 from collections.abc import Callable, Mapping
@@ -55,6 +56,7 @@ from optik.diffik import clip_into_limits
 from optik.errors import OptikError, ShapeError
 from optik.ik import solve_ik
 from optik.model import Robot
+from optik.plan_choice import Comfort, choose
 from optik.posture import check_posture
 from optik.spatial import as_pose
 from optik.task import AXES, MODES, Task, make_task, task_rows
@@ -74,41 +76,8 @@ PLAN_STATUSES = (
 """Per-waypoint flags. ``unreachable`` and ``outside_limits`` are proved (the reach
 sphere, a closed form); ``not_found`` is a failure without proof: no answer was found,
 even with the limits lifted, but none is proved impossible (raise ``restarts``)."""
-_SWITCH_PENALTY = 1e6
 SEED_CANDIDATES = 2
 """Closed-form answers of an axis task kept per previous candidate (the nearest ones)."""
-
-MARGIN_BAND = 0.1
-"""Width of the soft band inside each finite joint limit, as a fraction of the joint's
-range, that the path's cost steers away from (the hard ``limit_margin`` is separate)."""
-
-MARGIN_WEIGHT = 1.0
-"""Weight of a waypoint's distance to the comfort box in the path's cost (rad / rad)."""
-
-
-@dataclass(frozen=True)
-class _Comfort:
-    """The comfort box: the joint limits shrunk by :data:`MARGIN_BAND` of each range.
-
-    Joints with an infinite limit or held by ``frozen`` (a zero range) are not shrunk.
-    """
-
-    lower: FloatArray
-    upper: FloatArray
-
-    @classmethod
-    def of(cls, robot: Robot) -> _Comfort:
-        span = robot.upper - robot.lower
-        band = np.where(np.isfinite(span), MARGIN_BAND * span, 0.0)
-        return cls(robot.lower + band, robot.upper - band)
-
-    def distance(self, Q: FloatArray) -> FloatArray:
-        """Euclidean distance (rad, m) of each configuration (..., dof) to the box."""
-        return np.linalg.norm(Q - np.clip(Q, self.lower, self.upper), axis=-1)
-
-    def towards(self, q: FloatArray, most: float) -> FloatArray:
-        """``q`` moved towards the box, each joint by at most ``most`` (rad, m)."""
-        return q + np.clip(np.clip(q, self.lower, self.upper) - q, -most, most)
 
 
 _DUPLICATE = 1e-7
@@ -132,6 +101,9 @@ class PathPlan:
         candidates: (N,) number of candidate configurations found at each waypoint.
         max_joint_step: the bound on a continuous step (rad or m).
         greedy: whether the choice was greedy (nearest to the previous) instead of optimal.
+        weights: (6,) the task's weights on ``[x, y, z, rx, ry, rz]`` in each waypoint's
+            frame (0: a free axis); ``axis``: the tool axis of ``mode="axis"`` (0 x, 1 y,
+            2 z), else -1.
     """
 
     poses: FloatArray
@@ -145,6 +117,8 @@ class PathPlan:
     max_joint_step: float
     greedy: bool = False
     joint_names: tuple[str, ...] = field(default_factory=tuple)
+    weights: FloatArray = field(default_factory=lambda: np.ones(6))
+    axis: int = -1
 
     @property
     def solved(self) -> np.ndarray:
@@ -200,7 +174,8 @@ class PathPlan:
     def _write_csv(self, handle: Any) -> None:
         names = self.joint_names or tuple(f"q{i}" for i in range(self.q.shape[1]))
         header = ["index", "status", "x", "y", "z", *names, "step", "manipulability"]
-        handle.write(",".join(header) + "\n")
+        # Quoted where needed: a URDF joint name may hold a comma.
+        csv.writer(handle, lineterminator="\n").writerow(header)
         for k in range(len(self.status)):
             cells = [str(k), self.status[k], *(f"{v:.9g}" for v in self.poses[k, :3, 3])]
             cells += [f"{v:.12g}" for v in self.q[k]]
@@ -381,7 +356,7 @@ class _CandidateFinder:
         self.mode = path_task.task.mode
         self.max_step = max_step
         self.restarts, self.seed, self.limit = restarts, seed, limit
-        self.comfort = _Comfort.of(robot)
+        self.comfort = Comfort.of(robot)
         # Whether the margin narrows the box: only then is an answer inside the limits
         # (and not inside the margin) a reason for "outside_limits".
         self.narrowed = not (
@@ -522,74 +497,6 @@ class _CandidateFinder:
         )
         lifted = self._solve(free, T, False, restarts=20)
         return "outside_limits" if lifted.success else "not_found"
-
-
-def _choose(
-    layers: list[list[FloatArray]],
-    max_step: float,
-    greedy: bool,
-    start: FloatArray | None,
-    comfort: _Comfort,
-) -> list[int]:
-    """Index of the chosen candidate per layer (-1 for empty layers).
-
-    The cost of a stretch of solved waypoints: :data:`_SWITCH_PENALTY` per step larger
-    than ``max_step``, plus the joint motion ``sum ||q_k - q_k-1||``, plus
-    :data:`MARGIN_WEIGHT` times ``sum d(q_k)``, the distance of each waypoint's
-    configuration to the comfort box (:class:`_Comfort`); with ``start``, the move from
-    it to the first waypoint is a step too. ``greedy`` ignores the margin.
-    """
-    choice = [-1] * len(layers)
-    if greedy:
-        anchor = start
-        for k, layer in enumerate(layers):
-            if not layer:
-                anchor = None
-                continue
-            if anchor is None:
-                choice[k] = 0
-            else:
-                choice[k] = int(np.argmin([np.max(np.abs(q - anchor)) for q in layer]))
-            anchor = layer[choice[k]]
-        return choice
-    # Dynamic programming over each stretch of solved waypoints.
-    k = 0
-    n = len(layers)
-    while k < n:
-        if not layers[k]:
-            k += 1
-            continue
-        end = k
-        while end < n and layers[end]:
-            end += 1
-        stretch = [np.array(layers[i]) for i in range(k, end)]
-        cost = MARGIN_WEIGHT * comfort.distance(stretch[0])
-        if start is not None and k == 0:
-            # The move from the current configuration is a step like the others.
-            cost = cost + _step_cost(start[None, :] - stretch[0], max_step)
-        back: list[np.ndarray] = []
-        for i in range(1, len(stretch)):
-            diff = stretch[i][None, :, :] - stretch[i - 1][:, None, :]
-            total = (
-                cost[:, None]
-                + _step_cost(diff, max_step)
-                + MARGIN_WEIGHT * comfort.distance(stretch[i])[None, :]
-            )
-            back.append(np.argmin(total, axis=0))
-            cost = total[back[-1], np.arange(total.shape[1])]
-        j = int(np.argmin(cost))
-        for i in range(len(stretch) - 1, -1, -1):
-            choice[k + i] = j
-            if i > 0:
-                j = int(back[i - 1][j])
-        k = end
-    return choice
-
-
-def _step_cost(diff: np.ndarray, max_step: float) -> np.ndarray:
-    """Euclidean motion of steps ``diff`` (..., dof), plus the switch penalty past ``max_step``."""
-    switch = np.max(np.abs(diff), axis=-1) > max_step
-    return np.asarray(np.linalg.norm(diff, axis=-1) + np.where(switch, _SWITCH_PENALTY, 0.0))
 
 
 MAX_RESTARTS = 10_000
@@ -753,7 +660,7 @@ def plan_path(
         seeds = layer if layer else ([start] if start is not None else [])
         if progress is not None:
             progress(k + 1, n)
-    choice = _choose(layers, max_joint_step, greedy, start, finder.comfort)
+    choice = choose(layers, max_joint_step, greedy, start, finder.comfort)
 
     dof = robot.dof
     Q = np.full((n, dof), np.nan)
@@ -793,4 +700,6 @@ def plan_path(
         max_joint_step=float(max_joint_step),
         greedy=greedy,
         joint_names=robot.joint_names,
+        weights=path_task.task.weights.copy(),
+        axis=path_task.task.axis,
     )

@@ -15,7 +15,8 @@ import pytest
 
 from optik.model import Robot
 from optik.paths import line
-from optik.planning import MARGIN_BAND, PathPlan, _choose, _Comfort, plan_path
+from optik.plan_choice import MARGIN_BAND, Comfort, choose
+from optik.planning import PathPlan, plan_path
 from optik.problems import load_problem
 from optik.spatial import rot_x, rotation_angle, transform
 
@@ -58,7 +59,7 @@ def test_panda_line_keeps_clear_of_the_limits(mode: str) -> None:
 
 def test_the_choice_prefers_margin_at_equal_motion() -> None:
     robot = load_problem("puma560").robot
-    comfort = _Comfort.of(robot)
+    comfort = Comfort.of(robot)
     mid = robot.mid_limits
     near_limit = mid.copy()
     near_limit[1] = robot.lower[1] + 0.01
@@ -66,10 +67,10 @@ def test_the_choice_prefers_margin_at_equal_motion() -> None:
     away[1] = robot.lower[1] + 0.3 * (robot.upper[1] - robot.lower[1])
     start = 0.5 * (near_limit + away)  # both equally far
     layers = [[near_limit, away], [near_limit, away]]
-    assert _choose(layers, 1.0, False, start, comfort) == [1, 1]
+    assert choose(layers, 1.0, False, start, comfort) == [1, 1]
     # ... but never at the price of a discontinuity: after a waypoint with the near-limit
     # candidate only, the other is a jump (> max_step), and the near-limit one is kept.
-    assert _choose([[near_limit], [near_limit, away]], 0.05, False, None, comfort) == [0, 0]
+    assert choose([[near_limit], [near_limit, away]], 0.05, False, None, comfort) == [0, 0]
 
 
 def test_comfort_box_leaves_infinite_and_held_joints_alone() -> None:
@@ -78,7 +79,7 @@ def test_comfort_box_leaves_infinite_and_held_joints_alone() -> None:
         np.where(np.arange(robot.dof) == 0, 0.2, robot.lower),
         np.where(np.arange(robot.dof) == 0, 0.2, robot.upper),
     )
-    comfort = _Comfort.of(held)
+    comfort = Comfort.of(held)
     assert comfort.lower[0] == comfort.upper[0] == 0.2
     span = robot.upper[1:] - robot.lower[1:]
     np.testing.assert_allclose(comfort.lower[1:], robot.lower[1:] + MARGIN_BAND * span)

@@ -497,3 +497,18 @@ def test_the_exact_range_of_a_cubic_spline_matches_dense_sampling() -> None:
         dense = spline(np.linspace(0.0, s[-1], 200_001))
         np.testing.assert_allclose(low, dense.min(axis=0), atol=1e-9)
         np.testing.assert_allclose(high, dense.max(axis=0), atol=1e-9)
+
+
+def test_optik_plan_dt_sets_the_trajectory_sampling(tmp_path: Path) -> None:
+    from optik.cli import main
+
+    args = ["plan", "planar_2r", "--line", "1.5", "-0.5", "0", "1.5", "0.5", "0", "--step", "0.1"]
+    limits = ["--velocity-limits", "1", "--acceleration-limits", "2"]
+    out = tmp_path / "dt"
+    assert main([*args, "--trajectory", *limits, "--dt", "0.05", "--out", str(out)]) == 0
+    t = np.loadtxt(out / "trajectory.csv", delimiter=",", skiprows=1)[:, 1]
+    np.testing.assert_allclose(np.diff(t)[:-1], 0.05, atol=1e-9)  # the last: to the end
+    assert 0.0 < t[-1] - t[-2] <= 0.05 + 1e-9
+    # --dt samples a trajectory: without --trajectory it is an error, before planning
+    assert main([*args, "--dt", "0.05", "--out", str(tmp_path / "no")]) == 2
+    assert not (tmp_path / "no").exists()

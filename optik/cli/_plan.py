@@ -84,8 +84,14 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     robot = problem.robot
     if args.trajectory:  # limits are checked before the work, not after it
         _trajectory_limits(robot, args)
-    elif args.velocity_limits is not None or args.acceleration_limits is not None:
-        raise OptikError("--velocity-limits and --acceleration-limits apply with --trajectory")
+    elif (
+        args.velocity_limits is not None
+        or args.acceleration_limits is not None
+        or args.dt is not None
+    ):
+        raise OptikError(
+            "--velocity-limits, --acceleration-limits and --dt apply with --trajectory"
+        )
     poses, mode = _plan_poses(problem, args)
     mode = _task_mode(args, mode)
     with Progress(len(poses)) as bar:
@@ -140,7 +146,8 @@ def _path_tolerance(problem: Problem, args: argparse.Namespace) -> float:
 
 def _trajectory(plan: Any, robot: Any, args: argparse.Namespace) -> Any:
     """``--trajectory``: the time-optimal trajectory (written as OUT/trajectory.csv, .json)."""
-    trajectory = plan.to_trajectory(*_trajectory_limits(robot, args), robot=robot)
+    sampling = {} if args.dt is None else {"dt": args.dt}
+    trajectory = plan.to_trajectory(*_trajectory_limits(robot, args), robot=robot, **sampling)
     print(
         f"  trajectory: {len(trajectory.segments)} segment(s), {trajectory.duration:.4g} s "
         "(each from rest to rest)"
@@ -241,6 +248,13 @@ def add_plan_command(sub: Any) -> None:
         metavar="A",
         help="joint acceleration limits, one for all or one per joint: rad/s^2 or m/s^2 "
         "(default: the problem file's)",
+    )
+    timing.add_argument(
+        "--dt",
+        type=positive_float,
+        default=None,
+        metavar="S",
+        help="sampling step of trajectory.csv, s (default 0.01)",
     )
     add_out_argument(p, "DIR", "output folder (no unit; default ./optik-plan)", "optik-plan")
     p.set_defaults(func=_cmd_plan)
