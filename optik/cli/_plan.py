@@ -10,6 +10,7 @@ import numpy as np
 from optik._files import check_folder, prepare_folder
 from optik._progress import Progress
 from optik.cli._common import (
+    EXIT_NO_SOLUTION,
     EXIT_OK,
     add_orientation_arguments,
     add_out_argument,
@@ -132,7 +133,8 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     except OptikError as exc:  # pragma: no cover - only without matplotlib
         print(f"  (no plot: {exc})")
     print("  wrote " + ", ".join(str(p) for p in written))
-    return EXIT_OK
+    # A plan with unsolved waypoints cannot be run whole: a script sees it in the code.
+    return EXIT_OK if summary["solved"] == summary["waypoints"] else EXIT_NO_SOLUTION
 
 
 def _path_tolerance(problem: Problem, args: argparse.Namespace) -> float:
