@@ -49,16 +49,30 @@ def output_path(path: Any) -> Path:
 def check_folder(folder: str | Path) -> Path:
     """``folder`` as a path that can be a folder for output, without creating it.
 
-    For a check before long work whose output goes there at the end.
+    For a check before long work whose output goes there at the end: the nearest folder
+    that exists (``folder`` itself or a parent) must be one this process may write in,
+    where the missing ones are created later. The system's permission bits are asked
+    (``os.access``), so a place root may write in by them but the file system refuses
+    (``/proc``) is found only by the write itself.
 
     Raises:
-        OutputFileError: ``folder`` is not a usable path (:func:`output_path`), or it or
-            one of its parents is a file (the message names the path).
+        OutputFileError: ``folder`` is not a usable path (:func:`output_path`), it or
+            one of its parents is a file, or the nearest existing one is not writable
+            (the message names it).
     """
     folder = output_path(folder)
     for parent in (folder, *folder.parents):
-        if parent.exists() and not parent.is_dir():
+        try:
+            if not parent.exists():
+                continue
+        except OSError as exc:  # a parent we may not look into (EACCES), a name too long
+            raise OutputFileError(str(folder), exc.strerror or str(exc)) from exc
+        if not parent.is_dir():
             raise OutputFileError(str(folder), f"{parent} is a file, not a folder")
+        # Writing a new entry needs both: w to add it, x to reach into the folder.
+        if not os.access(parent, os.W_OK | os.X_OK):
+            raise OutputFileError(str(folder), f"{parent} is not a writable folder")
+        break
     return folder
 
 

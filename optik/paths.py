@@ -255,29 +255,48 @@ def read_path(path: str | Path) -> tuple[FloatArray, str]:
     raise PathFileError(f"{file}: unknown path format {suffix!r} (expected .csv, .npz, .toml)")
 
 
-def _read_csv(file: Path) -> tuple[FloatArray, str]:
+def _csv_rows(file: Path) -> list[tuple[int, list[str]]]:
+    """The rows of a path CSV, each with the file line it starts on (1-based).
+
+    Blank and ``#`` lines are left out after the numbering, so errors name the file's lines.
+    """
+    rows = []
     with file.open(newline="", encoding="utf-8") as handle:
-        rows = [row for row in csv.reader(handle) if row and not row[0].startswith("#")]
+        reader = csv.reader(handle)
+        start = 1
+        try:
+            for row in reader:
+                if row and not row[0].startswith("#"):
+                    rows.append((start, row))
+                start = reader.line_num + 1  # a quoted cell may hold a newline
+        except csv.Error as exc:  # a cell beyond the csv module's field limit (128 KiB)
+            raise PathFileError(f"{file}: line {start}: {exc}") from exc
+    return rows
+
+
+def _read_csv(file: Path) -> tuple[FloatArray, str]:
+    rows = _csv_rows(file)
     if len(rows) < 2:
         raise PathFileError(f"{file}: expected a header line and at least one waypoint")
-    header = tuple(cell.strip().lower() for cell in rows[0])
+    first, cells = rows[0]
+    header = tuple(cell.strip().lower() for cell in cells)
     if header not in CSV_HEADERS:
         # A first line of numbers would otherwise be taken for a header and lost.
         raise PathFileError(
-            f"{file}: line 1 must be the header 'x,y,z' or 'x,y,z,roll,pitch,yaw', "
-            f"got {','.join(rows[0])!r}"
+            f"{file}: line {first} must be the header 'x,y,z' or 'x,y,z,roll,pitch,yaw', "
+            f"got {','.join(cells)!r}"
         )
     width = len(header)
     values = np.empty((len(rows) - 1, width))
-    for k, row in enumerate(rows[1:], start=2):
+    for k, (line, row) in enumerate(rows[1:]):
         if len(row) != width:
-            raise PathFileError(f"{file}: line {k}: expected {width} values, got {len(row)}")
+            raise PathFileError(f"{file}: line {line}: expected {width} values, got {len(row)}")
         try:
-            values[k - 2] = [float(v) for v in row]
+            values[k] = [float(v) for v in row]
         except ValueError as exc:
-            raise PathFileError(f"{file}: line {k}: {exc}") from exc
-    if not np.all(np.isfinite(values)):
-        raise PathFileError(f"{file}: NaN or infinite value")
+            raise PathFileError(f"{file}: line {line}: {exc}") from exc
+        if not np.all(np.isfinite(values[k])):
+            raise PathFileError(f"{file}: line {line}: NaN or infinite value")
     check_length_array("positions", values[:, :3])
     rpy = values[:, 3:6] if width == 6 else None
     return _positions_to_poses(values[:, :3], rpy), "pose" if width == 6 else "position"

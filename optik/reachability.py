@@ -18,6 +18,7 @@ from optik._checks import (
     as_float_array,
     check_choice,
     check_int,
+    check_length,
     check_length_array,
     check_real,
     finite_array,
@@ -152,16 +153,16 @@ def reachability_figure(
         ``reachability`` attribute.
 
     Raises:
-        OptikError: ``axis`` not x, y or z; ``resolution`` not in [2, 400].
+        OptikError: ``axis`` not x, y or z; ``value`` not a finite length (a ``bool`` or
+            a string is no number); ``resolution`` not in [2, 400].
     """
-    from optik._checks import check_int
     from optik.drawing import robot_figure, set_equal_3d
 
     check_choice("axis", axis, ("x", "y", "z"))
     resolution = check_int("resolution", resolution, minimum=2, maximum=400)
     centre, radius = robot.reach_sphere
     k = "xyz".index(axis)
-    level = float(centre[k]) if value is None else float(value)
+    level = float(centre[k]) if value is None else check_length("value", value)
     a, b = [i for i in range(3) if i != k]
     u = np.linspace(-radius, radius, resolution)
     A, B = np.meshgrid(centre[a] + u, centre[b] + u)

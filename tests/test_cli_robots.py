@@ -392,10 +392,12 @@ def _options() -> list[tuple[str, argparse.Action]]:
     found = [("optik", a) for a in parser._actions]
     for name, sub in _subparsers(parser).items():
         found += [(name, a) for a in sub._actions]
+    # A hidden option (a deprecated alias, help=SUPPRESS) is in no help text to check.
     return [
         (name, a)
         for name, a in found
         if not isinstance(a, argparse._HelpAction | argparse._SubParsersAction)
+        and a.help != argparse.SUPPRESS
     ]
 
 

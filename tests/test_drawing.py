@@ -253,7 +253,7 @@ def test_optik_show_writes_the_picture(tmp_path: Path, capsys: pytest.CaptureFix
     assert "no meshes drawn" in capsys.readouterr().out  # this URDF has none
     assert (tmp_path / "panda.svg").read_text().lstrip().startswith("<?xml")
     ur5 = ["show", "--urdf", str(_ur5_urdf()), "--base", "base_link", "--tip", "tool0"]
-    assert main([*ur5, "--view", "30", "-120", "--out", str(tmp_path / "ur5.png")]) == 0
+    assert main([*ur5, "--view-deg", "30", "-120", "--out", str(tmp_path / "ur5.png")]) == 0
     assert "visual meshes" in capsys.readouterr().out
     assert main(["show", "puma560", "--q", "1", "2", "--out", str(out)]) == 2
     assert main(["show", "puma560", "--out", str(tmp_path / "robot.txt")]) == 2

@@ -33,7 +33,7 @@ from optik._checks import (
     check_int,
     check_progress,
 )
-from optik._files import output_path, prepare_folder, write_atomic, write_atomic_with
+from optik._files import check_folder, prepare_folder, write_atomic, write_atomic_with
 from optik.campaign._deps import require
 from optik.campaign.engine import (
     ProgressOption,
@@ -408,7 +408,8 @@ def solve_batch(
 
     Raises:
         OptikError: malformed targets or options; ``out`` exists and ``resume`` is
-            false; a stored run with other settings; an unreachable scheduler.
+            false, or is a place that cannot be written; a stored run with other
+            settings; an unreachable scheduler.
     """
     if not isinstance(robot, Robot):
         raise OptikError(f"robot: expected an optik.Robot, got {type(robot).__name__}")
@@ -421,7 +422,8 @@ def solve_batch(
     chunk = check_int("chunk", chunk, minimum=1, maximum=10_000_000)
     resume = check_bool("resume", resume)
     progress = check_progress(progress)
-    folder = None if out is None else output_path(out)
+    # A place it cannot be written to fails before the targets are read, not at the end.
+    folder = None if out is None else check_folder(out)
     # The validated values, as plain Python numbers: a numpy scalar would not go into the
     # settings file, and every check must pass before anything is written.
     axis = str(axis)

@@ -50,7 +50,7 @@ from optik._checks import (
     check_progress,
     check_real,
 )
-from optik._files import output_path
+from optik._files import check_folder, output_path
 from optik.campaign._deps import require, require_zarr
 from optik.campaign.engine import Engine, ProgressOption, open_engine, run_chunks_with_progress
 from optik.campaign.provenance import check_same_run, robot_fingerprint, versions
@@ -690,9 +690,9 @@ def capability_map(
 
     Raises:
         OptikError: an option out of range (``voxel`` <= 0 or larger than the reach,
-            inverted ``bounds``, ...); ``out`` exists and ``resume`` is false; a stored
-            map with other settings on ``resume``; an unreachable ``scheduler``; the
-            cluster extra not installed.
+            inverted ``bounds``, ...); ``out`` exists and ``resume`` is false, or is a
+            place that cannot be written; a stored map with other settings on ``resume``;
+            an unreachable ``scheduler``; the cluster extra not installed.
     """
     if not isinstance(robot, Robot):
         raise OptikError(f"robot: expected an optik.Robot, got {type(robot).__name__}")
@@ -714,6 +714,8 @@ def capability_map(
     target = None if out is None else output_path(out)
     if target is not None and target.exists() and not resume:
         raise OutputFileError(str(target), "it exists (resume=True, or --resume, finishes it)")
+    if target is not None:
+        check_folder(target)  # before the engine starts, not when the store is created
     spec = MapSpec(
         robot, mode, axis, tol, restarts, max_iter, seed, rotations, x, y, z, centre,
         float(radius), chunk, keep_q,

@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from typing import Any
 
+from optik._files import check_folder
 from optik.cli._common import (
     EXIT_OK,
     add_out_argument,
@@ -23,9 +25,18 @@ def _cmd_show(args: argparse.Namespace) -> int:
 
     from optik.drawing import show_robot, visual_meshes
 
+    if args.view is not None:
+        if args.view_deg is not None:
+            raise OptikError("give --view-deg only (--view is its deprecated name)")
+        print(
+            "optik: note: --view is deprecated; give --view-deg ELEV AZIM (the same deg)",
+            file=sys.stderr,
+        )
+        args.view_deg = args.view
     out = Path(args.out)
     if out.suffix.lower() not in _FORMATS:
         raise OptikError(f"--out {out}: expected a {', '.join(_FORMATS)} file")
+    check_folder(out.parent)  # before the robot is loaded and drawn, not after
     problem = problem_from_args(args)
     robot = problem.robot
     q = robot.mid_limits if args.q is None else robot.check_q(args.q, "--q")
@@ -39,7 +50,7 @@ def _cmd_show(args: argparse.Namespace) -> int:
             print(f"  {len(meshes)} visual meshes from {args.urdf}")
         except OptikError as exc:  # a picture without meshes is still a picture
             print(f"  no meshes drawn: {' '.join(str(exc).split())}")
-    view = (args.view[0], args.view[1]) if args.view else (22.0, -58.0)
+    view = (args.view_deg[0], args.view_deg[1]) if args.view_deg else (22.0, -58.0)
     print(f"  wrote {show_robot(robot, out, q, meshes=meshes, view=view)}")
     return EXIT_OK
 
@@ -67,12 +78,14 @@ def add_show_command(sub: Any) -> None:
         "default mid-limits",
     )
     p.add_argument(
-        "--view",
+        "--view-deg",
         nargs=2,
         type=finite_float,
         metavar=("ELEV", "AZIM"),
         help="camera elevation and azimuth, deg (default 22 -58)",
     )
+    # The name before the units rule (a non-SI option names its unit): kept for scripts.
+    p.add_argument("--view", nargs=2, type=finite_float, help=argparse.SUPPRESS)
     p.add_argument(
         "--no-meshes",
         action="store_true",

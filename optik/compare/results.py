@@ -270,12 +270,28 @@ def _parse(raw: bytes, path: Path) -> list[ResultRow]:
     return rows
 
 
+def _refuse_unfinished_header(raw: bytes, path: Path) -> None:
+    """Refuse a file without a complete line unless it is the start of optik's header.
+
+    A run killed while writing the header leaves a prefix of it (started over); anything
+    else there is another file, not to be replaced.
+    """
+    if not _csv_line(list(COLUMNS)).encode().startswith(raw):
+        raise ResultsFileError(
+            str(path),
+            1,
+            "not an optik results file (no complete line, and not the start of its header); "
+            "remove it or choose another folder",
+        )
+
+
 class ResultsFile(Closing):
     """The raw table on disk, appended one flushed row at a time.
 
     Without ``resume`` the file is started afresh (header only). With ``resume`` an
-    existing file is kept: a partial last line (a run killed mid-write) is cut off, its
-    rows are loaded, and :meth:`has` tells which keys are already done.
+    existing file is kept: it is checked whole, then a partial last line (a run killed
+    mid-write) is cut off, its rows are loaded, and :meth:`has` tells which keys are
+    already done. A file that fails the check is left as it was.
 
     Args:
         path: the CSV file.
@@ -285,7 +301,8 @@ class ResultsFile(Closing):
         OutputFileError: ``path`` is a folder, its folder cannot be created or written,
             or (without ``resume``) it holds a file that is not an optik results table.
         ResultsFileError: resuming a file whose header is not :data:`COLUMNS`, with a
-            corrupted row or with two rows of the same key (see :func:`read_results`).
+            corrupted row or with two rows of the same key (see :func:`read_results`), or
+            without a complete line that is not the start of the header.
     """
 
     def __init__(self, path: str | Path, resume: bool = False) -> None:
@@ -298,12 +315,14 @@ class ResultsFile(Closing):
             if resume and self.path.exists():
                 raw = _read_bytes(self.path)
                 complete = raw[: raw.rfind(b"\n") + 1]
-                if len(complete) != len(raw):
-                    with open(self.path, "r+b") as f:
-                        f.truncate(len(complete))
+                # Checked whole before any change: a run that fails leaves the file as it was.
                 self.rows = _parse(complete, self.path)
                 if not complete:
+                    _refuse_unfinished_header(raw, self.path)
                     self._start()
+                elif len(complete) != len(raw):
+                    with open(self.path, "r+b") as f:
+                        f.truncate(len(complete))
             else:
                 self._refuse_foreign()
                 self._start()
