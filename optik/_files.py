@@ -116,26 +116,35 @@ def _create_temporary(target: Path) -> tuple[int, str]:
 
 
 def write_atomic_with(
-    path: str | Path, writer: Callable[[IO[Any]], object], *, binary: bool = False
+    path: str | Path,
+    writer: Callable[[IO[Any]], object],
+    *,
+    binary: bool = False,
+    create_folder: bool = True,
 ) -> Path:
     """Write ``path`` whole through ``writer(handle)`` (text UTF-8, or bytes if ``binary``).
 
     Args:
-        path: the target file; its folder is created.
+        path: the target file.
         writer: writes the content to the open handle it is given.
         binary: open the handle in binary mode.
+        create_folder: create the file's folder if missing; if false, a missing folder
+            is an error (a folder removed since its owner created it stays removed).
 
     Returns:
         ``path`` as a :class:`~pathlib.Path`.
 
     Raises:
-        OutputFileError: ``path`` is a folder, a parent is a file, or the place is not
-            writable.
+        OutputFileError: ``path`` is a folder, a parent is a file, the place is not
+            writable, or (``create_folder`` false) the folder does not exist.
     """
     target = output_path(path)
     if target.is_dir():
         raise OutputFileError(str(target), "it is a folder")
-    prepare_folder(target.parent)
+    if create_folder:
+        prepare_folder(target.parent)
+    elif not target.parent.is_dir():
+        raise OutputFileError(str(target), f"its folder {target.parent} does not exist")
     fd, tmp = _create_temporary(target)
     try:
         mode = "wb" if binary else "w"

@@ -217,8 +217,10 @@ def solve_ik_batch(
     check_int("restarts", restarts, minimum=0, maximum=MAX_BATCH_RESTARTS)
     task = make_task(mode, axis=axis, weights=weights, tol=tol)
     mode = "position" if task.mode == "position" else "pose"  # the targets' form
-    if seed > MAX_SEED - 2**40:  # target k uses seed + k
-        raise OptikError(f"seed must be at most 2**63 - 2**40 in a batch, got {seed!r}")
+    if seed > MAX_SEED - 2**40:  # target k uses seed + k, and k may reach 2**40
+        raise OptikError(
+            f"seed must be at most 2**63 - 1 - 2**40 ({MAX_SEED - 2**40}) in a batch, got {seed!r}"
+        )
     threads = _check_threads(threads)
     poses = _batch_poses(targets, mode, task.needs_target_frame)
     bounds = query_bounds(robot, frozen, limit_margin)

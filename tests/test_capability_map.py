@@ -16,7 +16,14 @@ import zarr
 from conftest import reference_fk, robot_of, two_link_robot
 
 import optik
-from optik.campaign import base_placement, capability, capability_map, open_map, plot_map
+from optik.campaign import (
+    _map_store,
+    base_placement,
+    capability,
+    capability_map,
+    open_map,
+    plot_map,
+)
 from optik.campaign.sampling import fibonacci_sphere, frames_with_axis, lattice, orientations
 from optik.errors import OptikError, OutputFileError
 from optik.model import Robot
@@ -322,10 +329,10 @@ def test_the_threads_write_the_map_and_the_client_only_what_they_cannot(
         patch.setattr(capability.MapStore, "write", _client_never_writes)
         _same_data(capability_map(robot, out=tmp_path / "a.zarr", **options), reference)
     with monkeypatch.context() as patch:  # no worker sees the map: the client writes it all
-        patch.setattr(capability, "_arrays_for_writing", lambda path, run: None)
+        patch.setattr(_map_store.MapWriter, "__call__", lambda self, index, result: False)
         _same_data(capability_map(robot, out=tmp_path / "b.zarr", **options), reference)
     with monkeypatch.context() as patch:  # a disk the worker cannot write: the client does
-        patch.setattr(capability, "_write_block", _fails_off_the_main_thread)
+        patch.setattr(_map_store, "_write_block", _fails_off_the_main_thread)
         _same_data(capability_map(robot, out=tmp_path / "c.zarr", **options), reference)
 
 
@@ -333,7 +340,7 @@ def _client_never_writes(self: Any, index: int, result: Any) -> None:
     raise AssertionError(f"chunk {index} came back to the client to be written")
 
 
-_write_block = capability._write_block
+_write_block = _map_store._write_block
 
 
 def _fails_off_the_main_thread(*args: Any) -> None:

@@ -11,12 +11,17 @@ The output is a Parquet dataset: a folder of part files ``part-000000.parquet``,
 per chunk, each written whole through a temporary file and a rename) and ``_optik.json``
 (the run's settings, checked on resume). ``pyarrow.parquet.read_table(out)`` and
 ``pandas.read_parquet(out)`` read it; rows carry their target's ``index``.
+
+Each part file carries the digest of its run's settings (:data:`PART_KEY`), and the
+folder the token of the run writing it (:data:`RUN_FILE`): a run writes a part only into
+a folder that still carries its token, and a resume refuses a part of another run.
 """
 
 from __future__ import annotations
 
 import contextlib
 import functools
+import hashlib
 import json
 import uuid
 from dataclasses import dataclass
@@ -36,7 +41,9 @@ from optik._checks import (
 from optik._files import check_folder, prepare_folder, write_atomic, write_atomic_with
 from optik.campaign._deps import require
 from optik.campaign.engine import (
+    MAX_CHUNKS,
     ProgressOption,
+    check_chunk_count,
     chunk_count,
     open_engine,
     run_chunks_with_progress,
@@ -62,6 +69,11 @@ QUATERNION_COLUMNS = ("qw", "qx", "qy", "qz")
 SETTINGS_FILE = "_optik.json"
 RUN_FILE = ".optik-run"
 """The token of the run writing a folder (a hidden file: Parquet readers skip it)."""
+PART_KEY = b"optik.settings_sha256"
+"""A part file's key-value metadata: the SHA-256 of its run's settings file (hex)."""
+RESUMED_KEY = b"optik.resumed_targets"
+"""The schema metadata of :func:`solve_batch`'s table: the targets resumed, not solved, by
+this call (their part files were written by an earlier run), in decimal."""
 
 
 def read_targets(path: str | Path) -> FloatArray:
@@ -213,13 +225,20 @@ def part_name(index: int) -> str:
     return f"part-{index:06d}.parquet"
 
 
-def _write_part(folder: Path, index: int, result: dict[str, np.ndarray]) -> None:
-    """Write chunk ``index``'s rows to its part file, whole (a temporary file renamed)."""
+def _write_part(folder: Path, index: int, result: dict[str, np.ndarray], digest: str) -> None:
+    """Write chunk ``index``'s rows to its part file, whole (a temporary file renamed).
+
+    The part carries ``digest`` (:data:`PART_KEY`). A folder removed meanwhile is not
+    created again (:class:`~optik.errors.OutputFileError`).
+    """
     pa = require("pyarrow", "a batch")
     pq = require("pyarrow.parquet", "a batch")
-    table = pa.table(result)
+    table = pa.table(result).replace_schema_metadata({PART_KEY: digest.encode()})
     write_atomic_with(
-        folder / part_name(index), lambda handle: pq.write_table(table, handle), binary=True
+        folder / part_name(index),
+        lambda handle: pq.write_table(table, handle),
+        binary=True,
+        create_folder=False,
     )
 
 
@@ -233,10 +252,12 @@ class PartWriter:
     Attributes:
         folder: the output folder, absolute.
         run: the token of the run that writes it (the folder's :data:`RUN_FILE`).
+        digest: the digest of the run's settings, written into each part (:data:`PART_KEY`).
     """
 
     folder: str
     run: str
+    digest: str = ""
 
     def __call__(self, index: int, result: dict[str, np.ndarray]) -> bool:
         """Write chunk ``index``'s part whole (True), or nothing (False).
@@ -248,7 +269,7 @@ class PartWriter:
         try:
             if (folder / RUN_FILE).read_text(encoding="utf-8") != self.run:
                 return False
-            _write_part(folder, index, result)
+            _write_part(folder, index, result, self.digest)
         except (OSError, OutputFileError):  # not there, or not writable from this worker
             return False
         return True
@@ -262,28 +283,47 @@ def _damaged(file: Path, exc: Exception) -> OptikError:
     )
 
 
-def _check_part(file: Path) -> None:
-    """Raise unless a part file's Parquet footer reads (cheap: the footer, not the data).
+def _foreign(file: Path) -> OptikError:
+    """The error of a part file that another run wrote, saying how to recover."""
+    return OptikError(
+        f"{file}: a part file of another run (other settings or targets: a run at the same "
+        "path, or a file copied in); delete it and resume the run (resume=True, or "
+        "--resume) to compute its chunk again"
+    )
+
+
+def _check_part(file: Path, digest: str | None) -> None:
+    """Raise unless a part file's Parquet footer reads and is this run's (the footer only).
 
     A part is renamed into place only when whole, so one that does not read was damaged
     from outside (a disk fault, a cut copy); resuming over it would fail only at the end.
 
+    Args:
+        file: the part file.
+        digest: the run's settings digest the part must carry (``None``: not checked).
+
     Raises:
-        OptikError: the file does not read as Parquet (the message names it).
+        OptikError: the file does not read as Parquet, or carries another run's digest
+            (the message names it).
     """
     pq = require("pyarrow.parquet", "a batch")
     try:
-        pq.read_metadata(file)
+        metadata = pq.read_metadata(file).metadata or {}
     except Exception as exc:  # pyarrow's ArrowInvalid (a ValueError), OSError, ...
         raise _damaged(file, exc) from None
+    if digest is not None and metadata.get(PART_KEY) != digest.encode():
+        raise _foreign(file)
 
 
-def _read_part(pq: Any, file: Path) -> Any:
-    """The rows of one part file, or a clear error naming it."""
+def _read_part(pq: Any, file: Path, digest: str | None) -> Any:
+    """The rows of one part file, or a clear error naming it (see :func:`_check_part`)."""
     try:
-        return pq.read_table(file)
+        table = pq.read_table(file)
     except Exception as exc:  # damaged since the run checked its footer
         raise _damaged(file, exc) from None
+    if digest is not None and (table.schema.metadata or {}).get(PART_KEY) != digest.encode():
+        raise _foreign(file)  # written in by another run since this one started
+    return table
 
 
 class PartStore:
@@ -291,22 +331,31 @@ class PartStore:
 
     A run that writes the folder (a new one or a resumed one) gives it a new token
     (:meth:`for_run`); the workers write their own parts (:meth:`writer`) when they find
-    that token there.
+    that token there, and the client writes a part only while it is there
+    (:meth:`write`). With ``digest``, every part must carry it (:data:`PART_KEY`).
     """
 
-    def __init__(self, folder: Path | None, run: str | None = None) -> None:
+    def __init__(
+        self, folder: Path | None, run: str | None = None, digest: str | None = None
+    ) -> None:
         self.folder = folder
         self.memory: dict[int, Any] = {}
         self.run = run
+        self.digest = digest
 
     @classmethod
-    def for_run(cls, folder: Path | None) -> PartStore:
-        """The store of a run about to write ``folder``, stamped with a new run token."""
+    def for_run(cls, folder: Path | None, digest: str | None = None) -> PartStore:
+        """The store of a run about to write ``folder``, stamped with a new run token.
+
+        Args:
+            folder: the output folder (``None``: in memory).
+            digest: the digest of the run's settings that its parts carry.
+        """
         if folder is None:
             return cls(None)
         run = uuid.uuid4().hex
         write_atomic(folder / RUN_FILE, run)
-        return cls(folder, run)
+        return cls(folder, run, digest)
 
     part_name = staticmethod(part_name)
 
@@ -322,23 +371,59 @@ class PartStore:
         for file in self.folder.glob("part-*.parquet"):
             stem = file.stem.removeprefix("part-")
             if stem.isdigit():
-                _check_part(file)
+                _check_part(file, self.digest)
                 done.add(int(stem))
         return done
 
     def write(self, index: int, result: dict[str, np.ndarray]) -> None:
-        """Write chunk ``index`` whole (here, in the client)."""
+        """Write chunk ``index`` whole (here, in the client), into this run's folder only.
+
+        Raises:
+            OptikError: the folder was removed, or replaced by another run, since this
+                run stamped it (:meth:`check_own`); nothing is written then.
+        """
         if self.folder is None:
             pa = require("pyarrow", "a batch")
             self.memory[index] = pa.table(result)
             return
-        _write_part(self.folder, index, result)
+        self.check_own()
+        try:
+            _write_part(self.folder, index, result, self.digest or "")
+        except OutputFileError:
+            self.check_own()  # removed between the check and the write: say so
+            raise
+
+    def check_own(self) -> None:
+        """Raise unless the folder still carries this run's token (a stamped folder only).
+
+        Raises:
+            OptikError: the folder was removed, or now belongs to another run (its token
+                differs): this run must stop rather than write into it or create it again.
+        """
+        if self.folder is None or self.run is None:
+            return
+        try:
+            token: str | None = (self.folder / RUN_FILE).read_text(encoding="utf-8")
+        except OSError:
+            token = None
+        if token == self.run:
+            return
+        if not self.folder.exists():
+            raise OptikError(
+                f"{self.folder}: the output folder was removed while this run was writing "
+                "it; the run stopped (run it again to compute every chunk)"
+            )
+        raise OptikError(
+            f"{self.folder}: the output folder was replaced by another run at the same path "
+            "while this run was writing it; the run stopped without writing into it (give "
+            "each run its own output path)"
+        )
 
     def writer(self) -> PartWriter | None:
         """The workers' writer of this folder (``None`` in memory or unstamped)."""
         if self.folder is None or self.run is None:
             return None
-        return PartWriter(str(self.folder.resolve()), self.run)
+        return PartWriter(str(self.folder.resolve()), self.run, self.digest or "")
 
     def table(self) -> Any:
         """Every row, sorted by target index."""
@@ -348,7 +433,7 @@ class PartStore:
             parts = [self.memory[i] for i in sorted(self.memory)]
         else:
             files = sorted(self.folder.glob("part-*.parquet"))
-            parts = [_read_part(pq, f) for f in files]
+            parts = [_read_part(pq, f, self.digest) for f in files]
         if not parts:
             return None
         try:
@@ -404,12 +489,16 @@ def solve_batch(
     Returns:
         A :class:`pyarrow.Table` of every target's row, sorted by ``index``
         (:func:`result_columns`: status, success, q per joint, the three errors,
-        iterations, restarts).
+        iterations, restarts). Its ``schema.metadata[RESUMED_KEY]`` is the number of
+        targets this call resumed from ``out`` rather than solved (``b"0"`` for a new run).
 
     Raises:
-        OptikError: malformed targets or options; ``out`` exists and ``resume`` is
-            false, or is a place that cannot be written; a stored run with other
-            settings; an unreachable scheduler.
+        OptikError: malformed targets or options; more than
+            :data:`~optik.campaign.engine.MAX_CHUNKS` chunks (give a larger ``chunk``);
+            ``out`` exists and ``resume`` is false, or is a place that cannot be written;
+            a stored run with other settings, or a part file of another run, on
+            ``resume``; ``out`` removed or replaced by another run while this one writes
+            it (the run stops); an unreachable scheduler.
     """
     if not isinstance(robot, Robot):
         raise OptikError(f"robot: expected an optik.Robot, got {type(robot).__name__}")
@@ -435,6 +524,9 @@ def solve_batch(
     poses = _as_poses(targets, task.mode)
     if len(poses) > 2**40:
         raise OptikError(f"targets: at most 2**40 per batch, got {len(poses)}")
+    chunks = chunk_count(len(poses), chunk)
+    smallest = chunk_count(len(poses), MAX_CHUNKS)
+    check_chunk_count(chunks, f"{len(poses)} targets in chunks of {chunk} make", smallest)
     settings = {
         "robot": robot.name,
         "robot_fingerprint": robot_fingerprint(robot),
@@ -451,24 +543,28 @@ def solve_batch(
         "optik": versions()["optik"],
     }
     text = json.dumps(settings, indent=1)
+    digest = hashlib.sha256(text.encode()).hexdigest()  # the same text on a resume
     new = _check_out(folder, settings, resume)
     items = [(s, poses[s : s + chunk]) for s in range(0, len(poses), chunk)]
     with open_engine(client=client, workers=workers, scheduler=scheduler) as engine:
         # Written only now: a bad engine option leaves no folder behind either.
         if folder is not None and new:
             _create(folder, text)
-        store = PartStore.for_run(folder)
-        threads = engine.threads_for(chunk_count(len(poses), chunk))
+        store = PartStore.for_run(folder, digest)
+        done = store.finished()  # a part of another run is refused here, before any work
+        threads = engine.threads_for(chunks)
         spec = BatchSpec(robot, task.mode, axis, tol, restarts, max_iter, seed, threads)
         work = functools.partial(solve_chunk, spec)
-        run_chunks_with_progress(engine, work, items, store, progress, f"batch {robot.name}")
+        note = f"batch {robot.name}"
+        run_chunks_with_progress(engine, work, items, store, progress, note, finished=done)
+    store.check_own()  # not another run's rows: the folder may have been replaced since
     table = store.table()
+    pa = require("pyarrow", "a batch")
     if table is None:
-        pa = require("pyarrow", "a batch")
-        empty = solve_chunk(spec, (0, np.empty((0, 4, 4))))
-        table = pa.table(empty)
+        table = pa.table(solve_chunk(spec, (0, np.empty((0, 4, 4)))))
     _check_rows(table, len(poses), folder)
-    return table
+    resumed = sum(len(items[i][1]) for i in done if i < len(items))
+    return table.replace_schema_metadata({RESUMED_KEY: str(resumed).encode()})
 
 
 def _check_rows(table: Any, n: int, folder: Path | None) -> None:
@@ -542,6 +638,8 @@ def _create(folder: Path, text: str) -> None:
 
 __all__ = [
     "DEFAULT_CHUNK",
+    "PART_KEY",
+    "RESUMED_KEY",
     "BatchSpec",
     "PartStore",
     "PartWriter",

@@ -56,6 +56,17 @@ terminal), or a callable ``progress(done, total)`` (chunks)."""
 MAX_WORKERS = 1024
 """Largest ``workers`` of a local cluster."""
 
+MAX_CHUNKS = 100_000
+"""Largest number of chunks of one campaign (a larger ``chunk`` gives fewer).
+
+Each chunk costs the client about 1-2.5 KB of bookkeeping before any is solved, and a
+Zarr map reads every chunk's marker file at each start or resume (about 0.1 ms each: a map
+of 251,001 chunks spent 25 s reading them, one of a million chunks 155 s and 2.6 GB
+before its first chunk). At this limit that start-up stays near 10 s and 250 MB."""
+
+WORKER_PRELOAD = "optik.campaign._worker"
+"""The preload module of the workers of a local cluster (they leave Ctrl-C to the client)."""
+
 CONNECT_TIMEOUT_S = 5.0
 """How long to wait for a scheduler given by address before giving up (s)."""
 
@@ -93,6 +104,9 @@ class Engine(Closing):
     _owned: list[Any] = field(default_factory=list, repr=False)
     pool: int = 0
     """Threads that run chunks in-process (0: numba's thread count)."""
+    local: bool = False
+    """Whether the engine started the cluster (``workers=N``): its workers are quieted
+    before it closes."""
 
     @property
     def distributed(self) -> bool:
@@ -172,6 +186,11 @@ class Engine(Closing):
 
     def close(self) -> None:
         """Close the client and the cluster this engine started (not a caller's client)."""
+        if self.local and self._owned:
+            from optik.campaign._worker import quiet_logs
+
+            with contextlib.suppress(Exception):  # a worker gone already has nothing to say
+                self.client.run(quiet_logs, on_error="ignore")
         while self._owned:
             thing = self._owned.pop()
             with contextlib.suppress(Exception):  # shutting down: nothing left to save
@@ -226,10 +245,11 @@ def open_engine(
                 dashboard_address=None,
                 silence_logs=40,  # logging.ERROR: a worker restart is not the user's problem
                 config=settings,
+                preload=[WORKER_PRELOAD],  # workers ignore Ctrl-C: the client stops the run
             )
         local = distributed.Client(cluster)
         plural = "es" if n != 1 else ""
-        return Engine(local, f"{n} local worker process{plural}", [cluster, local])
+        return Engine(local, f"{n} local worker process{plural}", [cluster, local], local=True)
     if not isinstance(scheduler, str) or not scheduler.strip():
         raise ArgumentError("scheduler", scheduler, "a scheduler address ('tcp://host:port')")
     wait = check_real("connect_timeout_s", connect_timeout_s, positive=True)
@@ -310,6 +330,7 @@ def run_chunks(
     store: ChunkStore,
     *,
     progress: Callable[[int, int], object] | None = None,
+    finished: set[int] | None = None,
 ) -> int:
     """Compute every chunk ``store`` has not finished, and write each as it arrives.
 
@@ -323,12 +344,14 @@ def run_chunks(
             the store has a ``writer()`` that gives one; see :class:`ChunkStore`).
         progress: called as ``progress(done, total)`` after each chunk is written
             (finished chunks of an earlier run count as done from the start).
+        finished: the chunks already finished, if the caller has read them
+            (default: ``store.finished()``).
 
     Returns:
         The number of chunks computed by this call.
     """
     total = len(chunks)
-    done = store.finished()
+    done = store.finished() if finished is None else finished
     pending = [i for i in range(total) if i not in done]
     if progress is not None:
         progress(total - len(pending), total)
@@ -353,6 +376,7 @@ def run_chunks_with_progress(
     store: ChunkStore,
     progress: ProgressOption,
     note: str,
+    finished: set[int] | None = None,
 ) -> int:
     """:func:`run_chunks` with a campaign's ``progress`` option.
 
@@ -366,12 +390,13 @@ def run_chunks_with_progress(
             on, off or (``None``) drawn when stderr is a terminal.
         note: what runs, shown beside the bar with where (``"map ur5"`` ->
             ``"map ur5 (in-process)"``).
+        finished: the chunks already finished (default: ``store.finished()``).
 
     Returns:
         The number of chunks computed by this call.
     """
     if callable(progress):
-        return run_chunks(engine, fn, chunks, store, progress=progress)
+        return run_chunks(engine, fn, chunks, store, progress=progress, finished=finished)
     label = f"{note} ({engine.description})"
     with Progress(len(chunks), enabled=progress) as bar:
         return run_chunks(
@@ -380,6 +405,7 @@ def run_chunks_with_progress(
             chunks,
             store,
             progress=lambda done, total: bar.advance(done - bar.done, note=label),
+            finished=finished,
         )
 
 
@@ -388,8 +414,27 @@ def chunk_count(total: int, chunk: int) -> int:
     return max(math.ceil(total / chunk), 0)
 
 
+def check_chunk_count(count: int, what: str, smallest: int) -> None:
+    """Refuse a campaign of more than :data:`MAX_CHUNKS` chunks, before any work.
+
+    Args:
+        count: the campaign's number of chunks.
+        what: how ``chunk`` gives them, in words (``"10 targets in chunks of 1 make"``).
+        smallest: the smallest ``chunk`` within the limit, suggested.
+
+    Raises:
+        OptikError: ``count`` above :data:`MAX_CHUNKS` (the message names ``chunk``).
+    """
+    if count > MAX_CHUNKS:
+        raise OptikError(
+            f"chunk: {what} {count} chunks, more than {MAX_CHUNKS} (each costs memory and "
+            f"start-up time before any is solved): give chunk={smallest} or more"
+        )
+
+
 __all__ = [
     "CONNECT_TIMEOUT_S",
+    "MAX_CHUNKS",
     "MAX_WORKERS",
     "QUIET_CLUSTER",
     "ChunkStore",
@@ -397,6 +442,7 @@ __all__ = [
     "Engine",
     "ProgressOption",
     "Written",
+    "check_chunk_count",
     "chunk_count",
     "compute_and_write",
     "open_engine",

@@ -151,12 +151,13 @@ def orientations(mode: str, count: Any, rolls: Any, axis: str) -> FloatArray:
     """
     n = check_int("orientations", count, minimum=1, maximum=MAX_ORIENTATIONS)
     m = check_int("rolls", rolls, minimum=1, maximum=MAX_ORIENTATIONS)
-    if mode == "position":
-        return np.eye(3)[None].copy()
     if m != 1 and mode != "pose":
         raise OptikError(
-            f"rolls: only a full pose has rotations about the tool axis (mode {mode!r})"
+            f"rolls: only a full pose has rotations about the tool axis (mode {mode!r}); "
+            "give rolls=1"
         )
+    if mode == "position":
+        return np.eye(3)[None].copy()
     if n * m > MAX_SAMPLES:
         raise OptikError(
             f"orientations * rolls: {n} * {m} = {n * m} samples per voxel, more than "

@@ -6,7 +6,7 @@ import argparse
 from collections import Counter
 from typing import Any
 
-from optik.campaign.batch import DEFAULT_CHUNK, solve_batch
+from optik.campaign.batch import DEFAULT_CHUNK, RESUMED_KEY, solve_batch
 from optik.cli._campaign import add_campaign_ik_arguments, add_engine_arguments, run_campaign
 from optik.cli._common import (
     EXIT_OK,
@@ -23,9 +23,17 @@ def _cmd_batch(args: argparse.Namespace) -> int:
     n = table.num_rows
     counts = Counter(table.column("status").to_pylist())
     solved = counts.get("converged", 0)
+    # The rate counts the targets this run solved, not those a --resume found written.
+    resumed = int((table.schema.metadata or {}).get(RESUMED_KEY, b"0"))
+    computed = n - resumed
+    rate = f"in {wall:.1f} s ({computed / max(wall, 1e-9):.0f} per s)"
+    if resumed:
+        rate = f"; {computed} computed {rate}, {resumed} resumed from an earlier run"
+    else:
+        rate = f", {rate}"
     print(
         f"{problem.name}: {n} targets ({args.mode} mode), {solved} converged, "
-        f"{n - solved} not, in {wall:.1f} s ({n / max(wall, 1e-9):.0f} per s)"
+        f"{n - solved} not{rate}"
     )
     for status, count in sorted(counts.items()):
         print(f"  {status:<16}{count}")

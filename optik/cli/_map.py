@@ -52,8 +52,12 @@ def _cmd_map(args: argparse.Namespace) -> int:
         f"{settings['reach_radius_m']:.4g} m), {int((index > 0).sum())} reached; mean "
         f"reachability index inside {float(index[inside].mean()) if inside.any() else 0:.3f}"
     )
-    rate = samples / max(wall, 1e-9)
-    print(f"  {samples} IK samples in {wall:.1f} s wall, start-up included ({rate:.0f} per s)")
+    # The rate counts the samples this run solved, not those a --resume found written.
+    resumed = int(ds.attrs.get("resumed_samples", 0))
+    computed = samples - resumed
+    rate = computed / max(wall, 1e-9)
+    line = f"  {computed} IK samples in {wall:.1f} s wall, start-up included ({rate:.0f} per s)"
+    print(f"{line}, {resumed} resumed from an earlier run" if resumed else line)
     print(f"  wrote {args.out}")
     if args.plots is not None:
         try:
