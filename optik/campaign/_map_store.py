@@ -26,7 +26,8 @@ from optik.errors import OptikError
 if TYPE_CHECKING:  # the spec's module imports this one
     from optik.campaign.capability import MapSpec
 
-_DONE = "chunk_done"
+DONE_MARKER = "chunk_done"
+"""The map's array of chunk markers (1: the chunk's block is written whole)."""
 _RUN = "run"  # chunk_done's attribute: the token of the run writing the map
 
 
@@ -40,7 +41,7 @@ class _Variable:
     chunked: bool = True  # chunked as the map (x and y in blocks of ``chunk``)
 
 
-def _layout(spec: MapSpec) -> dict[str, tuple[_Variable, tuple[int, ...]]]:
+def map_layout(spec: MapSpec) -> dict[str, tuple[_Variable, tuple[int, ...]]]:
     """Every stored array of a map with its shape (the one table both stores follow)."""
     nx, ny, nz = spec.shape
     M, dof = spec.samples, spec.robot.dof
@@ -75,7 +76,7 @@ class MemoryMapStore:
         self.spec = spec
         self.arrays = {
             name: np.full(shape, var.fill, dtype=var.dtype)
-            for name, (var, shape) in _layout(spec).items()
+            for name, (var, shape) in map_layout(spec).items()
         }
         self.done: set[int] = set()
 
@@ -97,7 +98,7 @@ class MemoryMapStore:
     def dataset(self, attrs: dict[str, Any]) -> Any:
         """The map as an :class:`xarray.Dataset`."""
         xr = require("xarray", "a capability map")
-        layout = _layout(self.spec)
+        layout = map_layout(self.spec)
         statics = _statics(self.spec)
         data = {name: (layout[name][0].dims, array) for name, array in self.arrays.items()}
         data["rotation"] = statics.pop("rotation")
@@ -133,7 +134,7 @@ def _write_block(arrays: Mapping[str, Any], chunk: int, nby: int, index: int, re
     ix0, iy0 = bx * chunk, by * chunk
     for name, values in result.items():
         arrays[name][ix0 : ix0 + values.shape[0], iy0 : iy0 + values.shape[1]] = values
-    arrays[_DONE][bx, by] = 1
+    arrays[DONE_MARKER][bx, by] = 1
 
 
 _OPEN: dict[tuple[str, str], dict[str, Any]] = {}
@@ -148,7 +149,7 @@ def _arrays_for_writing(path: str, run: str) -> dict[str, Any] | None:
     """
     zarr = require_zarr("a capability map")
     try:
-        marker = zarr.open_array(store=path, path=_DONE, mode="r+")
+        marker = zarr.open_array(store=path, path=DONE_MARKER, mode="r+")
     except Exception:  # no such map from here (another machine's disk): the client writes
         return None
     if marker.attrs.get(_RUN) != run:
@@ -156,11 +157,11 @@ def _arrays_for_writing(path: str, run: str) -> dict[str, Any] | None:
     arrays = _OPEN.get((path, run))
     if arrays is None:
         group = zarr.open_group(store=path, mode="r+")
-        arrays = {name: group[name] for name in group.array_keys() if name != _DONE}
+        arrays = {name: group[name] for name in group.array_keys() if name != DONE_MARKER}
         if len(_OPEN) >= 8:  # a long-lived worker that served many maps
             _OPEN.clear()
         _OPEN[(path, run)] = arrays
-    return {**arrays, _DONE: marker}
+    return {**arrays, DONE_MARKER: marker}
 
 
 @dataclass(frozen=True)
@@ -213,7 +214,7 @@ class MapStore:
         self.spec = spec
         self.path = path
         self.run = uuid.uuid4().hex  # this run's: the workers check it before writing
-        group[_DONE].attrs.update({_RUN: self.run})
+        group[DONE_MARKER].attrs.update({_RUN: self.run})
 
     @classmethod
     def create(cls, store: Any, spec: MapSpec, attrs: dict[str, Any]) -> MapStore:
@@ -231,14 +232,14 @@ class MapStore:
             )
             array[...] = values
         c = spec.chunk
-        for name, (var, shape) in _layout(spec).items():
+        for name, (var, shape) in map_layout(spec).items():
             chunks = (min(c, shape[0]), min(c, shape[1]), *shape[2:])
             _create_array(
                 group, name, shape=shape, chunks=chunks, dtype=var.dtype, dims=var.dims,
                 fill_value=var.fill,
             )  # fmt: skip
         _create_array(
-            group, _DONE, shape=spec.block_grid, chunks=(1, 1), dtype="u1",
+            group, DONE_MARKER, shape=spec.block_grid, chunks=(1, 1), dtype="u1",
             dims=("chunk_x", "chunk_y"), fill_value=0,
         )  # fmt: skip
         path = str(Path(store).resolve()) if isinstance(store, str | Path) else None
@@ -251,7 +252,8 @@ class MapStore:
         try:
             group = zarr.open_group(store=str(path), mode="r+")
             stored = dict(group.attrs.get("settings", {}))
-            missing = [name for name in (_DONE, "reached", "reachability") if name not in group]
+            needed = (DONE_MARKER, "reached", "reachability")
+            missing = [name for name in needed if name not in group]
         except Exception as exc:  # not a Zarr group, or a damaged one
             raise OptikError(f"{path}: not a capability map to resume ({exc})") from None
         if missing:
@@ -268,7 +270,7 @@ class MapStore:
         Raises:
             OptikError: a marker file that cannot be read (a damaged map).
         """
-        done = _read_markers(self.group[_DONE], self.path or "the map")
+        done = read_markers(self.group[DONE_MARKER], self.path or "the map")
         return {int(i) for i in np.flatnonzero(done)}
 
     def write(self, index: int, result: dict[str, np.ndarray]) -> None:
@@ -281,7 +283,7 @@ class MapStore:
                 stamped it (:meth:`check_own`); nothing is written then.
         """
         if self.path is None:  # a store this process alone writes
-            arrays = {name: self.group[name] for name in (*result, _DONE)}
+            arrays = {name: self.group[name] for name in (*result, DONE_MARKER)}
         else:
             arrays = self._own_arrays()
         _write_block(arrays, self.spec.chunk, self.spec.block_grid[1], index, result)
@@ -315,7 +317,7 @@ class MapStore:
         return MapWriter(self.path, self.run, self.spec.chunk, self.spec.block_grid[1])
 
 
-def _read_markers(marker: Any, where: str) -> np.ndarray:
+def read_markers(marker: Any, where: str) -> np.ndarray:
     """The chunk markers of a stored map, flattened; a damaged file is an OptikError."""
     try:
         return np.asarray(marker[...]).ravel()

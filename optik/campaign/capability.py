@@ -51,12 +51,12 @@ from optik._checks import (
 from optik._files import check_folder, output_path
 from optik.campaign._deps import require, require_zarr
 from optik.campaign._map_store import (
-    _DONE,
+    DONE_MARKER,
     MapStore,
     MapWriter,
     MemoryMapStore,
-    _layout,
-    _read_markers,
+    map_layout,
+    read_markers,
 )
 from optik.campaign.engine import (
     MAX_CHUNKS,
@@ -273,7 +273,7 @@ def _check_memory(spec: MapSpec) -> None:
     ``reached`` array, and ``q`` with ``keep_q``) could still ask for terabytes.
     """
     size = 0.0
-    for var, shape in _layout(spec).values():
+    for var, shape in map_layout(spec).values():
         size += math.prod(float(n) for n in shape) * np.dtype(var.dtype).itemsize
     if size > MAX_MEMORY_BYTES:
         raise OptikError(
@@ -321,16 +321,17 @@ def open_map(path: str | Path) -> Any:
         ds = xr.open_zarr(str(path), consolidated=False)
     except Exception as exc:
         raise OptikError(f"{path}: not a capability map ({exc})") from None
-    if _DONE not in ds:
+    if DONE_MARKER not in ds:
         raise OptikError(
-            f"{path}: no chunk markers ({_DONE}): not a map written by capability_map(out=...), "
-            "or a damaged one"
+            f"{path}: no chunk markers ({DONE_MARKER}): not a map written by "
+            "capability_map(out=...), or a damaged one"
         )
     # Read by zarr at once, not through a dask graph (60 ms of the client's CPU).
-    marker = require_zarr("a capability map").open_array(store=str(path), path=_DONE, mode="r")
-    if not bool(np.all(_read_markers(marker, str(path)))):
+    zarr = require_zarr("a capability map")
+    marker = zarr.open_array(store=str(path), path=DONE_MARKER, mode="r")
+    if not bool(np.all(read_markers(marker, str(path)))):
         raise OptikError(f"{path}: the map is unfinished (resume the run to finish it)")
-    return ds.drop_vars(_DONE)
+    return ds.drop_vars(DONE_MARKER)
 
 
 def read_variable(ds: Any, name: str, where: str) -> np.ndarray:
