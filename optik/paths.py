@@ -261,7 +261,8 @@ def _csv_rows(file: Path) -> list[tuple[int, list[str]]]:
     Blank and ``#`` lines are left out after the numbering, so errors name the file's lines.
     """
     rows = []
-    with file.open(newline="", encoding="utf-8") as handle:
+    # utf-8-sig: a spreadsheet's CSV export may begin with a byte-order mark.
+    with file.open(newline="", encoding="utf-8-sig") as handle:
         reader = csv.reader(handle)
         start = 1
         try:

@@ -9,6 +9,7 @@ import re
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 from conftest import run_cli
 
@@ -156,6 +157,18 @@ def test_a_path_csv_error_names_the_files_own_line(tmp_path: Path) -> None:
     csv.write_text(f'x,y,z\n\n"{"1" * 200_000}",1,1\n', encoding="utf-8")
     with pytest.raises(PathFileError, match=r"line 3: field larger than field limit"):
         read_path(csv)  # was a bare csv.Error: an internal error of the CLI
+
+
+def test_a_path_csv_with_a_byte_order_mark_reads(tmp_path: Path) -> None:
+    """A spreadsheet's UTF-8 export begins with a BOM: its header had been refused."""
+    plain, marked = tmp_path / "plain.csv", tmp_path / "marked.csv"
+    text = "x,y,z,roll,pitch,yaw\n0.5,0.1,0.3,0,0,0.2\n0.5,0.2,0.3,0,0,0.3\n"
+    plain.write_text(text, encoding="utf-8")
+    marked.write_text(text, encoding="utf-8-sig")
+    assert marked.read_bytes().startswith(b"\xef\xbb\xbf")
+    (poses, mode), (again, again_mode) = read_path(plain), read_path(marked)
+    assert mode == again_mode == "pose"
+    np.testing.assert_array_equal(poses, again)
 
 
 # ------------------------------------------------ F7: reachability_figure(value=...)
