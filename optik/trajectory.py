@@ -637,8 +637,20 @@ def _deviation(
         ab = B[:3, 3] - A[:3, 3]
         length2 = float(ab @ ab)
         lam = np.clip((T[:, :3, 3] - A[:3, 3]) @ ab / length2, 0.0, 1.0) if length2 > 0 else 0 * w
-        nearest = A[:3, 3] + np.asarray(lam)[:, None] * ab
-        frame = _slerp(A[:3, :3], B[:3, :3], np.asarray(lam, dtype=float))
+        lam = np.asarray(lam, dtype=float)
+        frame = _slerp(A[:3, :3], B[:3, :3], lam)
+        held = plan.weights[:3] > 0.0
+        if np.any(held) and not np.all(held):
+            # Nearest along the constrained axes only (a free axis's offset does not
+            # count): lam and the path's frame there, twice, the frame turning slowly.
+            for _ in range(2):
+                offset = np.einsum("kji,kj->ki", frame, T[:, :3, 3] - A[:3, 3])[:, held]
+                along = np.einsum("kji,j->ki", frame, ab)[:, held]
+                norm2 = np.sum(along * along, axis=1)
+                ratio = np.sum(offset * along, axis=1) / np.where(norm2 > 0.0, norm2, 1.0)
+                lam = np.where(norm2 > 0.0, np.clip(ratio, 0.0, 1.0), lam)
+                frame = _slerp(A[:3, :3], B[:3, :3], lam)
+        nearest = A[:3, 3] + lam[:, None] * ab
         between = _departure(plan, T, nearest, frame, np.stack([A[:3, :3], B[:3, :3]]))
         position, orientation = max(position, between[0]), max(orientation, between[1])
     return position, orientation

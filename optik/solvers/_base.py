@@ -260,7 +260,11 @@ class IKSolver(ABC):
         """
         search = self.searched(query)
         found = self.attempts(search, starts, max_iter, last, deadline, start)
-        if search is query or found.converged or found.status_if_failed == "solver_failed":
+        if search is query or found.status_if_failed == "solver_failed":
+            return found
+        # Verified, not the backend's own claim (an NLP "solved to an acceptable level"
+        # short of the task): such an answer needs the compromise too.
+        if found.converged and verify_one(query.robot, found.q, query.target, query.spec)[3]:
             return found
         q, iterations, converged = compromise(query, found.q)
         message = "converged" if converged else found.message
