@@ -653,11 +653,14 @@ def plan_path(
 
     n = len(poses)
     layers: list[list[FloatArray]] = []
-    seeds: list[FloatArray] = [start] if start is not None else []
+    # Seeds inside the box the solves keep (frozen joints at their values, the margin);
+    # the move from q_start itself, frozen joints included, is the plan's first step.
+    first = [] if start is None else [np.clip(start, work.lower, work.upper)]
+    seeds = first
     for k in range(n):
         layer = finder.find(poses[k], seeds, k)
         layers.append(layer)
-        seeds = layer if layer else ([start] if start is not None else [])
+        seeds = layer if layer else first
         if progress is not None:
             progress(k + 1, n)
     choice = choose(layers, max_joint_step, greedy, start, finder.comfort)

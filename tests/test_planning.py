@@ -343,3 +343,19 @@ def test_a_start_far_from_every_branch_flags_the_first_waypoint() -> None:
     _verify_plan(robot, far)
     assert far.step[0] == np.max(np.abs(far.q[0] - start)) > 0.2
     assert far.status[0] == "discontinuity" and far.status[1:] == ["ok"] * (len(path) - 1)
+
+
+def test_a_start_away_from_a_frozen_value_is_the_first_step() -> None:
+    """``q_start`` off a frozen joint's value: refused as the solves' seed before (naming
+    neither ``q_start`` nor ``frozen``); now the move to that value is the first step."""
+    robot = load_problem("puma560").robot
+    q_now = np.array([0.3, 0.5, -0.5, 0.2, 0.4, 0.1])
+    held = q_now.copy()
+    held[2] = -0.2
+    poses = robot.fk(held + np.outer(np.linspace(0.0, 0.05, 6), [1, 0, 0, 0, 0, 0]))
+    plan = plan_path(robot, poses, q_start=q_now, frozen={"j3": -0.2}, max_joint_step=0.2)
+    _verify_plan(robot, plan)
+    assert plan.solved.all() and np.all(plan.q[:, 2] == -0.2)
+    assert plan.step[0] == pytest.approx(np.max(np.abs(plan.q[0] - q_now)), abs=0.0)
+    assert plan.step[0] >= 0.3 and plan.status[0] == "discontinuity"
+    assert plan.status[1:] == ["ok"] * (len(poses) - 1)
