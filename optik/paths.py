@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 
 from optik._checks import (
+    MAX_LENGTH_M,
     FloatArray,
     check_bool,
     check_length_array,
@@ -298,7 +299,10 @@ def _read_csv(file: Path) -> tuple[FloatArray, str]:
             raise PathFileError(f"{file}: line {line}: {exc}") from exc
         if not np.all(np.isfinite(values[k])):
             raise PathFileError(f"{file}: line {line}: NaN or infinite value")
-    check_length_array("positions", values[:, :3])
+        if np.max(np.abs(values[k, :3])) > MAX_LENGTH_M:
+            raise PathFileError(
+                f"{file}: line {line}: a coordinate beyond {MAX_LENGTH_M:g} m ({','.join(row[:3])})"
+            )
     rpy = values[:, 3:6] if width == 6 else None
     return _positions_to_poses(values[:, :3], rpy), "pose" if width == 6 else "position"
 

@@ -69,6 +69,18 @@ def test_show_refuses_an_unwritable_out_before_drawing(
     assert out == "" and "is not a writable folder" in err
 
 
+def test_show_refuses_a_folder_named_like_an_image_before_drawing(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import optik.drawing
+
+    monkeypatch.setattr(optik.drawing, "show_robot", _fail_if_called)
+    (tmp_path / "d.png").mkdir()
+    assert main(["show", "planar_2r", "--out", str(tmp_path / "d.png")]) == 2
+    out, err = capsys.readouterr()
+    assert out == "" and "a folder, not an image file" in err
+
+
 @needs_proc
 def test_batch_and_map_refuse_an_unwritable_out_before_their_engine_starts(
     monkeypatch: pytest.MonkeyPatch,
@@ -157,6 +169,13 @@ def test_a_path_csv_error_names_the_files_own_line(tmp_path: Path) -> None:
     csv.write_text(f'x,y,z\n\n"{"1" * 200_000}",1,1\n', encoding="utf-8")
     with pytest.raises(PathFileError, match=r"line 3: field larger than field limit"):
         read_path(csv)  # was a bare csv.Error: an internal error of the CLI
+
+
+def test_a_path_csv_coordinate_beyond_the_bound_names_its_line(tmp_path: Path) -> None:
+    far = tmp_path / "far.csv"
+    far.write_text("x,y,z\n# a comment\n0.5,0.1,0.3\n2e9,0.1,0.3\n", encoding="utf-8")
+    with pytest.raises(PathFileError, match=r"line 4: a coordinate beyond 1e\+09 m"):
+        read_path(far)  # named positions[1, 0] before
 
 
 def test_a_path_csv_with_a_byte_order_mark_reads(tmp_path: Path) -> None:

@@ -36,6 +36,8 @@ def _cmd_show(args: argparse.Namespace) -> int:
     out = Path(args.out)
     if out.suffix.lower() not in _FORMATS:
         raise OptikError(f"--out {out}: expected a {', '.join(_FORMATS)} file")
+    if out.is_dir():
+        raise OptikError(f"--out {out}: a folder, not an image file")
     check_folder(out.parent)  # before the robot is loaded and drawn, not after
     problem = problem_from_args(args)
     robot = problem.robot
