@@ -48,6 +48,7 @@ import numpy as np
 from optik._checks import FloatArray, as_float_array, check_int, check_real
 from optik._files import write_atomic_with
 from optik.errors import OptikError, ShapeError
+from optik.path_departure import merge_departure, segment_departure
 
 if TYPE_CHECKING:
     from optik.model import Robot
@@ -77,9 +78,6 @@ MERGE_TOLERANCE = 1e-6
 """Waypoints of a segment closer than this fraction of its joint-space chord length are one."""
 
 _UNSOLVED = ("unreachable", "outside_limits", "not_found")
-_DEVIATION_SAMPLES = 8
-_SLERP_SAMPLES = 33
-_GOLDEN_STEPS = 30  # shrinks each sample's bracket (1/16 of the interval) by 5e-7
 _SAME_POINT = 1e-12  # rad or m: the least merge distance, whatever the segment's length
 _LIMIT_SLACK = 1e-12  # rad or m: a spline within this of a limit stays inside it
 
@@ -550,127 +548,6 @@ def _fit_limits(timing: _Timing, vlim: FloatArray, alim: FloatArray) -> _Timing:
     return timing.scaled(r * (1.0 + 1e-9)) if r > 1.0 else timing
 
 
-# ------------------------------------------------------------------------ deviation
-def _rotation_angle(R: FloatArray) -> FloatArray:
-    """Rotation angle (rad) of each (..., 3, 3) rotation, by the robust atan2 form."""
-    w = np.stack([R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0]], axis=-1)
-    w = np.concatenate([w, (R[..., 1, 0] - R[..., 0, 1])[..., None]], axis=-1)
-    trace = R[..., 0, 0] + R[..., 1, 1] + R[..., 2, 2]
-    return np.arctan2(np.linalg.norm(w, axis=-1) / 2.0, (trace - 1.0) / 2.0)
-
-
-def _slerp(R0: FloatArray, R1: FloatArray, u: FloatArray) -> FloatArray:
-    """Rotations on the geodesic from ``R0`` to ``R1`` at fractions ``u`` (K,): (K, 3, 3)."""
-    from scipy.spatial.transform import Rotation
-
-    rv = Rotation.from_matrix(R0.T @ R1).as_rotvec()
-    return R0 @ Rotation.from_rotvec(u[:, None] * rv).as_matrix()
-
-
-def _least_over_geodesic(angle: Any, count: int) -> FloatArray:
-    """Per tool sample, the least of ``angle(u)`` (count,) over the fraction ``u`` in [0, 1].
-
-    ``angle`` maps fractions (count,) (one per sample) to angles (count,). A grid of
-    :data:`_SLERP_SAMPLES` fractions, then a golden-section search around each sample's
-    best (a grid alone overstates the angle by up to half its spacing: 5 mrad on a path
-    turning 0.35 rad between waypoints).
-    """
-    grid = np.linspace(0.0, 1.0, _SLERP_SAMPLES)
-    values = np.stack([angle(np.full(count, u)) for u in grid], axis=1)  # (count, M)
-    best = np.argmin(values, axis=1)
-    lo, hi = grid[np.maximum(best - 1, 0)], grid[np.minimum(best + 1, len(grid) - 1)]
-    ratio = 0.5 * (math.sqrt(5.0) - 1.0)
-    a, b = hi - ratio * (hi - lo), lo + ratio * (hi - lo)
-    fa, fb = angle(a), angle(b)
-    for _ in range(_GOLDEN_STEPS):
-        left = fa <= fb  # the minimum lies in [lo, b]
-        hi, lo = np.where(left, b, hi), np.where(left, lo, a)
-        b, a = np.where(left, a, lo + ratio * (hi - lo)), np.where(left, hi - ratio * (hi - lo), b)
-        fresh = angle(np.where(left, a, b))
-        fb, fa = np.where(left, fa, fresh), np.where(left, fresh, fb)
-    least: FloatArray = np.minimum(np.min(values, axis=1), np.minimum(fa, fb))
-    return least
-
-
-def _departure(
-    plan: PathPlan, T: FloatArray, nearest: FloatArray, frame: FloatArray, ends: FloatArray
-) -> tuple[float, float]:
-    """Largest departure (m, rad) of tool poses ``T`` (K, 4, 4) from the path, by the task.
-
-    ``nearest`` (K, 3): each pose's nearest path point; ``frame`` (K, 3, 3): the path's
-    rotation there (the frame of the task's weights); ``ends`` (2, 3, 3): the rotations
-    at the interval's ends, whose geodesic the tool's rotation (or tool axis) is compared
-    with, the nearest of its rotations counting.
-    """
-    from scipy.spatial.transform import Rotation
-
-    held = plan.weights[:3] > 0.0
-    position = 0.0
-    if np.any(held):
-        offset = np.einsum("kji,kj->ki", frame, T[:, :3, 3] - nearest)  # in the path's frame
-        position = float(np.max(np.linalg.norm(offset[:, held], axis=1)))
-    if plan.mode not in ("pose", "orientation", "axis"):
-        return position, 0.0
-    R0, rv = ends[0], Rotation.from_matrix(ends[0].T @ ends[1]).as_rotvec()
-
-    def angle(u: FloatArray) -> FloatArray:
-        R = R0 @ Rotation.from_rotvec(u[:, None] * rv).as_matrix()  # (K, 3, 3)
-        if plan.mode != "axis":
-            return _rotation_angle(np.einsum("kji,kjl->kil", R, T[:, :3, :3]))
-        tool, path = T[:, :3, plan.axis], R[:, :, plan.axis]
-        return np.arctan2(np.linalg.norm(np.cross(tool, path), axis=1), np.sum(tool * path, 1))
-
-    return position, float(np.max(_least_over_geodesic(angle, len(T))))
-
-
-def _deviation(
-    robot: Robot, plan: PathPlan, first: int, path: Any, s_way: FloatArray
-) -> tuple[float, float]:
-    """Largest tool departure (m, rad) from the Cartesian path between waypoints."""
-    w = np.linspace(0.0, 1.0, _DEVIATION_SAMPLES + 2)[1:-1]
-    position = orientation = 0.0
-    for i in range(len(s_way) - 1):
-        if s_way[i + 1] <= s_way[i]:  # a waypoint merged into the previous one
-            continue
-        T = robot.fk(path(s_way[i] + (s_way[i + 1] - s_way[i]) * w))
-        A, B = plan.poses[first + i], plan.poses[first + i + 1]
-        ab = B[:3, 3] - A[:3, 3]
-        length2 = float(ab @ ab)
-        lam = np.clip((T[:, :3, 3] - A[:3, 3]) @ ab / length2, 0.0, 1.0) if length2 > 0 else 0 * w
-        lam = np.asarray(lam, dtype=float)
-        frame = _slerp(A[:3, :3], B[:3, :3], lam)
-        held = plan.weights[:3] > 0.0
-        if np.any(held) and not np.all(held):
-            # Nearest along the constrained axes only (a free axis's offset does not
-            # count): lam and the path's frame there, twice, the frame turning slowly.
-            for _ in range(2):
-                offset = np.einsum("kji,kj->ki", frame, T[:, :3, 3] - A[:3, 3])[:, held]
-                along = np.einsum("kji,j->ki", frame, ab)[:, held]
-                norm2 = np.sum(along * along, axis=1)
-                ratio = np.sum(offset * along, axis=1) / np.where(norm2 > 0.0, norm2, 1.0)
-                lam = np.where(norm2 > 0.0, np.clip(ratio, 0.0, 1.0), lam)
-                frame = _slerp(A[:3, :3], B[:3, :3], lam)
-        nearest = A[:3, 3] + lam[:, None] * ab
-        between = _departure(plan, T, nearest, frame, np.stack([A[:3, :3], B[:3, :3]]))
-        position, orientation = max(position, between[0]), max(orientation, between[1])
-    return position, orientation
-
-
-def _merge_departure(
-    robot: Robot, plan: PathPlan, Q: FloatArray, kept: Any, knot_of: Any
-) -> tuple[float, float]:
-    """Largest tool move (m, rad) from a merged waypoint's configuration to its knot's."""
-    knot_rows = kept[knot_of]
-    merged = np.flatnonzero(knot_rows != np.arange(len(Q)))
-    position = orientation = 0.0
-    for k, knot in zip(merged, knot_rows[merged], strict=True):
-        T_way, T_knot = robot.fk(Q[k])[None], robot.fk(Q[knot])
-        frame, ends = plan.poses[k, :3, :3][None], np.stack([T_knot[:3, :3]] * 2)
-        moved = _departure(plan, T_way, T_knot[None, :3, 3], frame, ends)
-        position, orientation = max(position, moved[0]), max(orientation, moved[1])
-    return position, orientation
-
-
 # ------------------------------------------------------------------------ main
 def plan_trajectory(
     plan: PathPlan,
@@ -768,10 +645,10 @@ def plan_trajectory(
             t_way = np.interp(s_way, timing.ss, timing.ts)
         deviation = (math.nan, math.nan)
         if robot is not None:
-            merged = _merge_departure(robot, plan, Q, kept, knot_of)
+            merged = merge_departure(robot, plan, Q, kept, knot_of)
             between = (0.0, 0.0)
             if kind != "hold":
-                between = _deviation(robot, plan, first, timing.path, s_way)
+                between = segment_departure(robot, plan, first, timing.path, s_way)
             deviation = (max(between[0], merged[0]), max(between[1], merged[1]))
             if path_tolerance is not None and max(deviation) > path_tolerance:
                 raise OptikError(

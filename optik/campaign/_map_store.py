@@ -300,7 +300,8 @@ class MapStore:
 
     def _own_arrays(self) -> dict[str, Any]:
         """The arrays of the map at ``path``, opened afresh, if it is still this run's."""
-        assert self.path is not None
+        if self.path is None:  # an in-memory map has no folder to lose
+            raise OptikError("a map without a path has no arrays on disk to open")
         arrays = _arrays_for_writing(self.path, self.run)
         if arrays is None:
             raise OptikError(
