@@ -417,32 +417,6 @@ def _onto_bounds_fk(
 
 
 @_inline
-def _rewrap_moved(
-    params: np.ndarray,
-    layout: Layout,
-    dof: int,
-    held: int,
-    held_value: float,
-    rows: np.ndarray,
-    r: int,
-    ref: np.ndarray,
-    kr: int,
-) -> None:
-    """Wrap ``rows[r]`` again when a Newton step took an angle more than pi from ``ref``.
-
-    The step moves a wrapped row by at most ``REFINE_MAX_STEP``: only an angle at the
-    half-turn from the reference can change its nearest representative, and testing
-    for it costs a comparison per joint where the wrap costs a remainder.
-    """
-    for j in range(dof):
-        if abs(rows[r, j] - ref[kr, j]) > math.pi and params[layout[0] + layout[1] * j] == 0.0:
-            _wrap_row(params, layout, rows, r, ref, kr)
-            if held >= 0:
-                rows[r, held] = held_value
-            return
-
-
-@_inline
 def _runtime(layout: Layout) -> Layout:
     """``layout`` with run-time entries: a constant tuple is typed by its values."""
     return (
@@ -451,7 +425,11 @@ def _runtime(layout: Layout) -> Layout:
     )  # fmt: skip
 
 
-@_jit
+NOT_MOVED, MOVED, MOVED_UNCHECKED = 0, 1, 2
+"""Outcomes of :func:`_newton_move` (see there)."""
+
+
+@_inline
 def _refine_row(
     params: np.ndarray,
     layout: Layout,
@@ -484,33 +462,55 @@ def _refine_row(
     checked against the limits. Returns the FK depth valid in ``pre``
     (:func:`fk_shared`) and whether the row stays (inside the limits).
     """
-    depth = _newton_row(params, layout, dof, held, T, k, rows, r, pre, depth, verify_tol, work)
-    _rewrap_moved(params, layout, dof, held, held_value, rows, r, ref, kr)
-    if not within or _inside(params, layout, dof, rows, r, params[layout[5] + TOL_LIMIT]):
+    outcome = _newton_move(params, layout, dof, held, rows, r, pre, verify_tol, work)
+    if outcome == MOVED_UNCHECKED:
+        depth = _check_moved(params, layout, dof, T, k, rows, r, pre, work)
+    strict = params[layout[5] + TOL_LIMIT]
+    # One pass: whether the step took an angle past the half-turn from the reference
+    # (rare: then wrapped again; the step moves a wrapped row by at most REFINE_MAX_STEP,
+    # so only such an angle can change its nearest representative) and whether the row
+    # is inside the limits (every row: the first filter let it pass with the step's slack).
+    past_half_turn = False
+    inside = True
+    for j in range(dof):
+        v = rows[r, j]
+        if abs(v - ref[kr, j]) > math.pi and params[layout[0] + layout[1] * j] == 0.0:
+            past_half_turn = True
+        if not (params[layout[2] + j] - v <= strict and v - params[layout[3] + j] <= strict):
+            inside = False
+    if past_half_turn:
+        _wrap_row(params, layout, rows, r, ref, kr)
+        if held >= 0:
+            rows[r, held] = held_value
+        inside = _inside(params, layout, dof, rows, r, strict)
+    if not within or inside:
         return depth, True
     if not _inside(params, layout, dof, rows, r, LIMIT_CLIP):
         return depth, False
     return _onto_bounds_fk(params, layout, dof, held, rows, r, pre), True
 
 
-@_inline
-def _newton_row(
+@_jit
+def _newton_move(
     params: np.ndarray,
     layout: Layout,
     dof: int,
     held: int,
-    T: np.ndarray,
-    k: int,
     rows: np.ndarray,
     r: int,
     pre: np.ndarray,
-    depth: int,
     verify_tol: float,
     work: np.ndarray,
 ) -> int:
-    """:func:`_refine_row`'s step, its checks and the FK it leaves: the new depth.
+    """:func:`_refine_row`'s step: :data:`NOT_MOVED`, :data:`MOVED` or :data:`MOVED_UNCHECKED`.
 
     The row's residual is in ``work[:6]`` (:func:`optik.analytic._newton.pose_residual`).
+    :data:`NOT_MOVED`: every step refused (the row as it was); :data:`MOVED`: a step of at
+    most :data:`optik.analytic._newton.REFINE_TRUSTED_STEP` from a row within half the FK
+    check's tolerance, kept without a second FK; :data:`MOVED_UNCHECKED`: a step that
+    :func:`_check_moved` keeps only if the moved row is closer. A call of its own, apart
+    from :func:`_check_moved`: with the rare path's calls in the same compiled function,
+    the common path ran about 0.1 us a row slower (the Kinova's batch, 8 rows a pose).
     """
     before = 0.0  # squared, as every comparison here
     for i in range(6):
@@ -520,9 +520,31 @@ def _newton_row(
         wrist = -1
     moved = newton_step(params, layout[0], layout[1], dof, held, wrist, pre, rows, r, work)
     if moved == 0.0:
-        return depth
+        return NOT_MOVED
     if moved <= REFINE_TRUSTED_STEP and before <= 0.25 * verify_tol * verify_tol:
-        return depth
+        return MOVED
+    return MOVED_UNCHECKED
+
+
+@_jit
+def _check_moved(
+    params: np.ndarray,
+    layout: Layout,
+    dof: int,
+    T: np.ndarray,
+    k: int,
+    rows: np.ndarray,
+    r: int,
+    pre: np.ndarray,
+    work: np.ndarray,
+) -> int:
+    """The FK of a row :func:`_newton_move` moved; the row goes back unless it is closer.
+
+    ``work[:6]`` still holds the unmoved row's residual. Returns the new FK depth.
+    """
+    before = 0.0
+    for i in range(6):
+        before += work[i] * work[i]
     _row_sines(rows, r, dof)
     start = np.int64(0)  # not the literal 0: one signature of fk_shared
     depth = fk_shared(params, layout, rows, r, pre, start)
@@ -610,7 +632,7 @@ def postprocess_rows(
             # A row already at rounding takes no step (an exact closed form's rows all),
             # but it passed the limits with the step's slack: the strict test here.
             if pose_residual(pre, dof, T, k, work) > REFINE_ROUNDING * REFINE_ROUNDING:
-                # A call, not inlined, with run-time (not literal) arguments: its code is
+                # Run-time (not literal) arguments: the step and the check it calls are
                 # typed and compiled once, not in each of the six pipelines that inline
                 # this function (the install compiles them all).
                 depth, keep = _refine_row(
