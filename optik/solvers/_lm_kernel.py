@@ -73,9 +73,14 @@ def _evaluate(
         J[:, :] = Jc @ C
     errors = task_error(T, target, task, e, M)
     # optik.task: a full rotation (_KIND 1) in the target frame (_FAST 0) whose weights
-    # differ between the rotation rows needs the rotation vector's own derivative.
+    # differ between the rotation rows needs the rotation vector's own derivative; so
+    # does a tool axis (_KIND 2, axis _AXIS) whose two constrained rotation rows differ.
     if task[6] == 1.0 and task[10] == 0.0 and (task[3] != task[4] or task[4] != task[5]):
         _log_derivative_rows(J, M)
+    elif task[6] == 2.0:
+        k = int(task[7])
+        if task[3 + (k + 1) % 3] != task[3 + (k + 2) % 3]:
+            _axis_derivative_rows(J, T, target, k)
     task_rows(J, target, task)
     return errors
 
@@ -110,6 +115,56 @@ def _log_derivative_rows(J: np.ndarray, M: np.ndarray) -> None:
         J[3, a] = v0 + 0.5 * x0 + c * y0
         J[4, a] = v1 + 0.5 * x1 + c * y1
         J[5, a] = v2 + 0.5 * x2 + c * y2
+
+
+AXIS_SERIES_ANGLE = 1e-4
+"""Angle (rad) between the tool axis and its target below which
+:func:`_axis_derivative_rows` takes the series of its ``g(theta)`` (no cancellation)."""
+
+OPPOSITE_AXIS_SINE = 1e-9
+"""Sine of the angle between an axis pointing away from its target (``a . a* < 0``) and
+that target below which :func:`_axis_derivative_rows` leaves the rows as they are: the
+residual's direction is a convention there (:func:`optik.task._axis_rotation`), not a
+derivative."""
+
+
+@jit
+def _axis_derivative_rows(J: np.ndarray, T: np.ndarray, target: np.ndarray, k: int) -> None:
+    """``J[3:6] <- -D J[3:6]``: the derivative of a tool axis's rotation error ``r``.
+
+    ``r = theta v / s`` (:func:`optik.task.task_error`) with ``a`` the tool's
+    axis ``k`` (``T[:3, k]``), ``b`` the target's, ``v = a x b``, ``s = |v|``, ``c = a . b``
+    and ``theta = atan2(s, c)``. Turning the tool by ``w dt`` (world frame) turns ``a`` by
+    ``w x a dt`` and changes ``r`` by ``D w dt``,
+    ``D = (theta / s) (a b^T - c I) + g v v^T``, ``g = (theta c / s - 1) / s^2``.
+    At ``a = b``, ``-D`` is the projection off ``a``: the angular velocity's rows, whose
+    spin about ``a`` the zero weight of the free row drops there, and only there (checked
+    against finite differences in the tests). Equal weights on the two constrained rows need no
+    correction (the gradient of ``theta^2 / 2`` is the same either way), unequal ones do:
+    without it a narrowed Panda's compromise with weights ``[1, 1, 1, 1, 3, 0]`` stopped
+    18 % above the weighted minimum.
+    """
+    ax, ay, az = T[0, k], T[1, k], T[2, k]
+    bx, by, bz = target[0, k], target[1, k], target[2, k]
+    c = ax * bx + ay * by + az * bz
+    vx, vy, vz = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
+    s = math.sqrt(vx * vx + vy * vy + vz * vz)
+    if c < 0.0 and s < OPPOSITE_AXIS_SINE:
+        return
+    theta = math.atan2(s, c)
+    if theta < AXIS_SERIES_ANGLE:
+        f = 1.0 + theta * theta / 6.0  # theta / sin(theta)
+        g = -1.0 / 3.0 - 2.0 * theta * theta / 15.0
+    else:
+        f = theta / s
+        g = (theta * c / s - 1.0) / (s * s)
+    for col in range(J.shape[1]):
+        w0, w1, w2 = J[3, col], J[4, col], J[5, col]
+        bw = bx * w0 + by * w1 + bz * w2
+        vw = g * (vx * w0 + vy * w1 + vz * w2)
+        J[3, col] = -(f * (ax * bw - c * w0) + vx * vw)
+        J[4, col] = -(f * (ay * bw - c * w1) + vy * vw)
+        J[5, col] = -(f * (az * bw - c * w2) + vz * vw)
 
 
 MIN_DAMPING_SCALE = 1e-6
