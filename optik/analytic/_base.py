@@ -168,6 +168,26 @@ class AnalyticFamily(ABC):
         return None
 
 
+class PlannedFamily(AnalyticFamily):
+    """A family that reads a robot once into a plan, which says whether it fits.
+
+    ``plan(robot)`` (cached per robot, :meth:`optik.model.Robot.cached`) returns a named
+    tuple whose ``reason`` is ``""`` when the family fits, else why not (one line); the
+    family's :meth:`candidates` solve from the same cached plan.
+    """
+
+    plan: Callable[[Robot], Any]
+    """How the family reads a robot (set in each subclass as a ``staticmethod``)."""
+
+    def fits(self, robot: Robot) -> bool:
+        """Whether the plan of ``robot`` has no reason against the family."""
+        return not robot.cached(self.plan).reason
+
+    def explain(self, robot: Robot) -> str | None:
+        """The plan's reason why the family does not fit ``robot``, or ``None`` when it does."""
+        return robot.cached(self.plan).reason or None
+
+
 class CompiledPipeline(NamedTuple):
     """A compiled pose-mode pipeline of one robot (:meth:`AnalyticFamily.compiled`).
 

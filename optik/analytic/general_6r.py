@@ -53,7 +53,7 @@ import numpy as np
 import scipy.linalg
 
 from optik._checks import FloatArray
-from optik.analytic._base import AnalyticFamily, register
+from optik.analytic._base import PlannedFamily, register
 from optik.analytic.geometry import NoTable, dh_matrix, equivalent_dh, revolute_chain_reason
 from optik.errors import AnalyticIKError
 from optik.model import Robot
@@ -337,21 +337,18 @@ def general_plan(robot: Robot) -> Plan:
 
 
 @register
-class General6R(AnalyticFamily):
-    """Any six revolute joints (module docstring): up to 16 branches, numerically."""
+class General6R(PlannedFamily):
+    """Any six revolute joints (module docstring): up to 16 branches, numerically.
+
+    Fits six uncoupled revolute joints whose elimination passes the self-test
+    (:func:`general_plan`).
+    """
 
     name = "general_6r"
     modes = ("pose",)
     proves_unreachable: ClassVar[bool] = False
     fast: ClassVar[bool] = False
-
-    def fits(self, robot: Robot) -> bool:
-        """Six uncoupled revolute joints whose elimination passes the self-test."""
-        return not robot.cached(general_plan).reason
-
-    def explain(self, robot: Robot) -> str | None:
-        """Why the robot does not fit, or ``None`` when it does."""
-        return robot.cached(general_plan).reason or None
+    plan = staticmethod(general_plan)
 
     def candidates(
         self, robot: Robot, T_0_target: FloatArray, mode: str, q_ref: FloatArray

@@ -34,7 +34,7 @@ from typing import NamedTuple
 import numpy as np
 
 from optik._checks import FloatArray
-from optik.analytic._base import AnalyticFamily, angles, flange_point, flange_turn, register
+from optik.analytic._base import PlannedFamily, angles, flange_point, flange_turn, register
 from optik.analytic.geometry import ANGLE_TOL, LENGTH_TOL, joint_axes, revolute_chain_reason
 from optik.model import Robot
 
@@ -124,20 +124,13 @@ def planar_plan(robot: Robot) -> PlanarPlan:
 
 
 @register
-class Planar2R(AnalyticFamily):
+class Planar2R(PlannedFamily):
     """Two revolute joints with parallel, distinct axes (any source: DH, modified DH, URDF)."""
 
     name = "planar_2r"
     modes = ("position", "pose")
     tool_point = True
-
-    def fits(self, robot: Robot) -> bool:
-        """Two uncoupled revolute joints with parallel, distinct axes."""
-        return not robot.cached(planar_plan).reason
-
-    def explain(self, robot: Robot) -> str | None:
-        """Why the axes are not those of a planar arm, or ``None`` when they are."""
-        return robot.cached(planar_plan).reason or None
+    plan = staticmethod(planar_plan)
 
     def candidates(
         self, robot: Robot, T_0_target: FloatArray, mode: str, q_ref: FloatArray

@@ -26,7 +26,7 @@ from typing import NamedTuple
 import numpy as np
 
 from optik._checks import FloatArray
-from optik.analytic._base import AnalyticFamily, register
+from optik.analytic._base import PlannedFamily, register
 from optik.analytic._compiled import MAX_BRANCHES, mul3, tolerance_block
 from optik.analytic._subproblems import rotation
 from optik.analytic.geometry import (
@@ -99,24 +99,19 @@ def wrist_plan(robot: Robot) -> WristPlan:
 
 
 @register
-class RRPWrist(AnalyticFamily):
+class RRPWrist(PlannedFamily):
     """R, R, P and a spherical wrist (Stanford arm, jumbo drill), from the axes (any source).
 
     The arm in Python, the wrist by the compiled wrist of the joint-axis families
     (:func:`optik.analytic.pair_wrist.wrist_branches`); robots built from standard DH
-    rows that fit ``spherical_wrist`` are solved by that compiled family first.
+    rows that fit ``spherical_wrist`` are solved by that compiled family first. Fits six
+    uncoupled joints R, R, P, R, R, R with the structure of the module docstring
+    (:func:`wrist_plan`).
     """
 
     name = "rrp_wrist"
     modes = ("pose",)
-
-    def fits(self, robot: Robot) -> bool:
-        """Six uncoupled joints R, R, P, R, R, R with the structure of the module docstring."""
-        return not robot.cached(wrist_plan).reason
-
-    def explain(self, robot: Robot) -> str | None:
-        """Why the joints do not have the structure, or ``None`` when they do."""
-        return robot.cached(wrist_plan).reason or None
+    plan = staticmethod(wrist_plan)
 
     def candidates(
         self, robot: Robot, T_0_target: FloatArray, mode: str, q_ref: FloatArray

@@ -45,7 +45,7 @@ import numpy as np
 from optik._checks import FloatArray
 from optik._numba import inline as _inline
 from optik._numba import jit as _jit
-from optik.analytic._base import AnalyticFamily, CompiledPipeline, register
+from optik.analytic._base import CompiledPipeline, PlannedFamily, register
 from optik.analytic._compiled import (
     MAX_BRANCHES,
     axes_block,
@@ -425,7 +425,7 @@ def axes_candidates(
 
 
 @register
-class SphericalAxes(AnalyticFamily):
+class SphericalAxes(PlannedFamily):
     """Six revolute joints: a spherical wrist (or shoulder) and an arm of subproblems."""
 
     name = "spherical_axes"
@@ -435,10 +435,6 @@ class SphericalAxes(AnalyticFamily):
     def fits(self, robot: Robot) -> bool:
         """Whether ``robot``'s joint axes have the structure (module docstring)."""
         return robot.cached(self.plan).kind != 0
-
-    def explain(self, robot: Robot) -> str | None:
-        """Why the axes do not have the structure, or ``None`` when they do."""
-        return robot.cached(self.plan).reason or None
 
     def compiled(self, robot: Robot) -> CompiledPipeline | None:
         """:func:`solve` and :func:`solve_batch` on the robot's parameter vector.

@@ -35,7 +35,7 @@ from typing import NamedTuple
 import numpy as np
 
 from optik._checks import FloatArray
-from optik.analytic._base import AnalyticFamily, angles, flange_point, flange_turn, register
+from optik.analytic._base import PlannedFamily, angles, flange_point, flange_turn, register
 from optik.analytic.geometry import ANGLE_TOL, Axes, joint_axes, joint_kinds_reason
 from optik.model import Robot
 
@@ -209,7 +209,7 @@ def _flange_vector(plan: RRPPlan, rows: list[list[float]], m: Vector) -> Vector:
 
 
 @register
-class SphericalRRP(AnalyticFamily):
+class SphericalRRP(PlannedFamily):
     """Revolute, revolute, prismatic (seed 000's boom), from the axes (any source).
 
     Axes 1 and 2 not parallel, the slide normal to axis 2 (module docstring).
@@ -218,14 +218,7 @@ class SphericalRRP(AnalyticFamily):
     name = "spherical_rrp"
     modes = ("position", "pose")
     tool_point = True
-
-    def fits(self, robot: Robot) -> bool:
-        """Three uncoupled joints R, R, P with the structure of the module docstring."""
-        return not robot.cached(rrp_plan).reason
-
-    def explain(self, robot: Robot) -> str | None:
-        """Why the joints do not have the structure, or ``None`` when they do."""
-        return robot.cached(rrp_plan).reason or None
+    plan = staticmethod(rrp_plan)
 
     def candidates(
         self, robot: Robot, T_0_target: FloatArray, mode: str, q_ref: FloatArray
