@@ -11,6 +11,8 @@ rad); vectors are 3-tuples of floats (m, or unitless directions):
   given distance from a centre (subproblem 3): up to two angles;
 - :func:`plane_angles`: the angle ``t`` that puts a point rotated about a line at a
   given height along a direction (subproblem 4): up to two angles.
+- :func:`reach_angles`: subproblem 3, then 1: two lines in a row that carry a point to
+  a target point, up to two pairs.
 
 Each is solved as a trig equation ``a cos t + b sin t = c`` normalised to ``a^2 + b^2``
 of order 1 (:func:`optik._math.trig_roots`, with its tangent and free-angle rules), then
@@ -261,6 +263,37 @@ def distance_angles(
     b = 2.0 * dot(d, v) / scale
     c = (dist2 - scale) / scale
     return roots_or_tangent(a, b, c, ref, roots)
+
+
+@_inline
+def reach_angles(
+    wa: Vec3,
+    pa: Vec3,
+    wb: Vec3,
+    pb: Vec3,
+    point: Vec3,
+    d: Vec3,
+    ref_a: float,
+    ref_b: float,
+    roots: RootTols,
+    axis_tol: float,
+) -> tuple[int, float, float, float, float]:
+    """Two axes in a row that carry ``point`` to ``pa + d``: ``(count, ta_1, tb_1, ta_2, tb_2)``.
+
+    The lines through ``pa`` and ``pb`` (unit directions ``wa``, ``wb``, m) with
+    ``R_a(ta) R_b(tb) point = pa + d``: ``tb`` puts ``point`` turned about line b at the
+    distance ``|d|`` from ``pa`` (:func:`distance_angles`, up to two), then ``ta`` turns
+    it onto ``d`` about line a (:func:`sp1_angle`; ``d`` is assumed at the point's height
+    along ``wa``, which the caller's FK check judges). Count 0, 1 or 2, as
+    :func:`sp2_angles`; a free angle takes ``ref_a`` or ``ref_b``.
+    """
+    count, tb1, tb2 = distance_angles(wb, pb, point, pa, dot(d, d), ref_b, roots)
+    ta1 = ta2 = ref_a
+    if count > 0:
+        ta1 = sp1_angle(wa, sub(turn_point(wb, pb, tb1, point), pa), d, ref_a, axis_tol)
+    if count > 1:
+        ta2 = sp1_angle(wa, sub(turn_point(wb, pb, tb2, point), pa), d, ref_a, axis_tol)
+    return count, ta1, tb1, ta2, tb2
 
 
 @_inline

@@ -35,11 +35,10 @@ import numpy as np
 from optik._numba import jit as _jit
 from optik.analytic._compiled import closed_form_tols, mul3
 from optik.analytic._subproblems import (
-    distance_angles,
     dot,
     plane_angles,
+    reach_angles,
     rotation,
-    sp1_angle,
     sub,
     turn_point,
     vec_at,
@@ -92,10 +91,11 @@ def parallel_arm_candidates(
         for ia in range(na):
             t3 = a1 if ia == 0 else a2
             X = turn_point(z3, p3, t3, W)
-            nb_, b1, b2 = distance_angles(z2, p2, X, p1, dot(d, d), ref[1], roots)
+            nb_, u1, v1, u2, v2 = reach_angles(
+                z1, p1, z2, p2, X, d, ref[0], ref[1], roots, axis_tol
+            )
             for ib in range(nb_):
-                t2 = b1 if ib == 0 else b2
-                t1 = sp1_angle(z1, sub(turn_point(z2, p2, t2, X), p1), d, ref[0], axis_tol)
+                t1, t2 = (u1, v1) if ib == 0 else (u2, v2)
                 R123 = mul3(mul3(rotation(z1, t1), rotation(z2, t2)), rotation(z3, t3))
                 n = wrist_branches(z, RG, R123, (t1, t2, t3), across, ref, tols, cand, n)
         return n
@@ -104,10 +104,9 @@ def parallel_arm_candidates(
     for ia in range(na):
         t1 = a1 if ia == 0 else a2
         d = sub(turn_point(back, p1, t1, Wt), p2)
-        nb_, b1, b2 = distance_angles(z3, p3, W, p2, dot(d, d), ref[2], roots)
+        nb_, u1, v1, u2, v2 = reach_angles(z2, p2, z3, p3, W, d, ref[1], ref[2], roots, axis_tol)
         for ib in range(nb_):
-            t3 = b1 if ib == 0 else b2
-            t2 = sp1_angle(z2, sub(turn_point(z3, p3, t3, W), p2), d, ref[1], axis_tol)
+            t2, t3 = (u1, v1) if ib == 0 else (u2, v2)
             R123 = mul3(mul3(rotation(z1, t1), rotation(z2, t2)), rotation(z3, t3))
             n = wrist_branches(z, RG, R123, (t1, t2, t3), across, ref, tols, cand, n)
     return n

@@ -49,11 +49,11 @@ from optik.analytic._subproblems import (
     axpy,
     circle,
     cross,
-    distance_angles,
     dot,
     meeting_point,
     norm,
     plane_angles,
+    reach_angles,
     rotation,
     six_rows,
     sp1_angle,
@@ -136,10 +136,9 @@ def three_inner_candidates(
         X = turn_point(z6, p6, -t6, turn_point(z5, p5, -t5, p4))
         X = turn_point(back, p1, t1, axpy(1.0, apply(RG, X), tG))
         d = sub(X, p2)
-        n3, e1, e2 = distance_angles(z3, p3, p4, p2, dot(d, d), ref[2], roots)
+        n3, u1, v1, u2, v2 = reach_angles(z2, p2, z3, p3, p4, d, ref[1], ref[2], roots, axis_tol)
         for i3 in range(n3):
-            t3 = e1 if i3 == 0 else e2
-            t2 = sp1_angle(z2, sub(turn_point(z3, p3, t3, p4), p2), d, ref[1], axis_tol)
+            t2, t3 = (u1, v1) if i3 == 0 else (u2, v2)
             t4 = dot(h, z4) * (theta - dot(h, z2) * t2 - dot(h, z3) * t3)
             if n < cand.shape[0]:
                 cand[n, 0] = t1
@@ -195,10 +194,11 @@ def three_outer_candidates(
             X = turn_point(z6, p6, -t6, turn_point(z5, p5, -t5, X))
             X = axpy(1.0, apply(RG, X), tG)
             d = sub(X, p1)
-            n2, e1, e2 = distance_angles(z2, p2, p3, p1, dot(d, d), ref[1], roots)
+            n2, u1, v1, u2, v2 = reach_angles(
+                z1, p1, z2, p2, p3, d, ref[0], ref[1], roots, axis_tol
+            )
             for i2 in range(n2):
-                t2 = e1 if i2 == 0 else e2
-                t1 = sp1_angle(z1, sub(turn_point(z2, p2, t2, p3), p1), d, ref[0], axis_tol)
+                t1, t2 = (u1, v1) if i2 == 0 else (u2, v2)
                 t3 = dot(h, z3) * (theta - t1 - dot(h, z2) * t2)
                 if n < cand.shape[0]:
                     cand[n, 0] = t1
