@@ -90,6 +90,13 @@ def norm(a: Vec3) -> float:
 
 
 @_inline
+def unit(a: Vec3) -> Vec3:
+    """``a / |a|`` (``a`` not zero)."""
+    na = norm(a)
+    return (a[0] / na, a[1] / na, a[2] / na)
+
+
+@_inline
 def perp(w: Vec3, a: Vec3) -> Vec3:
     """The component of ``a`` perpendicular to the unit direction ``w``."""
     return axpy(-dot(w, a), w, a)

@@ -46,7 +46,13 @@ from optik._math import sincos, wrap_angle
 # 4-15 % of a held-joint solve.
 from optik._numba import inline as _inline
 from optik._numba import jit as _jit
-from optik.analytic._compiled import MAX_BRANCHES, closed_form_tols, mul3, mul3tn
+from optik.analytic._compiled import (
+    MAX_BRANCHES,
+    closed_form_tols,
+    mul3,
+    mul3tn,
+    store_branch,
+)
 from optik.analytic._subproblems import (
     Rot9,
     Vec3,
@@ -63,6 +69,7 @@ from optik.analytic._subproblems import (
     sp1_angle,
     sp2_angles,
     sub,
+    unit,
     vec_at,
 )
 from optik.analytic.geometry import (
@@ -206,9 +213,7 @@ def target_frame(T: np.ndarray, M: np.ndarray) -> tuple[Rot9, Vec3]:
 @_inline
 def wrist_across(z: np.ndarray) -> Vec3:
     """A unit direction across axis 6 (``z5 x z6``), for :func:`wrist_branches`."""
-    across = cross(vec_at(z, 4), vec_at(z, 5))
-    na = norm(across)
-    return (across[0] / na, across[1] / na, across[2] / na)
+    return unit(cross(vec_at(z, 4), vec_at(z, 5)))
 
 
 @_inline
@@ -258,13 +263,7 @@ def wrist_branches(
             t5 = tb
         t6 = _wrist_q6(z4, z5, z6, t4, t5, across, Ha, ref, axis_tol)
         if n < cand.shape[0]:
-            cand[n, 0] = arm[0]
-            cand[n, 1] = arm[1]
-            cand[n, 2] = arm[2]
-            cand[n, 3] = t4
-            cand[n, 4] = t5
-            cand[n, 5] = t6
-            n += 1
+            n = store_branch(cand, n, (arm[0], arm[1], arm[2], t4, t5, t6))
     return n
 
 

@@ -40,7 +40,7 @@ import math
 import numpy as np
 
 from optik._numba import jit as _jit
-from optik.analytic._compiled import closed_form_tols, mul3
+from optik.analytic._compiled import closed_form_tols, mul3, store_branch
 from optik.analytic._subproblems import (
     Rot9,
     Vec3,
@@ -59,6 +59,7 @@ from optik.analytic._subproblems import (
     sp1_angle,
     sub,
     turn_point,
+    unit,
 )
 from optik.analytic.general_arm import quartic_pairs, root_separation
 from optik.analytic.pair_wrist import REACH_TOL, target_frame
@@ -121,9 +122,7 @@ def three_inner_candidates(
         count = quartic_pairs(A, b0, B, trig_tol, pairs)  # roots q_5, partners q_1
         first, fifth = pairs[1], pairs[0]
     # A direction across h, to read theta off a rotation about h.
-    across = cross(h, z1)
-    na = norm(across)
-    across = (across[0] / na, across[1] / na, across[2] / na)
+    across = unit(cross(h, z1))
     roots = (trig_tol, eps, free_tol, REACH_TOL)
     n = 0
     for i in range(count):
@@ -141,13 +140,8 @@ def three_inner_candidates(
             t2, t3 = (u1, v1) if i3 == 0 else (u2, v2)
             t4 = dot(h, z4) * (theta - dot(h, z2) * t2 - dot(h, z3) * t3)
             if n < cand.shape[0]:
-                cand[n, 0] = t1
-                cand[n, 1] = t2
-                cand[n, 2] = t3
-                cand[n, 3] = math.atan2(math.sin(t4), math.cos(t4))
-                cand[n, 4] = t5
-                cand[n, 5] = t6
-                n += 1
+                t4 = math.atan2(math.sin(t4), math.cos(t4))
+                n = store_branch(cand, n, (t1, t2, t3, t4, t5, t6))
     return n
 
 
@@ -174,9 +168,7 @@ def three_outer_candidates(
     C = meeting_point(z5, p5, z6, p6)
     Ct = axpy(1.0, apply(RG, C), tG)
     roots = (trig_tol, eps, free_tol, REACH_TOL)
-    across = cross(h, z4)
-    na = norm(across)
-    across = (across[0] / na, across[1] / na, across[2] / na)
+    across = unit(cross(h, z4))
     RGz6 = apply(RG, z6)
     n4, a1, a2 = plane_angles(z4, p4, C, h, dot(h, Ct), ref[3], roots)
     n = 0
@@ -201,13 +193,8 @@ def three_outer_candidates(
                 t1, t2 = (u1, v1) if i2 == 0 else (u2, v2)
                 t3 = dot(h, z3) * (theta - t1 - dot(h, z2) * t2)
                 if n < cand.shape[0]:
-                    cand[n, 0] = t1
-                    cand[n, 1] = t2
-                    cand[n, 2] = math.atan2(math.sin(t3), math.cos(t3))
-                    cand[n, 3] = t4
-                    cand[n, 4] = t5
-                    cand[n, 5] = t6
-                    n += 1
+                    t3 = math.atan2(math.sin(t3), math.cos(t3))
+                    n = store_branch(cand, n, (t1, t2, t3, t4, t5, t6))
     return n
 
 
