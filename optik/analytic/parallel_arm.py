@@ -64,19 +64,9 @@ def parallel_arm_candidates(
 ) -> int:
     """Raw branches of the parallel-arm, spherical-wrist closed form into ``cand`` (>= 8, 6).
 
-    Args:
-        z: (6, 3) unit joint directions at ``q = 0`` (world frame).
-        p: (6, 3) a point on each axis (m).
-        M: (4, 4) world pose of the tool at ``q = 0``.
-        T: (4, 4) world target of the tool.
-        ref: (6,) reference angles for free joints (rad).
-        kind: :data:`PARALLEL_12` or :data:`PARALLEL_23`.
-        tols: the tolerance block of :mod:`optik.analytic._compiled`.
-        cand: output rows (joint angles, rad, not wrapped).
-
-    Returns:
-        The number of rows written (0 to 8): the first arm angle solved, then the second
-        (each pair ascending), then the wrist.
+    Arguments as :func:`optik.analytic.pair_wrist.pair_wrist_candidates`, and ``kind``:
+    :data:`PARALLEL_12` or :data:`PARALLEL_23`. Returns the number of rows written (0 to
+    8): the first arm angle solved, then the second (each pair ascending), then the wrist.
     """
     trig_tol, eps, free_tol, axis_tol = closed_form_tols(tols)
     roots = (trig_tol, eps, free_tol, REACH_TOL)

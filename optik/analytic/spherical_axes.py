@@ -179,11 +179,9 @@ def axes_plan(robot: Robot) -> AxesPlan:
     Args:
         robot: the robot.
     """
-    empty = np.empty((0, 3))
-    none = AxesPlan(0, False, empty, empty, np.eye(4), np.empty(0), "")
     reason = revolute_chain_reason(robot, 6)
     if reason is not None:
-        return none._replace(reason=reason)
+        return _unfit(reason)
     axes = joint_axes(robot)
     names = robot.chain_names
     back = reversed_axes(axes)
@@ -194,7 +192,13 @@ def axes_plan(robot: Robot) -> AxesPlan:
         return AxesPlan(kind, False, *_arrays(axes), tolerance_block(), "")
     if kind_back:
         return AxesPlan(kind_back, True, *_arrays(back), tolerance_block(), "")
-    return none._replace(reason=f"{why}; read backwards: {why_back}")
+    return _unfit(f"{why}; read backwards: {why_back}")
+
+
+def _unfit(reason: str) -> AxesPlan:
+    """The plan of a robot the family does not fit: kind 0, ``reason`` why (one line)."""
+    empty = np.empty((0, 3))
+    return AxesPlan(0, False, empty, empty, np.eye(4), np.empty(0), reason)
 
 
 def _arrays(axes: Axes) -> tuple[FloatArray, FloatArray, FloatArray]:
@@ -485,10 +489,7 @@ def _parallel_run_reason(axes: Axes, names: tuple[str, ...], first: int) -> str 
 
 
 def _inner_reason(axes: Axes, names: tuple[str, ...]) -> str | None:
-    """Why six axes are not three inner parallel ones (``three_inner_candidates``)."""
-    why = _parallel_run_reason(axes, names, 1)
-    if why is not None:
-        return why
+    """Why axes 2-4 as parallel lines are not three inner parallel ones (the rest)."""
     label = [axis_label(names, i) for i in range(6)]
     for i in (0, 4):
         if _parallel(axes, i, 1):
@@ -499,10 +500,7 @@ def _inner_reason(axes: Axes, names: tuple[str, ...]) -> str | None:
 
 
 def _outer_reason(axes: Axes, names: tuple[str, ...]) -> str | None:
-    """Why six axes are not three outer parallel ones (``three_outer_candidates``)."""
-    why = _parallel_run_reason(axes, names, 0)
-    if why is not None:
-        return why
+    """Why axes 1-3 as parallel lines are not three outer parallel ones (the rest)."""
     label = [axis_label(names, i) for i in range(6)]
     if _parallel(axes, 3, 0):
         return f"axis {label[3]} is parallel to axes 1-3 too"
@@ -540,27 +538,25 @@ def parallel_plan(robot: Robot) -> AxesPlan:
     Args:
         robot: the robot.
     """
-    empty = np.empty((0, 3))
-    none = AxesPlan(0, False, empty, empty, np.eye(4), np.empty(0), "")
     reason = revolute_chain_reason(robot, 6)
     if reason is not None:
-        return none._replace(reason=reason)
+        return _unfit(reason)
     axes = joint_axes(robot)
     back = reversed_axes(axes)
     names = robot.chain_names
     whys = []
-    for kind, test, arrays in (
-        (THREE_INNER, _inner_reason, _inner_arrays),
-        (THREE_OUTER, _outer_reason, _arrays),
+    for kind, first, test, arrays in (
+        (THREE_INNER, 1, _inner_reason, _inner_arrays),
+        (THREE_OUTER, 0, _outer_reason, _arrays),
     ):
         for reverse, seen, order in ((False, axes, names), (True, back, names[::-1])):
-            why = test(seen, order)
+            why = _parallel_run_reason(seen, order, first) or test(seen, order)
             if why is None:
                 return AxesPlan(kind, reverse, *arrays(seen), tolerance_block(), "")
             whys.append(why)
     inner, inner_back, outer, outer_back = whys
-    return none._replace(
-        reason=f"{inner}; read backwards: {inner_back}; "
+    return _unfit(
+        f"{inner}; read backwards: {inner_back}; "
         f"as outer axes: {outer}; read backwards: {outer_back}"
     )
 
