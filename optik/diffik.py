@@ -52,6 +52,7 @@ from optik.programs.diff_qp import (
     _check_rows,
     build_program,
     check_velocity_limits,
+    equilibration_scale,
 )
 from optik.programs.step_arrays import CHECK_OK, FILL_INCONSISTENT, FILL_OK, step_arrays
 from optik.solvers import StepBackend, available_solvers, get_solver, registered_solvers
@@ -64,6 +65,7 @@ __all__ = [
     "clip_into_limits",
     "diff_ik",
     "diff_ik_solvers",
+    "polish_least_norm",
     "verify_step",
 ]
 
@@ -149,13 +151,15 @@ def verify_step(program: DiffIKProgram, solution: QPSolution) -> tuple[FloatArra
     The point must be finite; within :data:`FEASIBILITY_RTOL` times the program's
     :attr:`~optik.programs.diff_qp.DiffIKProgram.magnitude` (``||v||_inf``, or the
     posture offset's size when larger), plus :data:`FEASIBILITY_ATOL`, of the bounds,
-    after which it is clipped onto them; satisfy ``J dq = v`` to the same tolerance (least
-    norm); and satisfy KKT stationarity with sign-constrained multipliers fitted by optik
-    to :data:`KKT_RTOL` times the program's scale, the gradient taken from the stated
-    objective (weights, damping and the posture offset, ``c = -W d``:
-    :meth:`~optik.programs.diff_qp.DiffIKProgram.gradient`). The backend's own claim
-    (``solution.found``) is not needed: a point that
-    passes every check is accepted.
+    after which it is clipped onto them; satisfy ``J dq = v`` to
+    :meth:`~optik.programs.diff_qp.DiffIKProgram.task_tolerance` (least norm: relative to
+    ``||v||_inf`` alone, a point that misses it being projected back first,
+    :func:`polish_least_norm`); and satisfy KKT stationarity with sign-constrained
+    multipliers fitted by optik to :data:`KKT_RTOL` times the program's scale, the
+    gradient taken from the stated objective (weights, damping and the posture offset,
+    ``c = -W d``: :meth:`~optik.programs.diff_qp.DiffIKProgram.gradient`). The backend's
+    own claim (``solution.found``) is not needed: a point that passes every check is
+    accepted.
     """
     x = solution.x
     if x is None:
@@ -167,19 +171,102 @@ def verify_step(program: DiffIKProgram, solution: QPSolution) -> tuple[FloatArra
     if violation > tol:
         return None, f"bounds violated by {violation:.3g} ({solution.status})"
     dq = program.clip(x)
-    if program.objective == "least_norm":
-        residual = float(np.max(np.abs(program.task_residual(dq)), initial=0.0))
-        if residual > tol:
-            return None, f"|J dq - v| = {residual:.3g} > {tol:.3g} ({solution.status})"
-    kkt = program.kkt(dq, active_tol=tol)
-    if kkt.stationarity > KKT_RTOL * kkt.scale + FEASIBILITY_ATOL:
-        return None, (
-            f"not optimal: KKT stationarity residual {kkt.stationarity:.3g} "
-            f"(scale {kkt.scale:.3g}) ({solution.status})"
-        )
     if program.objective == "least_squares":
+        kkt = program.kkt(dq, active_tol=tol)
+        if not _stationary(kkt):
+            return None, _not_optimal(kkt, solution.status)
         return _polished(program, dq, kkt, tol), ""
-    return dq, ""
+    residual = float(np.max(np.abs(program.task_residual(dq)), initial=0.0))
+    limit = program.task_tolerance(dq, FEASIBILITY_RTOL)
+    if residual <= limit:
+        kkt = program.kkt(dq, active_tol=tol)
+        if _stationary(kkt):
+            return dq, ""
+    # The backend's tolerances act on the equilibrated program, relative to the posture
+    # offset when that is larger than the task: its point may miss J dq = v, and is
+    # projected back onto it. A subnormal task reached the backend scaled by at most
+    # 2**MAX_SCALE_EXPONENT, far below unit size, so only its active set is taken.
+    tiny = 0.0 < program.magnitude < 1.0 / equilibration_scale(program.magnitude)
+    polished = polish_least_norm(program, dq, tol, resolve=tiny)
+    if polished is None:
+        if residual > limit:
+            return None, f"|J dq - v| = {residual:.3g} > {limit:.3g} ({solution.status})"
+        return None, _not_optimal(program.kkt(dq, active_tol=tol), solution.status)
+    kkt = program.kkt(polished, active_tol=tol)
+    if not _stationary(kkt):
+        return None, _not_optimal(kkt, solution.status)
+    return polished, ""
+
+
+def _stationary(kkt: KKTReport) -> bool:
+    """KKT stationarity within :data:`KKT_RTOL` of the program's scale."""
+    return bool(kkt.stationarity <= KKT_RTOL * kkt.scale + FEASIBILITY_ATOL)
+
+
+def _not_optimal(kkt: KKTReport, status: str) -> str:
+    return (
+        f"not optimal: KKT stationarity residual {kkt.stationarity:.3g} "
+        f"(scale {kkt.scale:.3g}) ({status})"
+    )
+
+
+def polish_least_norm(
+    program: DiffIKProgram, dq: FloatArray, active_tol: float, resolve: bool = False
+) -> FloatArray | None:
+    """``dq`` moved back onto ``J dq = v``, its active bounds kept.
+
+    The joints within ``active_tol`` (rad or m) of a bound are held exactly on it; the
+    free ones move by the smallest correction in the ``W`` norm that meets the task, the
+    ``W``-orthogonal projection onto ``J dq = v`` (``lstsq`` of ``J_F L^-T``,
+    ``W_FF = L L^T``, refined once). The correction lies in the row space of ``J_F``
+    scaled by ``W_FF^-1``, so it changes only the equality multipliers: a point whose
+    KKT conditions held before holds them after. With ``resolve`` the free joints start
+    from their unconstrained minimiser instead of ``dq``, which gives the minimiser on
+    the active set of ``dq`` (only that active set is taken from ``dq``). The data are
+    scaled by the exact power of two that brings the program's magnitude to unit size,
+    so a subnormal task (``dt = 1e-309``) or a far posture loses no digits to the scale.
+
+    Returns:
+        The step (dof,), or ``None`` when no joint is free, the result is not finite, it
+        leaves the bounds by more than ``active_tol`` or misses ``J dq = v`` by more than
+        :meth:`~optik.programs.diff_qp.DiffIKProgram.task_tolerance` (the KKT signs are
+        checked by the caller).
+    """
+    lower, upper = program.lower, program.upper
+    at_lower = np.isfinite(lower) & (dq - lower <= active_tol)
+    at_upper = np.isfinite(upper) & (upper - dq <= active_tol) & ~at_lower
+    active = at_lower | at_upper
+    free = ~active
+    if not np.any(free):
+        return None
+    size = program.magnitude
+    k = -math.frexp(size)[1] if size > 0.0 and math.isfinite(size) else 0
+    held = np.ldexp(np.where(at_lower, lower, np.where(at_upper, upper, 0.0)), k)
+    d = np.zeros(program.dof) if program.offset is None else np.ldexp(program.offset, k)
+    v = np.ldexp(program.v, k)
+    W, J = program.W, program.J
+    W_ff = W[np.ix_(free, free)]
+    x = held.copy()
+    if resolve:
+        x[free] = d[free]
+        if np.any(active):
+            pull = W[np.ix_(free, active)] @ (held[active] - d[active])
+            x[free] -= np.linalg.solve(W_ff, pull)
+    else:
+        x[free] = np.ldexp(dq[free], k)
+    w = np.diagonal(W_ff)
+    diagonal = np.array_equal(W_ff, np.diag(w))
+    root = np.sqrt(w) if diagonal else np.linalg.cholesky(W_ff)
+    B = J[:, free] / root if diagonal else np.linalg.solve(root, J[:, free].T).T
+    for _ in range(2):  # the projection, then one refinement of its rounding
+        z, *_ = np.linalg.lstsq(B, v - J @ x, rcond=None)
+        x[free] += z / root if diagonal else np.linalg.solve(root.T, z)
+    out = np.ldexp(x, -k)
+    if not np.all(np.isfinite(out)) or program.bound_violation(out) > active_tol:
+        return None
+    out = program.clip(out)
+    residual = float(np.max(np.abs(program.task_residual(out)), initial=0.0))
+    return out if residual <= program.task_tolerance(out, FEASIBILITY_RTOL) else None
 
 
 def _polished(program: DiffIKProgram, dq: FloatArray, kkt: KKTReport, tol: float) -> FloatArray:
@@ -213,7 +300,7 @@ def polish_least_squares(
 ) -> FloatArray | None:
     """The least-squares step on the backend's active set, solved in square-root form.
 
-    With the joints of ``active`` (dof,) held on their bounds as in ``dq``, the others
+    With the joints of ``active`` (dof,) held on the bound nearer ``dq``, the others
     minimise ``||Wt^(1/2) (J dq - v)||^2 + lambda^2 ||W^(1/2) (dq - d)||^2`` exactly:
     one ``lstsq`` of the stacked rows, whose condition number is the square root of the
     QP's (a backend solving ``P = J^T Wt J + lambda^2 W`` loses twice the digits: with
@@ -224,7 +311,10 @@ def polish_least_squares(
     if not np.any(free):
         return None
     A, b = _stacked_rows(program)
-    held = np.where(active, dq, 0.0)
+    # On the bound itself, not where the backend left the joint (it may stop 1e-7 short).
+    with np.errstate(invalid="ignore"):
+        nearer = np.where(dq - program.lower <= program.upper - dq, program.lower, program.upper)
+    held = np.where(active, nearer, 0.0)
     x, *_ = np.linalg.lstsq(A[:, free], b - A @ held, rcond=None)
     out = held.copy()
     out[free] = x

@@ -60,6 +60,7 @@ import scipy.optimize
 from optik._checks import (
     FloatArray,
     as_float_array,
+    check_bool,
     check_finite,
     check_int,
     check_real,
@@ -77,6 +78,7 @@ __all__ = [
     "MAX_DAMPING",
     "OBJECTIVES",
     "POSITION_ROWS",
+    "TASK_ROUNDING",
     "DiffIKProgram",
     "Equilibrated",
     "KKTReport",
@@ -85,6 +87,7 @@ __all__ = [
     "build_program",
     "build_qp",
     "check_velocity_limits",
+    "equilibration_scale",
     "step_bounds",
 ]
 
@@ -101,6 +104,17 @@ DEFAULT_DAMPING: Final[float] = 1e-3
 #: of the undamped one; larger values only scale ``P`` towards what QP backends cannot
 #: solve in bounded time (1e300 made one run for minutes).
 MAX_DAMPING: Final[float] = 1e3
+
+#: Largest binary exponent of the equilibration scale (:func:`equilibration_scale`): a
+#: scale of ``2**1000`` (1e301) still leaves a bound of a few rad finite, while the
+#: reciprocal of a subnormal ``||v||_inf`` (``dt = 1e-309``) overflows to ``inf``.
+MAX_SCALE_EXPONENT: Final[int] = 1000
+
+#: Rounding allowance on ``J dq = v``, times ``max_r sum_i |J_ri dq_i|`` (the size of the
+#: products the residual sums, m or rad): a step with a large null-space part (a far
+#: posture) meets the task to its own rounding, not better. 64 unit roundoffs cover the
+#: sum of a 7-joint row and the solve that produced ``dq``.
+TASK_ROUNDING: Final[float] = 64.0 * 2.0**-53
 
 #: The six rows of the geometric Jacobian: linear x, y, z then angular x, y, z.
 ALL_ROWS: Final[tuple[int, ...]] = (0, 1, 2, 3, 4, 5)
@@ -252,14 +266,14 @@ class DiffIKProgram:
 
         The minimizer does not change when the cost is divided by ``p = max |P|``, and it
         scales with ``(v, d, lb, ub)``: the backend solves for ``x' = s dq`` with
-        ``s = 1 /`` :attr:`magnitude` (1 when it is 0), so its absolute tolerances act relative
-        to the size of the task and of the cost.
+        ``s = 1 /`` :attr:`magnitude` (:func:`equilibration_scale`: 1 when it is 0, capped
+        at ``2**1000``), so its absolute tolerances act relative to the size of the task
+        and of the cost.
         """
         qp = self.qp
         p = float(np.max(np.abs(qp.P)))
         p = p if p > 0.0 else 1.0
-        vmax = self.magnitude
-        s = 1.0 / vmax if vmax > 0.0 else 1.0
+        s = equilibration_scale(self.magnitude)
         return Equilibrated(
             P=qp.P / p,
             c=qp.q * (s / p),
@@ -303,6 +317,21 @@ class DiffIKProgram:
         """
         r: FloatArray = self.J @ dq - self.v
         return r
+
+    def task_tolerance(self, dq: FloatArray, rtol: float) -> float:
+        """Largest accepted ``||J dq - v||_inf`` at ``dq``, m or rad (least norm).
+
+        ``rtol ||v||_inf + TASK_ROUNDING max_r sum_i |J_ri dq_i|``: relative to the task
+        itself, not to the posture offset (a posture far away must not loosen the task),
+        plus the rounding of the products ``J dq`` (:data:`TASK_ROUNDING`).
+
+        Args:
+            dq: joint step (dof,), rad or m.
+            rtol: relative tolerance on the task (``optik.diffik.FEASIBILITY_RTOL``).
+        """
+        vabs = float(np.max(np.abs(self.v), initial=0.0))
+        size = float(np.max(np.abs(self.J) @ np.abs(dq), initial=0.0))
+        return rtol * vabs + TASK_ROUNDING * size
 
     def bound_violation(self, dq: FloatArray) -> float:
         """Largest excursion of ``dq`` beyond ``[lower, upper]``, 0 inside.
@@ -373,9 +402,16 @@ class DiffIKProgram:
         :class:`KKTReport` for the conditions and how the multipliers are found.
 
         Args:
-            dq: joint step (dof,), rad or m.
-            active_tol: distance to a bound, rad or m, within which the bound counts as active.
+            dq: joint step (dof,), rad or m, finite.
+            active_tol: distance to a bound, rad or m, within which the bound counts as
+                active (>= 0).
+
+        Raises:
+            ShapeError, NonFiniteError: ``dq`` not a finite (dof,) array.
+            ArgumentError: ``active_tol`` not a finite number >= 0.
         """
+        dq = finite_array("dq", dq, (self.dof,))
+        active_tol = check_real("active_tol", active_tol, nonnegative=True)
         n = self.dof
         g = self.gradient(dq)
         at_lower = np.isfinite(self.lower) & (dq - self.lower <= active_tol)
@@ -435,6 +471,28 @@ class DiffIKProgram:
         )
 
 
+def equilibration_scale(size: float) -> float:
+    """The scale ``s`` of a step program: ``1 / size``, at most ``2**MAX_SCALE_EXPONENT``.
+
+    The backend solves for ``x' = s dq``, so its absolute tolerances act relative to
+    ``size``. The cap keeps ``s`` finite: the reciprocal of a subnormal ``size`` (a task
+    below 1e-301, e.g. ``dt = 1e-309``) overflows to ``inf``, and the scaled program to
+    NaN. Such a task reaches the backend below unit size; its answer is then solved again
+    exactly on its active set (see :func:`optik.diffik.verify_step`). 1 for a zero or
+    non-finite ``size``.
+
+    Args:
+        size: the program's magnitude (:attr:`DiffIKProgram.magnitude`), m or rad.
+    """
+    if not (size > 0.0 and math.isfinite(size)):
+        return 1.0
+    return 1.0 / size if size >= _SMALLEST_SCALED else _LARGEST_SCALE
+
+
+_LARGEST_SCALE: Final = math.ldexp(1.0, MAX_SCALE_EXPONENT)
+_SMALLEST_SCALED: Final = math.ldexp(1.0, -MAX_SCALE_EXPONENT)
+
+
 # ---------------------------------------------------------------------- validation
 def _check_rows(rows: Sequence[int] | None, v: FloatArray) -> tuple[tuple[int, ...], FloatArray]:
     """Resolve the task rows and the task vector they select."""
@@ -472,10 +530,15 @@ def _check_weight(name: str, value: Any, size: int, definite: bool) -> FloatArra
     if arr.shape != (size, size):
         raise ShapeError(name, f"({size},) or ({size}, {size})", arr.shape)
     check_finite(name, arr)
-    if not np.allclose(arr, arr.T, rtol=0.0, atol=1e-12 * max(1.0, float(np.max(np.abs(arr))))):
+    top = float(np.max(np.abs(arr)))
+    if not np.allclose(arr, arr.T, rtol=0.0, atol=1e-12 * max(1.0, top)):
         raise OptikError(f"{name}: weight matrix must be symmetric")
-    sym = 0.5 * (arr + arr.T)
-    smallest = float(np.linalg.eigvalsh(sym)[0])
+    sym = 0.5 * arr + 0.5 * arr.T  # halves first: arr + arr.T overflows near 1e308
+    # The eigenvalues of sym / top (entries <= 1): LAPACK's fail to converge near 1e308.
+    try:
+        smallest = float(np.linalg.eigvalsh(sym / top)[0]) * top if top > 0.0 else 0.0
+    except np.linalg.LinAlgError as exc:  # pragma: no cover - finite entries <= 1
+        raise OptikError(f"{name}: eigenvalues of the weight matrix not computable") from exc
     if smallest < 0.0 or (definite and smallest <= 0.0):
         kind = "positive definite" if definite else "positive semidefinite"
         raise OptikError(f"{name}: weight matrix must be {kind} (smallest eigenvalue {smallest})")
@@ -547,6 +610,8 @@ def step_bounds(
     gain = _check_positive("limit_gain", limit_gain)
     if gain > 1.0:
         raise OptikError(f"limit_gain must lie in (0, 1], got {gain}")
+    if limits is not True and limits is not False:
+        check_bool("limits", limits)
     n = robot.dof
     lb = np.full(n, -np.inf)
     ub = np.full(n, np.inf)
@@ -613,12 +678,14 @@ def build_program(
         NonFiniteError: one of them holds NaN (or infinity where not allowed).
         OptikError: an unknown objective, ``limit_gain`` outside (0, 1], ``dt <= 0``,
             ``damping < 0`` or given for least norm, bad ``rows``, or weights that are not
-            symmetric (semi)definite.
+            symmetric (semi)definite; ``limits`` not a bool (``ArgumentError``).
     """
     if not isinstance(robot, Robot):
         raise OptikError(f"robot must be an optik.Robot, got {type(robot).__name__}")
     if objective not in OBJECTIVES:
         raise OptikError(f"objective must be one of {OBJECTIVES}, got {objective!r}")
+    if limits is not True and limits is not False:
+        check_bool("limits", limits)  # as diff_ik: "no" is not True, None not False
     if dt is not None:
         _check_positive("dt", dt)
     q_arr = finite_array("q", q, (robot.dof,))

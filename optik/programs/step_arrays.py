@@ -25,7 +25,8 @@ by :func:`fill_step`:
   ``J^T J + lambda^2 I`` and ``-J^T v``);
 * the equilibrated copies for the backend (:meth:`DiffIKProgram.equilibrated`): ``Ps =
   P / p``, ``cs = c s / p``, ``bs = v s``, ``lbs = lb s``, ``ubs = ub s`` with ``p = max
-  |P|`` and ``s = 1 / ||v||_inf`` (``scale = [p, s]``); the step is ``x / s``.
+  |P|`` and ``s = 1 / ||v||_inf`` (``scale = [p, s]``, capped at ``2**1000``:
+  :func:`~optik.programs.diff_qp.equilibration_scale`); the step is ``x / s``.
 
 By default (what :func:`optik.diff_ik` uses) every joint is a variable, the bounds are the
 joint limits and the rows are the world-frame Jacobian's. An IK task
@@ -52,7 +53,12 @@ from optik._numba import inline, jit
 from optik.errors import OptikError
 from optik.limits import Q_CLIP_TOLERANCE
 from optik.model import Robot
-from optik.programs.diff_qp import DiffIKProgram, Objective
+from optik.programs.diff_qp import (
+    MAX_SCALE_EXPONENT,
+    TASK_ROUNDING,
+    DiffIKProgram,
+    Objective,
+)
 from optik.task import make_task, task_error, task_rows
 
 __all__ = [
@@ -317,7 +323,14 @@ def fill_step(
                 P[i, j] = 1.0 if i == j else 0.0
             pmax = 1.0
     p = pmax if pmax > 0.0 else 1.0
-    s = 1.0 / vabs if vabs > 0.0 else 1.0
+    # 1 / vabs, capped so a subnormal task cannot overflow it (equilibration_scale).
+    s = 1.0
+    if vabs > 0.0:
+        s = (
+            1.0 / vabs
+            if vabs >= math.ldexp(1.0, -MAX_SCALE_EXPONENT)
+            else math.ldexp(1.0, MAX_SCALE_EXPONENT)
+        )
     scale[0] = p
     scale[1] = s
     for i in range(nv):
@@ -381,13 +394,18 @@ def check_step(
     jmax = 0.0
     if not least_squares:
         residual = 0.0
+        size = 0.0
         for r in range(m):
             acc = -v[r]
+            row = 0.0
             for i in range(n):
                 acc += J[r, i] * dq[i]
+                row += abs(J[r, i] * dq[i])
                 jmax = max(jmax, abs(J[r, i]))
             residual = max(residual, abs(acc))
-        if residual > tol:
+            size = max(size, row)
+        # Relative to the task and the rounding of J dq (DiffIKProgram.task_tolerance).
+        if residual > feas_rtol * vabs + TASK_ROUNDING * size:
             return CHECK_TASK, residual
     pmax = 0.0
     cmax = 0.0
