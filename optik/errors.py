@@ -6,6 +6,7 @@ without parsing the message.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from typing import Any
 
@@ -68,16 +69,22 @@ class URDFError(ModelError):
 
 
 class JointLimitError(OptikError):
-    """A joint value lies outside its limits."""
+    """A joint value lies outside its limits.
+
+    The message prints the value and the limits to every digit (shortest round-trip
+    ``repr``) and the excess beyond the nearer limit: rounded to six digits, a value 2e-6
+    above a limit of 2.89725 read as inside it.
+    """
 
     def __init__(self, joint: str, value: float, lower: float, upper: float) -> None:
         self.joint = joint
         self.value = value
         self.lower = lower
         self.upper = upper
-        super().__init__(
-            f"joint {joint!r}: value {value:.6g} outside its limits [{lower:.6g}, {upper:.6g}]"
-        )
+        x, lo, hi = float(value), float(lower), float(upper)
+        excess = max(lo - x, x - hi)
+        by = f" by {excess:.3g}" if math.isfinite(excess) else ""
+        super().__init__(f"joint {joint!r}: value {x!r} outside its limits [{lo!r}, {hi!r}]{by}")
 
 
 class ProblemFileError(OptikError):

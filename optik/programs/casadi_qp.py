@@ -58,7 +58,14 @@ def build_conic(program: DiffIKProgram, plugin: str) -> ConicProgram:
         program: the step program.
         plugin: a conic plugin name (see
             :func:`optik.solvers.casadi_conic.casadi_conic_plugins`).
+
+    Raises:
+        OptikError: ``program`` is not a :class:`DiffIKProgram`, or ``plugin`` not a name.
     """
+    if not isinstance(program, DiffIKProgram):
+        raise OptikError(
+            f"program must be a DiffIKProgram (build_program), got {type(program).__name__}"
+        )
     if not isinstance(plugin, str) or not plugin:
         raise OptikError(f"plugin must be a CasADi conic plugin name, got {plugin!r}")
     eq = program.equilibrated()

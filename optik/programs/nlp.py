@@ -239,10 +239,12 @@ class NLPProgram:
             raise OptikError(
                 f"weights: task {task_shape(task)} does not match the program's {self.shape}"
             )
-        try:
-            number = float(mu)
-        except (TypeError, ValueError) as exc:
-            raise OptikError(f"mu must be a number, got {mu!r}") from exc
+        # A real number, not a string float() would parse ("1") nor a bool.
+        if isinstance(mu, str | bytes | bool | np.bool_) or not isinstance(
+            mu, int | float | np.integer | np.floating
+        ):
+            raise OptikError(f"mu must be a number, got {mu!r}")
+        number = float(mu)
         if not math.isfinite(number) or number < 0.0:
             raise OptikError(f"mu must be finite and >= 0, got {mu!r}")
         if q_ref is None:

@@ -36,7 +36,7 @@ import casadi
 import numpy as np
 
 from optik import _kernels
-from optik._checks import FloatArray, finite_array
+from optik._checks import FloatArray, as_float_array, check_int, finite_array
 from optik._clock import one_time_setup
 from optik.errors import OptikError
 from optik.model import Robot
@@ -301,8 +301,10 @@ class NLPBackend:
         if bounds is None:
             lower, upper = program.lbx, program.ubx
         else:
-            lower = np.asarray(bounds[0], dtype=np.float64)
-            upper = np.asarray(bounds[1], dtype=np.float64)
+            if not isinstance(bounds, tuple | list) or len(bounds) != 2:
+                raise OptikError(f"bounds must be a pair (lower, upper), got {bounds!r}")
+            lower = as_float_array("bounds[0]", bounds[0])
+            upper = as_float_array("bounds[1]", bounds[1])
             if lower.shape != (program.dof,) or upper.shape != (program.dof,):
                 raise OptikError(f"bounds must be two arrays of shape ({program.dof},)")
             if np.any(np.isnan(lower) | np.isnan(upper)) or np.any(lower > upper):
@@ -458,8 +460,9 @@ def nlp_backend(
             C compiler is found. ``backend.compile_report`` says which and what it cost.
 
     Raises:
-        OptikError: not a robot, an unknown mode, a ``max_iter`` below 1, or a plugin
-            CasADi cannot load.
+        OptikError: not a robot, an unknown mode, a ``max_iter`` not an integer >= 1
+            (``ArgumentError``), ``options`` not a dict with str keys, or a plugin CasADi
+            cannot load.
     """
     if not isinstance(robot, Robot):
         raise OptikError(f"robot must be an optik.Robot, got {type(robot).__name__}")
@@ -470,8 +473,11 @@ def nlp_backend(
         backend = None if fast is None else fast.get((shape, plugin, max_iter, bool(codegen)))
         if backend is not None:
             return backend
-    if isinstance(max_iter, bool) or int(max_iter) != max_iter or max_iter < 1:
-        raise OptikError(f"max_iter must be an integer >= 1, got {max_iter!r}")
+    max_iter = check_int("max_iter", max_iter, minimum=1)
+    if options is not None and not (
+        isinstance(options, dict) and all(isinstance(key, str) for key in options)
+    ):
+        raise OptikError(f"options must be a dict with str keys (nlpsol options), got {options!r}")
     merged = {**NLP_OPTIONS.get(plugin, {}), **(options or {})}
     merged[_MAX_ITER_OPTION.get(plugin, "max_iter")] = int(max_iter)
     key = (shape, plugin, repr(sorted(merged.items())), bool(codegen))
