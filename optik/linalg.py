@@ -34,14 +34,28 @@ The Gram matrix squares the condition number, ``cond(A A^T) = cond(A)^2``, and t
 
 A square undamped ``A`` is solved by LU (accurate to ``~cond(A) eps``, no squaring); the
 same bound (on ``A A^T``) screens its condition, and singular values are computed only for
-the matrices the bound cannot clear.
+the matrices the bound cannot clear. The bound is on the *computed* ``A A^T``, whose
+rounding (about ``(m + n) eps trace(A A^T)``) can hide a small singular value of ``A``, so
+it clears ``A`` only where that rounding cannot matter (``kappa_up`` below about 1e14,
+:func:`_condition_bound`); past it the exact ``cond_2(A)`` decides.
+
+``max_condition`` must be finite, in ``[1, CONDITION_CEILING]`` (1e14): beyond ~1/eps a
+computed ``cond_2`` is rounding noise, and an exactly rank-deficient matrix would pass.
+
+Scale: each matrix, and each right-hand-side column, is multiplied by the power of two
+(exact) bringing its largest entry to ``[0.5, 1)`` before any Gram matrix, factor or
+singular value is formed, and the answer scaled back. So any finite entries (subnormal
+included) give the unscaled problem's answer, and neither the condition test nor the
+damping depends on the scale. An answer beyond float64 raises ``OptikError``.
 
 With ``damping = lambda > 0`` the damped closed forms ``A^T (A A^T + lambda^2 I)^-1 b``
 and ``(A^T A + lambda^2 I)^-1 A^T b`` are returned instead. They are the same vector (the
 push-through identity ``A^T (A A^T + l^2 I)^-1 = (A^T A + l^2 I)^-1 A^T``), so the smaller
-Gram matrix is used whatever the shape, and no error is raised for rank deficiency. A
-damping so small that ``lambda^2`` underflows to 0 (``lambda < ~1.5e-154``) counts as no
-damping.
+Gram matrix is used whatever the shape, and no error is raised for rank deficiency.
+``lambda`` is in the units of ``A`` and scales with it (the power of two above divides
+``A`` and ``lambda`` alike). A damping ``lambda < 2^-511 ~ 1.49e-154`` (its square below
+float64's normal range) counts as no damping, whatever the scale of ``A``: the undamped
+rules (shape, ``max_condition``) apply.
 
 Shapes: ``A`` is ``(..., m, n)``; ``b`` is ``(..., m)`` (one right-hand side per matrix)
 or ``(..., m, k)`` (``k`` right-hand sides); the batch axes ``...`` of ``A`` and ``b`` must
@@ -67,6 +81,7 @@ BoolArray = NDArray[np.bool_]
 IndexArray = NDArray[np.intp]
 
 __all__ = [
+    "CONDITION_CEILING",
     "GRAM_CONDITION_LIMIT",
     "MAX_CONDITION",
     "MAX_DAMPING",
@@ -84,8 +99,17 @@ __all__ = [
 #: at most ``~10 cond(A) eps``, so 1e12 still guarantees ~3 significant digits.
 MAX_CONDITION: Final[float] = 1e12
 
-#: Largest accepted ``damping``: its square, added to the Gram matrix, must stay finite
-#: (it overflows near 1e154); 1e100 leaves room for the Gram entries themselves.
+#: Largest accepted ``max_condition``. Past ``~1/eps`` a computed ``cond_2`` is rounding
+#: noise (an exactly rank-1 ``ones((2, 3))`` computes to 2e16) and the orthogonal path's
+#: relative error ``~10 cond(A) eps`` exceeds 0.2, so a larger value would only let
+#: rank-deficient matrices through with meaningless answers.
+CONDITION_CEILING: Final[float] = 1e14
+
+#: Smallest damping that counts as damping: ``2^-511``, whose square is the smallest
+#: normal float64. A smaller ``lambda`` counts as 0, at any scale of ``A``.
+MIN_DAMPING: Final[float] = 2.0**-511
+
+#: Largest accepted ``damping`` (a sanity range: its square is formed only scaled).
 MAX_DAMPING: Final[float] = 1e100
 
 #: Largest accepted upper bound on ``cond_2(G)`` of the Gram matrix ``G`` for the fast
@@ -132,19 +156,20 @@ def _finite(name: str, array: FloatArray) -> FloatArray:
     return array
 
 
-def _check_scalars(damping: Any, max_condition: Any) -> float:
-    """Validate the keyword scalars; return ``damping**2`` (0 when it underflows).
+def _check_scalars(damping: Any, max_condition: Any) -> tuple[float, float]:
+    """Validate the keyword scalars; return ``(lambda, max_condition)`` as floats.
 
-    A damping so small that its square underflows (1e-300) is no damping; one whose
-    square overflows (above ~1e154) is rejected, as the damped Gram matrix would be
-    ``inf``.
+    ``lambda`` is returned as 0 below :data:`MIN_DAMPING` (its square is not a normal
+    float: no damping); above :data:`MAX_DAMPING` it is rejected. ``max_condition`` must be
+    finite in ``[1, CONDITION_CEILING]``: ``inf`` or NaN would let a singular matrix through
+    to a NaN or meaningless answer.
     """
     lam = check_real("damping", damping, allow_nan=True, allow_inf=True)
     if not math.isfinite(lam):
         raise NonFiniteError("damping")
     check_real("damping", lam, nonnegative=True, maximum=MAX_DAMPING)
-    check_real("max_condition", max_condition, minimum=1.0, allow_inf=True)
-    return lam * lam
+    limit = check_real("max_condition", max_condition, minimum=1.0, maximum=CONDITION_CEILING)
+    return (lam if lam >= MIN_DAMPING else 0.0), limit
 
 
 # ------------------------------------------------------------------- compiled Gram kernel
@@ -159,42 +184,53 @@ def _check_scalars(damping: Any, max_condition: Any) -> float:
 def _gram_kernel(  # pragma: no cover - compiled; its answers are tested through callers
     A: FloatArray,
     B: FloatArray,
-    lam2: float,
+    lam: float,
     identity: bool,
     X: FloatArray,
     ok: BoolArray,
     kappa_up: FloatArray,
+    exponent: IndexArray,
 ) -> None:
     """Gram path for every matrix of the stack ``A`` (N, m, n), writing into ``X``.
 
-    Wide (``m <= n``): ``G = A A^T + lam2 I`` and ``X = A^T G^-1 B``; tall: ``G = A^T A +
-    lam2 I`` and ``X = G^-1 (A^T B)`` with ``A^T B`` formed first (eq. 47). ``identity``
-    means ``B = I`` (then ``X = A^+``; ``B`` is ignored), solved without forming ``G^-1``:
-    tall, ``G X = A^T``; wide, ``A^T G^-1 = (G^-1 A)^T``.
+    Wide (``m <= n``): ``G = A A^T + lambda^2 I`` and ``X = A^T G^-1 B``; tall: ``G = A^T A
+    + lambda^2 I`` and ``X = G^-1 (A^T B)`` with ``A^T B`` formed first (eq. 47).
+    ``identity`` means ``B = I`` (then ``X = A^+``; ``B`` is ignored), solved without
+    forming ``G^-1``: tall, ``G X = A^T``; wide, ``A^T G^-1 = (G^-1 A)^T``.
 
-    With ``K`` the factor (``A`` wide, ``A^T`` tall, ``p x q``) and ``G = K K^T = L L^T``
-    (:func:`optik._math.cholesky_factor`), it also computes the rigorous bound
-    ``kappa_up >= cond_2(G)``: with the comparison matrix ``M(L)`` (``|l_jj|`` on the
-    diagonal, ``-|l_jk|`` off it), ``|L^-1| <= M(L)^-1`` entrywise (Higham, *Accuracy and
-    Stability of Numerical Algorithms*, 2nd ed., Thm. 8.12), so ``||L^-1||_inf <= max z``
-    and ``||L^-1||_1 <= max w`` for ``M(L) z = e``, ``M(L)^T w = e``. For SPD ``G``,
-    ``||G||_2 <= trace G`` and ``||G^-1||_2 = ||L^-1||_2^2 <= ||L^-1||_1 ||L^-1||_inf``::
+    Scaling: with ``e`` the binary exponent of ``max |A_i|`` (``exponent[i]``), it works on
+    ``K = 2^-e A_i`` with ``2^-e lambda``, and on each column of ``B`` times its own
+    ``2^-f``; the answer column is ``2^(f - e)`` times the scaled one (``2^-e`` for
+    ``A^+``). Powers of two are exact: nothing changes for well-scaled input, and ``G``
+    stays clear of overflow and underflow for any finite input.
+
+    With ``K`` the scaled factor (``A`` wide, ``A^T`` tall, ``p x q``) and
+    ``G = K K^T = L L^T`` (:func:`optik._math.cholesky_factor`), it also computes the
+    rigorous bound ``kappa_up >= cond_2(L L^T)``: with the comparison matrix ``M(L)``
+    (``|l_jj|`` on the diagonal, ``-|l_jk|`` off it), ``|L^-1| <= M(L)^-1`` entrywise
+    (Higham, *Accuracy and Stability of Numerical Algorithms*, 2nd ed., Thm. 8.12), so
+    ``||L^-1||_inf <= max z`` and ``||L^-1||_1 <= max w`` for ``M(L) z = e``,
+    ``M(L)^T w = e``. For SPD ``G``, ``||G||_2 <= trace G`` and ``||G^-1||_2 =
+    ||L^-1||_2^2 <= ||L^-1||_1 ||L^-1||_inf``::
 
         cond_2(G) <= trace(G) * max(z) * max(w) =: kappa_up.
 
     The comparison solves add positive terms only, so they are accurate to the last
     digits. Measured on random 6x7 stacks the bound is 2.6x-30x (median 9x) above
-    ``cond_2(G)``.
+    ``cond_2(G)``. It bounds the *computed* ``L L^T``; :func:`_condition_bound` turns it
+    into a bound on ``cond_2(A)``.
 
     Args:
-        A: (N, m, n) C-contiguous matrices.
+        A: (N, m, n) C-contiguous matrices, any finite entries.
         B: (N, m, k) right-hand sides (ignored when ``identity``).
-        lam2: ``lambda^2`` added to the diagonal of ``G``.
+        lam: ``lambda >= 0``, in the units of ``A``.
         identity: solve for ``A^+`` (``k = m``).
         X: (N, n, k) output.
         ok: (N,) output, False where ``G`` is not numerically positive definite (a
-            pivot is not positive, or not finite) or ``X`` is not finite.
+            pivot is not positive, or not finite) or the answer is not finite (then the
+            SVD path takes it and reports an answer beyond float64).
         kappa_up: (N,) output, the bound above (``inf`` where not ``ok``).
+        exponent: (N,) output, ``e`` above (0 for a zero matrix).
     """
     N, m, n = A.shape
     wide = m <= n
@@ -206,15 +242,39 @@ def _gram_kernel(  # pragma: no cover - compiled; its answers are tested through
     G = np.empty((p, p))
     L = np.zeros((p, p + 1))
     R = np.empty((p, kk))
+    Bs = np.empty((m, k))
+    shift = np.zeros(k, dtype=np.int64)  # f - e per column of X
     column = np.empty(p)
     z = np.empty(p)
     w = np.empty(p)
     for i in range(N):
         ok[i] = False
         kappa_up[i] = np.inf
+        amax = 0.0
+        for r in range(m):
+            for c in range(n):
+                amax = max(amax, abs(A[i, r, c]))
+        e = math.frexp(amax)[1]
+        exponent[i] = e
+        # 2^-e as two normal factors: 2^-e alone overflows for subnormal A (e < -1023).
+        f1 = math.ldexp(1.0, (-e) // 2)
+        f2 = math.ldexp(1.0, -e - (-e) // 2)
         for r in range(p):
             for c in range(q):
-                K[r, c] = A[i, r, c] if wide else A[i, c, r]
+                K[r, c] = (A[i, r, c] if wide else A[i, c, r]) * f1 * f2
+        lam_s = math.ldexp(lam, -e)
+        lam2 = lam_s * lam_s  # inf for a huge lambda / tiny A: G fails, the SVD path filters
+        if not identity:
+            for c in range(k):
+                bmax = 0.0
+                for r in range(m):
+                    bmax = max(bmax, abs(B[i, r, c]))
+                f = math.frexp(bmax)[1]
+                shift[c] = f - e
+                g1 = math.ldexp(1.0, (-f) // 2)
+                g2 = math.ldexp(1.0, -f - (-f) // 2)
+                for r in range(m):
+                    Bs[r, c] = B[i, r, c] * g1 * g2
 
         # G = K K^T + lam2 I (lower triangle), then its Cholesky factor.
         trace = 0.0
@@ -252,11 +312,11 @@ def _gram_kernel(  # pragma: no cover - compiled; its answers are tested through
                 if identity:
                     R[r, c] = K[r, c]  # A (wide) or A^T (tall), never I: see docstring
                 elif wide:
-                    R[r, c] = B[i, r, c]
+                    R[r, c] = Bs[r, c]
                 else:
                     s = 0.0  # eq. 47: A^T b first
                     for t in range(m):
-                        s += K[r, t] * B[i, t, c]
+                        s += K[r, t] * Bs[t, c]
                     R[r, c] = s
         for c in range(kk):
             for r in range(p):
@@ -276,27 +336,81 @@ def _gram_kernel(  # pragma: no cover - compiled; its answers are tested through
                     x = 0.0  # x = A^T u
                     for t in range(m):
                         x += K[t, r] * R[t, c]
-                X[i, r, c] = x
+                x = math.ldexp(x, -e if identity else shift[c])  # exact unless over/underflow
                 finite = finite and abs(x) < np.inf
+                X[i, r, c] = x
         ok[i] = finite
 
 
 def _gram_bound_and_solve(
-    A: FloatArray, B: FloatArray | None, lam2: float, k: int
-) -> tuple[FloatArray, BoolArray, FloatArray]:
+    A: FloatArray, B: FloatArray | None, lam: float, k: int
+) -> tuple[FloatArray, BoolArray, FloatArray, IndexArray]:
     """Run :func:`_gram_kernel` on a flat stack; ``B`` None means the identity.
 
-    Returns ``X`` (N, n, k), ``ok`` (N,) and ``kappa_up`` (N,). ``k = 0`` right-hand
-    sides give the factorization test and the bound alone.
+    Returns ``X`` (N, n, k), ``ok`` (N,), ``kappa_up`` (N,) and the binary exponent of
+    ``max |A_i|`` (N,). ``k = 0`` right-hand sides give the factorization test, the bound
+    and the exponents alone.
     """
     N, m, n = A.shape
     X = np.empty((N, n, k))
     ok = np.empty(N, dtype=np.bool_)
     kappa_up = np.empty(N)
+    exponent = np.empty(N, dtype=np.int64)
     # One compiled signature: C-contiguous float64 stacks only.
     rhs = np.empty((N, m, 0)) if B is None else np.ascontiguousarray(B)
-    _gram_kernel(np.ascontiguousarray(A), rhs, lam2, B is None, X, ok, kappa_up)
-    return X, ok, kappa_up
+    _gram_kernel(np.ascontiguousarray(A), rhs, lam, B is None, X, ok, kappa_up, exponent)
+    return X, ok, kappa_up, exponent
+
+
+def _condition_bound(kappa_up: FloatArray, ok: BoolArray, m: int, n: int) -> FloatArray:
+    """Rigorous upper bounds on ``cond_2(A)`` from :func:`_gram_kernel`'s ``kappa_up``.
+
+    ``kappa_up`` bounds ``cond_2(L L^T)`` of the computed factor, and ``L L^T = A A^T + E``
+    (scaled ``A``; ``A^T A`` when tall) with ``||E||_2 <= delta := c u trace(G)``, where
+    ``u = 2^-53`` and ``c = 2 (m + n + 2)`` covers the rounding of ``G`` (``gamma_q
+    ||K||_F^2``), of its Cholesky factor (Higham Thm. 10.3, ``gamma_{p+1} ||L||_F^2``) and
+    of the bound itself, with a margin of ~2 (underflow adds at most ``~p q 2^-1074``,
+    nothing against ``u trace(G) >= u / 4`` after scaling). By Weyl,
+    ``s_min(A)^2 >= 1 / mu - delta`` with ``mu = kappa_up / trace(G)``, so::
+
+        cond_2(A)^2 <= kappa_up (1 + c u) / (1 - c u kappa_up)     when c u kappa_up < 1.
+
+    The bound is used only where ``c u kappa_up <= 0.5`` (``kappa_up <~ 1e14`` for 6x7,
+    then it is at most ``sqrt(2 kappa_up)``); elsewhere, and where ``ok`` is False, it is
+    ``inf`` (not cleared: the caller computes the exact ``cond_2``). Shapes (N,).
+    """
+    cu = 2.0 * (m + n + 2) * 2.0**-53
+    trusted = ok & (cu * kappa_up <= 0.5)
+    k = np.where(trusted, kappa_up, 0.0)  # no sqrt of a negative: no warning to silence
+    bound: FloatArray = np.where(trusted, np.sqrt(k * (1.0 + cu) / (1.0 - cu * k)), np.inf)
+    return bound
+
+
+def _representable(X: FloatArray) -> FloatArray:
+    """Return ``X`` after checking it is finite, else raise :class:`OptikError`.
+
+    Every path works scaled, so only a true answer beyond float64 (scaled back by a power
+    of two) can be ``inf`` here.
+    """
+    if not math.isfinite(np.vdot(X, X)) and not np.isfinite(X).all():
+        raise OptikError(
+            "the solution x is too large for float64 (an entry exceeds 1.8e308 in "
+            "magnitude); rescale A or b"
+        )
+    return X
+
+
+def _pow2_exponents(M: FloatArray, axis: int | tuple[int, ...]) -> IndexArray:
+    """Binary exponents ``e`` with ``max |M| in [2^(e-1), 2^e)`` along ``axis`` (0 for 0)."""
+    exponents: IndexArray = np.frexp(np.max(np.abs(M), axis=axis))[1].astype(np.intp)
+    return exponents
+
+
+def _ldexp(M: FloatArray, e: IndexArray) -> FloatArray:
+    """``M * 2^e`` exactly (inf where it overflows, no warning); ``e`` broadcasts to ``M``."""
+    with np.errstate(over="ignore", under="ignore"):
+        scaled: FloatArray = np.ldexp(M, e)
+    return scaled
 
 
 # --------------------------------------------------------------------------- other paths
@@ -305,24 +419,28 @@ def _gram_bound_and_solve(
 def _svd_solve(
     A: FloatArray,
     B: FloatArray | None,
-    lam2: float,
+    lam: float,
     max_condition: float,
+    exponent: IndexArray,
     where: IndexArray,
     batch_shape: tuple[int, ...],
 ) -> FloatArray:
     """Orthogonal path: ``x = V diag(f) U^T b`` from the thin SVD ``A = U diag(s) V^T``.
 
     ``f = 1 / s`` undamped (after checking ``cond_2(A) <= max_condition``) and
-    ``f = s / (s^2 + lambda^2)`` damped. ``B`` None means the identity. ``where`` holds
-    the flat stack indices of these matrices, for the error message.
+    ``f = s / (s^2 + lambda^2)`` damped. ``B`` None means the identity. As in
+    :func:`_gram_kernel`, ``A`` is first scaled by ``2^-exponent`` (with ``lambda``) and
+    each column of ``B`` by its own power of two, exactly, and the answer scaled back.
+    ``where`` holds the flat stack indices of these matrices, for the error message.
     """
+    K = _ldexp(A, -exponent[:, None, None])
     try:
-        U, s, Vt = np.linalg.svd(A, full_matrices=False)
+        U, s, Vt = np.linalg.svd(K, full_matrices=False)
     except np.linalg.LinAlgError as exc:  # pragma: no cover - LAPACK non-convergence
         raise SingularMatrixError(float("inf"), f"SVD did not converge ({exc})") from exc
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore", under="ignore"):
         kappa = np.where(s[:, -1] > 0.0, s[:, 0] / s[:, -1], np.inf)
-        if lam2 == 0.0:
+        if lam == 0.0:
             if np.any(kappa > max_condition):
                 j = int(np.argmax(kappa))
                 index = np.unravel_index(int(where[j]), batch_shape) if batch_shape else ()
@@ -334,18 +452,23 @@ def _svd_solve(
                 )
             f = 1.0 / s
         else:
-            # s / (s^2 + l^2) written so that s^2 cannot overflow (s > 1e154).
+            # s / (s^2 + l^2) written so that a huge l (scaled: l / 2^e) gives 0, not NaN.
+            lam2 = np.ldexp(lam, -exponent)[:, None] ** 2
             f = np.where(s > 0.0, 1.0 / (s + lam2 / s), 0.0)
     Ut = np.swapaxes(U, -1, -2)
-    C = Ut if B is None else Ut @ B  # (N, r, k)
-    X: FloatArray = np.swapaxes(Vt, -1, -2) @ (f[:, :, None] * C)
-    return X
+    V = np.swapaxes(Vt, -1, -2)
+    if B is None:
+        return _representable(_ldexp(V @ (f[:, :, None] * Ut), -exponent[:, None, None]))
+    column_exponent = _pow2_exponents(B, axis=-2)  # (N, k)
+    C = Ut @ _ldexp(B, -column_exponent[:, None, :])  # (N, r, k)
+    shift = (column_exponent - exponent[:, None])[:, None, :]
+    return _representable(_ldexp(V @ (f[:, :, None] * C), shift))
 
 
 def _gram_solve(
     A: FloatArray,
     B: FloatArray | None,
-    lam2: float,
+    lam: float,
     max_condition: float,
     batch_shape: tuple[int, ...],
 ) -> FloatArray:
@@ -353,17 +476,29 @@ def _gram_solve(
 
     Wide (m <= n): ``X = A^T U`` with ``(A A^T + l^2 I) U = B``; tall (m > n):
     ``(A^T A + l^2 I) X = A^T B`` with ``A^T B`` formed first (eq. 47). Matrices whose
-    Gram matrix is not accepted (see module docstring) go to the SVD path. Undamped, the
+    Gram matrix is not accepted (see module docstring) go to the SVD path; undamped, so do
+    those whose bound does not clear ``max_condition`` (which can be below the Gram
+    path's ``cond_2(A) <~ 1e3``), so that the SVD's exact ``cond_2`` decides. Undamped, the
     caller guarantees the shape matches the requested closed form. Returns (N, n, k).
     """
-    m = A.shape[1]
+    _, m, n = A.shape
     k = m if B is None else B.shape[-1]
-    X, ok, kappa_up = _gram_bound_and_solve(A, B, lam2, k)
+    X, ok, kappa_up, exponent = _gram_bound_and_solve(A, B, lam, k)
     accepted = ok & (kappa_up <= GRAM_CONDITION_LIMIT)
+    # Accepted means cond_2(A) <= ~sqrt(GRAM_CONDITION_LIMIT) (1e3): only a max_condition
+    # below about that needs the per-matrix bound.
+    if lam == 0.0 and max_condition < 2.0 * math.sqrt(GRAM_CONDITION_LIMIT):
+        accepted &= _condition_bound(kappa_up, ok, m, n) <= max_condition
     if not accepted.all():
         bad = np.flatnonzero(~accepted)
         X[bad] = _svd_solve(
-            A[bad], None if B is None else B[bad], lam2, max_condition, bad, batch_shape
+            A[bad],
+            None if B is None else B[bad],
+            lam,
+            max_condition,
+            exponent[bad],
+            bad,
+            batch_shape,
         )
     return X
 
@@ -378,18 +513,20 @@ def _lu_solve(
 
     LU with partial pivoting is accurate to about ``cond(A) * eps``, so no Gram matrix is
     used for the answer; ``cond_2(A)`` is only checked, to refuse (near-)singular
-    matrices. The check first uses the Gram kernel's rigorous bound
-    ``cond_2(A)^2 = cond_2(A A^T) <= kappa_up`` (with no right-hand side: ~10x cheaper
-    than singular values); the exact ``cond_2(A)`` (singular values) is computed only
-    where that bound exceeds ``max_condition`` or ``A A^T`` is not numerically positive
-    definite (``cond(A) >~ 1e8``).
+    matrices. The check first uses :func:`_condition_bound` from the Gram kernel (with no
+    right-hand side: ~10x cheaper than singular values); the exact ``cond_2(A)`` (singular
+    values) is computed only where that bound does not clear ``max_condition`` (always
+    for ``cond_2(A) >~ 1e7``, where the rounding of ``A A^T`` could hide a small singular
+    value). Matrices or right-hand sides far from unit scale (binary exponent beyond
+    +-64) are solved scaled by powers of two, exactly as in :func:`_gram_kernel`, so
+    that LU never works among subnormals.
     """
     N, m, _ = A.shape
-    _, ok, kappa_up = _gram_bound_and_solve(A, np.empty((N, m, 0)), 0.0, 0)
-    kappa = np.where(ok, np.sqrt(kappa_up), np.inf)
+    _, ok, kappa_up, exponent = _gram_bound_and_solve(A, np.empty((N, m, 0)), 0.0, 0)
+    kappa = _condition_bound(kappa_up, ok, m, m)
     unsure = np.flatnonzero(~(kappa <= max_condition))
     if unsure.size:
-        kappa[unsure] = _condition_flat(A[unsure])
+        kappa[unsure] = _condition_flat(_ldexp(A[unsure], -exponent[unsure, None, None]))
     if np.any(kappa > max_condition):
         j = int(np.argmax(kappa))
         index = np.unravel_index(j, batch_shape) if batch_shape else ()
@@ -399,8 +536,20 @@ def _lu_solve(
             f"max_condition={max_condition:.3g}; pass damping > 0 for the damped answer",
         )
     rhs = np.broadcast_to(np.eye(m), (N, m, m)) if B is None else B
+    column_exponent = np.zeros((N, 1), dtype=np.intp) if B is None else _pow2_exponents(B, -2)
+    is_far = (np.abs(exponent) > 64) | np.any(np.abs(column_exponent) > 64, axis=1)
     try:
-        X: FloatArray = np.linalg.solve(A, rhs).astype(np.float64, copy=False)
+        if not is_far.any():
+            X: FloatArray = np.linalg.solve(A, rhs).astype(np.float64, copy=False)
+            return X
+        X = np.empty((N, m, rhs.shape[-1]))
+        near, far = np.flatnonzero(~is_far), np.flatnonzero(is_far)
+        X[near] = np.linalg.solve(A[near], rhs[near])
+        e = exponent[far][:, None, None]
+        f = column_exponent[far][:, None, :]
+        Xs = np.linalg.solve(_ldexp(A[far], -e), _ldexp(rhs[far], -f))
+        # Unscaled (|exponents| <= 64, cond_2 <= 1e14) answers cannot overflow; these can.
+        X[far] = _representable(_ldexp(Xs.astype(np.float64, copy=False), f - e))
     except np.linalg.LinAlgError as exc:  # pragma: no cover - excluded by the check above
         raise SingularMatrixError(float("inf"), "LU found an exactly singular matrix") from exc
     return X
@@ -428,14 +577,14 @@ def _solve(
 ) -> FloatArray:
     """Validate, flatten the stack, dispatch on shape and damping, restore the shape."""
     A_arr = _check_matrix(A)
-    lam2 = _check_scalars(damping, max_condition)
+    lam, max_condition = _check_scalars(damping, max_condition)
     m, n = A_arr.shape[-2:]
     if b is None:
         B_arr, vector, k = None, False, m
     else:
         B_arr, vector = _check_rhs(b, A_arr)
         k = 1 if vector else B_arr.shape[-1]
-    if lam2 == 0.0:
+    if lam == 0.0:
         if kind == "min_norm" and m > n:
             raise ShapeError("A", "(..., m, n) with m <= n (or damping > 0)", A_arr.shape)
         if kind == "least_squares" and m < n:
@@ -450,10 +599,10 @@ def _solve(
         return np.zeros(out_shape)
     A3 = A_arr.reshape(N, m, n)
     B3 = None if B_arr is None else B_arr.reshape(N, m, k)
-    if lam2 == 0.0 and m == n:
+    if lam == 0.0 and m == n:
         X = _lu_solve(A3, B3, max_condition, batch_shape)
     else:
-        X = _gram_solve(A3, B3, lam2, max_condition, batch_shape)
+        X = _gram_solve(A3, B3, lam, max_condition, batch_shape)
     result: FloatArray = X.reshape(out_shape)
     return result
 
@@ -475,8 +624,10 @@ def min_norm(
     Args:
         A: matrix or stack of matrices, shape ``(..., m, n)``, ``m <= n`` unless damped.
         b: right-hand side, shape ``(..., m)`` or ``(..., m, k)``; the same batch axes.
-        damping: ``lambda >= 0``, in the units of ``b / x`` (0: no damping).
-        max_condition: undamped, ``cond_2(A)`` above this raises (default 1e12).
+        damping: ``lambda >= 0``, in the units of ``A`` (``b / x``); below ``2^-511``
+            (~1.5e-154) it counts as 0, no damping.
+        max_condition: undamped, ``cond_2(A)`` above this raises (default 1e12); finite,
+            in ``[1, CONDITION_CEILING]`` (1e14).
 
     Returns:
         ``x`` of shape ``(..., n)`` or ``(..., n, k)``.
@@ -487,7 +638,8 @@ def min_norm(
         SingularMatrixError: undamped and ``cond_2(A) > max_condition`` (rank deficient);
             its ``condition_number`` is the worst ``cond_2(A)`` in the stack.
         ArgumentError: ``damping`` is not a real number in ``[0, MAX_DAMPING]``, or
-            ``max_condition`` not a real number >= 1.
+            ``max_condition`` not a real number in ``[1, CONDITION_CEILING]``.
+        OptikError: an entry of the answer exceeds float64 (``|x| > 1.8e308``).
     """
     return _solve(A, b, damping, max_condition, "min_norm")
 
@@ -509,8 +661,8 @@ def least_squares(
     Args:
         A: matrix or stack of matrices, shape ``(..., m, n)``, ``m >= n`` unless damped.
         b: right-hand side, shape ``(..., m)`` or ``(..., m, k)``; the same batch axes.
-        damping: ``lambda >= 0``, in the units of ``b / x`` (0: no damping).
-        max_condition: undamped, ``cond_2(A)`` above this raises (default 1e12); no unit.
+        damping: ``lambda >= 0``, as for :func:`min_norm`.
+        max_condition: as for :func:`min_norm` (default 1e12); no unit.
     """
     return _solve(A, b, damping, max_condition, "least_squares")
 
@@ -559,8 +711,8 @@ def generalized_inverse(
 
     Args:
         A: shape ``(..., m, n)``.
-        damping: ``lambda >= 0`` (0: no damping).
-        max_condition: undamped, ``cond_2(A)`` above this raises (default 1e12).
+        damping: ``lambda >= 0``, as for :func:`min_norm`.
+        max_condition: as for :func:`min_norm`.
 
     Returns:
         ``A^+`` of shape ``(..., n, m)``.
@@ -569,8 +721,8 @@ def generalized_inverse(
         ShapeError: ``A`` is not ``(..., m, n)`` with ``m, n >= 1``.
         NonFiniteError: ``A`` holds NaN or infinity.
         SingularMatrixError: undamped and ``cond_2(A) > max_condition``.
-        ArgumentError: ``damping`` is not a real number in ``[0, MAX_DAMPING]``, or
-            ``max_condition`` not a real number >= 1.
+        ArgumentError: ``damping`` or ``max_condition`` out of range (see :func:`min_norm`).
+        OptikError: an entry of ``A^+`` exceeds float64.
     """
     return _solve(A, None, damping, max_condition, "any")
 
