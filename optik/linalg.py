@@ -33,18 +33,13 @@ The Gram matrix squares the condition number, ``cond(A A^T) = cond(A)^2``, and t
    numerically rank deficient rather than returning a silent garbage answer).
 
 A square undamped ``A`` is solved by LU (accurate to ``~cond(A) eps``, no squaring); the
-same bound (on ``A A^T``) screens its condition, and singular values are computed only for
-the matrices the bound cannot clear. The bound is on the *computed* ``A A^T``, whose
-rounding (about ``(m + n) eps trace(A A^T)``) can hide a small singular value of ``A``, so
-it clears ``A`` only where that rounding cannot matter (``kappa_up`` below about 1e14,
-:func:`_condition_bound`); past it the exact ``cond_2(A)`` decides.
+same bound, corrected for the rounding of ``A A^T`` (:func:`_condition_bound`), screens
+its condition, and singular values decide for the matrices it cannot clear.
+``max_condition`` must be finite, in ``[1, CONDITION_CEILING]`` (1e14).
 
-``max_condition`` must be finite, in ``[1, CONDITION_CEILING]`` (1e14): beyond ~1/eps a
-computed ``cond_2`` is rounding noise, and an exactly rank-deficient matrix would pass.
-
-Scale: each matrix, and each right-hand-side column, is multiplied by the power of two
-(exact) bringing its largest entry to ``[0.5, 1)`` before any Gram matrix, factor or
-singular value is formed, and the answer scaled back. So any finite entries (subnormal
+Scale: a matrix or right-hand-side column whose largest entry is outside ``[2^-65,
+2^64)`` is multiplied by the power of two (exact) bringing it to ``[0.5, 1)`` before any
+Gram matrix, factor or SVD, and the answer scaled back. So any finite entries (subnormal
 included) give the unscaled problem's answer, and neither the condition test nor the
 damping depends on the scale. An answer beyond float64 raises ``OptikError``.
 
@@ -111,6 +106,10 @@ MIN_DAMPING: Final[float] = 2.0**-511
 
 #: Largest accepted ``damping`` (a sanity range: its square is formed only scaled).
 MAX_DAMPING: Final[float] = 1e100
+
+#: Binary exponents ``e`` of ``max |A|`` (and of each ``b`` column) with ``|e| <= 64`` are
+#: left unscaled: there no Gram entry, factor or answer can over- or underflow.
+_SAFE_EXPONENT: Final[int] = 64
 
 #: Largest accepted upper bound on ``cond_2(G)`` of the Gram matrix ``G`` for the fast
 #: Gram path; beyond it the SVD path is used. Keeps the Gram path's relative error below
@@ -189,7 +188,7 @@ def _gram_kernel(  # pragma: no cover - compiled; its answers are tested through
     X: FloatArray,
     ok: BoolArray,
     kappa_up: FloatArray,
-    exponent: IndexArray,
+    exponents: IndexArray,
 ) -> None:
     """Gram path for every matrix of the stack ``A`` (N, m, n), writing into ``X``.
 
@@ -198,11 +197,11 @@ def _gram_kernel(  # pragma: no cover - compiled; its answers are tested through
     ``identity`` means ``B = I`` (then ``X = A^+``; ``B`` is ignored), solved without
     forming ``G^-1``: tall, ``G X = A^T``; wide, ``A^T G^-1 = (G^-1 A)^T``.
 
-    Scaling: with ``e`` the binary exponent of ``max |A_i|`` (``exponent[i]``), it works on
-    ``K = 2^-e A_i`` with ``2^-e lambda``, and on each column of ``B`` times its own
-    ``2^-f``; the answer column is ``2^(f - e)`` times the scaled one (``2^-e`` for
-    ``A^+``). Powers of two are exact: nothing changes for well-scaled input, and ``G``
-    stays clear of overflow and underflow for any finite input.
+    Scaling: with ``e`` the binary exponent of ``max |A_i|`` (``exponents[i, 0]``; 0 when
+    ``|e| <= _SAFE_EXPONENT``), it works on ``K = 2^-e A_i`` with ``2^-e lambda``, and on
+    each column of ``B`` times its own ``2^-f`` (likewise); the answer column is
+    ``2^(f - e)`` times the scaled one (``2^-e`` for ``A^+``). Powers of two are exact,
+    and ``G`` stays clear of overflow and underflow for any finite input.
 
     With ``K`` the scaled factor (``A`` wide, ``A^T`` tall, ``p x q``) and
     ``G = K K^T = L L^T`` (:func:`optik._math.cholesky_factor`), it also computes the
@@ -230,7 +229,9 @@ def _gram_kernel(  # pragma: no cover - compiled; its answers are tested through
             pivot is not positive, or not finite) or the answer is not finite (then the
             SVD path takes it and reports an answer beyond float64).
         kappa_up: (N,) output, the bound above (``inf`` where not ``ok``).
-        exponent: (N,) output, ``e`` above (0 for a zero matrix).
+        exponents: (N, 1 + kb) output, ``e`` above (0 for a zero matrix), then ``f`` of
+            each of the ``kb`` columns of ``B`` (none for ``A^+``); ``X`` may have fewer
+            columns (0: the bound and the exponents alone).
     """
     N, m, n = A.shape
     wide = m <= n
@@ -242,8 +243,9 @@ def _gram_kernel(  # pragma: no cover - compiled; its answers are tested through
     G = np.empty((p, p))
     L = np.zeros((p, p + 1))
     R = np.empty((p, kk))
-    Bs = np.empty((m, k))
-    shift = np.zeros(k, dtype=np.int64)  # f - e per column of X
+    kb = 0 if identity else B.shape[2]  # columns of B (more than k: exponents only)
+    Bs = np.empty((m, kb))
+    shift = np.zeros(kb, dtype=np.int64)  # f - e per column of X
     column = np.empty(p)
     z = np.empty(p)
     w = np.empty(p)
@@ -251,30 +253,37 @@ def _gram_kernel(  # pragma: no cover - compiled; its answers are tested through
         ok[i] = False
         kappa_up[i] = np.inf
         amax = 0.0
-        for r in range(m):
-            for c in range(n):
-                amax = max(amax, abs(A[i, r, c]))
-        e = math.frexp(amax)[1]
-        exponent[i] = e
-        # 2^-e as two normal factors: 2^-e alone overflows for subnormal A (e < -1023).
-        f1 = math.ldexp(1.0, (-e) // 2)
-        f2 = math.ldexp(1.0, -e - (-e) // 2)
         for r in range(p):
             for c in range(q):
-                K[r, c] = (A[i, r, c] if wide else A[i, c, r]) * f1 * f2
-        lam_s = math.ldexp(lam, -e)
+                a = A[i, r, c] if wide else A[i, c, r]
+                K[r, c] = a
+                amax = max(amax, abs(a))
+        e = math.frexp(amax)[1]
+        e = 0 if abs(e) <= _SAFE_EXPONENT else e
+        exponents[i, 0] = e
+        if e != 0:
+            # 2^-e as two normal factors: 2^-e alone overflows for subnormal A (e < -1023).
+            f1 = math.ldexp(1.0, (-e) // 2)
+            f2 = math.ldexp(1.0, -e - (-e) // 2)
+            for r in range(p):
+                for c in range(q):
+                    K[r, c] = K[r, c] * f1 * f2
+        lam_s = lam if e == 0 else math.ldexp(lam, -e)
         lam2 = lam_s * lam_s  # inf for a huge lambda / tiny A: G fails, the SVD path filters
-        if not identity:
-            for c in range(k):
-                bmax = 0.0
-                for r in range(m):
-                    bmax = max(bmax, abs(B[i, r, c]))
-                f = math.frexp(bmax)[1]
-                shift[c] = f - e
+        for c in range(kb):
+            bmax = 0.0
+            for r in range(m):
+                Bs[r, c] = B[i, r, c]
+                bmax = max(bmax, abs(B[i, r, c]))
+            f = math.frexp(bmax)[1]
+            f = 0 if abs(f) <= _SAFE_EXPONENT else f
+            exponents[i, 1 + c] = f
+            shift[c] = f - e
+            if f != 0:
                 g1 = math.ldexp(1.0, (-f) // 2)
                 g2 = math.ldexp(1.0, -f - (-f) // 2)
                 for r in range(m):
-                    Bs[r, c] = B[i, r, c] * g1 * g2
+                    Bs[r, c] = Bs[r, c] * g1 * g2
 
         # G = K K^T + lam2 I (lower triangle), then its Cholesky factor.
         trace = 0.0
@@ -336,7 +345,8 @@ def _gram_kernel(  # pragma: no cover - compiled; its answers are tested through
                     x = 0.0  # x = A^T u
                     for t in range(m):
                         x += K[t, r] * R[t, c]
-                x = math.ldexp(x, -e if identity else shift[c])  # exact unless over/underflow
+                d = -e if identity else shift[c]
+                x = x if d == 0 else math.ldexp(x, d)  # exact unless it over/underflows
                 finite = finite and abs(x) < np.inf
                 X[i, r, c] = x
         ok[i] = finite
@@ -347,37 +357,34 @@ def _gram_bound_and_solve(
 ) -> tuple[FloatArray, BoolArray, FloatArray, IndexArray]:
     """Run :func:`_gram_kernel` on a flat stack; ``B`` None means the identity.
 
-    Returns ``X`` (N, n, k), ``ok`` (N,), ``kappa_up`` (N,) and the binary exponent of
-    ``max |A_i|`` (N,). ``k = 0`` right-hand sides give the factorization test, the bound
-    and the exponents alone.
+    Returns ``X`` (N, n, k), ``ok`` (N,), ``kappa_up`` (N,) and the scaling exponents
+    (N, 1 + B's columns; see the kernel). ``k = 0`` gives the factorization test, the
+    bound and the exponents alone.
     """
     N, m, n = A.shape
     X = np.empty((N, n, k))
     ok = np.empty(N, dtype=np.bool_)
     kappa_up = np.empty(N)
-    exponent = np.empty(N, dtype=np.int64)
     # One compiled signature: C-contiguous float64 stacks only.
     rhs = np.empty((N, m, 0)) if B is None else np.ascontiguousarray(B)
-    _gram_kernel(np.ascontiguousarray(A), rhs, lam, B is None, X, ok, kappa_up, exponent)
-    return X, ok, kappa_up, exponent
+    exponents = np.empty((N, 1 + rhs.shape[2]), dtype=np.int64)
+    _gram_kernel(np.ascontiguousarray(A), rhs, lam, B is None, X, ok, kappa_up, exponents)
+    return X, ok, kappa_up, exponents
 
 
 def _condition_bound(kappa_up: FloatArray, ok: BoolArray, m: int, n: int) -> FloatArray:
     """Rigorous upper bounds on ``cond_2(A)`` from :func:`_gram_kernel`'s ``kappa_up``.
 
-    ``kappa_up`` bounds ``cond_2(L L^T)`` of the computed factor, and ``L L^T = A A^T + E``
-    (scaled ``A``; ``A^T A`` when tall) with ``||E||_2 <= delta := c u trace(G)``, where
-    ``u = 2^-53`` and ``c = 2 (m + n + 2)`` covers the rounding of ``G`` (``gamma_q
-    ||K||_F^2``), of its Cholesky factor (Higham Thm. 10.3, ``gamma_{p+1} ||L||_F^2``) and
-    of the bound itself, with a margin of ~2 (underflow adds at most ``~p q 2^-1074``,
-    nothing against ``u trace(G) >= u / 4`` after scaling). By Weyl,
-    ``s_min(A)^2 >= 1 / mu - delta`` with ``mu = kappa_up / trace(G)``, so::
+    ``kappa_up`` bounds ``cond_2`` of the computed ``L L^T = G + E``, ``||E||_2 <= c u
+    trace(G)`` (``u = 2^-53``, ``c = 2 (m + n + 2)``: rounding of ``G``, of its Cholesky
+    factor, Higham Thm. 10.3, and of the bound, with a margin of ~2; underflow adds
+    ``~p q 2^-1074``, nothing against ``u trace(G)`` in the safe range). By Weyl::
 
-        cond_2(A)^2 <= kappa_up (1 + c u) / (1 - c u kappa_up)     when c u kappa_up < 1.
+        cond_2(A)^2 <= kappa_up (1 + c u) / (1 - c u kappa_up)
 
-    The bound is used only where ``c u kappa_up <= 0.5`` (``kappa_up <~ 1e14`` for 6x7,
-    then it is at most ``sqrt(2 kappa_up)``); elsewhere, and where ``ok`` is False, it is
-    ``inf`` (not cleared: the caller computes the exact ``cond_2``). Shapes (N,).
+    (docs/theory.md), used only where ``c u kappa_up <= 0.5`` (``kappa_up <~ 1e14``);
+    elsewhere, and where not ``ok``, the bound is ``inf``: the caller computes the exact
+    ``cond_2``. Shapes (N,).
     """
     cu = 2.0 * (m + n + 2) * 2.0**-53
     trusted = ok & (cu * kappa_up <= 0.5)
@@ -393,17 +400,8 @@ def _representable(X: FloatArray) -> FloatArray:
     of two) can be ``inf`` here.
     """
     if not math.isfinite(np.vdot(X, X)) and not np.isfinite(X).all():
-        raise OptikError(
-            "the solution x is too large for float64 (an entry exceeds 1.8e308 in "
-            "magnitude); rescale A or b"
-        )
+        raise OptikError("the solution x is beyond float64 (|x| > 1.8e308); rescale A or b")
     return X
-
-
-def _pow2_exponents(M: FloatArray, axis: int | tuple[int, ...]) -> IndexArray:
-    """Binary exponents ``e`` with ``max |M| in [2^(e-1), 2^e)`` along ``axis`` (0 for 0)."""
-    exponents: IndexArray = np.frexp(np.max(np.abs(M), axis=axis))[1].astype(np.intp)
-    return exponents
 
 
 def _ldexp(M: FloatArray, e: IndexArray) -> FloatArray:
@@ -428,9 +426,8 @@ def _svd_solve(
     """Orthogonal path: ``x = V diag(f) U^T b`` from the thin SVD ``A = U diag(s) V^T``.
 
     ``f = 1 / s`` undamped (after checking ``cond_2(A) <= max_condition``) and
-    ``f = s / (s^2 + lambda^2)`` damped. ``B`` None means the identity. As in
-    :func:`_gram_kernel`, ``A`` is first scaled by ``2^-exponent`` (with ``lambda``) and
-    each column of ``B`` by its own power of two, exactly, and the answer scaled back.
+    ``f = s / (s^2 + lambda^2)`` damped. ``B`` None means the identity. ``A``, ``lambda``
+    and ``B``'s columns are scaled as in :func:`_gram_kernel` (``A`` by ``2^-exponent``).
     ``where`` holds the flat stack indices of these matrices, for the error message.
     """
     K = _ldexp(A, -exponent[:, None, None])
@@ -459,7 +456,7 @@ def _svd_solve(
     V = np.swapaxes(Vt, -1, -2)
     if B is None:
         return _representable(_ldexp(V @ (f[:, :, None] * Ut), -exponent[:, None, None]))
-    column_exponent = _pow2_exponents(B, axis=-2)  # (N, k)
+    column_exponent = np.frexp(np.max(np.abs(B), axis=-2))[1]  # (N, k), max|b| < 2^f
     C = Ut @ _ldexp(B, -column_exponent[:, None, :])  # (N, r, k)
     shift = (column_exponent - exponent[:, None])[:, None, :]
     return _representable(_ldexp(V @ (f[:, :, None] * C), shift))
@@ -483,7 +480,7 @@ def _gram_solve(
     """
     _, m, n = A.shape
     k = m if B is None else B.shape[-1]
-    X, ok, kappa_up, exponent = _gram_bound_and_solve(A, B, lam, k)
+    X, ok, kappa_up, exponents = _gram_bound_and_solve(A, B, lam, k)
     accepted = ok & (kappa_up <= GRAM_CONDITION_LIMIT)
     # Accepted means cond_2(A) <= ~sqrt(GRAM_CONDITION_LIMIT) (1e3): only a max_condition
     # below about that needs the per-matrix bound.
@@ -496,7 +493,7 @@ def _gram_solve(
             None if B is None else B[bad],
             lam,
             max_condition,
-            exponent[bad],
+            exponents[bad, 0],
             bad,
             batch_shape,
         )
@@ -511,18 +508,16 @@ def _lu_solve(
 ) -> FloatArray:
     """Square undamped solve ``X = A^-1 B`` by LU, after checking ``cond_2(A)``.
 
-    LU with partial pivoting is accurate to about ``cond(A) * eps``, so no Gram matrix is
-    used for the answer; ``cond_2(A)`` is only checked, to refuse (near-)singular
-    matrices. The check first uses :func:`_condition_bound` from the Gram kernel (with no
-    right-hand side: ~10x cheaper than singular values); the exact ``cond_2(A)`` (singular
-    values) is computed only where that bound does not clear ``max_condition`` (always
-    for ``cond_2(A) >~ 1e7``, where the rounding of ``A A^T`` could hide a small singular
-    value). Matrices or right-hand sides far from unit scale (binary exponent beyond
-    +-64) are solved scaled by powers of two, exactly as in :func:`_gram_kernel`, so
-    that LU never works among subnormals.
+    LU (partial pivoting) is accurate to ``~cond(A) eps``; ``cond_2(A)`` is only checked,
+    first by :func:`_condition_bound` (~10x cheaper than singular values), then exactly
+    where that does not clear ``max_condition`` (always for ``cond_2(A) >~ 1e7``). Input
+    far from unit scale is solved scaled, as in :func:`_gram_kernel`.
     """
     N, m, _ = A.shape
-    _, ok, kappa_up, exponent = _gram_bound_and_solve(A, np.empty((N, m, 0)), 0.0, 0)
+    rhs = np.broadcast_to(np.eye(m), (N, m, m)) if B is None else B
+    screen_rhs = np.empty((N, m, 0)) if B is None else B  # I needs no scaling
+    _, ok, kappa_up, exponents = _gram_bound_and_solve(A, screen_rhs, 0.0, 0)
+    exponent, column_exponent = exponents[:, 0], exponents[:, 1:]
     kappa = _condition_bound(kappa_up, ok, m, m)
     unsure = np.flatnonzero(~(kappa <= max_condition))
     if unsure.size:
@@ -535,9 +530,9 @@ def _lu_solve(
             f"A{list(index) if index else ''} is numerically singular: cond_2(A) exceeds "
             f"max_condition={max_condition:.3g}; pass damping > 0 for the damped answer",
         )
-    rhs = np.broadcast_to(np.eye(m), (N, m, m)) if B is None else B
-    column_exponent = np.zeros((N, 1), dtype=np.intp) if B is None else _pow2_exponents(B, -2)
-    is_far = (np.abs(exponent) > 64) | np.any(np.abs(column_exponent) > 64, axis=1)
+    if B is None:
+        column_exponent = np.zeros((N, 1), dtype=np.int64)
+    is_far = (exponent != 0) | np.any(column_exponent != 0, axis=1)
     try:
         if not is_far.any():
             X: FloatArray = np.linalg.solve(A, rhs).astype(np.float64, copy=False)
