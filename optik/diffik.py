@@ -39,6 +39,7 @@ from optik.errors import (
 from optik.limits import Q_CLIP_TOLERANCE
 from optik.model import Robot
 from optik.posture import check_joint_weights
+from optik.programs.diff_lsq import polish_least_squares, resolve_least_squares
 from optik.programs.diff_qp import (
     ALL_ROWS,
     DEFAULT_DAMPING,
@@ -66,6 +67,7 @@ __all__ = [
     "diff_ik",
     "diff_ik_solvers",
     "polish_least_norm",
+    "polish_least_squares",
     "verify_step",
 ]
 
@@ -175,7 +177,7 @@ def verify_step(program: DiffIKProgram, solution: QPSolution) -> tuple[FloatArra
         kkt = program.kkt(dq, active_tol=tol)
         if not _stationary(kkt):
             return None, _not_optimal(kkt, solution.status)
-        return _polished(program, dq, kkt, tol), ""
+        return resolve_least_squares(program, dq, tol, KKT_RTOL, FEASIBILITY_ATOL), ""
     residual = float(np.max(np.abs(program.task_residual(dq)), initial=0.0))
     limit = program.task_tolerance(dq, FEASIBILITY_RTOL)
     if residual <= limit:
@@ -267,97 +269,6 @@ def polish_least_norm(
     out = program.clip(out)
     residual = float(np.max(np.abs(program.task_residual(out)), initial=0.0))
     return out if residual <= program.task_tolerance(out, FEASIBILITY_RTOL) else None
-
-
-def _polished(program: DiffIKProgram, dq: FloatArray, kkt: KKTReport, tol: float) -> FloatArray:
-    """A verified least-squares step solved again in square-root form.
-
-    The unconstrained minimiser if it lies in the bounds (the problem is convex: it is
-    then the answer, whatever bounds the backend took as active); else the minimiser with
-    the backend's active bounds held (:func:`polish_least_squares`) if the gradient
-    pushes each of them outwards (the KKT signs: the free joints' gradient is zero by
-    construction); else scipy's bounded least squares (BVLS) on the same rows; ``dq``
-    itself if none lies in the bounds.
-    """
-    free = polish_least_squares(program, dq, np.zeros(program.dof, dtype=bool))
-    if free is not None and program.bound_violation(free) <= tol:
-        return program.clip(free)
-    lower, upper = kkt.active_lower, kkt.active_upper
-    held = polish_least_squares(program, dq, lower | upper)
-    if held is not None and program.bound_violation(held) <= tol:
-        g = program.gradient(held)
-        slack = KKT_RTOL * kkt.scale + FEASIBILITY_ATOL
-        if np.all(g[lower] >= -slack) and np.all(g[upper] <= slack):
-            return program.clip(held)
-    exact = bounded_least_squares(program)
-    if exact is not None and program.bound_violation(exact) <= tol:
-        return program.clip(exact)
-    return dq
-
-
-def polish_least_squares(
-    program: DiffIKProgram, dq: FloatArray, active: np.ndarray
-) -> FloatArray | None:
-    """The least-squares step on the backend's active set, solved in square-root form.
-
-    With the joints of ``active`` (dof,) held on the bound nearer ``dq``, the others
-    minimise ``||Wt^(1/2) (J dq - v)||^2 + lambda^2 ||W^(1/2) (dq - d)||^2`` exactly:
-    one ``lstsq`` of the stacked rows, whose condition number is the square root of the
-    QP's (a backend solving ``P = J^T Wt J + lambda^2 W`` loses twice the digits: with
-    one weight 1e12 times the others, every backend's step was off by 1e-3 to 3 rad and
-    the KKT test, relative to that weight, passed it). ``None`` with no free joint.
-    """
-    free = ~active
-    if not np.any(free):
-        return None
-    A, b = _stacked_rows(program)
-    # On the bound itself, not where the backend left the joint (it may stop 1e-7 short).
-    with np.errstate(invalid="ignore"):
-        nearer = np.where(dq - program.lower <= program.upper - dq, program.lower, program.upper)
-    held = np.where(active, nearer, 0.0)
-    x, *_ = np.linalg.lstsq(A[:, free], b - A @ held, rcond=None)
-    out = held.copy()
-    out[free] = x
-    return out if np.all(np.isfinite(out)) else None
-
-
-def _stacked_rows(program: DiffIKProgram) -> tuple[FloatArray, FloatArray]:
-    """``(A, b)`` with ``||A dq - b||^2`` twice the least-squares objective."""
-    offset = np.zeros(program.dof) if program.offset is None else program.offset
-    lam = program.damping
-    A = np.vstack([_root_times(program.Wt, program.J), lam * _root_times(program.W, None)])
-    b = np.concatenate([_root_times(program.Wt, program.v), lam * _root_times(program.W, offset)])
-    return A, b
-
-
-def _root_times(M: FloatArray, X: FloatArray | None) -> FloatArray:
-    """``M^(1/2) X`` for a symmetric positive semidefinite ``M`` (``X = None``: ``I``).
-
-    A diagonal ``M`` (the weights of ``diff_ik``) scales rows; another one is rooted by
-    its eigendecomposition.
-    """
-    d = np.diagonal(M)
-    if np.array_equal(M, np.diag(d)):
-        root = np.sqrt(np.maximum(d, 0.0))
-        if X is None:
-            return np.diag(root)
-        return root[:, None] * X if X.ndim == 2 else root * X
-    values, vectors = np.linalg.eigh(M)
-    full = (vectors * np.sqrt(np.maximum(values, 0.0))) @ vectors.T
-    return np.asarray(full if X is None else full @ X)
-
-
-def bounded_least_squares(program: DiffIKProgram) -> FloatArray | None:
-    """The least-squares step by scipy's BVLS on the square-root rows (about 0.2 ms)."""
-    from scipy.optimize import lsq_linear
-
-    A, b = _stacked_rows(program)
-    try:
-        result = lsq_linear(A, b, bounds=(program.lower, program.upper), method="bvls", tol=1e-15)
-    except (ValueError, np.linalg.LinAlgError):  # pragma: no cover - bounds checked before
-        return None
-    x = np.asarray(result.x, dtype=np.float64)
-    return x if np.all(np.isfinite(x)) else None
 
 
 def _inconsistent(program: DiffIKProgram) -> NoSolutionError:
@@ -553,9 +464,17 @@ def diff_ik(
         m = 0 if arrays.least_squares else arrays.task_dim
         x, found, status, iterations = direct(arrays.dof, m).solve_scaled(arrays.scaled)
         if x is not None:
-            check, _ = arrays.check(x, FEASIBILITY_RTOL, FEASIBILITY_ATOL, KKT_RTOL)
+            check, _, active = arrays.check(x, FEASIBILITY_RTOL, FEASIBILITY_ATOL, KKT_RTOL)
             if check == CHECK_OK and not kkt_proof:
-                return arrays.dq.copy()
+                if active == 0 or not arrays.least_squares:
+                    return arrays.dq.copy()
+                # A bound is active: the backend solved P = J^T J + lambda^2 I, whose
+                # condition number is the square of the rows' (1e-6 off on a UR5 at its
+                # limits); solve again in square-root form, as verify_step does.
+                program = arrays.program()
+                dq = arrays.dq.copy()
+                tol = _tolerance(program)
+                return resolve_least_squares(program, dq, tol, KKT_RTOL, FEASIBILITY_ATOL)
             x = x / arrays.scale[1]
         program = arrays.program()
         solution = QPSolution(x, found, status, label, iterations)

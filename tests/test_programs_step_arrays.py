@@ -37,7 +37,7 @@ def _arrays(robot: optik.Robot, rows: tuple[int, ...], objective: str) -> sa.Ste
     return sa.StepArrays(robot, rows, objective)  # type: ignore[arg-type]
 
 
-def _check(arrays: sa.StepArrays, dq: np.ndarray) -> tuple[int, float]:
+def _check(arrays: sa.StepArrays, dq: np.ndarray) -> tuple[int, float, int]:
     return arrays.check(dq * arrays.scale[1], FEASIBILITY_RTOL, FEASIBILITY_ATOL, KKT_RTOL)
 
 
@@ -141,7 +141,7 @@ def test_cheap_check_rejects_what_the_proof_rejects() -> None:
     best = min_norm(prog.J, prog.v)
     null = np.linalg.svd(prog.J)[2][-1]
     not_minimal = best + 1e-3 * null  # feasible, J dq = v, but not the least norm
-    code, value = _check(arrays, not_minimal)
+    code, value, _ = _check(arrays, not_minimal)
     assert code == sa.CHECK_KKT and value > 1e-5
     _, reason = verify_step(prog, QPSolution(not_minimal, True, "solved", "test"))
     assert "not optimal" in reason
@@ -167,7 +167,7 @@ def test_cheap_check_with_active_bounds_agrees_with_the_proof(name: str, objecti
         arrays.Ps, arrays.cs, arrays.A_eq, arrays.b_eq, arrays.lbs, arrays.ubs
     )
     assert found and x is not None, status
-    code, _ = arrays.check(x, FEASIBILITY_RTOL, FEASIBILITY_ATOL, KKT_RTOL)
+    code, *_ = arrays.check(x, FEASIBILITY_RTOL, FEASIBILITY_ATOL, KKT_RTOL)
     assert code == sa.CHECK_OK
     assert abs(arrays.dq[k] - prog.upper[k]) <= 1e-12  # the bound is active
     dq, reason = verify_step(prog, QPSolution(arrays.dq.copy(), True, "", "qp:daqp"))
@@ -236,7 +236,7 @@ def test_diff_ik_full_proof_on_request_and_on_a_cheap_rejection(
     optik.diff_ik(robot, q, TWIST, dt=DT, solver="qp:daqp", kkt_proof=True)
     assert calls == ["qp:daqp"]
     # A cheap check that rejects hands the answer to the full proof, which accepts it.
-    monkeypatch.setattr(sa.StepArrays, "check", lambda self, *a: (sa.CHECK_KKT, 1.0))
+    monkeypatch.setattr(sa.StepArrays, "check", lambda self, *a: (sa.CHECK_KKT, 1.0, 0))
     again = optik.diff_ik(robot, q, TWIST, dt=DT, solver="qp:daqp")
     assert_close(again, expected, atol=1e-12, what="after the full proof")
     assert calls == ["qp:daqp", "qp:daqp"]

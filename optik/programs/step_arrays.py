@@ -355,11 +355,13 @@ def check_step(
     feas_rtol: float,
     feas_atol: float,
     kkt_rtol: float,
-) -> tuple[int, float]:
+) -> tuple[int, float, int]:
     """Cheap verification of a backend's point ``x`` (equilibrated: ``dq = x / s``).
 
-    Fills ``dq`` with the point clipped onto the bounds and returns ``(code, value)``:
-    :data:`CHECK_OK` (accepted, value = stationarity residual), :data:`CHECK_NOT_FINITE`,
+    Fills ``dq`` with the point clipped onto the bounds and returns ``(code, value,
+    active)``, ``active`` the number of joints within the bounds' tolerance of a bound
+    (0 until the bounds are checked): :data:`CHECK_OK` (accepted, value = stationarity
+    residual), :data:`CHECK_NOT_FINITE`,
     :data:`CHECK_BOUNDS` (value = violation), :data:`CHECK_TASK` (value = ``|J dq -
     v|_inf``), :data:`CHECK_KKT` (value = the residual with the multipliers fitted here:
     not a proof of non-optimality, the full proof decides). Tolerances as in
@@ -376,8 +378,9 @@ def check_step(
     g = _vec(buf, layout, _G)
     r_vec = _vec(buf, layout, _R)
     s = _vec(buf, layout, _SCALE)[1]
+    active = 0  # a variable, not a literal: numba unifies the returned tuples
     if x.shape[0] != n:
-        return CHECK_NOT_FINITE, np.nan
+        return CHECK_NOT_FINITE, np.nan, active
     vabs = 0.0
     for r in range(m):
         vabs = max(vabs, abs(v[r]))
@@ -386,11 +389,11 @@ def check_step(
     for i in range(n):
         xi = x[i] / s
         if not math.isfinite(xi):
-            return CHECK_NOT_FINITE, np.nan
+            return CHECK_NOT_FINITE, np.nan, active
         violation = max(violation, lb[i] - xi, xi - ub[i])
         dq[i] = min(max(xi, lb[i]), ub[i])
     if violation > tol:
-        return CHECK_BOUNDS, violation
+        return CHECK_BOUNDS, violation, active
     jmax = 0.0
     if not least_squares:
         residual = 0.0
@@ -406,7 +409,7 @@ def check_step(
             size = max(size, row)
         # Relative to the task and the rounding of J dq (DiffIKProgram.task_tolerance).
         if residual > feas_rtol * vabs + TASK_ROUNDING * size:
-            return CHECK_TASK, residual
+            return CHECK_TASK, residual, active
     pmax = 0.0
     cmax = 0.0
     dmax = 0.0
@@ -422,9 +425,11 @@ def check_step(
         dmax = max(dmax, abs(dq[i]))
         if not _active(lb[i], ub[i], dq[i], tol) > 0:
             free += 1
+    active = n - free
     if not least_squares and m > 0:
         if free < m:
-            return CHECK_KKT, np.nan  # the multipliers are not fitted here: full proof
+            # The multipliers are not fitted here: the full proof decides.
+            return CHECK_KKT, np.nan, active
         # y minimizing ||g_F + J_F^T y||: the multipliers of J dq = v on the free joints.
         A = _vec(buf, layout, _MA)[: free * m].reshape((free, m))
         b = _vec(buf, layout, _MB)[:free]
@@ -437,7 +442,7 @@ def check_step(
                 b[k] = -g[i]
                 k += 1
         if not householder_lstsq(A, b, y):
-            return CHECK_KKT, np.nan
+            return CHECK_KKT, np.nan, active
         for i in range(n):
             acc = g[i]
             for r in range(m):
@@ -459,8 +464,8 @@ def check_step(
         stationarity = max(stationarity, res)
     scale = pmax * dmax + cmax + (jmax * vabs if not least_squares else 0.0)
     if stationarity > kkt_rtol * scale + feas_atol:
-        return CHECK_KKT, stationarity
-    return CHECK_OK, stationarity
+        return CHECK_KKT, stationarity, active
+    return CHECK_OK, stationarity, active
 
 
 @jit
@@ -706,8 +711,12 @@ class StepArrays:
 
     def check(
         self, x: FloatArray, feas_rtol: float, feas_atol: float, kkt_rtol: float
-    ) -> tuple[int, float]:
-        """:func:`check_step` of the backend's equilibrated point ``x``; fills :attr:`dq`."""
+    ) -> tuple[int, float, int]:
+        """:func:`check_step` of the backend's equilibrated point ``x``; fills :attr:`dq`.
+
+        Returns ``(code, value, active)``: the check's code and value, and the number of
+        joints it found on a bound.
+        """
         return check_step(
             x,
             self._buf,
