@@ -23,6 +23,7 @@ from optik.cli._common import (
     urdf_problem,
 )
 from optik.compare import AGREEMENT_TOL, RunConfig
+from optik.compare.config import MAX_TIMEOUT_S
 from optik.errors import OptikError
 from optik.peers import peer_names
 from optik.problems import Problem, builtin_problems
@@ -33,6 +34,16 @@ from optik.report import (
     make_report,
     quick_config,
 )
+
+
+def timeout_ms(text: str) -> float:
+    """``--timeout-ms``: a finite number of ms in (0, a day] (the run's bound, in its unit)."""
+    value = positive_float(text)
+    if value > MAX_TIMEOUT_S * 1e3:
+        raise argparse.ArgumentTypeError(
+            f"expected at most {MAX_TIMEOUT_S * 1e3:.0f} ms (a day), got {text!r:.40}"
+        )
+    return value
 
 
 def _caps(values: Sequence[str] | None) -> dict[str, int]:
@@ -191,10 +202,11 @@ def add_report_command(subparsers: Any) -> argparse.ArgumentParser:
     add_seed_argument(p, "seed of the targets", show_default=True)
     p.add_argument(
         "--timeout-ms",
-        type=positive_float,
+        type=timeout_ms,
         default=None,
         metavar="MS",
-        help=f"time limit per IK call, ms (default {DEFAULT_TIMEOUT_S * 1e3:g}; quick 100)",
+        help=f"time limit per IK call, ms, at most a day (default {DEFAULT_TIMEOUT_S * 1e3:g}; "
+        "quick 100)",
     )
     add_tol_argument(p)
     p.add_argument(

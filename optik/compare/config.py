@@ -67,6 +67,10 @@ class RunConfig:
     peers: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
+        # A name given twice runs once: its rows share their keys, and a figure would draw
+        # it twice.
+        object.__setattr__(self, "solvers", tuple(dict.fromkeys(self.solvers)))
+        object.__setattr__(self, "peers", tuple(dict.fromkeys(self.peers)))
         count = {"minimum": 0, "maximum": MAX_TARGETS}
         object.__setattr__(self, "n", check_int("n", self.n, **count))
         configs = check_int("closed_form_configs", self.closed_form_configs, **count)

@@ -10,6 +10,8 @@ from __future__ import annotations
 import csv
 import io
 import json
+import math
+import re
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, fields
 from pathlib import Path
@@ -112,7 +114,8 @@ class ResultRow:
         Raises:
             ValueError: a cell that :meth:`to_record` cannot have written (an unknown
                 ``kind``, a boolean other than ``true``/``false``, an empty ``success``,
-                a number that does not parse); the message names the column.
+                a number not written as ``str`` or ``repr`` writes it, a ``time_s`` that
+                is negative or not finite); the message names the column.
         """
         values: dict[str, Any] = {}
         for f in fields(cls):
@@ -127,14 +130,22 @@ class ResultRow:
                     raise ValueError(f"column {f.name!r}: {text!r} is not true or false")
                 values[f.name] = text == "true"
             else:
-                try:
-                    values[f.name] = kind(text)
-                except ValueError:
-                    raise ValueError(f"column {f.name!r}: {text!r} is not a number") from None
+                # Only what to_record writes: int() and float() also take "1_000" and " 3 ".
+                if not (_INT if kind is int else _FLOAT).fullmatch(text):
+                    raise ValueError(f"column {f.name!r}: {text!r} is not a number")
+                values[f.name] = kind(text)
+        time_s = values["time_s"]
+        if not (math.isfinite(time_s) and time_s >= 0):
+            raise ValueError(f"column 'time_s': {time_s!r} is not a time (finite, >= 0)")
         if values["kind"] not in KINDS:
             raise ValueError(f"column 'kind': {values['kind']!r} is not one of {list(KINDS)}")
         return cls(**values)
 
+
+#: The numbers :meth:`ResultRow.to_record` writes: ``str`` of an int, ``repr`` of a float
+#: (or ``str`` of an int given for one).
+_INT: Final[re.Pattern[str]] = re.compile(r"-?[0-9]+")
+_FLOAT: Final[re.Pattern[str]] = re.compile(r"-?([0-9]+(\.[0-9]*)?([eE][-+]?[0-9]+)?|inf|nan)")
 
 _COLUMN_TYPES: Final[dict[str, type]] = {
     "kind": str,

@@ -30,6 +30,7 @@ from optik.compare.seeds import (
 )
 from optik.compare.steps import _closed_form_row, closed_form_cases
 from optik.compare.targets import _solve_seed, random_configurations
+from optik.errors import OptikError
 from optik.problems import Problem, load_problem
 
 __all__ = ["run"]
@@ -48,6 +49,39 @@ class _Task:
 
 def _problem(problem: str | Problem) -> Problem:
     return problem if isinstance(problem, Problem) else load_problem(problem)
+
+
+def _same_robot(a: Problem, b: Problem) -> bool:
+    """Whether two problems of one name are the same robot: read from one file, or one object."""
+    if a is b:
+        return True
+    if a.path is None or b.path is None:
+        return False
+    return a.path.resolve() == b.path.resolve() and a.source == b.source
+
+
+def _distinct(problems: Sequence[str | Problem]) -> list[Problem]:
+    """The problems loaded, each once; two different robots of one name are refused.
+
+    A row's key names its problem, not its file: the second robot of a name would find its
+    rows already written and be skipped without a word. The same problem given twice (its
+    name and its file) runs once.
+
+    Raises:
+        OptikError: two problems of the same name from different files (or objects).
+    """
+    loaded: dict[str, Problem] = {}
+    for given in problems:
+        problem = _problem(given)
+        first = loaded.setdefault(problem.name, problem)
+        if not _same_robot(first, problem):
+            where = [str(p.path) if p.path is not None else p.source for p in (first, problem)]
+            raise OptikError(
+                f"two problems are named {problem.name!r} ({where[0]} and {where[1]}): the "
+                "rows of results.csv name their problem, so each needs its own name (the "
+                "[robot] table's name)"
+            )
+    return list(loaded.values())
 
 
 def _rows(row: Callable[..., ResultRow], *args: Any) -> list[ResultRow]:
@@ -213,13 +247,17 @@ def run(
 
     Returns:
         A :class:`RunStats`; seed 003's trajectory is recomputed when its row was skipped.
+
+    Raises:
+        OptikError: two different problems of the same name (a row's key names the
+            problem), before anything is written.
     """
     progress = check_progress(progress, call=False)
-    problems = [_problem(p) for p in config.problems]
+    problems = _distinct(config.problems)
     cf_names = (
         config.problems if config.closed_form_problems is None else config.closed_form_problems
     )
-    cf_problems = [_problem(p) for p in cf_names]
+    cf_problems = _distinct(cf_names)
     backends = step_backends() if config.step_backends is None else config.step_backends
     trajectory: list[FloatArray] = []
     tasks: list[_Task] = []

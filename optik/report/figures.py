@@ -153,7 +153,8 @@ def plot_error_distributions(
 def plot_iteration_histograms(rows: Sequence[ResultRow], solvers: Sequence[str]) -> bytes:
     """One histogram of the iterations (all attempts) per solver, solved and failed stacked."""
     plt = pyplot()
-    ik = [r for r in rows if r.kind == "ik" and r.iterations is not None]
+    # -1 is a backend without an iteration count: nothing to draw for it.
+    ik = [r for r in rows if r.kind == "ik" and r.iterations is not None and r.iterations >= 0]
     present = [s for s in solvers if any(r.solver == s for r in ik)] or list(solvers[:1])
     fig, axes = _grid(plt, len(present), 3.8, 2.4)
     top = max((int(r.iterations or 0) for r in ik), default=1)

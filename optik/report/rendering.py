@@ -13,13 +13,13 @@ import io
 import json
 import math
 from collections.abc import Sequence
-from dataclasses import asdict
+from dataclasses import asdict, fields
 from typing import Any, Final
 
 from optik.compare import AGREEMENT_TOL
 from optik.report.outputs import Report, _Context
 from optik.report.peers import PEER_HEADER, peer_cells, peers_intro
-from optik.report.summaries import SolverSummary
+from optik.report.summaries import ACCURACY_LEVELS, SolverSummary, _level_name
 from optik.report.tables import (
     CLOSED_FORM_HEADER,
     SUMMARY_HEADER,
@@ -41,12 +41,17 @@ from optik.report.tables import (
 __all__: list[str] = []
 
 
+def _summary_csv_columns() -> list[str]:
+    """The columns of ``summary.csv``, in :meth:`SolverSummary.flat`'s order."""
+    names = [f.name for f in fields(SolverSummary) if f.name != "accuracy"]
+    return names + [f"accuracy_{_level_name(level)}" for level in ACCURACY_LEVELS]
+
+
 def _summary_csv(summaries: Sequence[SolverSummary]) -> str:
+    """``summary.csv``: its header even without a row (a run of no targets), so it reads."""
     buffer = io.StringIO()
     records = [s.flat() for s in summaries]
-    if not records:
-        return ""
-    writer = csv.DictWriter(buffer, fieldnames=list(records[0]), lineterminator="\n")
+    writer = csv.DictWriter(buffer, fieldnames=_summary_csv_columns(), lineterminator="\n")
     writer.writeheader()
     for record in records:
         writer.writerow({k: repr(v) if isinstance(v, float) else v for k, v in record.items()})

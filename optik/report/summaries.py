@@ -88,8 +88,9 @@ class SolverSummary:
         orientation_error_p50: median orientation error, rad.
         orientation_error_p95: 95th percentile, rad.
         orientation_error_max: largest, rad.
-        iterations_median: median iterations (all attempts).
-        iterations_p95: 95th percentile of the iterations.
+        iterations_median: median iterations (all attempts) over the rows that report them
+            (nan when none does: a backend without a count writes -1).
+        iterations_p95: 95th percentile of the same iterations.
         accuracy: fraction of targets whose position (m) and orientation (rad) errors are
             both within each level of :data:`ACCURACY_LEVELS`, limits respected.
     """
@@ -132,7 +133,9 @@ def _summary(problem: str, solver: str, rows: Sequence[ResultRow], time_limit_s:
     claims = [r for r in rows if r.backend_converged is not None]
     position = [r.position_error for r in rows if r.position_error is not None]
     orientation = [r.orientation_error for r in rows if r.orientation_error is not None]
-    iterations = [float(r.iterations) for r in rows if r.iterations is not None]
+    # -1 means "not reported" (ikpy, EAIK, pybullet): a count, not a value to take a median of.
+    counted = [r.iterations for r in rows if r.iterations is not None and r.iterations >= 0]
+    iterations = [float(i) for i in counted]
     return {
         "problem": problem,
         "solver": solver,

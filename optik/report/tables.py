@@ -176,9 +176,8 @@ def markdown_table(header: Sequence[str], body: Sequence[Sequence[str]]) -> str:
 
 def protocol_text(config: RunConfig, step: bool = False) -> str:
     """The protocol of the full-IK section in one paragraph (stated above every table)."""
-    caps = ", ".join(
-        f"{s}: {n}" for s, n in config.caps.items() if n < config.n and s in config.solvers
-    )
+    run = {*config.solvers, *(f"peer:{name}" for name in config.peers)}
+    caps = ", ".join(f"{s}: {n}" for s, n in config.caps.items() if n < config.n and s in run)
     text = (
         f"Protocol: {config.n} targets per robot, the FK poses of configurations drawn "
         f"uniformly inside the joint limits (seed {config.seed}); mode {config.mode}; "
