@@ -282,3 +282,12 @@ def test_the_command_refuses_an_unknown_group(capsys: pytest.CaptureFixture[str]
     assert main(["warmup", "--groups", "closed_forms,no-such-group"]) == 2
     err = capsys.readouterr().err
     assert "unknown warm-up groups ['no-such-group']" in err and "axes_arms" in err
+
+
+@pytest.mark.parametrize("given", [",", "", ",,"])
+def test_the_command_refuses_groups_that_name_none(
+    given: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # "--groups ," compiled nothing and reported success.
+    assert main(["warmup", "--groups", given]) == 2
+    assert "--groups: no group named" in capsys.readouterr().err

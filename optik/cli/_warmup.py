@@ -18,6 +18,11 @@ def _cmd_warmup(args: argparse.Namespace) -> int:
 
         raise OptikError(f"--processes must be at least 1, got {processes}")
     groups = [name for name in args.groups.split(",") if name] if args.groups else None
+    if args.groups is not None and not groups:
+        from optik.errors import OptikError
+
+        # Not the default (every group): an empty list would compile nothing and succeed.
+        raise OptikError(f"--groups: no group named in {args.groups!r}")
     if groups is not None:
         known = sorted({*GROUPS, *OPTIONAL})
         unknown = [name for name in groups if name not in known]
