@@ -34,7 +34,7 @@ from optik.campaign.batch import (
     solve_batch,
     solve_chunk,
 )
-from optik.campaign.engine import QUIET_CLUSTER, Written, compute_and_write
+from optik.campaign.engine import QUIET_CLUSTER, Engine, Written, compute_and_write
 from optik.errors import OptikError, OutputFileError
 
 RESTARTS = 20
@@ -169,7 +169,12 @@ def test_targets_files_npy_and_parquet(tmp_path: Path) -> None:
         read_targets(tmp_path / "none.npy")
 
 
-def test_batch_interrupted_then_resumed_writes_every_chunk_once(tmp_path: Path) -> None:
+def test_batch_interrupted_then_resumed_writes_every_chunk_once(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # Two chunk threads whatever the machine: at most four chunks in flight when the
+    # run stops, so some are left for the resume.
+    monkeypatch.setattr(Engine, "pool_size", property(lambda self: 2))
     robot = robot_of("ur5")
     T = _targets(90)
     out = tmp_path / "results.parquet"
