@@ -415,6 +415,60 @@ def without_timing(rows: list[ResultRow]) -> list[tuple[object, ...]]:
     return [tuple(getattr(r, f.name) for f in fields(r) if f.name != "time_s") for r in rows]
 
 
+# ---------------------------------------------------------------------- a clock of the test's
+class FakeClock:
+    """``time.perf_counter`` of :mod:`optik._clock` (what the budget clock, its deadlines
+    and the one-time work it leaves out are measured on), moved by the test alone.
+
+    It advances by ``tick`` at each reading and by :meth:`advance`, never with the
+    machine's time: a deadline passes after a known number of readings, and one-time
+    work takes the time the test gives it, however loaded the machine is. ``checks``
+    holds the budget clock's values as optik's solvers read them (``budget_now``: the
+    first of a ``solve_ik`` sets its deadline, the others check it); one-time work reads
+    the fake clock too, but is no check. (``IKResult.time_s`` stays on the real clock.)
+    """
+
+    def __init__(self, start: float, tick: float = 0.0) -> None:
+        self.now = start
+        self.tick = tick
+        self.checks: list[float] = []
+
+    def perf_counter(self) -> float:
+        value = self.now
+        self.now += self.tick
+        return value
+
+    def advance(self, seconds: float) -> None:
+        """Let ``seconds`` pass."""
+        self.now += seconds
+
+
+@pytest.fixture
+def fake_clock(monkeypatch: pytest.MonkeyPatch) -> FakeClock:
+    """The budget clock on a :class:`FakeClock` for the test (``tick`` 0 until it is set)."""
+    import time
+
+    from optik import _clock
+    from optik.solvers import _base
+
+    # Swapped only between pieces of one-time work: one begun on the real clock and
+    # ended on the fake one would be measured across the two.
+    assert not _clock.compiling() and _clock._TIMER._depth == 0
+    clock = FakeClock(time.perf_counter())
+    # The one-time work timed on the fake clock is forgotten afterwards, so that the
+    # budget clock goes on from its value before the test.
+    monkeypatch.setattr(_clock._TIMER, "total", _clock._TIMER.total)
+    monkeypatch.setattr(_clock, "time", clock)
+
+    def checked() -> float:
+        value = _clock.budget_clock()
+        clock.checks.append(value)
+        return value
+
+    monkeypatch.setattr(_base, "budget_clock", checked)  # what budget_now reads
+    return clock
+
+
 # ---------------------------------------------------------------------- time limits
 class Hang(Exception):
     """A call ran past its :func:`time_limit`."""

@@ -1,27 +1,48 @@
 import time
+from pathlib import Path
+from typing import Any
 
 import numba
+import pytest
+from conftest import FakeClock
 
 from optik._clock import budget_clock, excluded_seconds
 
 
-def test_compilation_is_counted_and_excluded_from_the_budget_clock() -> None:
+def test_compilation_is_counted_and_excluded_from_the_budget_clock(fake_clock: FakeClock) -> None:
+    # Time passes only inside numba's compile events, 5 s at each start (a listener
+    # registered after optik's, so inside its window), on a clock no load moves between
+    # the readings: the budget clock's only difference from it is the compilation.
+    from numba.core import event
+
+    class Slow(event.Listener):
+        def on_start(self, ev: object) -> None:
+            fake_clock.advance(5.0)
+
+        def on_end(self, ev: object) -> None:
+            pass
+
     @numba.njit(cache=False)
     def fresh(x: float) -> float:  # a function of this test only: it must compile
         return x * 2.0 + 1.0
 
     compiled_before, wall_before, budget_before = (
         excluded_seconds(),
-        time.perf_counter(),
+        fake_clock.now,
         budget_clock(),
     )
-    assert fresh(1.5) == 4.0
+    slow = Slow()
+    event.register("numba:compile", slow)
+    try:
+        assert fresh(1.5) == 4.0
+    finally:
+        event.unregister("numba:compile", slow)
     compiled = excluded_seconds() - compiled_before
-    wall = time.perf_counter() - wall_before
+    wall = fake_clock.now - wall_before
     budget = budget_clock() - budget_before
-    assert compiled > 0.0
-    assert 0.0 <= budget < wall
-    assert abs((wall - budget) - compiled) < 1e-3  # the clock's only difference is the compile
+    assert compiled >= 5.0  # it compiled, and that was counted
+    assert compiled == pytest.approx(wall, abs=1e-9)  # every second of it
+    assert budget == pytest.approx(0.0, abs=1e-9)
 
     # A second call compiles nothing: the compile counter stays where it was.
     after = excluded_seconds()
@@ -29,10 +50,11 @@ def test_compilation_is_counted_and_excluded_from_the_budget_clock() -> None:
     assert excluded_seconds() == after
 
 
-def test_a_timeout_does_not_count_compilation() -> None:
+def test_a_timeout_does_not_count_compilation(fake_clock: FakeClock) -> None:
     # A solver whose every attempt "compiles" for 0.6 s (a numba compile event around a
-    # sleep): with timeout_s=0.5 all four attempts still run, since compile time is not
-    # the caller's; a deadline on the wall clock would stop after the first.
+    # sleep, and 0.6 s of the budget's clock, which moves at nothing else): with
+    # timeout_s=0.5 all four attempts still run, since compile time is not the caller's;
+    # a deadline on the wall clock would stop after the first.
     from numba.core import event
 
     import optik
@@ -44,7 +66,8 @@ def test_a_timeout_does_not_count_compilation() -> None:
 
         def solve(self, query, q0, max_iter, deadline):  # type: ignore[no-untyped-def]
             with event.trigger_event("numba:compile"):
-                time.sleep(0.6)
+                fake_clock.advance(0.6)
+                time.sleep(0.6)  # for the wall time the result reports
             return SolverOutput(q0, 1, False, "not converged")
 
     register_solver("test:compiling", Compiling, lambda: True)
@@ -85,45 +108,53 @@ def test_compiling_is_true_exactly_while_numba_compiles() -> None:
     assert not compiling()
 
 
-def test_one_time_setup_is_excluded_and_is_not_compiling() -> None:
+def test_one_time_setup_is_excluded_and_is_not_compiling(fake_clock: FakeClock) -> None:
     from optik._clock import compiling, one_time_setup
 
     wall_before, budget_before, excluded_before = (
-        time.perf_counter(),
+        fake_clock.now,
         budget_clock(),
         excluded_seconds(),
     )
     with one_time_setup():
         assert not compiling()  # setup is not compilation (the test helpers tell them apart)
-        time.sleep(0.2)
-    wall = time.perf_counter() - wall_before
-    assert excluded_seconds() - excluded_before >= 0.2
-    assert budget_clock() - budget_before < wall - 0.19
+        fake_clock.advance(0.2)
+    assert fake_clock.now - wall_before == pytest.approx(0.2, abs=1e-9)
+    assert excluded_seconds() - excluded_before == pytest.approx(0.2, abs=1e-9)
+    assert budget_clock() - budget_before == pytest.approx(0.0, abs=1e-9)
 
 
-def test_a_robots_derived_data_is_built_as_one_time_setup() -> None:
+def test_a_robots_derived_data_is_built_as_one_time_setup(fake_clock: FakeClock) -> None:
     from optik.problems import load_problem
 
     robot = load_problem("planar_2r").robot
+    builds: list[object] = []
 
     def slow_build(r: object) -> int:
-        time.sleep(0.2)
+        builds.append(r)
+        fake_clock.advance(0.2)
         return 7
 
     before = excluded_seconds()
     assert robot.cached(slow_build) == 7
-    assert excluded_seconds() - before >= 0.2
+    assert excluded_seconds() - before == pytest.approx(0.2, abs=1e-9)
     again = excluded_seconds()
     assert robot.cached(slow_build) == 7  # kept: built once
-    assert excluded_seconds() - again < 0.01
+    assert len(builds) == 1 and excluded_seconds() == again
 
 
-def test_loading_a_kernel_from_numbas_cache_is_excluded(tmp_path) -> None:  # type: ignore[no-untyped-def]
+def test_loading_a_kernel_from_numbas_cache_is_excluded(
+    tmp_path: Path, fake_clock: FakeClock, monkeypatch: pytest.MonkeyPatch
+) -> None:
     # A kernel compiled (and cached) by another process is loaded here: the load is
     # outside numba's compile events, and the budget clock does not count it either.
+    # Loading "takes" 1 s of the test's clock (wrapped around numba's own loading), so
+    # that no load on the machine can blur the measure.
     import subprocess
     import sys
     import textwrap
+
+    from numba.core import caching
 
     (tmp_path / "loaded_kernel.py").write_text(
         textwrap.dedent(
@@ -143,16 +174,25 @@ def test_loading_a_kernel_from_numbas_cache_is_excluded(tmp_path) -> None:  # ty
     subprocess.run(
         [sys.executable, "-c", "from loaded_kernel import cube; cube(2.0)"], env=env, check=True
     )
+    load = caching.Cache._load_overload
+
+    def slow_load(self: Any, *args: Any) -> Any:
+        loaded = load(self, *args)
+        fake_clock.advance(1.0)
+        return loaded
+
+    monkeypatch.setattr(caching.Cache, "_load_overload", slow_load)
     sys.path.insert(0, str(tmp_path))
     try:
         from loaded_kernel import cube  # type: ignore[import-not-found]
 
-        wall_before, budget_before = time.perf_counter(), budget_clock()
+        wall_before, budget_before = fake_clock.now, budget_clock()
         assert cube(3.0) == 27.0
-        wall = time.perf_counter() - wall_before
+        wall = fake_clock.now - wall_before
         budget = budget_clock() - budget_before
         assert sum(cube.stats.cache_hits.values()) == 1  # loaded, not compiled
-        assert budget < 0.5 * wall
+        assert wall >= 1.0  # the load took its second
+        assert budget == pytest.approx(0.0, abs=1e-9)  # and none of it was charged
     finally:
         sys.path.remove(str(tmp_path))
         sys.modules.pop("loaded_kernel", None)

@@ -11,17 +11,17 @@ that does not start from the closed form (``warm_start="q0"``).
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
 
 import numpy as np
 import pybullet_data  # the test extra: its absence is a failure, not a skip
 import pytest
+from conftest import FakeClock
 
 import optik
 from optik import Robot, load_problem
-from optik._clock import excluded_seconds
-from optik.analytic import free_joint_reason
+from optik._clock import budget_clock, excluded_seconds
+from optik.analytic import free_joint_reason, held_joint
 from optik.errors import OptikError
 from optik.spatial import rotation_angle
 
@@ -59,14 +59,30 @@ def test_free_joint_reason_names_the_joints_with_a_closed_form(iiwa: Robot) -> N
         free_joint_reason("panda", Q7)  # type: ignore[arg-type]
 
 
-def test_the_held_joint_setup_is_not_counted_against_a_timeout() -> None:
+def test_the_held_joint_setup_is_not_counted_against_a_timeout(
+    fake_clock: FakeClock, monkeypatch: pytest.MonkeyPatch
+) -> None:
     """Finding the form around a joint (tens of ms, once per robot and joint) is a robot's
     one-time setup: the budget clock of ``timeout_s`` stops while it runs."""
+    # The search "takes" 1 s of the test's clock (no load on the machine moves it), and
+    # the budget clock must not see any of it.
+    find = held_joint.free_joint.free_joint_plan
+    searches: list[int] = []
+
+    def slow_find(robot: Robot, k: int) -> object:
+        searches.append(k)
+        plan = find(robot, k)
+        fake_clock.advance(1.0)
+        return plan
+
+    monkeypatch.setattr(held_joint.free_joint, "free_joint_plan", slow_find)
     fresh = load_problem("panda").robot  # a new Robot: nothing cached
-    wall, excluded = time.perf_counter(), excluded_seconds()
+    wall, budget, excluded = fake_clock.now, budget_clock(), excluded_seconds()
     assert free_joint_reason(fresh, Q7) == ""
-    wall, excluded = time.perf_counter() - wall, excluded_seconds() - excluded
-    assert excluded >= 0.9 * wall and wall > 0.0
+    assert searches == [6]  # the search ran, here
+    assert fake_clock.now - wall == pytest.approx(1.0, abs=1e-9)
+    assert excluded_seconds() - excluded == pytest.approx(1.0, abs=1e-9)
+    assert budget_clock() - budget == pytest.approx(0.0, abs=1e-9)
 
 
 def test_panda_with_q7_frozen_answers_with_a_branch() -> None:

@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 import pytest
+from conftest import FakeClock
 
 import optik
 from optik.compare import planar_2r_example
@@ -97,16 +98,23 @@ def test_unreachable_and_outside_limits_statuses() -> None:
     assert result.limit_violation == pytest.approx(1.0, abs=1e-9)
 
 
-def test_numeric_failure_statuses() -> None:
+def test_numeric_failure_statuses(fake_clock: FakeClock) -> None:
     panda = load_problem("panda").robot
     far = np.eye(4)
     far[:3, 3] = [0.0, 0.0, 1.33]  # inside the reach sphere, beyond the arm: no proof
     result = optik.solve_ik(panda, far, restarts=3)
     assert not result.success and result.status == "max_iter"
     assert result.restarts == 3
+    # Each reading of the budget's clock moves it 3 ms, whatever the machine's load: the
+    # 20 ms deadline passes at a known check, and the run stops there, in its first
+    # attempt (the attempt's check, then the run's: no third check past it).
+    fake_clock.checks.clear()
+    fake_clock.tick = 0.003
     result = optik.solve_ik(panda, far, timeout_s=0.02, solver="pinv", max_iter=50)
     assert not result.success and result.status == "timeout"
-    assert result.time_s < 1.0
+    deadline = fake_clock.checks[0] + 0.02  # the first check sets the deadline
+    assert result.restarts == 0 and 0 < result.iterations < 50
+    assert sum(t > deadline for t in fake_clock.checks) == 2
 
 
 class _Exploding(IKSolver):

@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 import pytest
+from conftest import FakeClock
 
 import optik
 from optik.problems import load_problem
@@ -96,14 +97,20 @@ def test_timeout_inf_means_no_time_limit_with_a_finite_budget() -> None:
     assert res.status == "max_iter" and res.restarts == optik.ik.DEFAULT_RESTARTS
 
 
-def test_timeout_stops_an_unlimited_run() -> None:
+def test_timeout_stops_an_unlimited_run(fake_clock: FakeClock) -> None:
     panda = load_problem("panda").robot
     target = panda.fk(panda.mid_limits)
     target[:3, 3] = [0.0, 0.0, 1.33]
+    # Each reading of the budget's clock moves it 1 ms, whatever the machine's load: the
+    # 0.2 s deadline passes after 200 checks (slices of up to 16 attempts between them),
+    # not after however many attempts a loaded machine manages in 0.2 s.
     optik.solve_ik(panda, target, solver="dls", restarts=1)  # compile outside the timing
+    fake_clock.checks.clear()
+    fake_clock.tick = 0.001
     res = optik.solve_ik(panda, target, solver="dls", timeout_s=0.2, seed=0)
     assert res.status == "timeout" and res.restarts > optik.ik.DEFAULT_RESTARTS
-    assert res.time_s < 2.0
+    deadline = fake_clock.checks[0] + 0.2  # the first check sets the deadline
+    assert sum(t > deadline for t in fake_clock.checks) == 1  # it stops at the first check
 
 
 def test_lazy_ranking_equals_the_stable_sort_in_any_order_of_asking() -> None:
