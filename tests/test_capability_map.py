@@ -328,6 +328,10 @@ def test_a_chunk_too_large_for_memory_is_refused_before_any_file(tmp_path: Path)
 def test_the_threads_write_the_map_and_the_client_only_what_they_cannot(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
+    # Two chunk threads whatever the machine: with one (a 1-core machine, or
+    # NUMBA_NUM_THREADS=1) the chunks run on the calling thread, and a disk that only
+    # the worker threads cannot write would never be put to the test.
+    monkeypatch.setattr(Engine, "pool_size", property(lambda self: 2))
     robot = robot_of("puma560")
     options: dict[str, Any] = {"mode": "axis", "chunk": 2, "keep_q": True, **PUMA}
     reference = capability_map(robot, **options)  # in memory: the arrays come back
