@@ -80,6 +80,24 @@ def _store(a: Rows12, out: np.ndarray) -> None:
     out[3, 3] = 1.0
 
 
+@inline
+def drives_slide(prismatic: np.ndarray, coupling: np.ndarray, identity: bool, a: int) -> bool:
+    """Whether joint ``a`` drives a prismatic joint of the chain.
+
+    Args:
+        prismatic: (nc,) the chain joints' prismatic flags.
+        coupling: (nc, dof) the chain's coupling ``theta = C q``.
+        identity: whether ``coupling`` is the identity (joint ``a`` is chain joint ``a``).
+        a: the joint's index.
+    """
+    if identity:
+        return bool(prismatic[a])
+    for c in range(prismatic.shape[0]):  # noqa: SIM110 (a loop: numba has no any() of this)
+        if prismatic[c] and coupling[c, a] != 0.0:
+            return True
+    return False
+
+
 @jit
 def fk_into(K: np.ndarray, prismatic: np.ndarray, theta: np.ndarray, out: np.ndarray) -> None:
     """Forward kinematics of one chain configuration ``theta`` (n,) into ``out`` (4, 4).

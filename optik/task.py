@@ -116,6 +116,11 @@ class Task:
         return bool(np.any(positive != 1.0))
 
     @property
+    def damping_bias(self) -> float:
+        """The factor on a damped search's bias (:func:`balanced_search`; else 1)."""
+        return float(self.packed[_BIAS])
+
+    @property
     def search(self) -> Task:
         """The task with every positive weight set to 1 (``self`` if none is graded).
 

@@ -111,6 +111,10 @@ _SLOTS = 29
 _K, _CC = range(2)
 # Entry of Task.packed saying 2.0 for a position task with unit weights (optik.task).
 _TASK_FAST = 10
+# Entry of Task.packed holding a length-balanced search's arm size L (m), else 0
+# (optik.task.balanced_search): a slide's damping is then over L^2, its travel measured
+# in the arm's size, as in the compiled dls.
+_TASK_LENGTH = 12
 
 
 StepBuffers = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, bool]
@@ -302,18 +306,22 @@ def fill_step(
         if not lo <= hi:
             consistent = False
     pmax = 0.0
+    length = task[_TASK_LENGTH]
     for i in range(nv):
         if least_squares:
             acc = 0.0
             for r in range(m):
                 acc -= J[r, i] * v[r]
             c[i] = acc
+            damping = lam * lam
+            if length > 0.0 and _kernels.drives_slide(prismatic, C, identity, moving[i]):
+                damping /= length * length
             for j in range(i, nv):
                 acc = 0.0
                 for r in range(m):
                     acc += J[r, i] * J[r, j]
                 if i == j:
-                    acc += lam * lam
+                    acc += damping
                 P[i, j] = acc
                 P[j, i] = acc
                 pmax = max(pmax, abs(acc))

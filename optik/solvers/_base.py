@@ -228,6 +228,10 @@ class IKSolver(ABC):
     """Whether the solver takes only a full pose or a point with unit weights inside the
     plain joint limits (the QP and CasADi forms of weighted and axis tasks, frozen joints
     and limit margins are not built yet)."""
+    balanced: bool = False
+    """Whether the solver searches with the task's units balanced for the arm's size
+    (:func:`optik.task.balanced_search`): a damped or tolerance-driven search, whose
+    damping and stopping rules read the residual's size."""
 
     @classmethod
     def is_available(cls) -> bool:
@@ -278,8 +282,11 @@ class IKSolver(ABC):
         )
 
     def searched(self, query: IKQuery) -> IKQuery:
-        """The query :meth:`run` searches with: the search twin (:meth:`IKQuery.searching`)."""
-        return query.searching()
+        """The query :meth:`run` searches with: the search twin, balanced when :attr:`balanced`.
+
+        See :meth:`IKQuery.searching`.
+        """
+        return query.searching(balanced=self.balanced)
 
     def attempts(
         self,

@@ -17,7 +17,7 @@ import math
 
 import numpy as np
 
-from optik._kernels import fk_jacobian_work
+from optik._kernels import drives_slide, fk_jacobian_work
 from optik._math import cholesky_solve
 from optik._nrt import borrowed
 from optik._numba import inline, jit
@@ -225,14 +225,7 @@ def workspace(n_chain: int, dof: int) -> tuple[np.ndarray, ...]:
 @inline
 def _slides(view: KernelChain, a: int) -> bool:
     """Whether joint ``a`` drives a prismatic joint of the chain ``view``."""
-    prismatic = view[1]
-    if view[3]:  # no coupling: joint a is chain joint a
-        return bool(prismatic[a])
-    coupling = view[2]
-    for c in range(prismatic.shape[0]):  # noqa: SIM110 (a loop: numba has no any() of this)
-        if prismatic[c] and coupling[c, a] != 0.0:
-            return True
-    return False
+    return drives_slide(view[1], view[2], view[3], a)
 
 
 @jit

@@ -50,8 +50,15 @@ from optik.programs.nlp_codegen import (
     compiled_nlpsol,
     compiled_solver,
 )
-from optik.solvers._base import IKQuery, IKSolver, SolverOutput, budget_now, register_solver
-from optik.task import Task, task_error
+from optik.solvers._base import (
+    IKQuery,
+    IKSolver,
+    SolverOutput,
+    budget_now,
+    register_solver,
+    search_length,
+)
+from optik.task import BALANCE_BAND, Task, task_error
 
 __all__ = [
     "NLP_OPTIONS",
@@ -548,6 +555,17 @@ class CasadiNLPSolver(IKSolver):
         # so a thread reading it sees one query's setup or another's, never a mix.
         self._last: tuple[IKQuery, int, _Setup] | None = None
 
+    def searched(self, query: IKQuery) -> IKQuery:
+        """The search twin, balanced for an arm smaller than :data:`BALANCE_BAND`.
+
+        The backends' tolerances are absolute: a millimetre arm's residual in metres
+        meets them 1e-6-2e-4 m short of the target. A large arm's program is left in
+        metres: balanced, its slides' columns shrink by ``1 / L`` beside the revolute
+        joints' (the NLP has no damping to even them), and the Stanford arm at 1e3 took
+        ten times the iterations.
+        """
+        return query.searching(balanced=search_length(query.robot) < BALANCE_BAND[0])
+
     def backend(self, query: IKQuery, max_iter: int) -> NLPBackend:
         """The solver of the query's task shape (one solve of at most ``max_iter``)."""
         return nlp_backend(
@@ -602,11 +620,15 @@ class CasadiNLPSolver(IKSolver):
         # target's axes (Task.needs_target_frame), as the verification reads them.
         framed = task.mode != "position" or task.needs_target_frame
         rotation = target[:3, :3] if framed else np.eye(3)
+        # A balanced search's residual in the arm's units (optik.task.balanced_search:
+        # its weights are those times the bias), where the backends' absolute
+        # tolerances mean the same on a millimetre arm as on a metre one.
+        bias = task.damping_bias
         params = np.concatenate(
             [
                 target[:3, 3],
                 rotation.ravel(order="F"),
-                np.sqrt(task.weights),
+                np.sqrt(task.weights / bias),
                 np.zeros(1 + query.robot.dof),
             ]
         )
@@ -616,7 +638,7 @@ class CasadiNLPSolver(IKSolver):
             params,
             None if bounds is None else bounds[0],
             None if bounds is None else bounds[1],
-            stop_objective(task),
+            stop_objective(task) / bias,
             _Measure(query),
         )
         self._last = (query, budget, setup)

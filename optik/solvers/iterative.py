@@ -113,16 +113,13 @@ class DLSSolver(IKSolver):
 
     name = "dls"
     default_max_iter = 100
+    balanced = True
     w_bias = 1e-3
 
     def solve(self, query: IKQuery, q0: FloatArray, max_iter: int, deadline: float) -> SolverOutput:
         """Run the compiled projected LM from ``q0``."""
         q, it, ok = run_lm(query, q0, max_iter, self.w_bias, STALL_WINDOW, STALL_RATIO)
         return SolverOutput(q, it, ok, "converged" if ok else "stalled or max_iter")
-
-    def searched(self, query: IKQuery) -> IKQuery:
-        """The search twin, its units balanced for the arm (:meth:`IKQuery.searching`)."""
-        return query.searching(balanced=True)
 
     def attempts(
         self,

@@ -184,6 +184,7 @@ class QPStepSolver(IKSolver):
     kind = "qp"
     default_max_iter = 100
     plain_tasks_only = False
+    balanced = True  # the damping's bias and the stall floor are in the residual's units
     #: Initial damping scale ``s``. Measured on 200 random Panda poses (qp:daqp): 0.01
     #: took 12.8 QP solves per target on average (95th percentile 38, the worst 244),
     #: 1.0 took 14.9 (38, 276); the plain Levenberg-Marquardt damping used before
@@ -233,9 +234,12 @@ class QPStepSolver(IKSolver):
         q_new = np.empty_like(q)
         e_new = np.zeros(6)
         vmax = np.empty(query.robot.dof)
+        # A balanced search's residual is sqrt(bias) times its size in the arm's units
+        # (optik.task.balanced_search): the damping's bias and the trust ratio follow it.
+        bias = task.damping_bias
         lm = np.array(
-            [np.inf, 0.0, 0.0, self.initial_scale, self.w_bias, self.trust_radius,
-             self.trust_ratio, self.min_scale]
+            [np.inf, 0.0, 0.0, self.initial_scale, self.w_bias * bias, self.trust_radius,
+             self.trust_ratio / math.sqrt(bias), self.min_scale]
         )  # fmt: skip
         buffers = arrays.buffers
         code = _lm_move(buffers, arrays.zero_step, q, e, q_new, e_new, vmax, lm)
