@@ -184,7 +184,7 @@ class QPStepSolver(IKSolver):
     kind = "qp"
     default_max_iter = 100
     plain_tasks_only = False
-    balanced = True  # the damping's bias and the stall floor are in the residual's units
+    balanced = True  # its damping's bias and trust ratio read the residual's size
     #: Initial damping scale ``s``. Measured on 200 random Panda poses (qp:daqp): 0.01
     #: took 12.8 QP solves per target on average (95th percentile 38, the worst 244),
     #: 1.0 took 14.9 (38, 276); the plain Levenberg-Marquardt damping used before
