@@ -253,7 +253,8 @@ def posture_answers(
     stop = min(last, POSTURE_ATTEMPTS)
     _, refined_q, kept, _, _, count, iterations, attempts = posture_search(
         robot.chain.kernel_args(query.bounds), query.target, query.spec.search.packed,
-        starts.given, *starts.table, int(max_iter), numeric.w_bias, stop, starts.seed,
+        starts.given, *starts.table, starts.mask, int(max_iter), numeric.w_bias, stop,
+        starts.seed,
         np.ascontiguousarray(q_ref, dtype=np.float64),
         np.ascontiguousarray(weights, dtype=np.float64), POSTURE_ANSWERS, POSTURE_STEPS,
     )  # fmt: skip

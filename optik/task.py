@@ -77,7 +77,8 @@ class Task:
         position_tol: position tolerance (m).
         orientation_tol: orientation tolerance (rad).
         packed: the task as the compiled kernels take it (read-only).
-        features: (12,) 0/1 mask of the seed-table features that rank starts for it.
+        features: (12,) weights of the seed-table features that rank starts for it
+            (:func:`task_features`).
     """
 
     mode: str
@@ -119,6 +120,11 @@ class Task:
     def damping_bias(self) -> float:
         """The factor on a damped search's bias (:func:`balanced_search`; else 1)."""
         return float(self.packed[_BIAS])
+
+    @property
+    def balance_length(self) -> float:
+        """The arm's size (m) a balanced search is measured in (:func:`balanced_search`), else 0."""
+        return float(self.packed[_LENGTH])
 
     @property
     def search(self) -> Task:
@@ -466,15 +472,21 @@ def task_rows(J: np.ndarray, target: np.ndarray, task: np.ndarray) -> int:
 
 @jit
 def task_features(task: np.ndarray) -> np.ndarray:
-    """(12,) 0/1 mask of the seed-table pose features that rank starts for ``task``.
+    """(12,) weights of the seed-table pose features that rank starts for ``task``.
 
     Position (3) then ``sqrt(w) R`` row by row (9): all for a full pose; the position
     when any position weight is positive; the rotation when the orientation is full;
-    the column of the tool axis for ``axis``.
+    the column of the tool axis for ``axis``. Each weight is 1 (0: not used), but a
+    length-balanced search's position weight ``1 / L^2`` (:func:`balanced_search`):
+    distances in the arm's size, as near a metre arm's, not ranked by rotation alone on
+    a millimetre arm nor by position alone on a kilometre one.
     """
     mask = np.zeros(12)
     if task[_W] > 0.0 or task[_W + 1] > 0.0 or task[_W + 2] > 0.0:
-        mask[0] = mask[1] = mask[2] = 1.0
+        length = task[_LENGTH]
+        # Capped: the square of a size below 1e-154 m underflows.
+        w = min(1.0 / (length * length), 1e300) if length > 0.0 else 1.0
+        mask[0] = mask[1] = mask[2] = w
     kind = int(task[_KIND])
     if kind == FULL_ROTATION:
         for j in range(3, 12):

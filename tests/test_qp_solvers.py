@@ -168,17 +168,20 @@ def test_a_stalled_proxqp_step_is_capped(monkeypatch: pytest.MonkeyPatch) -> Non
         return answer
 
     monkeypatch.setattr(qp_direct._Proxqp, "_solve", counted)
-    # The search in metres, as it was when this step stalled (the balanced search of a
-    # kilometre arm no longer meets it): the cap is the backend's, whatever the search.
+    # The search in metres from the start where this step stalled (the seed table's
+    # third start then; the balanced search of a kilometre arm, and the table ranked in
+    # its size, no longer meet it): the cap is the backend's, whatever the search.
     monkeypatch.setattr(QPStepSolver, "balanced", False)
     base = robot_of("ur5")
     robot = optik.Robot.from_dh([replace(r, a=r.a * 1e3, d=r.d * 1e3) for r in base.dh])
     q = np.array([-5.03394836, -0.62097304, -6.42976063e-09, 1.51138766, 0.0504474737, 5.49581603])
+    stalling = np.array([1.35049037, 5.37033694, -5.34863878, 1.10188208, 5.29667167, 6.21427729])
     result = optik.solve_ik(
-        robot, robot.fk(q), solver="qp:proxqp", warm_start="q0", restarts=2, max_iter=40
-    )
+        robot, robot.fk(q), solver="qp:proxqp", warm_start="q0", q0=stalling, restarts=0,
+        max_iter=40,
+    )  # fmt: skip
     cap = qp_direct.BACKEND_OPTIONS["proxqp"]["max_iter"] * qp_direct.PROXQP_MAX_ITER_IN
-    # The third start stalls: 90,834 iterations in one step (15 million before the cap).
+    # It stalls: about 90,000 iterations in one step (15 million before the cap).
     assert iterations and 10_000 < max(iterations) <= cap == 100_000
     if result.success:  # whatever the outcome, an honest one
         np.testing.assert_allclose(robot.fk(result.q), robot.fk(q), atol=1e-6)

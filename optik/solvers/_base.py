@@ -264,7 +264,9 @@ class IKSolver(ABC):
         """
         search = self.searched(query)
         found = self.attempts(search, starts, max_iter, last, deadline, start)
-        if search is query or found.status_if_failed == "solver_failed":
+        # A plain task searched in the arm's units (not graded) has no compromise: its
+        # best attempt is the answer, as on an arm of a metre.
+        if search is query or not query.spec.is_graded or found.status_if_failed == "solver_failed":
             return found
         # Verified, not the backend's own claim (an NLP "solved to an acceptable level"
         # short of the task): such an answer needs the compromise too.

@@ -54,7 +54,7 @@ from optik.solvers._lm_kernel import (
     workspace,
 )
 from optik.solvers._starts import nearest_table, start_into
-from optik.task import task_converged, task_features
+from optik.task import task_converged
 
 # The helpers of the inner loops are inlined into their callers (numba IR): as calls, the
 # reference counting of the scratch arrays they take made posture_refine 5-7 % slower
@@ -565,6 +565,7 @@ def posture_search(
     table_features: np.ndarray,
     table_centroids: np.ndarray,
     table_offsets: np.ndarray,
+    mask: np.ndarray,
     max_iter: int,
     w_bias: float,
     last: int,
@@ -577,7 +578,9 @@ def posture_search(
     """Answers of attempts 0 to ``last`` (:func:`optik.solvers._lm_kernel.lm_attempt`), refined.
 
     The attempts take the starts of :func:`optik.solvers._starts.start_into` (``given``
-    first, then the seed table ``table_*`` and seeded draws) with the stall rules of
+    first, then the seed table ``table_*`` ranked by the feature weights ``mask``
+    (:attr:`optik.solvers._starts.StartSequence.mask`) and seeded draws) with the stall
+    rules of
     :func:`optik.solvers._lm_kernel.lm_solve_restarts`, and stop after ``want`` converged
     answers. The first answer is refined by :func:`posture_refine` (``refine_iter`` steps
     at most), and each later one only if it lies nearer ``q_ref`` (weighted) than the
@@ -595,9 +598,7 @@ def posture_search(
     lower, upper = chain[4], chain[5]
     dof = lower.shape[0]
     scratch = workspace(chain[1].shape[0], dof)
-    nearest = nearest_table(
-        table_features, table_centroids, table_offsets, target, task_features(task)
-    )
+    nearest = nearest_table(table_features, table_centroids, table_offsets, target, mask)
     answers = np.empty((want, dof))
     refined = np.empty((want, dof))
     converged = np.zeros(want, dtype=np.bool_)

@@ -18,8 +18,9 @@ import numpy as np
 
 from optik._checks import FloatArray
 from optik.model import Robot
+from optik.solvers._base import search_length
 from optik.solvers._starts import ROTATION_WEIGHT, StartSequence, table_order
-from optik.task import Task, as_task
+from optik.task import Task, as_task, balanced_search
 
 TABLE_SIZE = 8192
 """Entries per robot. Measured on 20,000 random Panda poses (the quick stall rule of
@@ -111,7 +112,13 @@ def build_seed_table(
     upper = np.where(np.isfinite(robot.upper), robot.upper, math.pi)
     Q = rng.uniform(lower, upper, (size, robot.dof))
     features = pose_features(robot.fk(Q))
-    centres, labels = _kmeans(features, min(clusters, size), rng)
+    # Clustered in the arm's size, as the starts are ranked (a millimetre arm's clusters
+    # would group rotations alone, a kilometre arm's positions alone); a linear scale
+    # of each feature, so the centres are the clusters' means in either.
+    scale = np.ones(12)
+    scale[:3] = math.sqrt(_writable_mask(robot, "pose")[0])
+    centres, labels = _kmeans(features * scale, min(clusters, size), rng)
+    centres /= scale
     order = np.argsort(labels, kind="stable")
     offsets = np.searchsorted(labels[order], np.arange(len(centres) + 1))
     cached = SeedTable(
@@ -132,7 +139,7 @@ def nearest_seeds(robot: Robot, target: FloatArray, mode: str | Task, count: int
     table = seed_table(robot)
     order = table_order(
         table.features, table.centroids, table.offsets, np.asarray(target, float),
-        _writable_mask(mode),
+        _writable_mask(robot, mode),
     )  # fmt: skip
     return table.q[order[:count]]
 
@@ -153,13 +160,16 @@ def start_sequence(
     G = np.asarray(given, dtype=np.float64).reshape(-1, robot.dof)
     lower, upper = (robot.lower, robot.upper) if bounds is None else bounds
     T = np.ascontiguousarray(target, dtype=np.float64)
-    return StartSequence(G, table.kernel_args(), T, _writable_mask(mode), lower, upper, seed)
+    mask = _writable_mask(robot, mode)
+    return StartSequence(G, table.kernel_args(), T, mask, lower, upper, seed)
 
 
-def _writable_mask(mode: str | Task) -> FloatArray:
-    """The task's feature mask (12,), as a writable copy.
+def _writable_mask(robot: Robot, mode: str | Task) -> FloatArray:
+    """The task's feature weights (12,) for ``robot``, as a writable copy.
 
-    The compiled kernels get a writable mask from compiled callers (``task_features``);
-    a read-only one (``Task.features``) would compile them once more for that type.
+    Those of its search measured in the arm's size (:func:`optik.task.balanced_search`),
+    as the compiled ``dls`` ranks them. The compiled kernels get a writable mask from
+    compiled callers (``task_features``); a read-only one (``Task.features``) would
+    compile them once more for that type.
     """
-    return as_task(mode).features.copy()
+    return balanced_search(as_task(mode), search_length(robot)).features.copy()

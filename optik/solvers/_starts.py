@@ -170,8 +170,9 @@ def table_candidates(
     ``features`` (12, M) and ``centroids`` (12, C) are pose features (position, then
     ``sqrt(ROTATION_WEIGHT) R`` row by row: :func:`optik.solvers._seeds.pose_features`),
     so squared distances are ``||p_i - p*||^2 + w ||R_i - R*||_F^2`` over the features
-    that ``mask`` (12,) marks with 1 (:func:`optik.task.task_features`: all twelve for a
-    full pose, the first three for a point, the tool axis's column for ``axis``).
+    that ``mask`` (12,) weights (:func:`optik.task.task_features`: all twelve for a full
+    pose, the first three for a point, the tool axis's column for ``axis``; 1 each, the
+    position's ``1 / L^2`` for an arm measured in its size ``L``), zero weights skipped.
     Returns ``(indices (k,), squared distances (k,))``; both are empty when no distance
     is finite (a target whose coordinates overflow).
     Loops run over contiguous rows of one feature, which vectorise.
@@ -183,12 +184,13 @@ def table_candidates(
         f[j] = target[j, 3] if j < 3 else SQRT_ROTATION_WEIGHT * target[(j - 3) // 3, (j - 3) % 3]
     to_centre = np.zeros(centroids.shape[1])
     for j in range(12):
-        if mask[j] == 0.0:
+        w = mask[j]
+        if w == 0.0:
             continue
         row = centroids[j]
         for c in range(row.shape[0]):
             x = row[c] - f[j]
-            to_centre[c] += x * x
+            to_centre[c] += w * x * x
     nearest = -1
     value = np.inf
     for c in range(to_centre.shape[0]):
@@ -204,12 +206,13 @@ def table_candidates(
         index[t] = lo + t
     distances = np.zeros(n)
     for j in range(12):
-        if mask[j] == 0.0:
+        w = mask[j]
+        if w == 0.0:
             continue
         row = features[j, lo : lo + n]
         for t in range(n):
             x = row[t] - f[j]
-            distances[t] += x * x
+            distances[t] += w * x * x
     return index, distances
 
 
@@ -234,7 +237,8 @@ class StartSequence:
         table: the robot's seed table, ``(q (T, dof), features (12, T), centroids (12,
             C), offsets (C + 1,))`` (:class:`optik.solvers._seeds.SeedTable`).
         target: (4, 4) the target pose, which ranks the table's entries.
-        mask: (12,) the pose features that rank them (:func:`optik.task.task_features`).
+        mask: (12,) the weights of the pose features that rank them
+            (:func:`optik.task.task_features` of the search measured in the arm's size).
         lower: (dof,) lower limits.
         upper: (dof,) upper limits.
         seed: stream of the uniform draws.

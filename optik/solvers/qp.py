@@ -22,6 +22,7 @@ import scipy.sparse as spa
 from optik._checks import MAX_LENGTH_M, FloatArray
 from optik._numba import jit
 from optik.limits import Q_CLIP_TOLERANCE
+from optik.model import Robot
 from optik.programs.diff_qp import DiffIKProgram, QPSolution
 from optik.programs.step_arrays import (
     FILL_OK,
@@ -234,6 +235,7 @@ class QPStepSolver(IKSolver):
         q_new = np.empty_like(q)
         e_new = np.zeros(6)
         vmax = np.empty(query.robot.dof)
+        reach = _trust_reach(query.robot, task)
         # A balanced search's residual is sqrt(bias) times its size in the arm's units
         # (optik.task.balanced_search): the damping's bias and the trust ratio follow it.
         bias = task.damping_bias
@@ -242,7 +244,7 @@ class QPStepSolver(IKSolver):
              self.trust_ratio / math.sqrt(bias), self.min_scale]
         )  # fmt: skip
         buffers = arrays.buffers
-        code = _lm_move(buffers, arrays.zero_step, q, e, q_new, e_new, vmax, lm)
+        code = _lm_move(buffers, arrays.zero_step, q, e, q_new, e_new, vmax, reach, lm)
         err2, position, orientation = lm[:3].tolist()
         position_tol, orientation_tol = task.position_tol, task.orientation_tol
         if nv == 0:  # every joint frozen: nothing to solve, only to judge
@@ -276,7 +278,7 @@ class QPStepSolver(IKSolver):
             iterations += 1
             if x is None:
                 return SolverOutput(q, iterations, False, f"{self.name} failed: {status}", True)
-            code = _lm_move(buffers, x, q, e, q_new, e_new, vmax, lm)
+            code = _lm_move(buffers, x, q, e, q_new, e_new, vmax, reach, lm)
             if code == _NOT_FINITE:
                 return SolverOutput(q, iterations, False, f"{self.name} failed: {status}", True)
             err2, position, orientation, scale = lm[:4].tolist()
@@ -291,25 +293,42 @@ _ERR2, _POSITION, _ORIENTATION, _SCALE, _W_BIAS, _RADIUS, _RATIO, _MIN_SCALE = r
 _NOT_FINITE: Final[int] = -1
 
 
+def _trust_reach(robot: Robot, task: Task) -> FloatArray:
+    """(dof,) each joint's trust radius per unit of the loop's (rad; a slide's in m).
+
+    1, but the arm's size ``L`` for a joint that drives a slide in a search measured in
+    that size (:func:`optik.task.balanced_search`): a 4 km slide moved 0.5 m a step.
+    """
+    reach = np.ones(robot.dof)
+    length = task.balance_length
+    if length > 0.0:
+        chain = robot.chain
+        slides = np.any((chain.C != 0.0) & chain.prismatic.astype(bool)[:, None], axis=0)
+        reach[slides] = length
+    return reach
+
+
 @jit
 def _lm_fill(
     buffers: StepBuffers,
     q: np.ndarray,
     e: np.ndarray,
     vmax: np.ndarray,
+    reach: np.ndarray,
     lm: np.ndarray,
 ) -> int:
     """Fill the step program at ``q`` for the residual ``e`` with the loop's damping.
 
     ``buffers`` is :attr:`~optik.programs.step_arrays.StepArrays.buffers`. The trust
-    radius ``min(trust_radius, trust_ratio ||e||)`` goes into ``vmax`` (dof,), the damping
+    radius ``min(trust_radius, trust_ratio ||e||)`` times ``reach`` (:func:`_trust_reach`)
+    goes into ``vmax`` (dof,), the damping
     is ``sqrt(s (||e||^2 / 2 + w_bias))`` (see :class:`QPStepSolver`); ``lm`` is the
     loop's state. Returns the code of :func:`~optik.programs.step_arrays.fill_step`.
     """
     err2 = lm[_ERR2]
     radius = min(lm[_RADIUS], lm[_RATIO] * math.sqrt(err2))
     for i in range(vmax.shape[0]):
-        vmax[i] = radius
+        vmax[i] = radius * reach[i]
     damping = math.sqrt(lm[_SCALE] * (0.5 * err2 + lm[_W_BIAS]))
     const, const_layout, ints, buf, layout, identity = buffers
     yes = np.bool_(True)  # a value, not a literal (see _lm_move)
@@ -328,6 +347,7 @@ def _lm_move(
     q_new: np.ndarray,
     e_new: np.ndarray,
     vmax: np.ndarray,
+    reach: np.ndarray,
     lm: np.ndarray,
 ) -> int:
     """Marquardt's move on the backend's point ``x``, then the next program (one call).
@@ -366,7 +386,7 @@ def _lm_move(
             lm[_SCALE] = max(0.5 * lm[_SCALE], lm[_MIN_SCALE])
     else:
         lm[_SCALE] *= 4.0
-    return _lm_fill(buffers, q, e, vmax, lm)
+    return _lm_fill(buffers, q, e, vmax, reach, lm)
 
 
 class QPStepBackend(StepBackend):
