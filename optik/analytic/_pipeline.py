@@ -607,7 +607,7 @@ def postprocess_rows(
                 finite = False
         if not finite:
             continue
-        _wrap_row(params, layout, rows, r, ref, kr)
+        _wrap_row(params, _runtime(layout), rows, r, ref, kr)  # as _refine_row's call
         if held >= 0:
             rows[r, held] = held_value
         if within:

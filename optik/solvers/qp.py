@@ -20,6 +20,7 @@ import qpsolvers.solvers
 import scipy.sparse as spa
 
 from optik._checks import MAX_LENGTH_M, FloatArray
+from optik._kernels import drives_slide
 from optik._numba import jit
 from optik.limits import Q_CLIP_TOLERANCE
 from optik.model import Robot
@@ -303,8 +304,9 @@ def _trust_reach(robot: Robot, task: Task) -> FloatArray:
     length = task.balance_length
     if length > 0.0:
         chain = robot.chain
-        slides = np.any((chain.C != 0.0) & chain.prismatic.astype(bool)[:, None], axis=0)
-        reach[slides] = length
+        for a in range(robot.dof):
+            if drives_slide(chain.prismatic, chain.C, chain.identity, a):
+                reach[a] = length
     return reach
 
 
