@@ -87,6 +87,10 @@ def _closed_forms() -> None:
         targets = _targets(robot, 2, 0)
         optik.solve_ik(robot, targets[0])
         optik.analytic_ik(robot, targets[1])
+    # A pose whose every branch lies outside the limits: the quick proof's kernel.
+    puma = _problem_robot("puma560")
+    boxed = puma.with_limits(puma.mid_limits - 0.1, puma.mid_limits + 0.1)
+    optik.analytic_ik(boxed, puma.fk(puma.mid_limits + 0.7))
 
 
 def _held_joint() -> None:

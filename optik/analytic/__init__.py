@@ -65,6 +65,7 @@ from optik.analytic._base import (
     match_families,
     places_tool_point,
 )
+from optik.analytic._outside import proven_outside
 from optik.analytic._polish import polish
 from optik.analytic._steps import (
     _beyond_reach,
@@ -245,6 +246,13 @@ def analytic_ik(
             return [out[i] for i in range(n)]  # cheaper than list(out[:n]): no slice view
         if n < 0:
             raise_input_error(robot, target, q_ref, n)
+        if (
+            within_limits
+            and proven_outside(
+                robot, plan, target[None], ref[None], flags & ~_WITHIN_LIMITS, SINGULAR_GATE
+            )[0]
+        ):
+            return []
         family = cast(AnalyticFamily, family_of(robot))
         return _degenerate(robot, family, target, mode, ref, q_ref is not None, within_limits)
     family = _check_mode(robot, mode)
@@ -518,7 +526,13 @@ def checked_batch(
         ref = pipeline.mid.reshape(1, dof) if refs is None else plain(refs)
         flags = (0 if refs is None else _SORT) | (_WITHIN_LIMITS if within_limits else 0)
         Q, counts = pipeline.solve_batch(pipeline.params, T, ref, flags)
-        for row in np.flatnonzero(counts == 0).tolist() if polish else []:
+        empty = np.flatnonzero(counts == 0) if polish else np.zeros(0, dtype=np.int64)
+        if within_limits and empty.size:
+            rows_ref = ref if len(ref) == 1 else ref[empty]
+            unlimited = flags & ~_WITHIN_LIMITS
+            proven = proven_outside(robot, pipeline, T[empty], rows_ref, unlimited, SINGULAR_GATE)
+            empty = empty[~proven]
+        for row in empty.tolist():
             ref_k = ref[0 if len(ref) == 1 else row]
             found = _degenerate(robot, family, T[row], mode, ref_k, refs is not None, within_limits)
             for b, q in enumerate(found[: Q.shape[1]]):
