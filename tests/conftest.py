@@ -13,7 +13,7 @@ import math
 import os
 import signal
 from collections.abc import Iterator
-from dataclasses import fields
+from dataclasses import fields, replace
 from pathlib import Path
 from typing import Any
 
@@ -211,6 +211,23 @@ def scaled_dh(rows: Any, scale: float, limit: float, base: np.ndarray | None = N
         for row in rows
     ]
     return Robot.from_dh(scaled, base=base)
+
+
+def scaled_problem(name: str, scale: float) -> Robot:
+    """A built-in robot with every length (links, slides, base, tool) times ``scale``."""
+    robot = load_problem(name).robot
+    rows = []
+    for row in robot.dh:
+        change = {"a": row.a * scale, "d": row.d * scale}
+        if row.kind == "prismatic":
+            change |= {"lower": row.lower * scale, "upper": row.upper * scale}
+        rows.append(replace(row, **change))
+    base = robot.T_world_base.copy()
+    base[:3, 3] *= scale
+    tool = robot.T_flange_tool.copy()
+    tool[:3, 3] *= scale
+    build = Robot.from_mdh if robot.convention == "mdh" else Robot.from_dh
+    return build(rows, base=base, tool=tool)
 
 
 def random_q(robot: Robot, rng: np.random.Generator, n: int | None = None) -> np.ndarray:

@@ -10,11 +10,9 @@ targets. The search now measures positions and slides in the arm's size
 
 from __future__ import annotations
 
-from dataclasses import replace
-
 import numpy as np
 import pytest
-from conftest import scaled_dh
+from conftest import scaled_dh, scaled_problem
 from scipy.spatial.transform import Rotation
 
 import optik
@@ -73,23 +71,6 @@ def test_millimetre_arm_is_solved_by_dls_and_the_batch(scale: float) -> None:
     assert np.max(np.linalg.norm(reached - targets[:, :3, 3], axis=1)) <= tight[0]
 
 
-def _scaled(name: str, scale: float) -> optik.Robot:
-    """A built-in robot with every length (links, slides, base, tool) times ``scale``."""
-    robot = optik.load_problem(name).robot
-    rows = []
-    for row in robot.dh:
-        change = {"a": row.a * scale, "d": row.d * scale}
-        if row.kind == "prismatic":
-            change |= {"lower": row.lower * scale, "upper": row.upper * scale}
-        rows.append(replace(row, **change))
-    base = robot.T_world_base.copy()
-    base[:3, 3] *= scale
-    tool = robot.T_flange_tool.copy()
-    tool[:3, 3] *= scale
-    build = optik.Robot.from_mdh if robot.convention == "mdh" else optik.Robot.from_dh
-    return build(rows, base=base, tool=tool)
-
-
 @pytest.mark.parametrize(
     ("name", "scale"),
     [("panda", 1e-3), ("jumbo_drill_6dof", 1e3), ("stanford_arm", 1e3), ("ur5", 1e3)],
@@ -97,7 +78,7 @@ def _scaled(name: str, scale: float) -> optik.Robot:
 def test_batch_solves_arms_of_every_size(name: str, scale: float) -> None:
     # Before: 14 (Panda at 1e-3) and 8 (drill at 1e3) of 200; the UR5 at 1e3 took a
     # median of 177 iterations.
-    robot = _scaled(name, scale)
+    robot = scaled_problem(name, scale)
     rng = np.random.default_rng(0)
     sources = rng.uniform(robot.lower, robot.upper, (40, robot.dof))
     targets = np.array([robot.fk(q) for q in sources])
@@ -113,7 +94,7 @@ def test_batch_solves_arms_of_every_size(name: str, scale: float) -> None:
 def test_proxqp_steps_of_a_millimetre_arm_agree_with_an_active_set_solver(name: str) -> None:
     # ProxQP's infeasibility test (1e-4 by default) called feasible least-norm steps of
     # millimetre arms infeasible (7 of 12 here); quadprog, DAQP and Clarabel solved them.
-    robot = _scaled(name, 1e-3)
+    robot = scaled_problem(name, 1e-3)
     rng = np.random.default_rng(11)
     for _ in range(6):
         q = rng.uniform(robot.lower, robot.upper)
@@ -155,7 +136,7 @@ def test_program_solvers_search_in_the_arms_units(solver: str, scale: float) -> 
     # The qp:* loop's damping bias and trust ratio and the NLP's residual were in metres:
     # on the Panda at 1e-3 (1e3) they solved 1 (3) of these 6 targets with qp:*, 0 (6)
     # with casadi:*; their searches are now balanced as dls's is.
-    robot = _scaled("panda", scale)
+    robot = scaled_problem("panda", scale)
     rng = np.random.default_rng(3)
     sources = rng.uniform(robot.lower, robot.upper, (6, robot.dof))
     solved = 0
@@ -177,7 +158,7 @@ def test_qp_steps_move_a_slide_in_the_arms_size(name: str, scale: float) -> None
     # Slides at 1e-3 / 1e3, searched numerically from the seed table (no closed form
     # first): qp:daqp solved 1 / 6 of the Stanford arm's 8 and 0 of the drill's before; a
     # slide's damping is now over L^2 and its trust radius times L in the qp:* steps.
-    robot = _scaled(name, scale)
+    robot = scaled_problem(name, scale)
     rng = np.random.default_rng(3)
     for q in rng.uniform(robot.lower, robot.upper, (8, robot.dof)):
         T = robot.fk(q)
@@ -199,4 +180,4 @@ def test_seed_table_ranks_starts_in_the_arms_size(scale: float) -> None:
         assert all(r.success for r in results)
         return sum(r.restarts for r in results)
 
-    assert restarts(_scaled("panda", scale)) <= restarts(_scaled("panda", 1.0)) + 10
+    assert restarts(scaled_problem("panda", scale)) <= restarts(scaled_problem("panda", 1.0)) + 10

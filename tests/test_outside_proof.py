@@ -13,6 +13,7 @@ import math
 
 import numpy as np
 import pytest
+from conftest import scaled_problem
 from scipy.optimize import least_squares
 
 import optik
@@ -196,3 +197,50 @@ def test_a_nearly_singular_branch_is_left_to_the_polish(puma, monkeypatch, polis
     assert polish_calls
     monkeypatch.setattr(analytic, "proven_outside", _never_proven)
     assert len(found) == len(analytic.analytic_ik(robot, target, q_ref=q))
+
+
+def _tolerance_answer(robot: optik.Robot, branch: np.ndarray, joint: int, gap: float):
+    """``robot`` limited so that ``branch`` lies ``gap`` beyond ``joint``'s upper limit,
+    and a configuration inside the limits that reaches ``branch``'s pose within the FK
+    check's tolerance: ``branch`` moved along the Jacobian's weakest direction onto the
+    limit. Returns ``(limited robot, that configuration)``."""
+    v = np.linalg.svd(robot.jacobian(branch))[2][-1]
+    v *= np.sign(v[joint])
+    step = gap * 1.001 / v[joint]
+    inside = branch - step * v
+    lo, hi = branch - 0.05 - step * np.abs(v), branch + 0.05 + step * np.abs(v)
+    hi[joint], lo[joint] = branch[joint] - gap, branch[joint] - gap - 0.1
+    return robot.with_limits(lo, hi), inside
+
+
+@pytest.mark.parametrize(
+    ("arm", "q5"),
+    [("puma", 3e-5), ("puma", 1e-5), ("millimetre puma", -0.091)],
+    ids=["wrist-3e-5", "wrist-1e-5", "millimetre-arm"],
+)
+def test_an_answer_at_the_tolerance_inside_the_limits_is_not_proven_away(
+    puma, monkeypatch, polish_calls, arm, q5
+):
+    # An exact branch 2e-6 beyond a limit whose Jacobian is weak (sigma_min ~ 1e-5): a
+    # configuration inside the limits reaches its pose within the FK check's 1e-9, which
+    # the polish returns. The quick proof must leave such a pose to it.
+    robot = scaled_problem("puma560", 1e-3) if arm.startswith("millimetre") else puma
+    branch = np.array([0.3, 0.4, -0.5, 0.6, q5, -0.7])
+    if arm.startswith("millimetre"):
+        branch = np.array([-0.48, 1.222, -1.148, 0.643, q5, 0.021])
+    target = robot.fk(branch)
+    limited, inside = _tolerance_answer(robot, branch, 3, 2e-6)
+    assert np.linalg.svd(robot.jacobian(branch), compute_uv=False)[-1] < 3e-5
+    assert limited.within_limits(inside)
+    reached = robot.fk(inside)
+    assert np.linalg.norm(reached[:3, 3] - target[:3, 3]) < 1e-9
+    assert rotation_angle(reached[:3, :3].T @ target[:3, :3]) < 1e-9
+    found = analytic.analytic_ik(limited, target, q_ref=inside)
+    batch = analytic.analytic_ik_batch(limited, target[None], q_ref=inside)
+    assert found and batch.counts[0] == len(found)
+    for q in found:
+        assert limited.within_limits(q)
+        assert np.allclose(limited.fk(q), target, atol=1e-9)
+    monkeypatch.setattr(analytic, "proven_outside", _never_proven)
+    slow = analytic.analytic_ik(limited, target, q_ref=inside)
+    assert len(slow) == len(found) and all(map(np.array_equal, slow, found))

@@ -10,14 +10,17 @@ for them the answer is already proven by the closed form itself:
 
 - the pipeline without the limit filter returns :data:`MAX_BRANCHES` distinct branches,
   each verified by forward kinematics: the most isolated answers the compiled families
-  have (four arm solutions, two wrists), so there is no other answer to find;
-- none is singular (smallest singular value of the Jacobian at least
-  :data:`optik.analytic.SINGULAR_GATE`, the gate of the polish): each answer is
-  isolated, not one point of a continuum;
-- each lies outside the limits by at least :data:`PROOF_MARGIN`, over every 2 pi shift of
-  its revolute joints: far beyond what a polish moves a verified, non-singular branch.
+  have (four arm solutions, two wrists), so there is no other exact answer to find;
+- an answer within the FK check's tolerance ``tol`` (position and rotation together) of
+  the target lies within about ``tol / sigma_min(J)`` of an exact branch, when
+  ``sigma_min(J)`` is large beside the curvature of the kinematics (``sigma_min^2 >=``
+  :data:`TOLERANCE_FACTOR` ``tol dof max(1, r)``, ``r`` the reach sphere's radius);
+- each branch lies outside the limits by at least :data:`PROOF_MARGIN` and by
+  :data:`TOLERANCE_FACTOR` times that ``tol / sigma_min(J)``, over every 2 pi shift of
+  its revolute joints: no configuration in the limits passes the FK check.
 
-Poses that miss any of these take the polish as before.
+Poses that miss any of these (a wrist nearly aligned, a millimetre arm, a branch just
+beyond a limit) take the polish as before.
 """
 
 from __future__ import annotations
@@ -31,13 +34,17 @@ from optik._checks import FloatArray
 from optik._kernels import fk_jacobian_work
 from optik._math import cholesky_factor
 from optik._numba import inline, jit
-from optik.analytic._base import CompiledPipeline
+from optik.analytic._base import VERIFY_TOLERANCE, CompiledPipeline, verify_position_tolerance
 from optik.analytic._compiled import MAX_BRANCHES
 from optik.analytic._steps import _wrap_bounds
 from optik.model import Robot
 
 PROOF_MARGIN = 1e-6
 """Least distance (rad or m) outside the limits of the branches of a quick proof."""
+
+TOLERANCE_FACTOR = 10.0
+"""Safety factor on the first-order reach ``tol / sigma_min(J)`` of the FK check's
+tolerance around an exact branch."""
 
 
 def proven_outside(
@@ -68,9 +75,12 @@ def proven_outside(
     if proven.any():
         chain = robot.chain
         lower, upper, circular, anywhere = robot.cached(_distance_bounds)
+        tol = math.hypot(verify_position_tolerance(robot), VERIFY_TOLERANCE)
+        curvature = robot.dof * max(1.0, robot.reach_sphere[1])
+        floor = max(singular_gate, math.sqrt(TOLERANCE_FACTOR * tol * curvature))
         proven[proven] = isolated_outside(
             chain.K, chain.prismatic, chain.C, chain.identity, Q[proven],
-            lower, upper, circular, anywhere, singular_gate, PROOF_MARGIN,
+            lower, upper, circular, anywhere, floor, TOLERANCE_FACTOR * tol, PROOF_MARGIN,
         )  # fmt: skip
     return proven
 
@@ -86,15 +96,17 @@ def isolated_outside(
     upper: np.ndarray,
     circular: np.ndarray,
     anywhere: np.ndarray,
-    gate: float,
+    floor: float,
+    reach: float,
     margin: float,
 ) -> np.ndarray:
     """Whether every branch of each target in ``Q`` (N, B, dof) is isolated and outside.
 
-    Each branch must lie outside the limits by ``margin`` (:func:`_distance_beyond`) and
-    have ``sigma_min(J) > gate``: ``J^T J - s I`` has a Cholesky factor with ``s = gate^2
-    + 4 dof eps ||J||_F^2`` (the allowance covers the rounding of ``J^T J``, so a branch
-    at the gate up to rounding counts as singular). Returns (N,) bool.
+    Each branch must lie outside the limits by ``d >= margin`` (:func:`_distance_beyond`)
+    and have ``sigma_min(J) > max(floor, reach / d)``, so that it is ``reach /
+    sigma_min(J)`` within ``d``: ``J^T J - s I`` has a Cholesky factor with ``s`` that
+    bound squared plus ``4 dof eps ||J||_F^2`` (the allowance covers the rounding of ``J^T
+    J``, so a branch at the bound up to rounding fails). Returns (N,) bool.
     """
     N, B, dof = Q.shape
     n = prismatic.shape[0]
@@ -111,7 +123,8 @@ def isolated_outside(
         ok = True
         for b in range(B):
             q = Q[k, b]
-            if _distance_beyond(q, lower, upper, circular, anywhere) < margin:
+            beyond = _distance_beyond(q, lower, upper, circular, anywhere)
+            if beyond < margin:
                 ok = False
                 break
             if identity:
@@ -127,7 +140,8 @@ def isolated_outside(
             for i in range(6):
                 for j in range(dof):
                     frobenius += J[i, j] * J[i, j]
-            shift = gate * gate + 4.0 * dof * eps * frobenius
+            needed = max(floor, reach / beyond)
+            shift = needed * needed + 4.0 * dof * eps * frobenius
             for i in range(dof):
                 for j in range(i + 1):
                     s = 0.0
@@ -153,7 +167,7 @@ def _distance_beyond(
 
     A revolute joint whose range is finite and shorter than 2 pi is judged by its nearest
     representative modulo 2 pi; one with a longer range has a representative inside; any
-    other joint by its value. Negative: inside.
+    other joint by its value. 0 when every joint is inside.
     """
     two_pi = 2.0 * math.pi
     largest = 0.0
