@@ -75,12 +75,10 @@ def proven_outside(
     if proven.any():
         chain = robot.chain
         lower, upper, circular, anywhere = robot.cached(_distance_bounds)
-        tol = math.hypot(verify_position_tolerance(robot), VERIFY_TOLERANCE)
-        curvature = robot.dof * max(1.0, robot.reach_sphere[1])
-        floor = max(singular_gate, math.sqrt(TOLERANCE_FACTOR * tol * curvature))
+        floor, reach = robot.cached(_tolerance_reach)
         proven[proven] = isolated_outside(
             chain.K, chain.prismatic, chain.C, chain.identity, Q[proven],
-            lower, upper, circular, anywhere, floor, TOLERANCE_FACTOR * tol, PROOF_MARGIN,
+            lower, upper, circular, anywhere, max(singular_gate, floor), reach, PROOF_MARGIN,
         )  # fmt: skip
     return proven
 
@@ -199,3 +197,15 @@ def _distance_bounds(
     for array in (circular, anywhere):
         array.flags.writeable = False
     return lower, upper, circular, anywhere
+
+
+def _tolerance_reach(robot: Robot) -> tuple[float, float]:
+    """``(floor, reach)`` of :func:`isolated_outside` for ``robot``, kept per robot.
+
+    ``reach`` is :data:`TOLERANCE_FACTOR` times the FK check's tolerance (position and
+    rotation together); ``floor`` the least ``sigma_min(J)`` for which that tolerance's
+    neighbourhood of a branch is first order: ``sqrt(reach dof max(1, r))``, the
+    curvature of the kinematics bounded by the number of joints times the reach radius.
+    """
+    reach = TOLERANCE_FACTOR * math.hypot(verify_position_tolerance(robot), VERIFY_TOLERANCE)
+    return math.sqrt(reach * robot.dof * max(1.0, robot.reach_sphere[1])), reach
