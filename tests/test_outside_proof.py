@@ -70,7 +70,9 @@ def test_the_quick_proof_gives_what_the_polish_gives(puma, monkeypatch, polish_c
     slow_batch = analytic.analytic_ik_batch(robot, T)
     empty = sum(not branches for branches in slow)
     assert empty >= 60  # the narrowed arm misses most of these poses
-    assert polished_quickly <= 2 * empty // 4  # the quick proof settled most of them
+    # Both passes (single calls and the batch) polish only what the proof leaves: most
+    # of the empty poses are settled without it.
+    assert polished_quickly <= empty // 2
     for a, b in zip(quick, slow, strict=True):
         assert len(a) == len(b) and all(map(np.array_equal, a, b))
     assert np.array_equal(quick_batch.counts, slow_batch.counts)
