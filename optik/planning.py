@@ -390,6 +390,17 @@ class _CandidateFinder:
             robot, self.path_task.target(T), **self.path_task.keywords(with_posture), **settings
         )
 
+    def _continuing(self, target: Any, seed: FloatArray) -> FloatArray:
+        """The closed form's branches from ``seed`` that continue it: (m, dof).
+
+        At a singularity the closed form holds its free joint (an aligned wrist's turn,
+        a shoulder over its axis) at the reference: from mid-limits a branch may not
+        continue ``seed`` although one on the same continuum does.
+        """
+        branches = analytic_ik(self.work, target, self.mode, q_ref=seed)
+        rows = np.array(branches).reshape(-1, seed.shape[0])
+        return rows[np.max(np.abs(rows - seed), axis=1) <= self.max_step]
+
     def find(self, T: FloatArray, seeds: list[FloatArray], k: int) -> list[FloatArray]:
         target = self.path_task.target(T)
         branches = analytic_ik(self.work, target, self.mode) if self.analytic else []
@@ -404,6 +415,9 @@ class _CandidateFinder:
                 V = wrap_into_limits(B[None], self.work, refs)
                 near = np.max(np.abs(V - refs), axis=2) <= self.max_step
                 parts.append(V[near])
+                for seed, continued in zip(seeds, near.any(axis=1).tolist(), strict=True):
+                    if not continued:
+                        parts.append(self._continuing(target, seed))
             parts.append(B)
             return _dedupe(np.concatenate(parts), self.limit)
         # No branch inside the limits proves nothing yet: at a singularity the closed form

@@ -359,3 +359,23 @@ def test_a_start_away_from_a_frozen_value_is_the_first_step() -> None:
     assert plan.step[0] == pytest.approx(np.max(np.abs(plan.q[0] - q_now)), abs=0.0)
     assert plan.step[0] >= 0.3 and plan.status[0] == "discontinuity"
     assert plan.status[1:] == ["ok"] * (len(poses) - 1)
+
+
+@pytest.mark.parametrize(
+    ("name", "q_mid"),
+    [("ur5", [0.5, -1.2, 1.0, 0.4, 0.0, 0.3]), ("puma560", [0.3, 0.5, -1.0, 2.0, 0.0, 0.7])],
+)
+def test_a_path_through_an_aligned_wrist_is_not_broken_at_it(name: str, q_mid: list) -> None:
+    # A joint-space line through q5 = 0, 0.005 rad a waypoint: its poses have a continuous
+    # answer in the limits. At q5 = 0 the closed form holds the wrist's free turn at its
+    # reference; from mid-limits no branch continued the path there, and a discontinuity
+    # (a proof, for a robot with a closed form) was flagged where none is.
+    robot = load_problem(name).robot
+    direction = np.array([0.2, -0.1, 0.15, 0.3, 0.5, -0.25])
+    Q = np.array(q_mid) + np.linspace(-0.1, 0.1, 21)[:, None] * direction
+    assert robot.within_limits(Q).all()
+    assert np.linalg.svd(robot.jacobian(Q[10]), compute_uv=False)[-1] < 1e-12
+    plan = plan_path(robot, robot.fk(Q), max_joint_step=0.1, q_start=Q[0])
+    assert "discontinuity" not in plan.status
+    assert plan.largest_step <= 0.1
+    _verify_plan(robot, plan)
