@@ -390,27 +390,16 @@ class _CandidateFinder:
             robot, self.path_task.target(T), **self.path_task.keywords(with_posture), **settings
         )
 
-    def _continuing(self, T: FloatArray, target: Any, seed: FloatArray) -> FloatArray:
-        """Answers that continue ``seed`` (within one step) where no branch did: (m, dof).
+    def _continuing(self, target: Any, seed: FloatArray) -> FloatArray:
+        """The closed form's branches from ``seed`` that continue it: (m, dof).
 
         At a singularity the closed form holds its free joint (an aligned wrist's turn,
         a shoulder over its axis) at the reference: from mid-limits a branch may not
-        continue ``seed`` although one on the same continuum does, so the closed form is
-        asked again from ``seed``. Next to one (a wrist 1e-9 from aligned) the exact
-        branches turn the wrist half a turn between two waypoints while an answer within
-        the tolerance passes by it: the numeric search from ``seed``, as where the closed
-        form has no branch.
+        continue ``seed`` although one on the same continuum does.
         """
         branches = analytic_ik(self.work, target, self.mode, q_ref=seed)
         rows = np.array(branches).reshape(-1, seed.shape[0])
-        rows = rows[np.max(np.abs(rows - seed), axis=1) <= self.max_step]
-        if len(rows):
-            return rows
-        steer = {} if self.path_task.posture is not None else {"posture": self._reference(seed)}
-        result = self._solve(self.work, T, True, q0=seed, restarts=0, **steer)
-        if result.success and np.max(np.abs(result.q - seed)) <= self.max_step:
-            return result.q[None]
-        return rows
+        return rows[np.max(np.abs(rows - seed), axis=1) <= self.max_step]
 
     def find(self, T: FloatArray, seeds: list[FloatArray], k: int) -> list[FloatArray]:
         target = self.path_task.target(T)
@@ -428,7 +417,7 @@ class _CandidateFinder:
                 parts.append(V[near])
                 for seed, continued in zip(seeds, near.any(axis=1).tolist(), strict=True):
                     if not continued:
-                        parts.append(self._continuing(T, target, seed))
+                        parts.append(self._continuing(target, seed))
             parts.append(B)
             return _dedupe(np.concatenate(parts), self.limit)
         # No branch inside the limits proves nothing yet: at a singularity the closed form
