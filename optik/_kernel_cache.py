@@ -4,8 +4,9 @@ numba stamps a cached kernel with the content hash of the file that defines it, 
 nothing else: a kernel whose callee (defined in another module) changed loads its stale
 compiled code. That happens after an upgrade (pip leaves the ``__pycache__`` cache files
 behind) or a ``git pull`` in a checkout. Here every optik kernel's stamp also carries a
-fingerprint of all of optik's kernel sources (the modules that use numba), so a change
-in any of them makes every cached kernel stale, and numba compiles afresh.
+fingerprint of all of optik's kernel sources (the modules that use numba and every
+module they import, whose constants numba freezes into the kernels), so a change in any
+of them makes every cached kernel stale, and numba compiles afresh.
 
 :func:`install` must run before the first kernel is defined: ``optik/__init__.py``
 imports this module first.
@@ -14,6 +15,7 @@ imports this module first.
 from __future__ import annotations
 
 import hashlib
+import re
 from functools import cache
 from pathlib import Path
 from typing import Any
@@ -23,15 +25,86 @@ from numba.core import caching
 PACKAGE = Path(__file__).resolve().parent
 
 
+_OPTIK_IMPORT = re.compile(
+    rb"^[ \t]*(?:from[ \t]+optik((?:\.\w+)*)[ \t]+import[ \t]+(\([^)]*\)|[^\n]*)"
+    rb"|import[ \t]+optik((?:\.\w+)*))",
+    re.MULTILINE,
+)
+"""An ``import optik...`` or ``from optik... import ...`` line (indented ones too)."""
+
+
+_DEFINES_KERNELS = re.compile(
+    rb"^[ \t]*@(?:_?jit|_?inline|njit|intrinsic|numba\.\w+)\b", re.MULTILINE
+)
+"""A decorator line of a compiled function (a kernel, an inlined helper, an intrinsic)."""
+
+
+def _module_file(package: Path, dotted: str) -> Path | None:
+    """The file of ``optik<dotted>`` (``dotted`` like ``".analytic._base"``), if any."""
+    base = package.joinpath(*[part for part in dotted.split(".") if part])
+    for path in (base.with_suffix(".py"), base / "__init__.py"):
+        if path.is_file():
+            return path
+    return None
+
+
+def _imported_files(package: Path, source: bytes) -> set[Path]:
+    """The files of ``package`` whose names ``source`` imports.
+
+    ``from optik.x import a, b``: the submodules ``a``, ``b`` where they exist, else the
+    module ``optik.x`` itself (``optik/x.py`` or ``optik/x/__init__.py``).
+    """
+    found: set[Path] = set()
+    for match in _OPTIK_IMPORT.finditer(source):
+        dotted = (match[1] if match[1] is not None else match[3]).decode()
+        names = (match[2] or b"").strip(b"()").replace(b"\\", b" ")
+        from_module = match[3] is None
+        for name in names.split(b","):
+            words = name.split()
+            if not words:
+                continue
+            submodule = _module_file(package, f"{dotted}.{words[0].decode()}")
+            if submodule is None:
+                break  # a name defined in (or re-exported by) the module itself
+            found.add(submodule)
+        else:
+            if from_module:
+                continue  # only submodules
+        module = _module_file(package, dotted)
+        if module is not None:
+            found.add(module)
+    return found
+
+
+def kernel_sources(package: Path) -> list[Path]:
+    """The modules of ``package`` a kernel's compiled code can depend on, sorted.
+
+    Those that use numba, and every module they import names from, transitively (a
+    package's ``__init__`` counts, but its own imports are not followed: it re-exports
+    the public API): numba freezes a global's value (a tolerance in a module without
+    kernels) into the code of each kernel that reads it.
+    """
+    sources = {path: path.read_bytes() for path in package.rglob("*.py")}
+    pending = [path for path, data in sources.items() if _DEFINES_KERNELS.search(data)]
+    seen = set(pending)
+    while pending:
+        path = pending.pop()
+        if path.name == "__init__.py" and not _DEFINES_KERNELS.search(sources[path]):
+            continue
+        for imported in _imported_files(package, sources[path]):
+            if imported in sources and imported not in seen:
+                seen.add(imported)
+                pending.append(imported)
+    return sorted(seen)
+
+
 def fingerprint(package: Path) -> str:
-    """SHA-256 (hex) of every module under ``package`` that uses numba: paths and contents."""
+    """SHA-256 (hex) of :func:`kernel_sources` of ``package``: paths and contents."""
     digest = hashlib.sha256()
-    for path in sorted(package.rglob("*.py")):
-        data = path.read_bytes()
-        if b"numba" in data:
-            digest.update(path.relative_to(package).as_posix().encode())
-            digest.update(b"\0")
-            digest.update(data)
+    for path in kernel_sources(package):
+        digest.update(path.relative_to(package).as_posix().encode())
+        digest.update(b"\0")
+        digest.update(path.read_bytes())
     return digest.hexdigest()
 
 

@@ -54,13 +54,52 @@ def test_every_loaded_optik_kernel_is_stamped_with_the_fingerprint() -> None:
 
 
 def test_fingerprint_follows_kernel_sources_only(tmp_path: Path) -> None:
-    (tmp_path / "a.py").write_text("import numba\nX = 1\n")
-    (tmp_path / "b.py").write_text("Y = 1\n")
+    (tmp_path / "a.py").write_text("import numba\n\n@numba.njit\ndef f():\n    return 1\n")
+    (tmp_path / "b.py").write_text("import numba\nY = 1\n")
     first = _kernel_cache.fingerprint(tmp_path)
-    (tmp_path / "b.py").write_text("Y = 2\n")  # no numba: not a kernel source
+    (tmp_path / "b.py").write_text("import numba\nY = 2\n")  # defines no kernel
     assert _kernel_cache.fingerprint(tmp_path) == first
-    (tmp_path / "a.py").write_text("import numba\nX = 2\n")
+    (tmp_path / "a.py").write_text("import numba\n\n@numba.njit\ndef f():\n    return 2\n")
     assert _kernel_cache.fingerprint(tmp_path) != first
+
+
+def test_fingerprint_follows_what_kernels_import(tmp_path: Path) -> None:
+    # numba freezes a global's value into the kernel that reads it: a tolerance defined
+    # in a module without kernels must make the kernels that import it stale.
+    (tmp_path / "sub").mkdir()
+    (tmp_path / "sub" / "__init__.py").write_text("from optik.unrelated import Z\n")
+    (tmp_path / "unrelated.py").write_text("Z = 1\n")
+    (tmp_path / "tols.py").write_text("from optik.deeper import W\nTOL = 1e-6\n")
+    (tmp_path / "deeper.py").write_text("W = 1\n")
+    (tmp_path / "sub" / "more.py").write_text("M = 1\n")
+    (tmp_path / "kernel.py").write_text(
+        "from optik._numba import jit\n"
+        "from optik.tols import (\n    TOL,\n)\n"
+        "from optik.sub import more\n\n"
+        "@jit\ndef f():\n    return TOL + more.M\n"
+    )
+    sources = {p.relative_to(tmp_path).as_posix() for p in _kernel_cache.kernel_sources(tmp_path)}
+    # the package's __init__ is not followed (it re-exports), nor a module nothing imports
+    assert sources == {"kernel.py", "tols.py", "deeper.py", "sub/more.py"}
+    first = _kernel_cache.fingerprint(tmp_path)
+    for name in ("tols.py", "deeper.py", "sub/more.py"):
+        path = tmp_path / name
+        text = path.read_text()
+        path.write_text(text + "# changed\n")
+        assert _kernel_cache.fingerprint(tmp_path) != first, name
+        path.write_text(text)
+    (tmp_path / "unrelated.py").write_text("Z = 2\n")
+    assert _kernel_cache.fingerprint(tmp_path) == first
+
+
+def test_the_library_tolerances_read_by_kernels_are_fingerprinted() -> None:
+    sources = {
+        p.relative_to(_kernel_cache.PACKAGE).as_posix()
+        for p in _kernel_cache.kernel_sources(_kernel_cache.PACKAGE)
+    }
+    # ELBOW_REACH_TOL and the limit tolerance live in modules without kernels.
+    assert {"analytic/_base.py", "limits.py", "analytic/ur.py", "_math.py"} <= sources
+    assert "report/rendering.py" not in sources
 
 
 def test_every_module_with_kernels_is_in_the_fingerprint(tmp_path: Path) -> None:

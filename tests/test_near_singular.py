@@ -12,16 +12,18 @@ FK of a known configuration, and each branch is checked by FK.
 from __future__ import annotations
 
 import dataclasses
+import importlib.metadata
 import math
 from pathlib import Path
 
 import numpy as np
 import pybullet_data  # the test extra: its absence is a failure, not a skip
 import pytest
+from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
 import optik
-from optik.analytic import analytic_ik, family_of
+from optik.analytic import analytic_ik, analytic_ik_batch, family_of
 
 
 def _wrapped_distance(a: np.ndarray, b: np.ndarray) -> float:
@@ -160,3 +162,53 @@ def test_a_tolerance_below_the_closed_forms_is_met_by_polishing_its_branches() -
         F = ur5.fk(result.q)
         assert np.linalg.norm(F[:3, 3] - T[:3, 3]) <= 1e-13
     assert missed >= 5  # the case is exercised
+
+
+def _ur_arms() -> list[tuple[str, optik.Robot]]:
+    dist = importlib.metadata.distribution("example-robot-data")
+    root = Path(str(dist.locate_file("cmeel.prefix/share/example-robot-data/robots")))
+    arms = [("ur5 (built-in, DH)", optik.load_problem("ur5").robot)]
+    for model in ("ur3", "ur10"):
+        path = root / "ur_description" / "urdf" / f"{model}_robot.urdf"
+        arms.append((f"{model} (URDF)", optik.Robot.from_urdf(path, "base_link", "tool0")))
+    return arms
+
+
+@pytest.mark.parametrize("bend", [1e-2, 1e-4])
+def test_a_ur_arm_at_its_shoulder_singularity_keeps_the_branch_of_its_configuration(
+    bend: float,
+) -> None:
+    # A UR arm's joint 1 is a tangent (double) root when the wrist centre sits at the
+    # shoulder offset from axis 1. With the elbow nearly straight as well, the tangent
+    # root's rounding (up to 5e-6 rad) pushed the elbow out of exact reach or left the
+    # branch 1e-8 m from the pose: the whole wrist branch of the configuration the pose
+    # came from was lost (9 of 58 such poses of the UR3, answers half a turn away).
+    def sigma_min(robot: optik.Robot, q: np.ndarray) -> float:
+        return float(np.linalg.svd(robot.jacobian(q), compute_uv=False)[-1])
+
+    rng = np.random.default_rng(11)
+    for label, robot in _ur_arms():
+        checked = 0
+        for _ in range(25):
+            q = rng.uniform(-math.pi, math.pi, 6)
+            q[2] = bend * rng.choice([-1.0, 1.0])
+
+            def singular(x: np.ndarray, q: np.ndarray = q, robot: optik.Robot = robot) -> float:
+                return sigma_min(robot, np.r_[q[0], x, q[2:]])
+
+            q[1] = least_squares(singular, [q[1]], xtol=1e-15, ftol=1e-15, gtol=1e-15).x[0]
+            if sigma_min(robot, q) > 1e-9 or not robot.within_limits(q):
+                continue
+            checked += 1
+            T = robot.fk(q)
+            branches = analytic_ik(robot, T, within_limits=False)
+            assert branches, f"{label}: q = {q.tolist()}: no branch"
+            assert all(_reaches(robot, b, T, "pose") for b in branches)
+            # Next to two singularities the answers within the FK check's tolerance
+            # spread over a few 1e-3 rad around q; another branch is a half turn away.
+            nearest = min(_wrapped_distance(b, q) for b in branches)
+            assert nearest < 0.05, f"{label}: q = {q.tolist()}: nearest branch {nearest:.2f} rad"
+            Q, counts = analytic_ik_batch(robot, T[None], within_limits=False)
+            assert counts[0] == len(branches)
+            np.testing.assert_array_equal(Q[0, : counts[0]], np.array(branches))
+        assert checked >= 15, label

@@ -64,8 +64,9 @@ def _step(
     work = np.empty(_newton.newton_work_size(6))
     _newton.pose_residual(pre, 6, target[None], 0, work)
     wrist_at = LAYOUT[6] if wrist else -1
+    at, stride, max_step = LAYOUT[0], LAYOUT[1], _newton.REFINE_MAX_STEP
     largest = _newton.newton_step(
-        params, LAYOUT[0], LAYOUT[1], 6, held, wrist_at, pre, rows, 0, work
+        params, at, stride, 6, held, wrist_at, pre, rows, 0, work, max_step
     )
     return rows[0] - q, largest
 
@@ -216,7 +217,7 @@ def test_a_branch_at_rounding_takes_no_step_and_one_off_by_1e_10_is_restored(
                 assert squared <= _newton.REFINE_ROUNDING**2  # the pipeline calls no step
                 continue
             args = (params, LAYOUT, 6, -1, 0.0, target[None], 0, ref, 0, True, rows, 0, pre)
-            _, keep = _pipeline._refine_row(*args, depth, verify, work)
+            _, keep = _pipeline._refine_row(*args, depth, verify, work, _newton.REFINE_MAX_STEP)
             assert keep
             assert not np.array_equal(rows[0], q)
             assert np.linalg.norm(pose_residual_reference(robot, rows[0], target)) < 1e-14

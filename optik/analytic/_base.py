@@ -67,14 +67,17 @@ judges it there; farther, it is dropped. Next to a singularity a closed form's r
 is that large (a Jaco 2 stretched, its wrist on its lower limit: 1e-10), and a
 configuration on its limit would lose its branch."""
 
-ELBOW_REACH_TOL = 1e-6
+ELBOW_REACH_TOL = 1e-4
 """A wrist centre beyond a DH arm's elbow reach (stretched or folded) by at most this,
 relative to the elbow equation's coefficient ``2 a2 a3``, takes the tangent elbow. The
-reach computed near a singularity carries more than rounding (next to the wrist's, the
-angle ``q6`` that places the wrist centre comes from two entries of order ``sin q5``; a
-URDF's angles fit the ideal arm only to its own digits), and a stretched arm's target
-would fall just out of exact reach, with no branch at all; the FK check judges the
-tangent row."""
+reach computed near a singularity carries more than rounding: at a shoulder singularity
+joint 1 is a tangent root, off by up to ``sqrt(2 TANGENT_TOL)`` (4.5e-6 rad), which moves
+the wrist centre by that times the reach and the elbow equation by about four times
+that, relative; next to the wrist's, the angle ``q6`` that places the wrist centre
+comes from two entries of order ``sin q5``; a URDF's angles fit the ideal arm only to its
+own digits. A stretched arm's target would fall just out of exact reach, with no branch
+at all; the FK check judges the tangent row (after the Newton steps of a near miss,
+:func:`optik.analytic._pipeline._near_miss`)."""
 
 WRIST_SINGULAR = 1e-10
 """``|sin q5|`` below which a six-joint arm's wrist axes 4 and 6 count as aligned: only

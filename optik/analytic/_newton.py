@@ -187,6 +187,7 @@ def _wrist_step(
     pre: np.ndarray,
     work: np.ndarray,
     step: int,
+    max_step: float,
 ) -> bool:
     """The step of a six-joint arm whose axes 4, 5 and 6 meet, by two 3 x 3 solves.
 
@@ -198,8 +199,7 @@ def _wrist_step(
     below :data:`BLOCK_CONDITION` of the product of its columns' norms). Axes that meet
     only to within the geometry's tolerances leave a block of size ``d`` (the miss, m)
     out of ``J``: the step then misses the linearised target by ``d |dq|``, about 1e-20.
-    Returns whether the step was solved, with every component at most
-    :data:`REFINE_MAX_STEP`.
+    Returns whether the step was solved, with every component at most ``max_step``.
     """
     d = 6
     wl0, wl1, wl2 = params[wrist_at], params[wrist_at + 1], params[wrist_at + 2]
@@ -248,7 +248,7 @@ def _wrist_step(
     if not ok:
         return False
     largest = max(abs(x0), abs(x1), abs(x2), abs(y0), abs(y1), abs(y2))
-    if not largest <= REFINE_MAX_STEP:
+    if not largest <= max_step:
         return False
     work[step], work[step + 1], work[step + 2] = x0, x1, x2
     work[step + 3], work[step + 4], work[step + 5] = y0, y1, y2
@@ -256,12 +256,14 @@ def _wrist_step(
 
 
 @_jit
-def _damped_step(dof: int, work: np.ndarray, jac: int, step: int, normal: int) -> bool:
+def _damped_step(
+    dof: int, work: np.ndarray, jac: int, step: int, normal: int, max_step: float
+) -> bool:
     """``(J^T J + lambda^2 I) dq = J^T e`` by Gaussian elimination (positive definite).
 
     ``J`` (6 x dof) by columns at ``work[jac:]``, ``e`` at ``work[:6]``, ``dq`` to
     ``work[step:step + dof]``, the matrix at ``work[normal:]``. Returns whether every
-    component is at most :data:`REFINE_MAX_STEP`.
+    component is at most ``max_step``.
     """
     for i in range(dof):
         ci = jac + 6 * i
@@ -289,7 +291,7 @@ def _damped_step(dof: int, work: np.ndarray, jac: int, step: int, normal: int) -
         for j in range(col + 1, dof):
             acc -= work[normal + dof * col + j] * work[step + j]
         value = acc / work[normal + dof * col + col]
-        if not abs(value) <= REFINE_MAX_STEP:
+        if not abs(value) <= max_step:
             return False
         work[step + col] = value
     return True
@@ -307,6 +309,7 @@ def newton_step(
     rows: np.ndarray,
     r: int,
     work: np.ndarray,
+    max_step: float,
 ) -> float:
     """One Gauss–Newton step of ``rows[r]`` from the residual in ``work[:6]``.
 
@@ -332,10 +335,12 @@ def newton_step(
         r: the row.
         work: :func:`newton_work_size` scratch, residual in ``work[:6]``
             (:func:`pose_residual`); the row before the step is saved after it.
+        max_step: the largest component of a step taken (rad or m; the refinement's
+            :data:`REFINE_MAX_STEP`): a larger one means an ill-posed system.
 
     Returns:
         The largest component of the step applied (rad or m), or 0.0 when the row was
-        not moved (every step above ``REFINE_MAX_STEP``, or not finite).
+        not moved (every step above ``max_step``, or not finite).
     """
     saved = RESIDUAL + 6
     step = saved + dof
@@ -343,10 +348,10 @@ def newton_step(
     normal = jac + 6 * dof
     solved = False
     if dof == 6 and held < 0 and wrist_at >= 0:
-        solved = _wrist_step(params, at, stride, wrist_at, pre, work, step)
+        solved = _wrist_step(params, at, stride, wrist_at, pre, work, step, max_step)
     if not solved:
         _jacobian(params, at, stride, dof, held, pre, work, jac)
-        solved = _damped_step(dof, work, jac, step, normal)
+        solved = _damped_step(dof, work, jac, step, normal, max_step)
     if not solved:
         return 0.0
     largest = 0.0

@@ -447,6 +447,7 @@ def _refine_row(
     depth: int,
     verify_tol: float,
     work: np.ndarray,
+    max_step: float,
 ) -> tuple[int, bool]:
     """One Newton step of ``rows[r]`` towards ``T[k]``, its FK in ``pre`` (:mod:`._newton`).
 
@@ -462,12 +463,12 @@ def _refine_row(
     checked against the limits. Returns the FK depth valid in ``pre``
     (:func:`fk_shared`) and whether the row stays (inside the limits).
     """
-    outcome = _newton_move(params, layout, dof, held, rows, r, pre, verify_tol, work)
+    outcome = _newton_move(params, layout, dof, held, rows, r, pre, verify_tol, work, max_step)
     if outcome == MOVED_UNCHECKED:
         depth = _check_moved(params, layout, dof, T, k, rows, r, pre, work)
     strict = params[layout[5] + TOL_LIMIT]
     # One pass: whether the step took an angle past the half-turn from the reference
-    # (rare: then wrapped again; the step moves a wrapped row by at most REFINE_MAX_STEP,
+    # (rare: then wrapped again; the step moves a wrapped row by at most max_step,
     # so only such an angle can change its nearest representative) and whether the row
     # is inside the limits (every row: the first filter let it pass with the step's slack).
     past_half_turn = False
@@ -501,6 +502,7 @@ def _newton_move(
     pre: np.ndarray,
     verify_tol: float,
     work: np.ndarray,
+    max_step: float,
 ) -> int:
     """:func:`_refine_row`'s step: :data:`NOT_MOVED`, :data:`MOVED` or :data:`MOVED_UNCHECKED`.
 
@@ -518,7 +520,9 @@ def _newton_move(
     wrist = layout[6]
     if wrist >= 0 and not math.isfinite(params[wrist]):
         wrist = -1
-    moved = newton_step(params, layout[0], layout[1], dof, held, wrist, pre, rows, r, work)
+    moved = newton_step(
+        params, layout[0], layout[1], dof, held, wrist, pre, rows, r, work, max_step
+    )  # fmt: skip
     if moved == 0.0:
         return NOT_MOVED
     if moved <= REFINE_TRUSTED_STEP and before <= 0.25 * verify_tol * verify_tol:
@@ -553,6 +557,69 @@ def _check_moved(
     restore_row(dof, rows, r, work)
     _row_sines(rows, r, dof)
     return fk_shared(params, layout, rows, r, pre, start)
+
+
+NEAR_MISS = 1e5
+"""A row that misses the FK check by at most this many times its tolerance (1e-4 m or
+rad for the default 1e-9) takes Newton steps (:func:`_near_miss`). At a singular pose a
+closed form's tangent rule merges two roots ``2 sqrt(2 band / r)`` apart (``band`` the
+rule's, ``r`` the equation's size): the UR10's shoulder (``r`` = 0.17 m) is then 1e-5 rad
+off, and its tool 1.3e-5 m, which the check refuses."""
+
+NEAR_MISS_STEPS = 4
+"""Most Newton steps of a near miss (:func:`_near_miss`); each must lower its residual."""
+
+NEAR_MISS_MAX_STEP = 1e-2
+"""Largest component (rad or m) of a near miss's Newton step: the UR10's above moves its
+wrist joints 1.3e-4 rad; a larger step is a search, not a polish."""
+
+
+@_jit
+def _near_miss(
+    params: np.ndarray,
+    layout: Layout,
+    dof: int,
+    held: int,
+    held_value: float,
+    T: np.ndarray,
+    k: int,
+    ref: np.ndarray,
+    kr: int,
+    within: bool,
+    rows: np.ndarray,
+    r: int,
+    pre: np.ndarray,
+    depth: int,
+    verify_tol: float,
+    position_tol: float,
+    work: np.ndarray,
+) -> tuple[int, bool]:
+    """Newton steps of ``rows[r]``, which failed the FK check in ``pre``, towards ``T[k]``.
+
+    Only a near miss (residual within :data:`NEAR_MISS` times the larger tolerance) is
+    moved, by :func:`_refine_row`'s steps (wrapped and limited as there), at most
+    :data:`NEAR_MISS_STEPS`, each lowering the residual. Returns the FK depth valid in
+    ``pre`` and whether the moved row passes the check (then kept as any other). A call
+    of its own: it runs only at singular poses, off the common path.
+    """
+    band = NEAR_MISS * max(verify_tol, position_tol)
+    residual = pose_residual(pre, dof, T, k, work)
+    for _ in range(NEAR_MISS_STEPS):
+        if not residual <= band * band:
+            return depth, False
+        depth, keep = _refine_row(
+            params, layout, dof, held, held_value, T, k, ref, kr, within, rows, r, pre,
+            depth, verify_tol, work, NEAR_MISS_MAX_STEP,
+        )  # fmt: skip
+        if not keep:
+            return depth, False
+        if _pose_verified(pre, dof, T, k, verify_tol, position_tol):
+            return depth, True
+        after = pose_residual(pre, dof, T, k, work)
+        if not after < residual:
+            return depth, False  # the step was refused or did not help
+        residual = after
+    return depth, False
 
 
 @_inline
@@ -637,7 +704,7 @@ def postprocess_rows(
                 # this function (the install compiles them all).
                 depth, keep = _refine_row(
                     params, _runtime(layout), np.int64(dof), np.int64(held), held_value, T,
-                    k, ref, kr, within, rows, r, pre, depth, verify_tol, work,
+                    k, ref, kr, within, rows, r, pre, depth, verify_tol, work, REFINE_MAX_STEP,
                 )  # fmt: skip
                 if not keep:
                     continue
@@ -648,7 +715,13 @@ def postprocess_rows(
                     params, _runtime(layout), np.int64(dof), np.int64(held), rows, r, pre
                 )
         if not _pose_verified(pre, dof, T, k, verify_tol, position_tol):
-            continue
+            # A near miss: a tangent or free-angle rule rounded at a singular pose.
+            depth, keep = _near_miss(
+                params, _runtime(layout), np.int64(dof), np.int64(held), held_value, T, k,
+                ref, kr, within, rows, r, pre, depth, verify_tol, position_tol, work,
+            )  # fmt: skip
+            if not keep:
+                continue
         duplicate = False
         for other in range(m):
             diff = 0.0
