@@ -4,7 +4,8 @@ The quick proof (:mod:`optik.analytic._outside`) answers "no branch in the limit
 the Gauss-Newton polish when all eight branches exist, are isolated and lie outside by a
 margin. It must give what the polish gives, be sound (checked here by scipy's bounded
 least squares), and leave the polish to every pose it cannot settle: a branch near a
-limit (modulo 2 pi too) or at a singularity.
+limit (modulo 2 pi too) or at a singularity. A pose without any candidate (beyond the
+elbow's reach) has nothing to polish.
 """
 
 from __future__ import annotations
@@ -246,3 +247,48 @@ def test_an_answer_at_the_tolerance_inside_the_limits_is_not_proven_away(
     monkeypatch.setattr(analytic, "proven_outside", _never_proven)
     slow = analytic.analytic_ik(limited, target, q_ref=inside)
     assert len(slow) == len(found) and all(map(np.array_equal, slow, found))
+
+
+@pytest.mark.parametrize("name", ["ur5", "puma560"])
+def test_a_pose_without_any_candidate_is_answered_without_the_polish(name, monkeypatch):
+    # Beyond the elbow's reach (inside the reach sphere, which a cheaper test rules out
+    # first) the compiled closed form has no candidate at all: nothing to refine, and
+    # mid-limits is no near-solution. A caller's q_ref may be one: it is still polished.
+    robot = load_problem(name).robot
+    polished: list[int] = []
+    original = analytic.polish
+
+    def counted(*args, **kwargs):
+        polished.append(1)
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(analytic, "polish", counted)
+    rng = np.random.default_rng(5)
+    centre, radius = robot.reach_sphere
+    targets = []
+    while len(targets) < 12:
+        T = robot.fk(rng.uniform(robot.lower, robot.upper))
+        T[:3, 3] = centre + 1.25 * (T[:3, 3] - centre)
+        if np.max(np.abs(T[:3, 3] - centre)) < 0.9 * radius and not analytic.analytic_ik(
+            robot, T, within_limits=False
+        ):
+            targets.append(T)
+    assert not polished
+    counts = analytic.analytic_ik_batch(robot, np.array(targets)).counts
+    assert not counts.any() and not polished
+    q_ref = rng.uniform(robot.lower, robot.upper)
+    assert analytic.analytic_ik(robot, targets[0], q_ref=q_ref) == []
+    assert polished  # the caller's reference
+
+    # Unreachable indeed: an independent search without limits finds no answer.
+    for target in targets[:6]:
+
+        def residual(q, target=target):
+            T_q = robot.fk(q)
+            return np.concatenate(
+                [T_q[:3, 3] - target[:3, 3], (T_q[:3, :3] - target[:3, :3]).ravel()]
+            )
+
+        for _ in range(4):
+            fit = least_squares(residual, rng.uniform(-math.pi, math.pi, robot.dof))
+            assert np.linalg.norm(fit.fun) > 1e-6

@@ -315,19 +315,27 @@ def _degenerate(
 
     Runs only when no branch passed the FK check or the limits: the raw candidates and
     the reference are polished by Gauss–Newton, then wrapped, filtered and verified as
-    usual. If every branch then lies outside the limits and one of them is singular
-    (:data:`SINGULAR_GATE`), the answers form a continuum (a shoulder over its axis
-    leaves joint 1 free, an aligned wrist only fixes ``q4 + q6``) of which the closed
-    form returned one point, the reference's, and the continuum may enter the limits
-    elsewhere: the branches are polished inside the limits (projected Gauss–Newton), and
-    failing that the closed form is rerun from :data:`FREE_REFERENCES` references
-    spread over the limits. Isolated branches outside the limits stay a proof.
+    usual (a compiled family without any finite candidate, asked without ``q_ref``,
+    has nothing to polish: ``[]`` at once). If every branch then lies outside the
+    limits and one of them is singular (:data:`SINGULAR_GATE`), the answers form a
+    continuum (a shoulder over its axis leaves joint 1 free, an aligned wrist only fixes
+    ``q4 + q6``) of which the closed form returned one point, the reference's, and the
+    continuum may enter the limits elsewhere: the branches are polished inside the
+    limits (projected Gauss–Newton), and failing that the closed form is rerun from
+    :data:`FREE_REFERENCES` references spread over the limits. Isolated branches outside
+    the limits stay a proof.
     """
     if _beyond_reach(robot, T_target):
         return []
     if raw is None:
         inverse_base, inverse_tool = robot.cached(_frame_inverses)
         raw = family.candidates(robot, inverse_base @ T_target @ inverse_tool, mode, ref)
+    if not sort and robot.cached_value(_compiled_plan) is not None and not _any_finite(raw):
+        # Nothing to refine: the compiled closed form's bands already keep the branches
+        # that rounding could lose (tangent roots, the elbow's reach, near misses), and
+        # mid-limits is no near-solution (from 7,754 such poses of six arms, singular
+        # ones included, its polish reached none). A caller's q_ref may be one.
+        return []
     tol = 0.1 * VERIFY_TOLERANCE
     polished = polish(robot, T_target, mode, [*raw, ref], tol)
     found = _finish(robot, polished, T_target, mode, ref, sort, within_limits)
@@ -344,6 +352,11 @@ def _degenerate(
     # A joint left free takes the reference's value, which may be the one that puts the
     # others out of their limits (the drill's shoulder over its axis): other references.
     return _free_references(robot, family, T_target, mode, ref, sort)
+
+
+def _any_finite(raw: list[FloatArray]) -> bool:
+    """Whether any raw candidate (dof,) is finite (the closed form found a branch)."""
+    return any(bool(np.all(np.isfinite(q))) for q in raw)
 
 
 def _free_references(
