@@ -249,12 +249,11 @@ def test_an_answer_at_the_tolerance_inside_the_limits_is_not_proven_away(
     assert len(slow) == len(found) and all(map(np.array_equal, slow, found))
 
 
-@pytest.mark.parametrize("name", ["ur5", "puma560", "dobot_magician"])
+@pytest.mark.parametrize("name", ["ur5", "puma560"])
 def test_a_pose_without_any_candidate_is_answered_without_the_polish(name, monkeypatch):
     # Beyond the elbow's reach (inside the reach sphere, which a cheaper test rules out
-    # first) the closed form (compiled, or the DOBOT's in Python) has no candidate at
-    # all: nothing to refine, and mid-limits is no near-solution. A caller's q_ref may
-    # be one: it is still polished.
+    # first) the compiled closed form has no candidate at all: nothing to refine, and
+    # mid-limits is no near-solution. A caller's q_ref may be one: it is still polished.
     robot = load_problem(name).robot
     polished: list[int] = []
     original = analytic.polish

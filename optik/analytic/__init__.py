@@ -315,8 +315,8 @@ def _degenerate(
 
     Runs only when no branch passed the FK check or the limits: the raw candidates and
     the reference are polished by Gauss–Newton, then wrapped, filtered and verified as
-    usual (a closed form without any finite candidate, asked without ``q_ref``, has
-    nothing to polish: ``[]`` at once). If every branch then lies outside the
+    usual (a compiled family without any finite candidate, asked without ``q_ref``,
+    has nothing to polish: ``[]`` at once). If every branch then lies outside the
     limits and one of them is singular (:data:`SINGULAR_GATE`), the answers form a
     continuum (a shoulder over its axis leaves joint 1 free, an aligned wrist only fixes
     ``q4 + q6``) of which the closed form returned one point, the reference's, and the
@@ -330,10 +330,10 @@ def _degenerate(
     if raw is None:
         inverse_base, inverse_tool = robot.cached(_frame_inverses)
         raw = family.candidates(robot, inverse_base @ T_target @ inverse_tool, mode, ref)
-    if not sort and not _any_finite(raw):
-        # Nothing to refine: the closed forms' bands already keep the branches that
-        # rounding could lose (tangent roots, the elbow's reach, near misses), and
-        # mid-limits is no near-solution (from 10,030 such poses of eight arms, singular
+    if not sort and robot.cached_value(_compiled_plan) is not None and not _any_finite(raw):
+        # Nothing to refine: the compiled closed form's bands already keep the branches
+        # that rounding could lose (tangent roots, the elbow's reach, near misses), and
+        # mid-limits is no near-solution (from 7,754 such poses of six arms, singular
         # ones included, its polish reached none). A caller's q_ref may be one.
         return []
     tol = 0.1 * VERIFY_TOLERANCE
