@@ -292,3 +292,33 @@ def test_a_pose_without_any_candidate_is_answered_without_the_polish(name, monke
         for _ in range(4):
             fit = least_squares(residual, rng.uniform(-math.pi, math.pi, robot.dof))
             assert np.linalg.norm(fit.fun) > 1e-6
+
+
+def test_the_python_families_still_polish_a_target_without_candidates():
+    # Their bands are absolute, not yet relative to the arm: a planar 2R target a few
+    # 1e-12 m past full stretch, or a DOBOT position 5e-10 m off a singular configuration
+    # along the direction it cannot move, has no raw candidate, and the polish from
+    # mid-limits reaches a configuration that reproduces it within the FK check (2e-9 m
+    # for the 2 m planar arm).
+    planar = load_problem("planar_2r").robot
+    q = np.array([-0.3342, 0.0])  # stretched, inside the limits
+    T = planar.fk(q)
+    T[:3, 3] += 2e-12 * T[:3, 3] / np.linalg.norm(T[:3, 3])
+    for mode in ("pose", "position"):
+        target = T if mode == "pose" else T[:3, 3]
+        branches = analytic.analytic_ik(planar, target, mode=mode)
+        assert branches, mode
+        assert np.linalg.norm(planar.fk(branches[0])[:3, 3] - T[:3, 3]) <= 2.5e-9
+    dobot = load_problem("dobot_magician").robot
+
+    def sigma_min(x):
+        return [np.linalg.svd(dobot.jacobian(x)[:3], compute_uv=False)[-1]]
+
+    start = np.array([0.92293906, 0.06128863, 1.63212131, 0.36008221])
+    q = least_squares(sigma_min, start, xtol=1e-15, ftol=1e-15, gtol=1e-15).x
+    assert dobot.within_limits(q) and sigma_min(q)[0] < 1e-9
+    U = np.linalg.svd(dobot.jacobian(q)[:3])[0]
+    target = dobot.fk(q)[:3, 3] + 5e-10 * U[:, -1]
+    branches = analytic.analytic_ik(dobot, target, mode="position")
+    assert branches
+    assert all(np.linalg.norm(dobot.fk(b)[:3, 3] - target) <= 1e-9 for b in branches)
