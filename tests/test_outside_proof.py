@@ -28,18 +28,23 @@ def puma() -> optik.Robot:
     return load_problem("puma560").robot
 
 
-@pytest.fixture
-def polish_calls(monkeypatch: pytest.MonkeyPatch) -> list[int]:
-    """Counts the polish's runs (``optik.analytic._degenerate``) during a test."""
+def _counted(monkeypatch: pytest.MonkeyPatch, name: str) -> list[int]:
+    """Counts the calls of ``optik.analytic.<name>`` during a test (one entry a call)."""
     calls: list[int] = []
-    original = analytic._degenerate
+    original = getattr(analytic, name)
 
     def counted(*args, **kwargs):
         calls.append(1)
         return original(*args, **kwargs)
 
-    monkeypatch.setattr(analytic, "_degenerate", counted)
+    monkeypatch.setattr(analytic, name, counted)
     return calls
+
+
+@pytest.fixture
+def polish_calls(monkeypatch: pytest.MonkeyPatch) -> list[int]:
+    """Counts the fallback's runs (``optik.analytic._degenerate``) during a test."""
+    return _counted(monkeypatch, "_degenerate")
 
 
 def _narrowed(robot: optik.Robot, fraction: float) -> optik.Robot:
@@ -255,14 +260,7 @@ def test_a_pose_without_any_candidate_is_answered_without_the_polish(name, monke
     # first) the compiled closed form has no candidate at all: nothing to refine, and
     # mid-limits is no near-solution. A caller's q_ref may be one: it is still polished.
     robot = load_problem(name).robot
-    polished: list[int] = []
-    original = analytic.polish
-
-    def counted(*args, **kwargs):
-        polished.append(1)
-        return original(*args, **kwargs)
-
-    monkeypatch.setattr(analytic, "polish", counted)
+    polished = _counted(monkeypatch, "polish")
     rng = np.random.default_rng(5)
     centre, radius = robot.reach_sphere
     targets = []

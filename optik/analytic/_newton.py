@@ -41,8 +41,9 @@ REFINE_DAMPING = 1e-6
 Jacobian with singular values far below it (at a singularity) are not moved, so a free
 angle keeps its reference."""
 REFINE_MAX_STEP = 1e-4
-"""Largest correction (rad or m) :func:`newton_step` applies: a larger one means an
-ill-posed system, and the closed form's values are kept."""
+"""Largest correction (rad or m) the refinement's :func:`newton_step` applies: a larger
+one means an ill-posed system, and the closed form's values are kept (a near miss's
+steps take :data:`optik.analytic._pipeline.NEAR_MISS_MAX_STEP`)."""
 REFINE_TRUSTED_STEP = 1e-8
 """A correction up to this (rad or m) from a branch within half the FK check's tolerance
 is kept without a second FK (:func:`optik.analytic._pipeline.postprocess_rows`): the

@@ -17,7 +17,9 @@ For a family with a compiled closed form (:class:`optik.analytic._compiled.Compi
    that share leading joint values share that part of the product); position error (m)
    and orientation error (rad, the robust ``atan2`` angle of
    :func:`optik.spatial.rotation_angle`) both within
-   :data:`optik.analytic._base.VERIFY_TOLERANCE`;
+   :data:`optik.analytic._base.VERIFY_TOLERANCE`; a row that misses by a little (a
+   tangent rule rounded at a singular pose, :data:`NEAR_MISS`) takes a few Newton steps
+   and is checked again (:func:`_near_miss`);
 5. drop duplicates (max-abs difference below ``DUPLICATE_TOLERANCE``);
 6. with a caller's ``q_ref``, a stable sort by the Euclidean distance to it.
 
