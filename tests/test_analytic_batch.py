@@ -18,6 +18,7 @@ from optik.analytic import (
     _compiled,
     _finish,
     _pipeline,
+    _rows,
     analytic_ik,
     analytic_ik_batch,
     family_of,
@@ -171,7 +172,7 @@ def test_fk_shared_prefix_is_fk_into_bit_for_bit(rng: np.random.Generator) -> No
             block[r] = q
             block[_compiled.MAX_BRANCHES + r] = [math.sin(v) for v in q]
             block[2 * _compiled.MAX_BRANCHES + r] = [math.cos(v) for v in q]
-            depth = _pipeline.fk_shared(params, _pipeline.SIX_JOINT_LAYOUT, block, r, pre, depth)
+            depth = _rows.fk_shared(params, _pipeline.SIX_JOINT_LAYOUT, block, r, pre, depth)
             _kernels.fk_into(K, prismatic, q, out)
             np.testing.assert_array_equal(pre[n], out[:3].reshape(-1))
 

@@ -16,7 +16,15 @@ import pytest
 from conftest import damped_step_reference, fd_jacobian, pose_residual_reference, robot_of
 
 from optik import Robot
-from optik.analytic import FAMILIES, _compiled, _newton, _pipeline, analytic_ik, analytic_ik_batch
+from optik.analytic import (
+    FAMILIES,
+    _compiled,
+    _newton,
+    _pipeline,
+    _rows,
+    analytic_ik,
+    analytic_ik_batch,
+)
 from optik.analytic.geometry import joint_axes, point_line_distance, wrist_centre
 from optik.limits import LIMIT_TOLERANCE
 
@@ -52,7 +60,7 @@ def _prefixes(robot: Robot, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.n
     rows[_compiled.COS_ROWS] = np.cos(q)
     pre = np.empty((8, 12))
     pre[0] = params[_compiled.AT_CHAIN : _compiled.AT_CHAIN + 12]
-    _pipeline.fk_shared(params, LAYOUT, rows, 0, pre, np.int64(0))
+    _rows.fk_shared(params, LAYOUT, rows, 0, pre, np.int64(0))
     return params, pre, rows
 
 

@@ -4,7 +4,7 @@ A closed form found from the joint axes solves the ideal arm: axes that meet onl
 within the geometry's tolerances (a URDF angle written to 11 digits) leave each branch
 about 1e-11 from its target, more where a singularity magnifies it. One step on the
 chain the FK check multiplies out anyway restores it to rounding, and costs little there:
-:func:`optik.analytic._pipeline.fk_shared` has just formed every prefix product of the
+:func:`optik.analytic._rows.fk_shared` has just formed every prefix product of the
 branch, and joint ``i`` turns about the z axis of prefix ``i`` (through its origin), so
 the Jacobian is a cross product per joint.
 
@@ -71,7 +71,7 @@ def pose_residual(pre: np.ndarray, dof: int, T: np.ndarray, k: int, work: np.nda
     """The residual of the pose in ``pre[dof]`` against ``T[k]`` into ``work[:6]``.
 
     ``pre[dof]`` holds the top three rows of the pose, row-major (as
-    :func:`optik.analytic._pipeline.fk_shared` leaves them). The residual is the position
+    :func:`optik.analytic._rows.fk_shared` leaves them). The residual is the position
     error ``p_T - p`` (m), then the axial vector of the skew part of ``R_T R^T`` (rad, the
     rotation error to second order), both in the world frame. Returns its squared
     2-norm (comparisons need no square root).
