@@ -43,11 +43,13 @@ from optik._math import sincos, trig_roots
 from optik._numba import jit as _jit
 from optik.analytic._compiled import closed_form_tols, mul3
 from optik.analytic._subproblems import (
+    RootTols,
     Rot9,
     Vec3,
     circle,
     dot,
     plane_angles,
+    roots_or_tangent,
     rotation,
     sp1_angle,
     sub,
@@ -61,6 +63,16 @@ CIRCLE_TOL = 1e-6
 ``q_3 = arg z``: a double root (a stretched or folded arm) splits into a pair about
 ``sqrt(eps)`` off the circle, which this keeps; a root kept wrongly gives a branch the
 FK check rejects."""
+PAIR_RANK_TOL = 1e-9
+"""Both matrices of :func:`angle_pairs` count as singular when neither
+:func:`root_separation` exceeds this, and its system's two rows as one equation when the
+sine of their angle does not (:func:`singular_pairs`)."""
+PAIR_RESIDUAL_TOL = 1e-5
+"""With both matrices singular, a quartic's pair solves the system when it does so to
+this, relative to the coefficients (the FK check's Newton steps mend the rest:
+:data:`optik.analytic._pipeline.NEAR_MISS`)."""
+PAIR_LOOSE_TOL = 1e-3
+"""...and nearly solves it to this (kept after those that solve it)."""
 _NEWTON_STEPS = 3
 _TINY = 1e-300
 _PIECES = 16
@@ -333,9 +345,9 @@ def general_arm_candidates(
     dx, dy = sub(x0, p2), sub(y0, p2)
     size = max(math.sqrt(dot(dx, dx) + dot(xc, xc)), math.sqrt(dot(dy, dy) + dot(yc, yc)))
     n = 0
+    roots = (trig_tol, eps, free_tol, REACH_TOL)
     if not math.sqrt(dot(yc, yc)) > axis_tol * size:
         # W_t on axis 1: q_1 free; X must reach W_t's height along axis 2.
-        roots = (trig_tol, eps, free_tol, REACH_TOL)
         count, e1, e2 = plane_angles(z3, p3, W, z2, dot(z2, Wt), ref[2], roots)
         for i3 in range(count):
             t3 = e1 if i3 == 0 else e2
@@ -348,19 +360,13 @@ def general_arm_candidates(
     spread = dot(dx, dx) + dot(xc, xc) - dot(dy, dy) - dot(yc, yc)
     b0 = (dot(z2, sub(x0, y0)) * inv, spread * inv2)
     B = (dot(z2, xc) * inv, dot(z2, xs) * inv, 2.0 * dot(dx, xc) * inv2, 2.0 * dot(dx, xs) * inv2)
-    minus_b0 = (-b0[0], -b0[1])
     angles = np.empty((2, 4))
-    # Eliminate the angle whose matrix keeps the quartic's roots apart: near axis 1 (A
+    # The quartic eliminates the angle whose matrix keeps its roots apart: near axis 1 (A
     # small) q_3's quartic has near-double roots, q_1's (B constant, regular when axes 2
     # and 3 are skew) does not.
-    if root_separation(B, minus_b0, A) > root_separation(A, b0, B):
-        count = quartic_pairs(B, minus_b0, A, trig_tol, angles)  # roots q_1, partners q_3
-        for i in range(count):
-            n = _branch(z, p, RG, W, Wt, angles[0, i], angles[1, i], across, ref, tols, cand, n)
-    else:
-        count = quartic_pairs(A, b0, B, trig_tol, angles)  # roots q_3, partners q_1
-        for i in range(count):
-            n = _branch(z, p, RG, W, Wt, angles[1, i], angles[0, i], across, ref, tols, cand, n)
+    count = angle_pairs(A, b0, B, ref[0], ref[2], roots, angles)
+    for i in range(count):
+        n = _branch(z, p, RG, W, Wt, angles[0, i], angles[1, i], across, ref, tols, cand, n)
     return n
 
 
@@ -434,6 +440,217 @@ def quartic_pairs(M: Mat2, v0: Vec2, N: Mat2, trig_tol: float, angles: np.ndarra
 
 
 @_jit
+def angle_pairs(
+    M: Mat2, v0: Vec2, N: Mat2, ref_a: float, ref_b: float, roots: RootTols, angles: np.ndarray
+) -> int:
+    """The angle pairs of ``M (cos a, sin a) = v0 + N (cos b, sin b)``, coefficients of order 1.
+
+    ``a`` goes to ``angles[0]``, ``b`` to ``angles[1]`` (``angles`` (2, >= 4)); returns
+    the count (0 to 4). The quartic of
+    :func:`quartic_pairs` eliminates the angle whose matrix keeps its roots further apart
+    (:func:`root_separation`). With both matrices singular, its pairs that solve the
+    system, then those that nearly do; none solving it, :func:`singular_pairs` first;
+    the system one equation (a curve), :func:`singular_pairs` alone.
+    ``ref_a``, ``ref_b`` (rad): the reference for an angle a singularity leaves free;
+    ``roots`` as :func:`optik.analytic._subproblems.roots_or_tangent`'s.
+    """
+    minus_v0 = (-v0[0], -v0[1])
+    keep_a = root_separation(N, minus_v0, M)
+    keep_b = root_separation(M, v0, N)
+    singular = not max(keep_a, keep_b) > PAIR_RANK_TOL
+    if singular and pair_continuum(M, v0, N):
+        return singular_pairs(M, v0, N, ref_a, ref_b, roots, angles)  # the reference's point
+    if keep_a > keep_b:
+        count = quartic_pairs(N, minus_v0, M, roots[0], angles)  # roots a, partners b
+    else:
+        count = quartic_pairs(M, v0, N, roots[0], angles)  # roots b, partners a
+        for i in range(count):
+            angles[0, i], angles[1, i] = angles[1, i], angles[0, i]
+    if not singular:
+        return count
+    # Both matrices singular: a partner is the angle of a vector that vanishes, rounding
+    # decides it. The pairs that solve the system first, then those that nearly do (the
+    # FK check's Newton steps judge them); none solving it, the system solved directly
+    # first.
+    scale = _norm4(M) + _norm4(N) + math.sqrt(_dot2(v0, v0))
+    loose = np.empty((2, 4))
+    good, near = 0, 0
+    for i in range(count):
+        a, b = angles[0, i], angles[1, i]
+        miss = _pair_miss(M, v0, N, a, b)
+        if miss <= PAIR_RESIDUAL_TOL * scale:
+            angles[0, good], angles[1, good] = a, b
+            good += 1
+        elif miss <= PAIR_LOOSE_TOL * scale:
+            loose[0, near], loose[1, near] = a, b
+            near += 1
+    if good == 0:
+        good = singular_pairs(M, v0, N, ref_a, ref_b, roots, angles)
+    near = min(near, 4 - good)  # the callers' 8 rows: two per pair
+    for i in range(near):
+        angles[0, good + i], angles[1, good + i] = loose[0, i], loose[1, i]
+    return good + near
+
+
+@_jit
+def _pair_miss(M: Mat2, v0: Vec2, N: Mat2, a: float, b: float) -> float:
+    """``|M u_a - v0 - N u_b|`` (max norm) of the pair ``(a, b)`` (rad)."""
+    sa, ca = sincos(a)
+    sb, cb = sincos(b)
+    e0 = M[0] * ca + M[1] * sa - v0[0] - N[0] * cb - N[1] * sb
+    e1 = M[2] * ca + M[3] * sa - v0[1] - N[2] * cb - N[3] * sb
+    return max(abs(e0), abs(e1))
+
+
+@_jit
+def singular_pairs(
+    M: Mat2, v0: Vec2, N: Mat2, ref_a: float, ref_b: float, roots: RootTols, angles: np.ndarray
+) -> int:
+    """:func:`angle_pairs` when neither ``M`` nor ``N`` is regular (no quartic).
+
+    The rows ``(M_i, -N_i, -v0_i)`` of the system proportional (one equation, a curve of
+    pairs: a self-motion): ``a`` takes ``ref_a`` (:func:`_one_equation`). Otherwise a
+    left null vector ``l`` of one matrix, ``l^T M = 0`` say, leaves one equation in the
+    other angle, ``l^T N u_b = -l^T v0`` (up to two ``b``), and each ``b`` one row of ``M``
+    (up to two ``a``): up to 4 pairs, the better conditioned of the two eliminations.
+    """
+    if pair_continuum(M, v0, N):
+        r0 = (M[0], M[1], -N[0], -N[1], -v0[0])
+        r1 = (M[2], M[3], -N[2], -N[3], -v0[1])
+        row = r0 if _norm5(r0) >= _norm5(r1) else r1
+        return _one_equation(
+            (row[0], row[1]), (-row[2], -row[3]), -row[4], ref_a, ref_b, roots, angles
+        )
+    lm, ln = _left_null(M), _left_null(N)
+    lm_n = (lm[0] * N[0] + lm[1] * N[2], lm[0] * N[1] + lm[1] * N[3])
+    ln_m = (ln[0] * M[0] + ln[1] * M[2], ln[0] * M[1] + ln[1] * M[3])
+    if _dot2(lm_n, lm_n) >= _dot2(ln_m, ln_m):
+        # b from l^T N u_b = -l^T v0, then a from M's larger row.
+        return _eliminated(lm_n, -_dot2(lm, v0), M, v0, N, ref_a, ref_b, roots, angles, 1)
+    # a from l^T M u_a = l^T v0, then b from N's larger row (N u_b = -v0 + M u_a).
+    minus_v0 = (-v0[0], -v0[1])
+    return _eliminated(ln_m, _dot2(ln, v0), N, minus_v0, M, ref_b, ref_a, roots, angles, 0)
+
+
+@_jit
+def pair_continuum(M: Mat2, v0: Vec2, N: Mat2) -> bool:
+    """Whether the two rows of :func:`angle_pairs`' system are one equation (a curve of pairs).
+
+    The sine of the angle between the rows ``(M_i, -N_i, -v0_i)`` at most
+    :data:`PAIR_RANK_TOL` (from their 2x2 minors).
+    """
+    r0 = (M[0], M[1], -N[0], -N[1], -v0[0])
+    r1 = (M[2], M[3], -N[2], -N[3], -v0[1])
+    wedge = 0.0
+    for i in range(5):
+        for j in range(i + 1, 5):
+            minor = r0[i] * r1[j] - r0[j] * r1[i]
+            wedge += minor * minor
+    return not math.sqrt(wedge) > PAIR_RANK_TOL * _norm5(r0) * _norm5(r1)
+
+
+@_jit
+def _eliminated(
+    k: Vec2,
+    c: float,
+    P: Mat2,
+    w0: Vec2,
+    Q: Mat2,
+    ref_p: float,
+    ref_q: float,
+    roots: RootTols,
+    angles: np.ndarray,
+    row_q: int,
+) -> int:
+    """Pairs of ``P u_p = w0 + Q u_q`` given ``k . u_q = c`` (``P`` singular, rank 1).
+
+    Each root ``q`` of ``k . u_q = c``, then the roots ``p`` of ``P``'s larger row. ``q``
+    goes to ``angles[row_q]``, ``p`` to the other row.
+    """
+    count, q1, q2 = _scaled_roots(k, c, ref_q, roots)
+    row = 0 if P[0] * P[0] + P[1] * P[1] >= P[2] * P[2] + P[3] * P[3] else 1
+    pk = (P[2 * row], P[2 * row + 1])
+    n = 0
+    for i in range(count):
+        q = q1 if i == 0 else q2
+        s, co = sincos(q)
+        rhs = w0[row] + Q[2 * row] * co + Q[2 * row + 1] * s
+        found, p1, p2 = _scaled_roots(pk, rhs, ref_p, roots)
+        for j in range(found):
+            angles[row_q, n] = q
+            angles[1 - row_q, n] = p1 if j == 0 else p2
+            n += 1
+    return n
+
+
+@_jit
+def _one_equation(
+    m: Vec2, n: Vec2, c: float, ref_a: float, ref_b: float, roots: RootTols, angles: np.ndarray
+) -> int:
+    """Pairs of ``m . u_a = c + n . u_b`` (a curve): ``a = ref_a`` where it can be.
+
+    ``a = ref_a`` and its ``b`` roots; where ``n . u_b`` cannot reach ``m . u_a - c`` there,
+    ``b`` at the nearest extreme of ``n . u_b`` (``ref_b`` if ``n`` vanishes) and the
+    ``a`` roots for it. Pairs into ``angles`` as :func:`angle_pairs`.
+    """
+    s, co = sincos(ref_a)
+    count, b1, b2 = _scaled_roots(n, m[0] * co + m[1] * s - c, ref_b, roots)
+    if count > 0:
+        angles[0, 0], angles[1, 0] = ref_a, b1
+        angles[0, 1], angles[1, 1] = ref_a, b2
+        return count
+    if _dot2(n, n) > 0.0:
+        b = math.atan2(n[1], n[0])
+        if m[0] * co + m[1] * s - c < 0.0:
+            b = math.atan2(-n[1], -n[0])
+    else:
+        b = ref_b
+    s, co = sincos(b)
+    count, a1, a2 = _scaled_roots(m, c + n[0] * co + n[1] * s, ref_a, roots)
+    angles[0, 0], angles[1, 0] = a1, b
+    angles[0, 1], angles[1, 1] = a2, b
+    return count
+
+
+@_jit
+def _scaled_roots(k: Vec2, c: float, ref: float, roots: RootTols) -> tuple[int, float, float]:
+    """:func:`optik.analytic._subproblems.roots_or_tangent` of ``k . (cos t, sin t) = c``.
+
+    Divided by ``|k| + |c|`` first (coefficients of order 1); all zero: ``t`` free, ``ref``.
+    """
+    scale = math.sqrt(_dot2(k, k)) + abs(c)
+    if not scale > 0.0:
+        return 1, ref, ref
+    return roots_or_tangent(k[0] / scale, k[1] / scale, c / scale, ref, roots)
+
+
+@_jit
+def _left_null(M: Mat2) -> Vec2:
+    """A unit ``l`` with ``l^T M`` as small as it gets for a rank-1 ``M`` ((0, 0) for ``M = 0``).
+
+    Of the two normals ``(-m2, m0)`` and ``(-m3, m1)`` to ``M``'s columns, the longer.
+    """
+    a = (-M[2], M[0])
+    b = (-M[3], M[1])
+    if _dot2(b, b) > _dot2(a, a):
+        a = b
+    length = math.sqrt(_dot2(a, a))
+    if not length > 0.0:
+        return (0.0, 0.0)
+    return (a[0] / length, a[1] / length)
+
+
+@_jit
+def _norm4(m: Mat2) -> float:
+    return math.sqrt(m[0] * m[0] + m[1] * m[1] + m[2] * m[2] + m[3] * m[3])
+
+
+@_jit
+def _norm5(r: tuple[float, float, float, float, float]) -> float:
+    return math.sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2] + r[3] * r[3] + r[4] * r[4])
+
+
+@_jit
 def _adj(A: Mat2, b: Vec2) -> Vec2:
     """``adj(A) b`` for ``A = ((A0, A1), (A2, A3))``."""
     return (A[3] * b[0] - A[1] * b[1], A[0] * b[1] - A[2] * b[0])
@@ -446,9 +663,13 @@ def _dot2(a: Vec2, b: Vec2) -> float:
 
 __all__ = [
     "CIRCLE_TOL",
+    "PAIR_RANK_TOL",
+    "angle_pairs",
     "general_arm_candidates",
+    "pair_continuum",
     "quartic_pairs",
     "root_separation",
     "sampled_roots",
+    "singular_pairs",
     "trig2_roots",
 ]

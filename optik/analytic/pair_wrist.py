@@ -262,7 +262,7 @@ def wrist_branches(
             t4 = ta + (0.5 * excess if along else -0.5 * excess)
             t5 = tb
         t6 = _wrist_q6(z4, z5, z6, t4, t5, across, Ha, ref, axis_tol)
-        if n < cand.shape[0]:
+        if n < MAX_BRANCHES:
             n = store_branch(cand, n, (arm[0], arm[1], arm[2], t4, t5, t6))
     return n
 

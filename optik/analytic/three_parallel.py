@@ -15,7 +15,7 @@ conditions tie ``q_5`` to ``q_1`` alone:
   chosen off axis 5 by the plan).
 
 Both are linear in ``(cos q_1, sin q_1)`` and ``(cos q_5, sin q_5)``: the system of
-:func:`optik.analytic.general_arm.quartic_pairs`, a quartic, up to 4 pairs. Then ``q_6`` by
+:func:`optik.analytic.general_arm.angle_pairs`, a quartic, up to 4 pairs. Then ``q_6`` by
 subproblem 1 (``R_6 F^T h = R_5^-1 h`` with ``F`` the rotation of ``R_1^-1 G``), the turn
 ``theta`` from the rest of the rotation, and the planar arm: the point ``p_4`` of axis 4
 must reach ``X = R_1^-1 G R_6^-1 R_5^-1 p_4``: ``q_3`` by its distance from axis 2
@@ -30,7 +30,9 @@ from axis 1, ``q_1`` by subproblem 1, ``q_3`` the rest).
 
 Up to 8 branches each, refined by one Newton step on the chain and checked by FK in the
 post-processing; the same read backwards (axes 3, 4, 5 parallel; axes 4, 5, 6 parallel
-with axes 1 and 2 meeting). At a singularity a free angle takes the reference.
+with axes 1 and 2 meeting). At a singularity a free angle takes the reference; where
+the inner kind's two conditions are one equation (a self-motion), ``q_1`` takes the
+reference's value and its opposite, or failing those a grid's (:func:`_continuum_rows`).
 """
 
 from __future__ import annotations
@@ -40,8 +42,9 @@ import math
 import numpy as np
 
 from optik._numba import jit as _jit
-from optik.analytic._compiled import closed_form_tols, mul3, store_branch
+from optik.analytic._compiled import MAX_BRANCHES, closed_form_tols, mul3, store_branch
 from optik.analytic._subproblems import (
+    RootTols,
     Rot9,
     Vec3,
     apply,
@@ -60,11 +63,15 @@ from optik.analytic._subproblems import (
     sub,
     turn_point,
     unit,
+    vec_at,
 )
-from optik.analytic.general_arm import quartic_pairs, root_separation
+from optik.analytic.general_arm import Mat2, Vec2, angle_pairs, pair_continuum, singular_pairs
 from optik.analytic.pair_wrist import REACH_TOL, target_frame
 
 _ORIGIN = (0.0, 0.0, 0.0)
+CONTINUUM_TRIES = 8
+"""Values of ``q_1`` (each with its opposite) tried on a self-motion of the inner kind:
+the reference's, then the rest of an even grid over half a turn, nearest first."""
 
 
 @_jit
@@ -97,9 +104,8 @@ def three_inner_candidates(
     elbow.
     """
     trig_tol, eps, free_tol, axis_tol = closed_form_tols(tols)
-    z1, z2, z3, z4, z5, z6 = six_rows(z)
-    p1, p2, p3, p4, p5, p6 = six_rows(p)
-    h = z2
+    z1, h, z5, z6 = vec_at(z, 0), vec_at(z, 1), vec_at(z, 4), vec_at(z, 5)
+    p1, p5, p6 = vec_at(p, 0), vec_at(p, 4), vec_at(p, 5)
     RG, tG = target_frame(T, M)
     back = (-z1[0], -z1[1], -z1[2])  # R_1(q)^-1 turns by q about -z1
     Gp6 = axpy(1.0, apply(RG, p6), tG)
@@ -112,21 +118,75 @@ def three_inner_candidates(
     A = (dot(h, yac), dot(h, yas), dot(h, ybc) * inv, dot(h, ybs) * inv)
     B = (dot(h, xac), dot(h, xas), dot(h, xbc) * inv, dot(h, xbs) * inv)
     b0 = (dot(h, sub(xa0, ya0)), dot(h, sub(xb0, yb0)) * inv)
-    minus_b0 = (-b0[0], -b0[1])
+    roots = (trig_tol, eps, free_tol, REACH_TOL)
+    if pair_continuum(A, b0, B):
+        return _continuum_rows(A, b0, B, z, p, RG, tG, ref, roots, axis_tol, cand)
     pairs = np.empty((2, 4))
-    count = 0
-    if root_separation(B, minus_b0, A) > root_separation(A, b0, B):
-        count = quartic_pairs(B, minus_b0, A, trig_tol, pairs)  # roots q_1, partners q_5
-        first, fifth = pairs[0], pairs[1]
-    else:
-        count = quartic_pairs(A, b0, B, trig_tol, pairs)  # roots q_5, partners q_1
-        first, fifth = pairs[1], pairs[0]
+    count = angle_pairs(A, b0, B, ref[0], ref[4], roots, pairs)
+    return _inner_rows(z, p, RG, tG, pairs, count, ref, roots, axis_tol, cand)
+
+
+@_jit
+def _continuum_rows(
+    A: Mat2,
+    b0: Vec2,
+    B: Mat2,
+    z: np.ndarray,
+    p: np.ndarray,
+    RG: Rot9,
+    tG: Vec3,
+    ref: np.ndarray,
+    roots: RootTols,
+    axis_tol: float,
+    cand: np.ndarray,
+) -> int:
+    """The rows of :func:`three_inner_candidates` on a self-motion (its conditions one).
+
+    ``q_1`` takes the reference's value and the value half a turn from it (the
+    shoulder's two sides: parts of the curve the elbow's reach may separate), each with
+    its ``q_5`` (:func:`optik.analytic.general_arm.singular_pairs`); where the elbow
+    reaches its target at neither, the next values of an even grid over half a turn,
+    nearest first (:data:`CONTINUUM_TRIES`).
+    """
+    pairs = np.empty((2, 4))
+    for k in range(CONTINUUM_TRIES):
+        shift = ((k + 1) // 2) * (math.pi / CONTINUUM_TRIES) * (1 - 2 * (k % 2 == 0))
+        t1 = ref[0] + shift
+        count = singular_pairs(A, b0, B, t1, ref[4], roots, pairs)
+        count += singular_pairs(A, b0, B, t1 + math.pi, ref[4], roots, pairs[:, count:])
+        n = _inner_rows(z, p, RG, tG, pairs, count, ref, roots, axis_tol, cand)
+        if n > 0:
+            return n
+    return 0
+
+
+@_jit
+def _inner_rows(
+    z: np.ndarray,
+    p: np.ndarray,
+    RG: Rot9,
+    tG: Vec3,
+    pairs: np.ndarray,
+    count: int,
+    ref: np.ndarray,
+    roots: RootTols,
+    axis_tol: float,
+    cand: np.ndarray,
+) -> int:
+    """The rows of :func:`three_inner_candidates` from its ``count`` pairs ``(q_1, q_5)``.
+
+    ``pairs`` (2, >= count): ``q_1`` then ``q_5`` (rad); ``RG``, ``tG`` the target
+    frame's rotation and translation; writes up to 8 rows of ``cand``, returns how many.
+    """
+    z1, z2, z3, z4, z5, z6 = six_rows(z)
+    p1, p2, p3, p4, p5, p6 = six_rows(p)
+    h = z2
+    back = (-z1[0], -z1[1], -z1[2])
     # A direction across h, to read theta off a rotation about h.
     across = unit(cross(h, z1))
-    roots = (trig_tol, eps, free_tol, REACH_TOL)
     n = 0
     for i in range(count):
-        t1, t5 = first[i], fifth[i]
+        t1, t5 = pairs[0, i], pairs[1, i]
         F = mul3(rotation(back, t1), RG)  # the rotation of R_1^-1 G
         R5 = rotation(z5, t5)
         t6 = sp1_angle(z6, apply_t(F, h), apply_t(R5, h), ref[5], axis_tol)
@@ -139,7 +199,7 @@ def three_inner_candidates(
         for i3 in range(n3):
             t2, t3 = (u1, v1) if i3 == 0 else (u2, v2)
             t4 = dot(h, z4) * (theta - dot(h, z2) * t2 - dot(h, z3) * t3)
-            if n < cand.shape[0]:
+            if n < MAX_BRANCHES:
                 t4 = math.atan2(math.sin(t4), math.cos(t4))
                 n = store_branch(cand, n, (t1, t2, t3, t4, t5, t6))
     return n
@@ -192,7 +252,7 @@ def three_outer_candidates(
             for i2 in range(n2):
                 t1, t2 = (u1, v1) if i2 == 0 else (u2, v2)
                 t3 = dot(h, z3) * (theta - t1 - dot(h, z2) * t2)
-                if n < cand.shape[0]:
+                if n < MAX_BRANCHES:
                     t3 = math.atan2(math.sin(t3), math.cos(t3))
                     n = store_branch(cand, n, (t1, t2, t3, t4, t5, t6))
     return n

@@ -1,0 +1,249 @@
+"""Closed forms whose pair conditions degenerate: both matrices singular, or one equation.
+
+The angle pairs of ``M (cos a, sin a) = v0 + N (cos b, sin b)`` (the general arm's and the
+three-inner-parallel kind's step) when no quartic separates them, and the Unitree Z1
+(``three_parallel``, from example-robot-data's URDF) at configurations where its two
+pair conditions coincide: a self-motion, every ``q1`` of an arc reaching the pose.
+
+References independent of the closed form: the residual of the system written out here,
+pinocchio's FK of the URDF, the configuration each pose came from, and scipy's least
+squares over the other joints with ``q1`` held.
+"""
+
+from __future__ import annotations
+
+import importlib.metadata
+import math
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+import pytest
+from conftest import joint_distance
+from scipy.optimize import least_squares
+from scipy.spatial.transform import Rotation
+
+from optik import Robot, solve_ik
+from optik.analytic import analytic_ik, analytic_ik_batch, family_of
+from optik.analytic.general_arm import angle_pairs, pair_continuum
+
+ROOTS = (1e-12, 1e-12, 1e-9, 1e-9)
+"""``(trig_tol, eps, free_tol, reach_tol)``, the closed forms' values."""
+SYSTEM_TOL = 1e-12
+FK_TOL = 1e-9
+
+
+def _miss(M: np.ndarray, v0: np.ndarray, N: np.ndarray, a: float, b: float) -> float:
+    return float(
+        np.max(np.abs(M @ (math.cos(a), math.sin(a)) - v0 - N @ (math.cos(b), math.sin(b))))
+    )
+
+
+def _pairs(M: np.ndarray, v0: np.ndarray, N: np.ndarray, ref_a: float, ref_b: float) -> np.ndarray:
+    angles = np.full((2, 4), np.nan)
+    count = angle_pairs(tuple(M.ravel()), tuple(v0), tuple(N.ravel()), ref_a, ref_b, ROOTS, angles)
+    return angles[:, :count].T
+
+
+def _wrapped(x: float) -> float:
+    return math.atan2(math.sin(x), math.cos(x))
+
+
+def test_regular_systems_give_pairs_that_solve_them() -> None:
+    rng = np.random.default_rng(3)
+    for _ in range(200):
+        M, N = rng.normal(size=(2, 2)), rng.normal(size=(2, 2))
+        a0, b0 = rng.uniform(-math.pi, math.pi, 2)
+        v0 = M @ (math.cos(a0), math.sin(a0)) - N @ (math.cos(b0), math.sin(b0))
+        pairs = _pairs(M, v0, N, 0.0, 0.0)
+        assert 1 <= len(pairs) <= 4
+        assert max(_miss(M, v0, N, a, b) for a, b in pairs) < SYSTEM_TOL
+        assert min(abs(_wrapped(a - a0)) + abs(_wrapped(b - b0)) for a, b in pairs) < 1e-7
+
+
+def _reference_pairs(M: np.ndarray, v0: np.ndarray, N: np.ndarray, u: np.ndarray) -> list:
+    """Every pair of a system with ``M``'s columns along ``u``: the roots ``b`` of
+    ``l . (v0 + N u_b) = 0`` (``l`` normal to ``u``) by sign changes on a fine grid and
+    brentq, then ``a`` from ``M``'s larger row by arccos."""
+    from scipy.optimize import brentq
+
+    normal = np.array([-u[1], u[0]])
+
+    def g(t: float) -> float:
+        return float(normal @ (v0 + N @ (math.cos(t), math.sin(t))))
+
+    grid = np.linspace(-math.pi, math.pi, 2001)
+    values = [g(t) for t in grid]
+    pairs = []
+    k = int(np.argmax(np.abs(M).sum(axis=1)))
+    for t0, t1, g0, g1 in zip(grid[:-1], grid[1:], values[:-1], values[1:], strict=True):
+        if g0 == 0.0 or g0 * g1 < 0.0:
+            b = brentq(g, t0, t1, xtol=1e-15) if g0 != 0.0 else t0
+            rhs = (v0 + N @ (math.cos(b), math.sin(b)))[k]
+            r = np.linalg.norm(M[k])
+            if abs(rhs) <= r:
+                phi, psi = math.atan2(M[k, 1], M[k, 0]), math.acos(rhs / r)
+                pairs += [(phi + psi, b), (phi - psi, b)]
+    return pairs
+
+
+def test_two_singular_matrices_give_every_pair() -> None:
+    """Rank 1 each, the system rank 2: ``l^T M = 0`` leaves one equation in ``b``."""
+    rng = np.random.default_rng(4)
+    for _ in range(200):
+        u, w = rng.normal(size=2), rng.normal(size=2)
+        M, N = np.outer(u, rng.normal(size=2)), np.outer(w, rng.normal(size=2))
+        a0, b0 = rng.uniform(-math.pi, math.pi, 2)
+        v0 = M @ (math.cos(a0), math.sin(a0)) - N @ (math.cos(b0), math.sin(b0))
+        assert not pair_continuum(tuple(M.ravel()), tuple(v0), tuple(N.ravel()))
+        pairs = _pairs(M, v0, N, 0.3, -0.2)
+        assert max(_miss(M, v0, N, a, b) for a, b in pairs) < SYSTEM_TOL
+        expected = _reference_pairs(M, v0, N, u)
+        assert len(pairs) == len(expected)
+        for a, b in expected:
+            assert min(abs(_wrapped(a - x)) + abs(_wrapped(b - y)) for x, y in pairs) < 1e-7
+
+
+def test_one_equation_holds_a_at_its_reference() -> None:
+    """The rows proportional (a curve of pairs): ``a`` takes ``ref_a`` where it can."""
+    rng = np.random.default_rng(5)
+    held = 0
+    for _ in range(200):
+        u = rng.normal(size=2)
+        m, n = rng.normal(size=2), rng.normal(size=2)
+        a0, b0 = rng.uniform(-math.pi, math.pi, 2)
+        c = m @ (math.cos(a0), math.sin(a0)) - n @ (math.cos(b0), math.sin(b0))
+        M, N, v0 = np.outer(u, m), np.outer(u, n), c * u
+        assert pair_continuum(tuple(M.ravel()), tuple(v0), tuple(N.ravel()))
+        ref_a = rng.uniform(-math.pi, math.pi)
+        pairs = _pairs(M, v0, N, ref_a, 0.0)
+        assert 1 <= len(pairs) <= 2
+        assert max(_miss(M, v0, N, a, b) for a, b in pairs) < 1e-9
+        reachable = abs(m @ (math.cos(ref_a), math.sin(ref_a)) - c) <= np.linalg.norm(n)
+        if reachable:
+            held += 1
+            assert all(abs(_wrapped(a - ref_a)) < 1e-15 for a, _ in pairs)
+    assert held > 50
+
+
+# ------------------------------------------------------------------------ the Z1
+
+
+def _z1_path() -> Path:
+    dist = importlib.metadata.distribution("example-robot-data")  # the test extra
+    path = Path(str(dist.locate_file("cmeel.prefix/share/example-robot-data/robots")))
+    return path / "z1_description" / "urdf" / "z1.urdf"
+
+
+@pytest.fixture(scope="module")
+def z1() -> Robot:
+    robot = Robot.from_urdf(_z1_path(), "link00", "link06")
+    assert family_of(robot).name == "three_parallel"
+    return robot
+
+
+@pytest.fixture(scope="module")
+def pinocchio_fk():
+    model = pin.buildModelFromUrdf(str(_z1_path()))
+    data = model.createData()
+    frame = model.getFrameId("link06")
+
+    def fk(q: np.ndarray) -> np.ndarray:
+        full = np.zeros(model.nq)
+        full[:6] = q  # joint1 .. joint6, then the gripper at 0
+        pin.framesForwardKinematics(model, data, full)
+        return np.asarray(data.oMf[frame].homogeneous)
+
+    return fk
+
+
+SELF_MOTION = [
+    [0.8648512123864576, 1.193307366485286, -1.937867031719962, -0.7215125206020953,
+     1.1804773630904115, 1.906720101111779],
+    [-1.0212816257623467, 1.2384001471172754, -0.06545943824695775, 0.7296565886314073,
+     0.4403653529847855, 1.2924559099086097],
+    [-2.4138644916857697, 1.2775846662336523, -2.401715465199128, 0.540179844898437,
+     -1.2872570378207433, -1.0579756041042578],
+    [-0.9010684102651938, 1.478642106232688, -2.778318850891328, 0.15201725844951208,
+     -1.1399336383808183, -1.6616583822901354],
+]  # fmt: skip
+"""In-limit configurations where the Z1's two pair conditions coincide (sigma_min(J) about
+1e-16): the first two gave no branch at all, the last two none but for ``q1`` of an arc
+away from mid-limits' ``q1 = 0``."""
+
+
+def _singular(z1: Robot, q: np.ndarray) -> np.ndarray:
+    """``q`` with ``q2`` moved until the Jacobian's smallest singular value vanishes."""
+
+    def smallest(x: np.ndarray) -> list[float]:
+        return [np.linalg.svd(z1.jacobian(np.r_[q[0], x, q[2:]]), compute_uv=False)[-1]]
+
+    fit = least_squares(smallest, [q[1]], xtol=1e-15, ftol=1e-15, gtol=1e-15)
+    return np.r_[q[0], fit.x, q[2:]]
+
+
+def _assert_branches_reach(pinocchio_fk, branches: list[np.ndarray], T: np.ndarray) -> None:
+    for b in branches:
+        F = pinocchio_fk(b)
+        assert np.linalg.norm(F[:3, 3] - T[:3, 3]) < FK_TOL
+        assert Rotation.from_matrix(F[:3, :3].T @ T[:3, :3]).magnitude() < FK_TOL
+
+
+def test_the_z1_self_motion_has_branches_and_the_reference_point(z1: Robot, pinocchio_fk) -> None:
+    for q in map(np.array, SELF_MOTION):
+        assert z1.within_limits(q)
+        assert np.linalg.svd(z1.jacobian(q), compute_uv=False)[-1] < 1e-12
+        T = pinocchio_fk(q)
+        branches = analytic_ik(z1, T, within_limits=False)
+        assert branches, "a reachable pose answered as unreachable"
+        _assert_branches_reach(pinocchio_fk, branches, T)
+        near = analytic_ik(z1, T, within_limits=False, q_ref=q)
+        assert min(joint_distance(z1, b, q) for b in near) < 1e-9  # q_ref's own point
+        batch = analytic_ik_batch(z1, T[None], within_limits=False, q_ref=q[None])
+        assert batch.counts[0] == len(near)
+        np.testing.assert_array_equal(batch.q[0, : len(near)], np.array(near))
+        result = solve_ik(z1, T)
+        assert result.status == "converged" and result.solver == "analytic"
+
+
+def test_the_self_motion_is_an_arc_of_q1(z1: Robot) -> None:
+    """Independent of the closed form: with ``q1`` held at a returned branch's value the
+    other joints reach the pose (scipy), and at mid-limits' ``q1 = 0`` they do not: the
+    branch is a point of the arc, not the reference's rounding."""
+    q = np.array(SELF_MOTION[2])
+    T = z1.fk(q)
+
+    def residual(rest: np.ndarray, q1: float) -> np.ndarray:
+        F = z1.fk(np.r_[q1, rest])
+        turn = Rotation.from_matrix(F[:3, :3].T @ T[:3, :3]).as_rotvec()
+        return np.r_[F[:3, 3] - T[:3, 3], 0.3 * turn]
+
+    def best(q1: float) -> float:
+        starts = [q[1:] + np.random.default_rng(i).normal(0.0, 0.5 * (i > 0), 5) for i in range(8)]
+        fits = [least_squares(residual, s, args=(q1,), xtol=1e-15, ftol=1e-15) for s in starts]
+        return min(float(np.linalg.norm(f.fun)) for f in fits)
+
+    branches = analytic_ik(z1, T, within_limits=False)
+    assert branches
+    assert all(best(b[0]) < 1e-12 for b in branches)
+    assert best(0.0) > 1e-4
+
+
+def test_singular_poses_made_here_keep_their_source(z1: Robot, pinocchio_fk) -> None:
+    rng = np.random.default_rng(11)
+    lo, hi = z1.lower, z1.upper
+    checked = 0
+    for q in rng.uniform(lo, hi, (40, 6)):
+        q = _singular(z1, q)
+        if not z1.within_limits(q) or np.linalg.svd(z1.jacobian(q), compute_uv=False)[-1] > 1e-10:
+            continue
+        checked += 1
+        T = pinocchio_fk(q)
+        branches = analytic_ik(z1, T, within_limits=False)
+        assert branches
+        _assert_branches_reach(pinocchio_fk, branches, T)
+        near = analytic_ik(z1, T, within_limits=False, q_ref=q)
+        assert min(joint_distance(z1, b, q) for b in near) < 1e-6
+        batch = analytic_ik_batch(z1, T[None], within_limits=False)
+        assert batch.counts[0] == len(branches)
+    assert checked >= 10
