@@ -65,8 +65,13 @@ CIRCLE_TOL = 1e-6
 FK check rejects."""
 PAIR_RANK_TOL = 1e-9
 """Both matrices of :func:`angle_pairs` count as singular when neither
-:func:`root_separation` exceeds this, and its system's two rows as one equation when the
-sine of their angle does not (:func:`singular_pairs`)."""
+:func:`root_separation` exceeds this."""
+PAIR_CONTINUUM_TOL = 1e-13
+"""Its system's two rows count as one equation (a curve of pairs, :func:`pair_continuum`)
+when the sine of their angle is at most this: singular to rounding (about 1e-16 at an
+exact self-motion). Poses 1e-10 rad off one are isolated solutions the quartic still
+finds to rounding, where the curve's point at the reference misses by up to 1e-9 of the
+arm's size (the FK check's tolerance)."""
 PAIR_RESIDUAL_TOL = 1e-5
 """With both matrices singular, a quartic's pair solves the system when it does so to
 this, relative to the coefficients (the FK check's Newton steps mend the rest:
@@ -449,8 +454,8 @@ def angle_pairs(
     the count (0 to 4). The quartic of
     :func:`quartic_pairs` eliminates the angle whose matrix keeps its roots further apart
     (:func:`root_separation`). With both matrices singular, its pairs that solve the
-    system, then those that nearly do; none solving it, :func:`singular_pairs` first;
-    the system one equation (a curve), :func:`singular_pairs` alone.
+    system, then those that nearly do; none solving it, :func:`singular_pairs` after
+    those; the system one equation (a curve), :func:`singular_pairs` alone.
     ``ref_a``, ``ref_b`` (rad): the reference for an angle a singularity leaves free;
     ``roots`` as :func:`optik.analytic._subproblems.roots_or_tangent`'s.
     """
@@ -469,9 +474,10 @@ def angle_pairs(
     if not singular:
         return count
     # Both matrices singular: a partner is the angle of a vector that vanishes, rounding
-    # decides it. The pairs that solve the system first, then those that nearly do (the
-    # FK check's Newton steps judge them); none solving it, the system solved directly
-    # first.
+    # decides it. The pairs that solve the system, then those that nearly do (the FK
+    # check's Newton steps judge them). None solving it, also the system solved directly:
+    # first where its rows are independent (exact there), after the others where they are
+    # nearly one equation (its elimination then rests on their near-zero difference).
     scale = _norm4(M) + _norm4(N) + math.sqrt(_dot2(v0, v0))
     loose = np.empty((2, 4))
     good, near = 0, 0
@@ -484,12 +490,30 @@ def angle_pairs(
         elif miss <= PAIR_LOOSE_TOL * scale:
             loose[0, near], loose[1, near] = a, b
             near += 1
+    direct = np.empty((2, 4))
+    found = 0
     if good == 0:
-        good = singular_pairs(M, v0, N, ref_a, ref_b, roots, angles)
-    near = min(near, 4 - good)  # the callers' 8 rows: two per pair
-    for i in range(near):
-        angles[0, good + i], angles[1, good + i] = loose[0, i], loose[1, i]
-    return good + near
+        found = singular_pairs(M, v0, N, ref_a, ref_b, roots, direct)
+    direct_first = pair_sine(M, v0, N) > PAIR_RANK_TOL
+    kept = good
+    if direct_first:
+        kept = _append_pairs(angles, kept, direct, found)
+    kept = _append_pairs(angles, kept, loose, near)
+    if not direct_first:
+        kept = _append_pairs(angles, kept, direct, found)
+    return kept
+
+
+@_jit
+def _append_pairs(angles: np.ndarray, kept: int, extra: np.ndarray, count: int) -> int:
+    """``extra``'s first ``count`` pairs after ``angles``' first ``kept``: the new count.
+
+    Up to 4 pairs in all (the callers' 8 rows, two per pair).
+    """
+    n = min(count, 4 - kept)
+    for i in range(n):
+        angles[0, kept + i], angles[1, kept + i] = extra[0, i], extra[1, i]
+    return kept + n
 
 
 @_jit
@@ -536,8 +560,16 @@ def singular_pairs(
 def pair_continuum(M: Mat2, v0: Vec2, N: Mat2) -> bool:
     """Whether the two rows of :func:`angle_pairs`' system are one equation (a curve of pairs).
 
-    The sine of the angle between the rows ``(M_i, -N_i, -v0_i)`` at most
-    :data:`PAIR_RANK_TOL` (from their 2x2 minors).
+    Their :func:`pair_sine` at most :data:`PAIR_CONTINUUM_TOL`.
+    """
+    return not pair_sine(M, v0, N) > PAIR_CONTINUUM_TOL
+
+
+@_jit
+def pair_sine(M: Mat2, v0: Vec2, N: Mat2) -> float:
+    """The sine of the angle between the two rows of :func:`angle_pairs`' system.
+
+    The rows ``(M_i, -N_i, -v0_i)``, from their 2x2 minors; 0 where a row vanishes.
     """
     r0 = (M[0], M[1], -N[0], -N[1], -v0[0])
     r1 = (M[2], M[3], -N[2], -N[3], -v0[1])
@@ -546,7 +578,10 @@ def pair_continuum(M: Mat2, v0: Vec2, N: Mat2) -> bool:
         for j in range(i + 1, 5):
             minor = r0[i] * r1[j] - r0[j] * r1[i]
             wedge += minor * minor
-    return not math.sqrt(wedge) > PAIR_RANK_TOL * _norm5(r0) * _norm5(r1)
+    lengths = _norm5(r0) * _norm5(r1)
+    if not lengths > 0.0:
+        return 0.0
+    return math.sqrt(wedge) / lengths
 
 
 @_jit
@@ -663,10 +698,12 @@ def _dot2(a: Vec2, b: Vec2) -> float:
 
 __all__ = [
     "CIRCLE_TOL",
+    "PAIR_CONTINUUM_TOL",
     "PAIR_RANK_TOL",
     "angle_pairs",
     "general_arm_candidates",
     "pair_continuum",
+    "pair_sine",
     "quartic_pairs",
     "root_separation",
     "sampled_roots",
