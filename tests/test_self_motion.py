@@ -289,3 +289,27 @@ def test_poses_just_off_the_self_motion_keep_their_isolated_branches(
                 F = np.asarray(data.oMf[frame].homogeneous)
                 assert np.linalg.norm(F[:3, 3] - T[:3, 3]) < FK_TOL * scale
                 assert Rotation.from_matrix(F[:3, :3].T @ T[:3, :3]).magnitude() < FK_TOL
+
+
+WRIST_ALONG = [
+    [0.2549474485108041, 0.8583048789745089, -2.576031298837515, -1.5087586319112658,
+     1.5707963267948966, 0.9545097610370683],
+    [-1.0358110292452987, 2.80473760828029, -2.565636103171732, -0.2130943157977201,
+     -1.5707963267948966, 1.1697045460711353],
+]  # fmt: skip
+"""q5 = +-pi/2 (beyond the Z1's q5 limits): axis 6 along axes 2-4, so q6 is free in its
+subproblem but turns the elbow's target; at mid-limits' q6 the elbow falls short."""
+
+
+def test_axis_6_along_the_parallel_axes(z1: Robot, pinocchio_fk) -> None:
+    for q in map(np.array, WRIST_ALONG):
+        T = pinocchio_fk(q)
+        for q_ref in (None, q, q + 1.0):
+            branches = analytic_ik(z1, T, within_limits=False, q_ref=q_ref)
+            assert branches, "a reachable pose answered as unreachable"
+            _assert_branches_reach(pinocchio_fk, branches, T)
+            refs = None if q_ref is None else q_ref[None]
+            batch = analytic_ik_batch(z1, T[None], within_limits=False, q_ref=refs)
+            assert batch.counts[0] == len(branches)
+        # Reached only outside the limits: not "unreachable".
+        assert solve_ik(z1, T).status == "outside_limits"

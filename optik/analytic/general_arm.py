@@ -451,13 +451,13 @@ def angle_pairs(
     """The angle pairs of ``M (cos a, sin a) = v0 + N (cos b, sin b)``, coefficients of order 1.
 
     ``a`` goes to ``angles[0]``, ``b`` to ``angles[1]`` (``angles`` (2, >= 4)); returns
-    the count (0 to 4). The quartic of
-    :func:`quartic_pairs` eliminates the angle whose matrix keeps its roots further apart
-    (:func:`root_separation`). With both matrices singular, its pairs that solve the
-    system, then those that nearly do; none solving it, :func:`singular_pairs` after
-    those; the system one equation (a curve), :func:`singular_pairs` alone.
-    ``ref_a``, ``ref_b`` (rad): the reference for an angle a singularity leaves free;
-    ``roots`` as :func:`optik.analytic._subproblems.roots_or_tangent`'s.
+    the count (0 to 4). The quartic of :func:`quartic_pairs` eliminates the angle whose
+    matrix keeps its roots further apart (:func:`root_separation`). With both matrices
+    singular, its pairs that solve the system, then those that nearly do; none solving
+    it, also :func:`singular_pairs`; the system one equation (a curve),
+    :func:`singular_pairs` alone. ``ref_a``, ``ref_b`` (rad): the reference for an angle
+    a singularity leaves free; ``roots`` as
+    :func:`optik.analytic._subproblems.roots_or_tangent`'s.
     """
     minus_v0 = (-v0[0], -v0[1])
     keep_a = root_separation(N, minus_v0, M)

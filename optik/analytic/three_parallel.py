@@ -32,7 +32,8 @@ Up to 8 branches each, refined by one Newton step on the chain and checked by FK
 post-processing; the same read backwards (axes 3, 4, 5 parallel; axes 4, 5, 6 parallel
 with axes 1 and 2 meeting). At a singularity a free angle takes the reference; where
 the inner kind's two conditions are one equation (a self-motion), ``q_1`` takes the
-reference's value and its opposite, or failing those a grid's (:func:`_continuum_rows`).
+reference's value and its opposite, or failing those a grid's (:func:`_continuum_rows`);
+``q_6`` likewise where axis 6 lies along the parallel axes.
 """
 
 from __future__ import annotations
@@ -72,6 +73,9 @@ _ORIGIN = (0.0, 0.0, 0.0)
 CONTINUUM_TRIES = 8
 """Values of ``q_1`` (each with its opposite) tried on a self-motion of the inner kind:
 the reference's, then the rest of an even grid over half a turn, nearest first."""
+WRIST_TRIES = 32
+"""Values of ``q_6`` tried where axis 6 lies along the parallel axes (``q_6`` free in its
+subproblem but not for the elbow): the reference's, then an even grid over the turn."""
 
 
 @_jit
@@ -150,14 +154,19 @@ def _continuum_rows(
     """
     pairs = np.empty((2, 4))
     for k in range(CONTINUUM_TRIES):
-        shift = ((k + 1) // 2) * (math.pi / CONTINUUM_TRIES) * (1 - 2 * (k % 2 == 0))
-        t1 = ref[0] + shift
+        t1 = ref[0] + _grid_shift(k, math.pi / CONTINUUM_TRIES)
         count = singular_pairs(A, b0, B, t1, ref[4], roots, pairs)
         count += singular_pairs(A, b0, B, t1 + math.pi, ref[4], roots, pairs[:, count:])
         n = _inner_rows(z, p, RG, tG, pairs, count, ref, roots, axis_tol, cand)
         if n > 0:
             return n
     return 0
+
+
+@_jit
+def _grid_shift(k: int, step: float) -> float:
+    """The ``k``-th offset (rad) of an even grid, nearest first: 0, +step, -step, +2 step..."""
+    return ((k + 1) // 2) * step * (1.0 if k % 2 == 1 else -1.0)
 
 
 @_jit
@@ -189,13 +198,25 @@ def _inner_rows(
         t1, t5 = pairs[0, i], pairs[1, i]
         F = mul3(rotation(back, t1), RG)  # the rotation of R_1^-1 G
         R5 = rotation(z5, t5)
-        t6 = sp1_angle(z6, apply_t(F, h), apply_t(R5, h), ref[5], axis_tol)
-        theta = _planar_rest(h, F, mul3(R5, rotation(z6, t6)), across)
-        # X = R_1^-1 G R_6^-1 R_5^-1 p_4, by line turns.
-        X = turn_point(z6, p6, -t6, turn_point(z5, p5, -t5, p4))
-        X = turn_point(back, p1, t1, axpy(1.0, apply(RG, X), tG))
-        d = sub(X, p2)
-        n3, u1, v1, u2, v2 = reach_angles(z2, p2, z3, p3, p4, d, ref[1], ref[2], roots, axis_tol)
+        t6 = sp1_angle(z6, apply_t(F, h), apply_t(R5, h), math.nan, axis_tol)
+        tries = 1
+        if math.isnan(t6):
+            # Axis 6 along h (q6 free): q6 also turns the planar arm's target, which the
+            # elbow may reach at other q6 than the reference's (a self-motion).
+            tries = WRIST_TRIES
+        for k in range(tries):
+            if tries > 1:
+                t6 = ref[5] + _grid_shift(k, 2.0 * math.pi / WRIST_TRIES)
+            theta = _planar_rest(h, F, mul3(R5, rotation(z6, t6)), across)
+            # X = R_1^-1 G R_6^-1 R_5^-1 p_4, by line turns.
+            X = turn_point(z6, p6, -t6, turn_point(z5, p5, -t5, p4))
+            X = turn_point(back, p1, t1, axpy(1.0, apply(RG, X), tG))
+            d = sub(X, p2)
+            n3, u1, v1, u2, v2 = reach_angles(
+                z2, p2, z3, p3, p4, d, ref[1], ref[2], roots, axis_tol
+            )
+            if n3 > 0:
+                break
         for i3 in range(n3):
             t2, t3 = (u1, v1) if i3 == 0 else (u2, v2)
             t4 = dot(h, z4) * (theta - dot(h, z2) * t2 - dot(h, z3) * t3)
