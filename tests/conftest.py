@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, settings
+from scipy.spatial.transform import Rotation
 
 from optik.compare import ResultRow, RunConfig, step_backends
 from optik.model import Robot
@@ -99,6 +100,42 @@ def load(name: str) -> Problem:
 def robot_of(name: str) -> Robot:
     """The robot of a built-in problem by file stem."""
     return load(name).robot
+
+
+def axes_urdf_robot(H: np.ndarray, P: np.ndarray, path: Path) -> Robot:
+    """Six revolute joints as URDF text from their axes ``H`` (6, 3) and offsets ``P`` (7, 3)
+    (EAIK's form): every link frame aligned with the base at ``q = 0``; limits +-3.1."""
+
+    def xyz(v: np.ndarray) -> str:
+        return " ".join(repr(float(x)) for x in v)
+
+    links = "".join(f'<link name="l{i}"/>' for i in range(8))
+    joints = "".join(
+        f'<joint name="j{i + 1}" type="revolute"><parent link="l{i}"/>'
+        f'<child link="l{i + 1}"/><origin xyz="{xyz(P[i])}"/><axis xyz="{xyz(H[i])}"/>'
+        '<limit lower="-3.1" upper="3.1" effort="1" velocity="1"/></joint>'
+        for i in range(6)
+    )
+    tool = (
+        '<joint name="tool" type="fixed"><parent link="l6"/><child link="l7"/>'
+        f'<origin xyz="{xyz(P[6])}"/></joint>'
+    )
+    path.write_text(f'<robot name="arm">{links}{joints}{tool}</robot>')
+    return Robot.from_urdf(path, "l0", "l7")
+
+
+def poe_fk(H: np.ndarray, P: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """``R_1(q_1) ... R_6(q_6) M`` with each ``R_i`` a turn about axis ``i`` (written out)."""
+    points = np.cumsum(P[:6], axis=0)
+    T = np.eye(4)
+    for h, point, qi in zip(H, points, q, strict=True):
+        turn = np.eye(4)
+        turn[:3, :3] = Rotation.from_rotvec(h * qi).as_matrix()
+        turn[:3, 3] = point - turn[:3, :3] @ point
+        T = T @ turn
+    M = np.eye(4)
+    M[:3, 3] = P.sum(axis=0)
+    return T @ M
 
 
 def joint_distance(robot: Robot, a: Any, b: Any) -> float:

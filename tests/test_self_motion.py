@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 import pytest
-from conftest import joint_distance
+from conftest import axes_urdf_robot, joint_distance, poe_fk
 from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
@@ -313,3 +313,64 @@ def test_axis_6_along_the_parallel_axes(z1: Robot, pinocchio_fk) -> None:
             assert batch.counts[0] == len(branches)
         # Reached only outside the limits: not "unreachable".
         assert solve_ik(z1, T).status == "outside_limits"
+
+
+NEAR_ALONG_ARMS = {
+    "seed21": (
+        [[-0.9134206980042605, -0.395868078217272, -0.0946102167103174],
+         [0.9032286609397678, -0.025339689238585827, -0.428410884789644],
+         [0.9032286609397678, -0.025339689238585827, -0.428410884789644],
+         [0.9032286609397678, -0.025339689238585827, -0.428410884789644],
+         [-0.6086124832155612, -0.5641387900420846, 0.5579769447244582],
+         [0.9692719280356376, 0.22168285305269692, -0.10662383497367817]],
+        [[-0.30731740051636697, 0.38558173644368204, 0.18851827928109935],
+         [0.0644474783036758, -0.24596199677156497, 0.0008340665421671866],
+         [-0.04409961053412835, 0.2677605334844466, 0.03734908319961415],
+         [0.47542377430188854, -0.23234572596544453, 0.14133076782312876],
+         [0.14965271323573673, -0.2593015619442543, -0.35437981394130486],
+         [0.3040738500976839, 0.15523214141443178, -0.04875155550371681],
+         [0.11831021958136545, -0.20260320863529468, 0.07150446061457094]],
+        [-1.618228011250746, -0.004090155754958413, -0.8567456129893563, -1.648731103917061,
+         -0.6617028254446833, -1.60051374269513],
+    ),
+    "seed22": (
+        [[0.9658141242442534, 0.058244431752900255, 0.2526077266832666],
+         [-0.277185693655236, 0.6442504737236593, -0.7128179419316734],
+         [-0.277185693655236, 0.6442504737236593, -0.7128179419316734],
+         [-0.277185693655236, 0.6442504737236593, -0.7128179419316734],
+         [0.7629552849629879, 0.31565874196032534, 0.564144300486206],
+         [-0.7619124330715182, -0.38668782162947646, 0.5195786494213264]],
+        [[-0.3461107760237983, -0.10903011495481445, 0.057898416625246404],
+         [-0.3939301728367635, 0.24482575917924335, -0.03091468186972795],
+         [-0.19266032253905163, -0.22958662247510914, 0.6062064818649023],
+         [0.05076850478631665, -0.26937796177887346, -0.2861946897121853],
+         [0.551347329140022, -0.17350526896299, 0.35661122755970465],
+         [0.42698216435196895, -0.6973204069037421, 0.4052924680488905],
+         [-0.06252963971331643, -0.3252385764805109, -0.1631527343977792]],
+        [0.7804260244690879, 0.7831628387010414, 2.743178013193864, 1.3824610464647211,
+         -2.3368335121124946, 1.1364237454352701],
+    ),
+}  # fmt: skip
+"""Random three-inner arms (axes 2-4 parallel) whose axis 6 q5 turns onto the parallel axes,
+each with a configuration on that self-motion (q2, q3, q4 and q6 move along it). The
+quartic returns its (q1, q5) as a double root, off by about sqrt(eps): axis 6 is then not
+exactly along the parallel axes, q6 came out of an ill-conditioned subproblem, and the
+elbow fell short (no branch, without a reference or from a far one)."""
+
+
+@pytest.mark.parametrize("arm", sorted(NEAR_ALONG_ARMS))
+def test_axis_6_nearly_along_the_parallel_axes(arm: str, tmp_path: Path) -> None:
+    H, P, source = (np.array(x) for x in NEAR_ALONG_ARMS[arm])
+    robot = axes_urdf_robot(H, P, tmp_path / "arm.urdf")
+    assert family_of(robot).name == "three_parallel"
+    for joint, offset in [(0, 0.0), *((j, 1e-10) for j in range(6))]:
+        q = source.copy()
+        q[joint] += offset
+        T = poe_fk(H, P, q)
+        for q_ref in (None, q + np.array([2.0, -2.2, 1.9, -2.4, 2.1, -1.7])):
+            branches = analytic_ik(robot, T, within_limits=False, q_ref=q_ref)
+            assert branches, f"joint {joint} + {offset}: no branch"
+            for b in branches:
+                F = poe_fk(H, P, b)
+                assert np.linalg.norm(F[:3, 3] - T[:3, 3]) < FK_TOL
+                assert Rotation.from_matrix(F[:3, :3].T @ T[:3, :3]).magnitude() < FK_TOL

@@ -18,11 +18,16 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import assert_batch_equals_single, assert_closed_form_round_trips
+from conftest import (
+    assert_batch_equals_single,
+    assert_closed_form_round_trips,
+    axes_urdf_robot,
+    poe_fk,
+)
 from eaik.IK_HP import HPRobot
 from scipy.spatial.transform import Rotation
 
-from optik import Robot, load_problem, solve_ik
+from optik import load_problem, solve_ik
 from optik.analytic import analytic_ik, family_of
 from optik.analytic.spherical_axes import THREE_INNER, THREE_OUTER, parallel_plan
 
@@ -41,41 +46,6 @@ def _arm(
     if meet is not None:
         P[meet + 1] = 0.0  # the next axis starts at this one's point
     return H, P
-
-
-def _urdf(H: np.ndarray, P: np.ndarray, path: Path) -> Robot:
-    """The chain as URDF text: every link frame aligned with the base at ``q = 0``."""
-
-    def xyz(v: np.ndarray) -> str:
-        return " ".join(repr(float(x)) for x in v)
-
-    links = "".join(f'<link name="l{i}"/>' for i in range(8))
-    joints = "".join(
-        f'<joint name="j{i + 1}" type="revolute"><parent link="l{i}"/>'
-        f'<child link="l{i + 1}"/><origin xyz="{xyz(P[i])}"/><axis xyz="{xyz(H[i])}"/>'
-        '<limit lower="-3.1" upper="3.1" effort="1" velocity="1"/></joint>'
-        for i in range(6)
-    )
-    tool = (
-        '<joint name="tool" type="fixed"><parent link="l6"/><child link="l7"/>'
-        f'<origin xyz="{xyz(P[6])}"/></joint>'
-    )
-    path.write_text(f'<robot name="arm">{links}{joints}{tool}</robot>')
-    return Robot.from_urdf(path, "l0", "l7")
-
-
-def _poe_fk(H: np.ndarray, P: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """``R_1(q_1) ... R_6(q_6) M`` with each ``R_i`` a turn about axis ``i`` (written out)."""
-    points = np.cumsum(P[:6], axis=0)
-    T = np.eye(4)
-    for h, point, qi in zip(H, points, q, strict=True):
-        turn = np.eye(4)
-        turn[:3, :3] = Rotation.from_rotvec(h * qi).as_matrix()
-        turn[:3, 3] = point - turn[:3, :3] @ point
-        T = T @ turn
-    M = np.eye(4)
-    M[:3, 3] = P.sum(axis=0)
-    return T @ M
 
 
 def _wrapped(a: np.ndarray, b: np.ndarray) -> float:
@@ -102,7 +72,7 @@ def test_every_branch_of_eaik_and_the_source(arm: str, tmp_path: Path) -> None:
     Axes 3, 4, 5 (or 4, 5, 6) parallel are solved read backwards."""
     seed, first, meet, kind, reverse, eaik_class = ARMS[arm]
     H, P = _arm(seed, first, meet=meet)
-    robot = _urdf(H, P, tmp_path / "arm.urdf")
+    robot = axes_urdf_robot(H, P, tmp_path / "arm.urdf")
     family = family_of(robot)
     assert family is not None and family.name == "three_parallel"
     plan = parallel_plan(robot)
@@ -112,14 +82,14 @@ def test_every_branch_of_eaik_and_the_source(arm: str, tmp_path: Path) -> None:
     rng = np.random.default_rng(seed)
     counts = []
     for q in rng.uniform(-math.pi, math.pi, (100, 6)):
-        T = _poe_fk(H, P, q)
+        T = poe_fk(H, P, q)
         branches = analytic_ik(robot, T, within_limits=False)
         for b in branches:
-            assert np.abs(_poe_fk(H, P, b) - T).max() < 1e-10
+            assert np.abs(poe_fk(H, P, b) - T).max() < 1e-10
         assert min(_wrapped(b, q) for b in branches) < 1e-8, q
         reaching: list[np.ndarray] = []
         for x in map(np.asarray, eaik.IK(T).Q):
-            if np.abs(_poe_fk(H, P, x) - T).max() < 1e-8 and all(
+            if np.abs(poe_fk(H, P, x) - T).max() < 1e-8 and all(
                 _wrapped(x, r) > 1e-6 for r in reaching
             ):
                 reaching.append(x)
@@ -128,7 +98,7 @@ def test_every_branch_of_eaik_and_the_source(arm: str, tmp_path: Path) -> None:
             distance, r = min((_wrapped(b, r), i) for i, r in enumerate(reaching))
             # Near a singularity EAIK's own branch misses the pose (5e-13 to 1e-11, ours
             # 1e-15), which moves its angles by up to a few 1e-9: then 1e-7.
-            eaik_miss = np.abs(_poe_fk(H, P, reaching[r]) - T).max()
+            eaik_miss = np.abs(poe_fk(H, P, reaching[r]) - T).max()
             assert distance < (1e-9 if eaik_miss < 1e-13 else 1e-7), q
         counts.append(len(branches))
     assert max(counts) >= 4  # more than one root of the quartic
@@ -138,14 +108,14 @@ def test_an_axis_written_the_other_way(tmp_path: Path) -> None:
     """Axis 3 written opposite to axes 2 and 4 (EAIK finds no branch there): every pose
     still gets branches that reach it, the source among them."""
     H, P = _arm(5, 1, sense=-1.0)
-    robot = _urdf(H, P, tmp_path / "arm.urdf")
+    robot = axes_urdf_robot(H, P, tmp_path / "arm.urdf")
     assert family_of(robot) is not None and family_of(robot).name == "three_parallel"
     rng = np.random.default_rng(5)
     for q in rng.uniform(-math.pi, math.pi, (100, 6)):
-        T = _poe_fk(H, P, q)
+        T = poe_fk(H, P, q)
         branches = analytic_ik(robot, T, within_limits=False)
         for b in branches:
-            assert np.abs(_poe_fk(H, P, b) - T).max() < 1e-10
+            assert np.abs(poe_fk(H, P, b) - T).max() < 1e-10
         assert min(_wrapped(b, q) for b in branches) < 1e-8, q
 
 
@@ -154,7 +124,7 @@ def test_round_trips_batches_and_solve_ik(first: int, meet: int | None, tmp_path
     """In-limit poses: the shared round-trip check (raw closed form included), batches equal
     single calls, and ``solve_ik`` answers with the closed form."""
     H, P = _arm(6, first, meet=meet)
-    robot = _urdf(H, P, tmp_path / "arm.urdf")
+    robot = axes_urdf_robot(H, P, tmp_path / "arm.urdf")
     family = family_of(robot)
     assert family is not None
     assert_closed_form_round_trips(robot, family, 40, seed=6, most={"pose": 8})
@@ -174,15 +144,15 @@ def test_the_ur_keeps_its_family_and_what_does_not_fit_says_why(tmp_path: Path) 
     assert parallel_plan(ur5).kind == THREE_INNER
     H, P = _arm(8, 1)
     H[0] = H[1]
-    reason = parallel_plan(_urdf(H, P, tmp_path / "four.urdf")).reason
+    reason = parallel_plan(axes_urdf_robot(H, P, tmp_path / "four.urdf")).reason
     assert reason.startswith("axis 1 (j1) is parallel to axes 2-4 too; read backwards")
     assert "as outer axes" in reason
     H, P = _arm(9, 1)
     P[2] = H[1] * 0.2  # axis 3 on axis 2's line
-    reason = parallel_plan(_urdf(H, P, tmp_path / "line.urdf")).reason
+    reason = parallel_plan(axes_urdf_robot(H, P, tmp_path / "line.urdf")).reason
     assert reason.startswith("axes 2 (j2) and 3 (j3) are one line")
     H, P = _arm(10, 0)  # axes 1-3 parallel, but axes 5 and 6 do not meet
-    reason = parallel_plan(_urdf(H, P, tmp_path / "apart.urdf")).reason
+    reason = parallel_plan(axes_urdf_robot(H, P, tmp_path / "apart.urdf")).reason
     assert "as outer axes: axes 5 (j5) and 6 (j6) do not meet" in reason
 
 
@@ -195,14 +165,14 @@ def test_axes_parallel_only_to_the_tolerance(first: int, meet: int | None, tmp_p
     H, P = _arm(40 + first, first, meet=meet)
     tilt = Rotation.from_rotvec(3e-10 * np.array([0.6, -0.64, 0.48])).as_matrix()
     H[first + 1] = tilt @ H[first + 1]
-    robot = _urdf(H, P, tmp_path / "arm.urdf")
+    robot = axes_urdf_robot(H, P, tmp_path / "arm.urdf")
     assert family_of(robot) is not None and family_of(robot).name == "three_parallel"
     rng = np.random.default_rng(first)
     for q in rng.uniform(-math.pi, math.pi, (40, 6)):
-        T = _poe_fk(H, P, q)
+        T = poe_fk(H, P, q)
         branches = analytic_ik(robot, T, within_limits=False)
         for b in branches:
-            assert np.abs(_poe_fk(H, P, b) - T).max() < 1e-12
+            assert np.abs(poe_fk(H, P, b) - T).max() < 1e-12
         assert min(_wrapped(b, q) for b in branches) < 1e-6, q
 
 
@@ -215,15 +185,15 @@ def test_cli_names_the_family_and_solves_with_it(
 
     H, P = _arm(11, 0, meet=4)
     path = tmp_path / "arm.urdf"
-    _urdf(H, P, path)
+    axes_urdf_robot(H, P, path)
     assert main(["robot", str(path)]) == 0
     assert capsys.readouterr().out.rstrip().endswith("closed-form family: three_parallel")
     q = np.array([0.3, -0.5, 1.0, 0.4, -0.8, 0.2])
-    T = _poe_fk(H, P, q)
+    T = poe_fk(H, P, q)
     rpy = Rotation.from_matrix(T[:3, :3]).as_euler("xyz")
     argv = ["solve", "--urdf", str(path), "--base", "l0", "--tip", "l7", "--position"]
     argv += [repr(float(v)) for v in T[:3, 3]] + ["--rpy"] + [repr(float(v)) for v in rpy]
     assert main([*argv, "--json"]) == 0
     result = json.loads(capsys.readouterr().out)
     assert result["solver"] == "analytic" and result["success"]
-    assert np.abs(_poe_fk(H, P, np.array(result["q"])) - T).max() < 1e-9
+    assert np.abs(poe_fk(H, P, np.array(result["q"])) - T).max() < 1e-9

@@ -76,6 +76,9 @@ the reference's, then the rest of an even grid over half a turn, nearest first."
 WRIST_TRIES = 32
 """Values of ``q_6`` tried where axis 6 lies along the parallel axes (``q_6`` free in its
 subproblem but not for the elbow): the reference's, then an even grid over the turn."""
+WRIST_ALONG_TOL = 1e-6
+"""Axis 6 counts as along the parallel axes for that grid when the sine of their angle
+is at most this: a q5 found as a double root is off by about sqrt(eps) = 1.5e-8."""
 
 
 @_jit
@@ -198,14 +201,19 @@ def _inner_rows(
         t1, t5 = pairs[0, i], pairs[1, i]
         F = mul3(rotation(back, t1), RG)  # the rotation of R_1^-1 G
         R5 = rotation(z5, t5)
-        t6 = sp1_angle(z6, apply_t(F, h), apply_t(R5, h), math.nan, axis_tol)
+        h5 = apply_t(R5, h)
+        t6 = sp1_angle(z6, apply_t(F, h), h5, math.nan, axis_tol)
+        # Axis 6 along h (q6 free, or nearly: a double root's q5 is off by sqrt(eps)): q6
+        # also turns the planar arm's target, which the elbow may reach at other q6 than
+        # the reference's or the ill-conditioned one (a self-motion; the FK check's Newton
+        # steps mend a near one's rounding).
         tries = 1
-        if math.isnan(t6):
-            # Axis 6 along h (q6 free): q6 also turns the planar arm's target, which the
-            # elbow may reach at other q6 than the reference's (a self-motion).
+        if math.isnan(t6) or norm(cross(z6, h5)) <= WRIST_ALONG_TOL:
             tries = WRIST_TRIES
+        if math.isnan(t6):
+            t6 = ref[5]
         for k in range(tries):
-            if tries > 1:
+            if k > 0:
                 t6 = ref[5] + _grid_shift(k, 2.0 * math.pi / WRIST_TRIES)
             theta = _planar_rest(h, F, mul3(R5, rotation(z6, t6)), across)
             # X = R_1^-1 G R_6^-1 R_5^-1 p_4, by line turns.
