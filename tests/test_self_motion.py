@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 import pytest
-from conftest import axes_urdf_robot, joint_distance, poe_fk
+from conftest import axes_urdf_robot, joint_distance, poe_fk, reference_fk
 from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
@@ -374,3 +374,84 @@ def test_axis_6_nearly_along_the_parallel_axes(arm: str, tmp_path: Path) -> None
                 F = poe_fk(H, P, b)
                 assert np.linalg.norm(F[:3, 3] - T[:3, 3]) < FK_TOL
                 assert Rotation.from_matrix(F[:3, :3].T @ T[:3, :3]).magnitude() < FK_TOL
+
+
+SHARED_CURVE_ARM = (
+    [[-0.527570490976133, -0.39134071804074727, 0.7540038590448689],
+     [-0.416184450431515, -0.7551608291458944, -0.5064806268187395],
+     [0.3488919628736591, -0.7476523210599816, 0.5650578776159021],
+     [0.3488919628736591, -0.7476523210599816, 0.5650578776159021],
+     [0.3488919628736591, -0.7476523210599816, 0.5650578776159021],
+     [0.5887857441443594, -0.42365578283952643, -0.6883655461736888]],
+    [[-0.2493157150916446, 0.13025441210446456, -0.402545333698324],
+     [0.14401412290141455, -0.5311583816699552, 0.32899478586667497],
+     [0.08165632551720597, 0.40695654994115926, -0.2131390308651374],
+     [-0.6283420953659046, -0.41087704523302476, -0.0727790947619123],
+     [0.5891518901652342, 0.17154721642745563, 0.3935620868436906],
+     [-0.26332462346694296, -0.15948518238637485, -0.09988380595703707],
+     [0.35081588879740283, -0.16943347200854242, -0.08727429789450097]],
+)  # fmt: skip
+"""A random three-inner arm read backwards (axes 3-5 parallel) whose axes 2 and 6 can lie on
+one line: the two pair conditions then share a curve (q2 and q6 turn together) though
+their rows are not proportional, and the quartic vanishes identically."""
+SHARED_CURVE_CONFIGS = [
+    ([2.413767891531119, -0.8426043524207758, 2.3169605412471377, -0.848295647581689,
+      -2.6135888318985887, 2.2969180652150447], 0, 0.0),
+    ([-2.312115774504842, -1.9490307890066114, 2.3169605412471403, -0.8482956475816916,
+      -2.613588831898589, -1.5082363180401803], 0, 1e-6),
+]  # fmt: skip
+COAXIAL_GENERAL_ARM = [
+    (0.3, 0.9, 0.35, 0.1),
+    (0.3, 0.9, 0.0, 0.2),
+    (0.12, 1.2, 0.07, -0.1),
+    (0.0, -math.pi / 2, 0.4, 0.0),
+    (0.0, math.pi / 2, 0.0, 0.0),
+    (0.0, 0.0, 0.1, 0.0),
+]
+"""A general arm and spherical wrist, DH ``(a, alpha, d, theta)``, with a1 = a2, alpha1 =
+alpha2 and d2 = 0: at q2 = pi - theta2 axis 3 lies on axis 1 and they turn together."""
+COAXIAL_CONFIGS = [
+    ([-1.000465900874718, 2.941592653589793, -1.2475651654693112, 1.8433390356326553,
+      0.7295747297263411, 1.3510009863960848], 0, 0.0),
+    ([-2.2268205789224567, 2.941592653589793, -1.6702412467002667, 1.5881644326947866,
+      2.7796101140916507, -2.398339712549303], 2, 1e-12),
+    ([0.02005521043148173, 2.941592653589793, 1.9897652433805684, -0.14673138395342233,
+      1.6662161137366196, -1.610759263434022], 0, 1e-6),
+]  # fmt: skip
+
+
+def _assert_answered(robot: Robot, fk, q: np.ndarray) -> None:
+    """Without a reference and from a far one: branches that reach ``robot.fk(q)`` (checked
+    by ``fk``; the target's rounding decides whether the old quartic found anything)."""
+    T = robot.fk(q)
+    assert np.abs(fk(q) - T).max() < 1e-14
+    for q_ref in (None, q + np.array([2.0, -2.2, 1.9, -2.4, 2.1, -1.7])):
+        branches = analytic_ik(robot, T, within_limits=False, q_ref=q_ref)
+        assert branches, "a reachable pose answered as unreachable"
+        for b in branches:
+            F = fk(b)
+            assert np.linalg.norm(F[:3, 3] - T[:3, 3]) < FK_TOL
+            assert Rotation.from_matrix(F[:3, :3].T @ T[:3, :3]).magnitude() < FK_TOL
+
+
+def test_conditions_that_share_a_curve_without_proportional_rows(tmp_path: Path) -> None:
+    H, P = (np.array(x) for x in SHARED_CURVE_ARM)
+    robot = axes_urdf_robot(H, P, tmp_path / "arm.urdf")
+    assert family_of(robot).name == "three_parallel"
+    for source, joint, offset in SHARED_CURVE_CONFIGS:
+        q = np.array(source)
+        q[joint] += offset
+        _assert_answered(robot, lambda x: poe_fk(H, P, x), q)
+
+
+def test_a_general_arm_whose_third_axis_can_lie_on_the_first() -> None:
+    rows = [
+        {"a": a, "alpha": al, "d": d, "theta": th, "lower": -3.1, "upper": 3.1}
+        for a, al, d, th in COAXIAL_GENERAL_ARM
+    ]
+    robot = Robot.from_dh(rows)
+    assert family_of(robot).name == "spherical_axes"
+    for source, joint, offset in COAXIAL_CONFIGS:
+        q = np.array(source)
+        q[joint] += offset
+        _assert_answered(robot, lambda x: reference_fk(robot, x), q)

@@ -72,6 +72,9 @@ when the sine of their angle is at most this: singular to rounding (about 1e-16 
 exact self-motion). Poses 1e-10 rad off one are isolated solutions the quartic still
 finds to rounding, where the curve's point at the reference misses by up to 1e-9 of the
 arm's size (the FK check's tolerance)."""
+QUARTIC_VANISH_TOL = 1e-12
+""":func:`quartic_pairs`' quartic vanishes identically when its largest coefficient is at
+most this times the products it sums (they cancel to rounding)."""
 PAIR_RESIDUAL_TOL = 1e-5
 """With both matrices singular, a quartic's pair solves the system when it does so to
 this, relative to the coefficients (the FK check's Newton steps mend the rest:
@@ -418,30 +421,75 @@ def root_separation(M: Mat2, v0: Vec2, N: Mat2) -> float:
 
 
 @_jit
-def quartic_pairs(M: Mat2, v0: Vec2, N: Mat2, trig_tol: float, angles: np.ndarray) -> int:
+def quartic_pairs(
+    M: Mat2, v0: Vec2, N: Mat2, trig_tol: float, free: float, angles: np.ndarray
+) -> int:
     """The angle pairs ``(b, a)`` of ``M (cos a, sin a) = v0 + N (cos b, sin b)``.
 
     The roots ``b`` of ``|adj(M) (v0 + N u_b)|^2 = det(M)^2`` go to ``angles[0]``
     (ascending), each ``a`` (the angle of ``adj(M) (v0 + N u_b)`` times the sign of
-    ``det M``) to ``angles[1]``. Returns the count (0 to 4).
+    ``det M``) to ``angles[1]``. Returns the count (0 to 4). The quartic vanishing
+    identically (:func:`quartic_vanishes`: the two conditions share a curve), every ``b``
+    is a root: ``free`` and half a turn from it (rad), with their partners.
     """
-    det = M[0] * M[3] - M[1] * M[2]
-    m0 = _adj(M, v0)
-    m1 = _adj(M, (N[0], N[2]))
-    m2 = _adj(M, (N[1], N[3]))
     k = np.empty(5)
-    k[0] = 0.5 * (_dot2(m1, m1) + _dot2(m2, m2)) + _dot2(m0, m0) - det * det
-    k[1] = 2.0 * _dot2(m0, m1)
-    k[2] = 2.0 * _dot2(m0, m2)
-    k[3] = 0.5 * (_dot2(m1, m1) - _dot2(m2, m2))
-    k[4] = _dot2(m1, m2)
-    count = trig2_roots(k, trig_tol, angles[0])
+    det, m0, m1, m2, terms = _quartic(M, v0, N, k)
+    if _vanishing(k, terms):
+        angles[0, 0] = math.atan2(math.sin(free), math.cos(free))
+        angles[0, 1] = math.atan2(-math.sin(free), -math.cos(free))
+        count = 2
+    else:
+        count = trig2_roots(k, trig_tol, angles[0])
     sign = 1.0 if det >= 0.0 else -1.0
     for i in range(count):
         s, c = sincos(angles[0, i])
         w = (m0[0] + m1[0] * c + m2[0] * s, m0[1] + m1[1] * c + m2[1] * s)
         angles[1, i] = math.atan2(sign * w[1], sign * w[0])
     return count
+
+
+@_jit
+def _quartic(M: Mat2, v0: Vec2, N: Mat2, k: np.ndarray) -> tuple[float, Vec2, Vec2, Vec2, float]:
+    """The coefficients ``k`` (5,) of :func:`quartic_pairs`' quartic in ``b``.
+
+    Returns ``(det M, adj(M) v0, adj(M) N_1, adj(M) N_2, terms)``, ``terms`` the size of
+    the products the coefficients sum (what they cancel against).
+    """
+    det = M[0] * M[3] - M[1] * M[2]
+    m0 = _adj(M, v0)
+    m1 = _adj(M, (N[0], N[2]))
+    m2 = _adj(M, (N[1], N[3]))
+    k[0] = 0.5 * (_dot2(m1, m1) + _dot2(m2, m2)) + _dot2(m0, m0) - det * det
+    k[1] = 2.0 * _dot2(m0, m1)
+    k[2] = 2.0 * _dot2(m0, m2)
+    k[3] = 0.5 * (_dot2(m1, m1) - _dot2(m2, m2))
+    k[4] = _dot2(m1, m2)
+    terms = 0.5 * (_dot2(m1, m1) + _dot2(m2, m2)) + _dot2(m0, m0) + det * det
+    return det, m0, m1, m2, terms
+
+
+@_jit
+def _vanishing(k: np.ndarray, terms: float) -> bool:
+    """Whether the quartic's coefficients ``k`` cancel to rounding against ``terms``."""
+    largest = 0.0
+    for i in range(5):
+        largest = max(largest, abs(k[i]))
+    return terms > 0.0 and largest <= QUARTIC_VANISH_TOL * terms
+
+
+@_jit
+def quartic_vanishes(M: Mat2, v0: Vec2, N: Mat2) -> bool:
+    """Whether :func:`quartic_pairs`' quartic vanishes identically either way round.
+
+    The two conditions of ``M u_a = v0 + N u_b`` then share a curve of pairs (a
+    self-motion) though their rows are not proportional: axes that turn about one line.
+    """
+    k = np.empty(5)
+    terms = _quartic(M, v0, N, k)[4]
+    if _vanishing(k, terms):
+        return True
+    terms = _quartic(N, (-v0[0], -v0[1]), M, k)[4]
+    return _vanishing(k, terms)
 
 
 @_jit
@@ -466,9 +514,9 @@ def angle_pairs(
     if singular and pair_continuum(M, v0, N):
         return singular_pairs(M, v0, N, ref_a, ref_b, roots, angles)  # the reference's point
     if keep_a > keep_b:
-        count = quartic_pairs(N, minus_v0, M, roots[0], angles)  # roots a, partners b
+        count = quartic_pairs(N, minus_v0, M, roots[0], ref_a, angles)  # roots a, partners b
     else:
-        count = quartic_pairs(M, v0, N, roots[0], angles)  # roots b, partners a
+        count = quartic_pairs(M, v0, N, roots[0], ref_b, angles)  # roots b, partners a
         for i in range(count):
             angles[0, i], angles[1, i] = angles[1, i], angles[0, i]
     if not singular:
@@ -705,6 +753,7 @@ __all__ = [
     "pair_continuum",
     "pair_sine",
     "quartic_pairs",
+    "quartic_vanishes",
     "root_separation",
     "sampled_roots",
     "singular_pairs",

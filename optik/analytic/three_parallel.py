@@ -66,7 +66,14 @@ from optik.analytic._subproblems import (
     unit,
     vec_at,
 )
-from optik.analytic.general_arm import Mat2, Vec2, angle_pairs, pair_continuum, singular_pairs
+from optik.analytic.general_arm import (
+    Mat2,
+    Vec2,
+    angle_pairs,
+    pair_continuum,
+    quartic_vanishes,
+    singular_pairs,
+)
 from optik.analytic.pair_wrist import REACH_TOL, target_frame
 
 _ORIGIN = (0.0, 0.0, 0.0)
@@ -127,10 +134,13 @@ def three_inner_candidates(
     b0 = (dot(h, sub(xa0, ya0)), dot(h, sub(xb0, yb0)) * inv)
     roots = (trig_tol, eps, free_tol, REACH_TOL)
     if pair_continuum(A, b0, B):
-        return _continuum_rows(A, b0, B, z, p, RG, tG, ref, roots, axis_tol, cand)
+        return _continuum_rows(A, b0, B, True, z, p, RG, tG, ref, roots, axis_tol, cand)
     pairs = np.empty((2, 4))
     count = angle_pairs(A, b0, B, ref[0], ref[4], roots, pairs)
-    return _inner_rows(z, p, RG, tG, pairs, count, ref, roots, axis_tol, cand)
+    n = _inner_rows(z, p, RG, tG, pairs, count, ref, roots, axis_tol, cand)
+    if n == 0 and quartic_vanishes(A, b0, B):
+        return _continuum_rows(A, b0, B, False, z, p, RG, tG, ref, roots, axis_tol, cand)
+    return n
 
 
 @_jit
@@ -138,6 +148,7 @@ def _continuum_rows(
     A: Mat2,
     b0: Vec2,
     B: Mat2,
+    proportional: bool,
     z: np.ndarray,
     p: np.ndarray,
     RG: Rot9,
@@ -147,19 +158,25 @@ def _continuum_rows(
     axis_tol: float,
     cand: np.ndarray,
 ) -> int:
-    """The rows of :func:`three_inner_candidates` on a self-motion (its conditions one).
+    """The rows of :func:`three_inner_candidates` on a self-motion (a curve of pairs).
 
     ``q_1`` takes the reference's value and the value half a turn from it (the
     shoulder's two sides: parts of the curve the elbow's reach may separate), each with
-    its ``q_5`` (:func:`optik.analytic.general_arm.singular_pairs`); where the elbow
-    reaches its target at neither, the next values of an even grid over half a turn,
-    nearest first (:data:`CONTINUUM_TRIES`).
+    its ``q_5`` (:func:`optik.analytic.general_arm.singular_pairs`, the conditions'
+    rows ``proportional``); or, where they only share the curve
+    (:func:`optik.analytic.general_arm.quartic_vanishes`), the quartic's eliminated
+    angle takes them. Where the elbow reaches its target at neither, the next values of
+    an even grid over half a turn, nearest first (:data:`CONTINUUM_TRIES`).
     """
     pairs = np.empty((2, 4))
     for k in range(CONTINUUM_TRIES):
-        t1 = ref[0] + _grid_shift(k, math.pi / CONTINUUM_TRIES)
-        count = singular_pairs(A, b0, B, t1, ref[4], roots, pairs)
-        count += singular_pairs(A, b0, B, t1 + math.pi, ref[4], roots, pairs[:, count:])
+        shift = _grid_shift(k, math.pi / CONTINUUM_TRIES)
+        t1 = ref[0] + shift
+        if proportional:
+            count = singular_pairs(A, b0, B, t1, ref[4], roots, pairs)
+            count += singular_pairs(A, b0, B, t1 + math.pi, ref[4], roots, pairs[:, count:])
+        else:
+            count = angle_pairs(A, b0, B, t1, ref[4] + shift, roots, pairs)
         n = _inner_rows(z, p, RG, tG, pairs, count, ref, roots, axis_tol, cand)
         if n > 0:
             return n
