@@ -42,6 +42,7 @@ Every kernel is serial (``nogil``): callers may run them from several threads.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
@@ -210,6 +211,50 @@ NOT_MOVED, MOVED, MOVED_UNCHECKED = 0, 1, 2
 """Outcomes of :func:`_newton_move` (see there)."""
 
 
+class RowQuery(NamedTuple):
+    """What the Newton steps of a near miss read (:func:`_near_miss`).
+
+    Built by :func:`postprocess_rows` for a row that misses the FK check only (a tuple of
+    arrays costs a reference count per array), with run-time (not literal) integers:
+    the steps are typed and compiled once, not in each pipeline.
+
+    Attributes:
+        params: the parameter vector; ``layout`` says where its blocks sit
+            (:data:`optik.analytic._rows.Layout`).
+        layout: the blocks of ``params``.
+        dof: number of joints of the chain.
+        held: the joint that keeps ``held_value`` exactly (``-1``: none).
+        held_value: its value (rad or m).
+        T: validated world targets of the tool (N, 4, 4); the row's is ``T[k]``.
+        k: the target's index.
+        ref: references (rad, m); the row's is ``ref[kr]``.
+        kr: the reference's index.
+        within: whether rows must stay inside the joint limits.
+        rows: the rows (joint values, rad or m), then their sines and cosines
+            (:func:`postprocess_rows`).
+        pre: (dof + 2, 12) FK scratch, the row's FK.
+        work: the Newton step's scratch (:mod:`optik.analytic._newton`).
+        verify_tol: the FK check's tolerance (rad, and m unless ``position_tol``).
+        position_tol: the FK check's position tolerance (m).
+    """
+
+    params: np.ndarray
+    layout: Layout
+    dof: int
+    held: int
+    held_value: float
+    T: np.ndarray
+    k: int
+    ref: np.ndarray
+    kr: int
+    within: bool
+    rows: np.ndarray
+    pre: np.ndarray
+    work: np.ndarray
+    verify_tol: float
+    position_tol: float
+
+
 @_inline
 def _refine_row(
     params: np.ndarray,
@@ -357,25 +402,7 @@ wrist joints 1.3e-4 rad; a larger step is a search, not a polish."""
 
 
 @_jit
-def _near_miss(
-    params: np.ndarray,
-    layout: Layout,
-    dof: int,
-    held: int,
-    held_value: float,
-    T: np.ndarray,
-    k: int,
-    ref: np.ndarray,
-    kr: int,
-    within: bool,
-    rows: np.ndarray,
-    r: int,
-    pre: np.ndarray,
-    depth: int,
-    verify_tol: float,
-    position_tol: float,
-    work: np.ndarray,
-) -> tuple[int, bool]:
+def _near_miss(query: RowQuery, r: int, depth: int) -> tuple[int, bool]:
     """Newton steps of ``rows[r]``, which failed the FK check in ``pre``, towards ``T[k]``.
 
     Only a near miss (residual within :data:`NEAR_MISS` times the larger tolerance) is
@@ -384,14 +411,17 @@ def _near_miss(
     ``pre`` and whether the moved row passes the check (then kept as any other). A call
     of its own: it runs only at singular poses, off the common path.
     """
+    dof, T, k, pre, work = query.dof, query.T, query.k, query.pre, query.work
+    verify_tol, position_tol = query.verify_tol, query.position_tol
     band = NEAR_MISS * max(verify_tol, position_tol)
     residual = pose_residual(pre, dof, T, k, work)
     for _ in range(NEAR_MISS_STEPS):
         if not residual <= band * band:
             return depth, False
         depth, keep = _refine_row(
-            params, layout, dof, held, held_value, T, k, ref, kr, within, rows, r, pre,
-            depth, verify_tol, work, NEAR_MISS_MAX_STEP,
+            query.params, query.layout, dof, query.held, query.held_value, T, k, query.ref,
+            query.kr, query.within, query.rows, r, pre, depth, verify_tol, work,
+            NEAR_MISS_MAX_STEP,
         )  # fmt: skip
         if not keep:
             return depth, False
@@ -498,10 +528,11 @@ def postprocess_rows(
                 )
         if not _pose_verified(pre, dof, T, k, verify_tol, position_tol):
             # A near miss: a tangent or free-angle rule rounded at a singular pose.
-            depth, keep = _near_miss(
+            query = RowQuery(
                 params, _runtime(layout), np.int64(dof), np.int64(held), held_value, T, k,
-                ref, kr, within, rows, r, pre, depth, verify_tol, position_tol, work,
+                ref, kr, within, rows, pre, work, verify_tol, position_tol,
             )  # fmt: skip
+            depth, keep = _near_miss(query, r, depth)
             if not keep:
                 continue
         duplicate = False

@@ -46,7 +46,7 @@ from optik.analytic._pipeline import Layout, postprocess_one, postprocess_rows
 from optik.analytic._pipeline_args import batch_work, input_code, pad_rows, work_rows
 from optik.analytic._subproblems import Vec3, apply, rotation, sub
 from optik.analytic.geometry import Axes, joint_axes, reversed_axes, revolute_chain_reason
-from optik.analytic.pair_wrist import pair_wrist_candidates, structure_reason
+from optik.analytic.pair_wrist import AxesQuery, pair_wrist_candidates, structure_reason
 from optik.model import Robot
 
 CHECK_VALUES = (0.0, 2.0, -2.5)
@@ -240,7 +240,7 @@ def _candidates_into(
                     Mi[a, 0] * p[src, 0] + Mi[a, 1] * p[src, 1] + Mi[a, 2] * p[src, 2] + Mi[a, 3]
                 )
         zs, ps, home, target, reference = zr, pr, Mi, Ti, rr
-    n = pair_wrist_candidates(zs, ps, home, target, reference, tols, six)
+    n = pair_wrist_candidates(AxesQuery(zs, ps, home, target, reference, tols), six)
     if reverse:
         for r in range(n):
             for i in range(3):

@@ -56,7 +56,13 @@ from optik.analytic._subproblems import (
     turn_point,
     vec_at,
 )
-from optik.analytic.pair_wrist import REACH_TOL, wrist_across, wrist_branches, wrist_target
+from optik.analytic.pair_wrist import (
+    REACH_TOL,
+    AxesQuery,
+    wrist_across,
+    wrist_branches,
+    wrist_target,
+)
 
 CIRCLE_TOL = 1e-6
 """A companion eigenvalue within this of the unit circle (``| |z| - 1 |``) is a root
@@ -328,20 +334,13 @@ def _polished(k: np.ndarray, t: float) -> float:
 
 
 @_jit
-def general_arm_candidates(
-    z: np.ndarray,
-    p: np.ndarray,
-    M: np.ndarray,
-    T: np.ndarray,
-    ref: np.ndarray,
-    tols: np.ndarray,
-    cand: np.ndarray,
-) -> int:
+def general_arm_candidates(query: AxesQuery, cand: np.ndarray) -> int:
     """Raw branches of the general arm and spherical wrist into ``cand`` (>= 8, 6).
 
     Arguments as :func:`optik.analytic.pair_wrist.pair_wrist_candidates`. Returns the
     number of rows written (0 to 8), in the order of the module docstring.
     """
+    z, p, M, T, ref, tols = query
     trig_tol, eps, free_tol, axis_tol = closed_form_tols(tols)
     z1, z2, z3 = vec_at(z, 0), vec_at(z, 1), vec_at(z, 2)
     p1, p2, p3 = vec_at(p, 0), vec_at(p, 1), vec_at(p, 2)

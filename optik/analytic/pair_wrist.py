@@ -37,6 +37,8 @@ Tolerances are those of the compiled families (:data:`optik.analytic._compiled.T
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from optik._checks import FloatArray
@@ -89,30 +91,34 @@ tolerance (a URDF angle written to 11 digits; the Panda at q5 = +-pi/2 with q7 h
 a double root just out of exact reach. The FK check and the polish judge the rest."""
 
 
-@_jit
-def pair_wrist_candidates(
-    z: np.ndarray,
-    p: np.ndarray,
-    M: np.ndarray,
-    T: np.ndarray,
-    ref: np.ndarray,
-    tols: np.ndarray,
-    cand: np.ndarray,
-) -> int:
-    """Raw branches of the pair-elbow-wrist closed form into ``cand`` (>= 8, 6).
+class AxesQuery(NamedTuple):
+    """One target of a six-axis arm, as every arm kernel of the axes closed forms takes it.
 
-    Args:
+    Attributes:
         z: (6, 3) unit joint directions at ``q = 0`` (world frame).
         p: (6, 3) a point on each axis (m).
         M: (4, 4) world pose of the tool at ``q = 0``.
         T: (4, 4) world target of the tool.
         ref: (6,) reference angles for free joints (rad).
         tols: the tolerance block of :mod:`optik.analytic._compiled`.
-        cand: output rows (joint angles, rad, not wrapped).
-
-    Returns:
-        The number of rows written (0 to 8), in the order of the module docstring.
     """
+
+    z: np.ndarray
+    p: np.ndarray
+    M: np.ndarray
+    T: np.ndarray
+    ref: np.ndarray
+    tols: np.ndarray
+
+
+@_jit
+def pair_wrist_candidates(query: AxesQuery, cand: np.ndarray) -> int:
+    """Raw branches of the pair-elbow-wrist closed form of ``query`` into ``cand`` (>= 8, 6).
+
+    Rows are joint angles (rad), not wrapped. Returns the number of rows written (0 to 8),
+    in the order of the module docstring.
+    """
+    z, p, M, T, ref, tols = query
     trig_tol, eps, free_tol, axis_tol = closed_form_tols(tols)
     z1, z2, z3 = vec_at(z, 0), vec_at(z, 1), vec_at(z, 2)
     S = meeting_point(z1, vec_at(p, 0), z2, vec_at(p, 1))
@@ -141,15 +147,7 @@ def pair_wrist_candidates(
 
 
 @_jit
-def second_pair_candidates(
-    z: np.ndarray,
-    p: np.ndarray,
-    M: np.ndarray,
-    T: np.ndarray,
-    ref: np.ndarray,
-    tols: np.ndarray,
-    cand: np.ndarray,
-) -> int:
+def second_pair_candidates(query: AxesQuery, cand: np.ndarray) -> int:
     """Raw branches with axes 2 and 3 meeting at ``S`` (not axes 1 and 2) into ``cand``.
 
     ``R_2 R_3`` fix ``S``, so ``|R_1(q_1)^-1 W_t - S| = |W - S|``: a distance condition
@@ -157,6 +155,7 @@ def second_pair_candidates(
     R_1^-1 W_t - S`` by subproblem 2 (up to two pairs), then the wrist. Up to 8 rows:
     ``q_1`` ascending, the pairs, the wrist. Arguments as :func:`pair_wrist_candidates`.
     """
+    z, p, M, T, ref, tols = query
     trig_tol, eps, free_tol, axis_tol = closed_form_tols(tols)
     z1, z2, z3 = vec_at(z, 0), vec_at(z, 1), vec_at(z, 2)
     p1 = vec_at(p, 0)
@@ -359,6 +358,7 @@ def axes_tuple(axes: Axes) -> tuple[FloatArray, FloatArray, FloatArray]:
 
 __all__ = [
     "MAX_BRANCHES",
+    "AxesQuery",
     "axes_tuple",
     "meet_reason",
     "pair_wrist_candidates",

@@ -43,7 +43,13 @@ from optik.analytic._subproblems import (
     turn_point,
     vec_at,
 )
-from optik.analytic.pair_wrist import REACH_TOL, wrist_across, wrist_branches, wrist_target
+from optik.analytic.pair_wrist import (
+    REACH_TOL,
+    AxesQuery,
+    wrist_across,
+    wrist_branches,
+    wrist_target,
+)
 
 PARALLEL_12 = 1
 """Arm kind: axes 1 and 2 parallel."""
@@ -52,22 +58,14 @@ PARALLEL_23 = 2
 
 
 @_jit
-def parallel_arm_candidates(
-    z: np.ndarray,
-    p: np.ndarray,
-    M: np.ndarray,
-    T: np.ndarray,
-    ref: np.ndarray,
-    kind: int,
-    tols: np.ndarray,
-    cand: np.ndarray,
-) -> int:
+def parallel_arm_candidates(query: AxesQuery, kind: int, cand: np.ndarray) -> int:
     """Raw branches of the parallel-arm, spherical-wrist closed form into ``cand`` (>= 8, 6).
 
     Arguments as :func:`optik.analytic.pair_wrist.pair_wrist_candidates`, and ``kind``:
     :data:`PARALLEL_12` or :data:`PARALLEL_23`. Returns the number of rows written (0 to
     8): the first arm angle solved, then the second (each pair ascending), then the wrist.
     """
+    z, p, M, T, ref, tols = query
     trig_tol, eps, free_tol, axis_tol = closed_form_tols(tols)
     roots = (trig_tol, eps, free_tol, REACH_TOL)
     z1, z2, z3 = vec_at(z, 0), vec_at(z, 1), vec_at(z, 2)

@@ -38,6 +38,7 @@ The same pipeline carries the family ``three_parallel`` (:class:`ThreeParallelAx
 from __future__ import annotations
 
 import functools
+from collections.abc import Callable
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -68,6 +69,7 @@ from optik.analytic.geometry import (
     revolute_chain_reason,
 )
 from optik.analytic.pair_wrist import (
+    AxesQuery,
     axis_label,
     meet_reason,
     meeting,
@@ -179,12 +181,23 @@ def axes_plan(robot: Robot) -> AxesPlan:
     Args:
         robot: the robot.
     """
+    return _plan_of(robot, _arm_plan)
+
+
+def _plan_of(robot: Robot, plan: Callable[[Axes, Axes, tuple[str, ...]], AxesPlan]) -> AxesPlan:
+    """``plan(axes, back, names)``: ``robot``'s axes in order and read backwards, its names.
+
+    Unfit (saying why) for a robot without six revolute joints.
+    """
     reason = revolute_chain_reason(robot, 6)
     if reason is not None:
         return _unfit(reason)
     axes = joint_axes(robot)
-    names = robot.chain_names
-    back = reversed_axes(axes)
+    return plan(axes, reversed_axes(axes), robot.chain_names)
+
+
+def _arm_plan(axes: Axes, back: Axes, names: tuple[str, ...]) -> AxesPlan:
+    """:func:`axes_plan` on the axes in order and read backwards (:func:`_plan_of`)."""
     kind, why = arm_kind(axes, names)
     kind_back, why_back = arm_kind(back, names[::-1])
     # The quartic only where neither reading has an arm of subproblems.
@@ -275,7 +288,7 @@ def _candidates_into(
         for j in range(DOF):
             back[j] = ref[DOF - 1 - j]
         target, reference, out = Ti, back, work[1]
-    n = axes_candidates(z, p, M, target, reference, kind, tols, out)
+    n = axes_candidates(AxesQuery(z, p, M, target, reference, tols), kind, out)
     if reverse:
         for r in range(n):
             for j in range(DOF):
@@ -399,16 +412,7 @@ def kind_pipeline(kind: int) -> KindPipeline:
 
 
 @_inline
-def axes_candidates(
-    z: np.ndarray,
-    p: np.ndarray,
-    M: np.ndarray,
-    T: np.ndarray,
-    ref: np.ndarray,
-    kind: int,
-    tols: np.ndarray,
-    cand: np.ndarray,
-) -> int:
+def axes_candidates(query: AxesQuery, kind: int, cand: np.ndarray) -> int:
     """Raw branches of arm ``kind`` and a spherical wrist into ``cand`` (>= 8, 6).
 
     Arguments as :func:`optik.analytic.parallel_arm.parallel_arm_candidates` (world
@@ -416,16 +420,16 @@ def axes_candidates(
     that a constant ``kind`` keeps one kernel (:func:`kind_pipeline`).
     """
     if kind == INTERSECTING:
-        return pair_wrist_candidates(z, p, M, T, ref, tols, cand)
+        return pair_wrist_candidates(query, cand)
     if kind == SECOND_PAIR:
-        return second_pair_candidates(z, p, M, T, ref, tols, cand)
+        return second_pair_candidates(query, cand)
     if kind == GENERAL:
-        return general_arm_candidates(z, p, M, T, ref, tols, cand)
+        return general_arm_candidates(query, cand)
     if kind == THREE_INNER:
-        return three_inner_candidates(z, p, M, T, ref, tols, cand)
+        return three_inner_candidates(query, cand)
     if kind == THREE_OUTER:
-        return three_outer_candidates(z, p, M, T, ref, tols, cand)
-    return parallel_arm_candidates(z, p, M, T, ref, kind, tols, cand)
+        return three_outer_candidates(query, cand)
+    return parallel_arm_candidates(query, kind, cand)
 
 
 @register
@@ -538,12 +542,11 @@ def parallel_plan(robot: Robot) -> AxesPlan:
     Args:
         robot: the robot.
     """
-    reason = revolute_chain_reason(robot, 6)
-    if reason is not None:
-        return _unfit(reason)
-    axes = joint_axes(robot)
-    back = reversed_axes(axes)
-    names = robot.chain_names
+    return _plan_of(robot, _three_parallel_plan)
+
+
+def _three_parallel_plan(axes: Axes, back: Axes, names: tuple[str, ...]) -> AxesPlan:
+    """:func:`parallel_plan` on the axes in order and read backwards (:func:`_plan_of`)."""
     whys = []
     for kind, first, test, arrays in (
         (THREE_INNER, 1, _inner_reason, _inner_arrays),

@@ -74,7 +74,7 @@ from optik.analytic.general_arm import (
     quartic_vanishes,
     singular_pairs,
 )
-from optik.analytic.pair_wrist import REACH_TOL, target_frame
+from optik.analytic.pair_wrist import REACH_TOL, AxesQuery, target_frame
 
 _ORIGIN = (0.0, 0.0, 0.0)
 CONTINUUM_TRIES = 8
@@ -102,21 +102,14 @@ def _planar_rest(
 
 
 @_jit
-def three_inner_candidates(
-    z: np.ndarray,
-    p: np.ndarray,
-    M: np.ndarray,
-    T: np.ndarray,
-    ref: np.ndarray,
-    tols: np.ndarray,
-    cand: np.ndarray,
-) -> int:
+def three_inner_candidates(query: AxesQuery, cand: np.ndarray) -> int:
     """Raw branches of the three-inner-parallel closed form into ``cand`` (>= 8, 6).
 
     Arguments as :func:`optik.analytic.pair_wrist.pair_wrist_candidates` (``p[5]`` off
     axis 5). Returns the number of rows written (0 to 8): the quartic's pairs, then the
     elbow.
     """
+    z, p, M, T, ref, tols = query
     trig_tol, eps, free_tol, axis_tol = closed_form_tols(tols)
     z1, h, z5, z6 = vec_at(z, 0), vec_at(z, 1), vec_at(z, 4), vec_at(z, 5)
     p1, p5, p6 = vec_at(p, 0), vec_at(p, 4), vec_at(p, 5)
@@ -252,20 +245,13 @@ def _inner_rows(
 
 
 @_jit
-def three_outer_candidates(
-    z: np.ndarray,
-    p: np.ndarray,
-    M: np.ndarray,
-    T: np.ndarray,
-    ref: np.ndarray,
-    tols: np.ndarray,
-    cand: np.ndarray,
-) -> int:
+def three_outer_candidates(query: AxesQuery, cand: np.ndarray) -> int:
     """Raw branches of the three-outer-parallel closed form into ``cand`` (>= 8, 6).
 
     Arguments as :func:`optik.analytic.pair_wrist.pair_wrist_candidates`. Returns
     the number of rows written (0 to 8): ``q_4``, then ``q_5``, then the elbow ``q_2``.
     """
+    z, p, M, T, ref, tols = query
     trig_tol, eps, free_tol, axis_tol = closed_form_tols(tols)
     z1, z2, z3, z4, z5, z6 = six_rows(z)
     p1, p2, p3, p4, p5, p6 = six_rows(p)
