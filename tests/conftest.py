@@ -12,7 +12,8 @@ import functools
 import math
 import os
 import signal
-from collections.abc import Iterator
+from collections import Counter
+from collections.abc import Callable, Iterator
 from dataclasses import fields, replace
 from pathlib import Path
 from typing import Any
@@ -23,6 +24,7 @@ from hypothesis import HealthCheck, settings
 from scipy.spatial.transform import Rotation
 
 from optik.compare import ResultRow, RunConfig, step_backends
+from optik.errors import OptikError
 from optik.model import Robot
 from optik.problems import Problem, load_problem
 
@@ -556,6 +558,46 @@ def time_limit(seconds: float) -> Iterator[None]:
     finally:
         signal.setitimer(signal.ITIMER_REAL, 0)
         signal.signal(signal.SIGALRM, previous)
+
+
+class HostileCases:
+    """A module's hostile cases: each runs under :func:`time_limit`, its outcome tallied.
+
+    A case returns (a success) or raises an :class:`~optik.errors.OptikError` (a typed
+    error); any other exception, or running past ``seconds``, fails the test.
+    """
+
+    def __init__(self, seconds: float) -> None:
+        self.seconds = seconds
+        self.stats: Counter[str] = Counter()
+
+    def attempt(self, target: str, call: Callable[[], Any]) -> Any:
+        """Run one hostile case: its result, or ``None`` if it raised an OptikError.
+
+        Any other exception, or running past the time limit, fails the test.
+        """
+        self.stats["cases"] += 1
+        self.stats[f"cases {target}"] += 1
+        try:
+            with time_limit(self.seconds):
+                result = call()
+        except Hang as exc:
+            self.stats["hangs"] += 1
+            raise AssertionError(f"{target}: {exc}") from exc
+        except OptikError as exc:
+            assert isinstance(exc, ValueError)
+            self.stats["typed errors"] += 1
+            return None
+        except Exception as exc:
+            self.stats["other exceptions"] += 1
+            raise AssertionError(f"{target} raised {type(exc).__name__}: {exc}") from exc
+        self.stats["successes"] += 1
+        return result
+
+    def report(self) -> None:
+        """Print the tally (run with ``-s -p no:xdist`` to see all of it)."""
+        if self.stats["cases"]:
+            print("\nhostile cases:", dict(sorted(self.stats.items())))
 
 
 def two_link_robot() -> Robot:
