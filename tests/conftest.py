@@ -192,6 +192,45 @@ def assert_batch_equals_single(robot: Robot, targets: np.ndarray, mode: str) -> 
         np.testing.assert_array_equal(batch.q[k, : len(single)], np.array(single))
 
 
+def frozen_answers_among_branches(
+    robot: Robot,
+    fk: Callable[[np.ndarray], np.ndarray],
+    k: int,
+    rng: np.random.Generator,
+    distance: Callable[[list[np.ndarray], np.ndarray], float],
+) -> int:
+    """``solve_ik`` with joint ``k`` frozen finds nothing ``analytic_ik(free_joint=...)`` lacks.
+
+    Six in-limit configurations drawn from ``rng``, their poses by ``fk``; from five random
+    starts each (joint ``k`` held), every answer the numeric solver verifies keeps joint
+    ``k`` to 1e-12 and lies within 1e-6 (``distance(branches, q)``, rad) of a branch.
+
+    Returns:
+        How many answers the numeric solver found.
+    """
+    from optik import analytic_ik, solve_ik
+
+    name = robot.joint_names[k]
+    found = 0
+    for q in rng.uniform(robot.lower, robot.upper, (6, robot.dof)):
+        T = fk(q)
+        branches = analytic_ik(robot, T, free_joint=name, free_value=q[k])
+        for seed in range(5):
+            q0 = rng.uniform(robot.lower, robot.upper)
+            q0[k] = q[k]
+            # warm_start="q0": from q0 alone (the closed form would start it on a branch)
+            res = solve_ik(
+                robot, T, q0=q0, seed=seed, frozen={name: q[k]}, tol=1e-10, solver="dls",
+                warm_start="q0",
+            )  # fmt: skip
+            if not res.success:
+                continue
+            found += 1
+            assert res.q[k] == pytest.approx(q[k], abs=1e-12)
+            assert distance(branches, res.q) < 1e-6, (q, res.q)
+    return found
+
+
 def as_modified_dh(dh: Robot) -> Robot:
     """A standard-DH robot rebuilt from modified (Craig) DH rows: each row's twist and
     length move to the next row, the last row's to the tool; the same FK, base and tool."""
