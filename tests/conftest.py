@@ -670,6 +670,17 @@ def plan_from_q(robot: Robot, Q: np.ndarray) -> Any:
     )
 
 
+def out_of_reach_and_back(puma: Robot) -> np.ndarray:
+    """(N, 4, 4) poses on a line from a PUMA 560 pose 2.5 m along x and back, 0.05 m apart:
+    the middle stretch lies beyond the arm's reach, both ends on it."""
+    from optik.paths import line
+
+    start = puma.fk(np.array([0.2, 0.5, -0.8, 0.1, 0.6, 0.3]))
+    far = start.copy()
+    far[:3, 3] = start[:3, 3] + np.array([2.5, 0.0, 0.0])
+    return np.concatenate([line(start, far, 0.05), line(far, start, 0.05)])
+
+
 def run_cli(argv: list[str]) -> tuple[int, str]:
     """``optik`` run in this process on ``argv``: its exit code and what it printed to
     stderr (stdout is dropped)."""
