@@ -199,13 +199,8 @@ def test_git_commit_names_the_checkout_and_whether_its_optik_changed(tmp_path: P
     (tmp_path / "notes.txt").write_text("")
     for cmd in (["init", "-q"], ["add", "."], ["commit", "-q", "-m", "one"]):
         subprocess.run([*git, *cmd], cwd=tmp_path, check=True, capture_output=True)
-    rev = subprocess.run(
-        ["git", "rev-parse", "--short", "HEAD"],
-        cwd=tmp_path,
-        check=True,
-        capture_output=True,
-        text=True,
-    ).stdout.strip()
+    rev = subprocess.check_output(["git", "rev-parse", "--short", "HEAD"], cwd=tmp_path, text=True)
+    rev = rev.strip()
     (tmp_path / "notes.txt").write_text("a change outside optik/")
     assert record.git_commit(tmp_path) == rev
     (tmp_path / "optik" / "__init__.py").write_text("X = 1\n")
