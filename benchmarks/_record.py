@@ -28,6 +28,28 @@ from typing import Any
 SCHEMA = 1
 
 
+def git_commit(path: Path) -> str:
+    """Short commit of a checkout (``+dirty`` when its ``optik/`` has changes), or ``?``."""
+    try:
+        rev = subprocess.run(
+            ["git", "rev-parse", "--short", "HEAD"],
+            cwd=path,
+            capture_output=True,
+            text=True,
+            check=True,
+        ).stdout.strip()
+        dirty = subprocess.run(
+            ["git", "status", "--porcelain", "--", "optik"],
+            cwd=path,
+            capture_output=True,
+            text=True,
+            check=True,
+        ).stdout.strip()
+        return rev + ("+dirty" if dirty else "")
+    except (OSError, subprocess.CalledProcessError):
+        return "?"
+
+
 def optik_source() -> dict[str, str]:
     """Where the imported ``optik`` package lives, and that tree's git commit.
 
@@ -37,27 +59,7 @@ def optik_source() -> dict[str, str]:
     import optik
 
     package = Path(optik.__file__).resolve().parent
-    tree = package.parent
-    commit = "?"
-    try:
-        rev = subprocess.run(
-            ["git", "rev-parse", "--short", "HEAD"],
-            cwd=tree,
-            capture_output=True,
-            text=True,
-            check=True,
-        ).stdout.strip()
-        dirty = subprocess.run(
-            ["git", "status", "--porcelain", "--", "optik"],
-            cwd=tree,
-            capture_output=True,
-            text=True,
-            check=True,
-        ).stdout.strip()
-        commit = rev + ("+dirty" if dirty else "")
-    except (OSError, subprocess.CalledProcessError):
-        pass
-    return {"optik_path": str(package), "optik_commit": commit}
+    return {"optik_path": str(package), "optik_commit": git_commit(package.parent)}
 
 
 def metric(

@@ -153,6 +153,19 @@ def load_average() -> str:
         return "load average: {:.2f}, {:.2f}, {:.2f}".format(*os.getloadavg())
 
 
+def run_meta(command: str) -> dict[str, Any]:
+    """The head of a benchmark's meta: the command, the date (UTC), which optik, the machine."""
+    source = _record.optik_source()
+    return {
+        "command": command,
+        "date_utc": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+        "optik_commit": source["optik_commit"],
+        "optik_path": source["optik_path"],
+        "cpu": cpu_model(),
+        "cores": os.cpu_count(),
+    }
+
+
 def cpu_model() -> str:
     """CPU model name from /proc/cpuinfo (or platform's guess)."""
     try:
@@ -705,14 +718,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     load_after = load_average()
 
     summary = [summarize(key, m) for key, m in results]
-    source = _record.optik_source()
     meta = {
-        "command": command,
-        "date_utc": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
-        "optik_commit": source["optik_commit"],
-        "optik_path": source["optik_path"],
-        "cpu": cpu_model(),
-        "cores": os.cpu_count(),
+        **run_meta(command),
         "platform": platform.platform(),
         "load_before": load_before,
         "load_after": load_after,

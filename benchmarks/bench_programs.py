@@ -43,7 +43,6 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
 import argparse  # noqa: E402
-import datetime  # noqa: E402
 import gc  # noqa: E402
 import math  # noqa: E402
 import shlex  # noqa: E402
@@ -444,14 +443,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         notes += more
         interleave(ik_results, args.targets, args.seed, CLOCKS[args.clock])
     load_after = bench_ik.load_average()
-    source = _record.optik_source()
     meta = {
-        "command": command,
-        "date_utc": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
-        "optik_commit": source["optik_commit"],
-        "optik_path": source["optik_path"],
-        "cpu": bench_ik.cpu_model(),
-        "cores": os.cpu_count(),
+        **bench_ik.run_meta(command),
         "load_before": load_before,
         "load_after": load_after,
         "clock": args.clock,

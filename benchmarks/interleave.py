@@ -46,6 +46,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+# _record.py beside this script, also when it is loaded from a path (tests).
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from _record import git_commit
+
 HERE = Path(__file__).resolve().parent
 
 # The options of each benchmark in the interleaved runs: the single-query solve_ik medians
@@ -152,28 +157,6 @@ def round_order(rounds: int, order: str) -> list[tuple[str, str]]:
         flip = order != "alternate" and r % 2 == 1
         out.append(("new", "old") if flip else ("old", "new"))
     return out
-
-
-def git_commit(path: Path) -> str:
-    """Short commit of a checkout (``+dirty`` when its ``optik/`` has changes), or ``?``."""
-    try:
-        rev = subprocess.run(
-            ["git", "rev-parse", "--short", "HEAD"],
-            cwd=path,
-            capture_output=True,
-            text=True,
-            check=True,
-        ).stdout.strip()
-        dirty = subprocess.run(
-            ["git", "status", "--porcelain", "--", "optik"],
-            cwd=path,
-            capture_output=True,
-            text=True,
-            check=True,
-        ).stdout.strip()
-        return rev + ("+dirty" if dirty else "")
-    except (OSError, subprocess.CalledProcessError):
-        return "?"
 
 
 def check_tree(label: str, path: Path) -> Tree:

@@ -12,7 +12,8 @@ import functools
 import math
 import os
 import signal
-from collections.abc import Iterator
+from collections import Counter
+from collections.abc import Callable, Iterator
 from dataclasses import fields, replace
 from pathlib import Path
 from typing import Any
@@ -23,6 +24,7 @@ from hypothesis import HealthCheck, settings
 from scipy.spatial.transform import Rotation
 
 from optik.compare import ResultRow, RunConfig, step_backends
+from optik.errors import OptikError
 from optik.model import Robot
 from optik.problems import Problem, load_problem
 
@@ -188,6 +190,45 @@ def assert_batch_equals_single(robot: Robot, targets: np.ndarray, mode: str) -> 
         single = analytic_ik(robot, targets[k], mode=mode)
         assert batch.counts[k] == len(single) >= 1
         np.testing.assert_array_equal(batch.q[k, : len(single)], np.array(single))
+
+
+def frozen_answers_among_branches(
+    robot: Robot,
+    fk: Callable[[np.ndarray], np.ndarray],
+    k: int,
+    rng: np.random.Generator,
+    distance: Callable[[list[np.ndarray], np.ndarray], float],
+) -> int:
+    """``solve_ik`` with joint ``k`` frozen finds nothing ``analytic_ik(free_joint=...)`` lacks.
+
+    Six in-limit configurations drawn from ``rng``, their poses by ``fk``; from five random
+    starts each (joint ``k`` held), every answer the numeric solver verifies keeps joint
+    ``k`` to 1e-12 and lies within 1e-6 (``distance(branches, q)``, rad) of a branch.
+
+    Returns:
+        How many answers the numeric solver found.
+    """
+    from optik import analytic_ik, solve_ik
+
+    name = robot.joint_names[k]
+    found = 0
+    for q in rng.uniform(robot.lower, robot.upper, (6, robot.dof)):
+        T = fk(q)
+        branches = analytic_ik(robot, T, free_joint=name, free_value=q[k])
+        for seed in range(5):
+            q0 = rng.uniform(robot.lower, robot.upper)
+            q0[k] = q[k]
+            # warm_start="q0": from q0 alone (the closed form would start it on a branch)
+            res = solve_ik(
+                robot, T, q0=q0, seed=seed, frozen={name: q[k]}, tol=1e-10, solver="dls",
+                warm_start="q0",
+            )  # fmt: skip
+            if not res.success:
+                continue
+            found += 1
+            assert res.q[k] == pytest.approx(q[k], abs=1e-12)
+            assert distance(branches, res.q) < 1e-6, (q, res.q)
+    return found
 
 
 def as_modified_dh(dh: Robot) -> Robot:
@@ -558,6 +599,46 @@ def time_limit(seconds: float) -> Iterator[None]:
         signal.signal(signal.SIGALRM, previous)
 
 
+class HostileCases:
+    """A module's hostile cases: each runs under :func:`time_limit`, its outcome tallied.
+
+    A case returns (a success) or raises an :class:`~optik.errors.OptikError` (a typed
+    error); any other exception, or running past ``seconds``, fails the test.
+    """
+
+    def __init__(self, seconds: float) -> None:
+        self.seconds = seconds
+        self.stats: Counter[str] = Counter()
+
+    def attempt(self, target: str, call: Callable[[], Any]) -> Any:
+        """Run one hostile case: its result, or ``None`` if it raised an OptikError.
+
+        Any other exception, or running past the time limit, fails the test.
+        """
+        self.stats["cases"] += 1
+        self.stats[f"cases {target}"] += 1
+        try:
+            with time_limit(self.seconds):
+                result = call()
+        except Hang as exc:
+            self.stats["hangs"] += 1
+            raise AssertionError(f"{target}: {exc}") from exc
+        except OptikError as exc:
+            assert isinstance(exc, ValueError)
+            self.stats["typed errors"] += 1
+            return None
+        except Exception as exc:
+            self.stats["other exceptions"] += 1
+            raise AssertionError(f"{target} raised {type(exc).__name__}: {exc}") from exc
+        self.stats["successes"] += 1
+        return result
+
+    def report(self) -> None:
+        """Print the tally (run with ``-s -p no:xdist`` to see all of it)."""
+        if self.stats["cases"]:
+            print("\nhostile cases:", dict(sorted(self.stats.items())))
+
+
 def two_link_robot() -> Robot:
     """A planar arm of links 1.0 and 0.6 m, joints within +-pi: a small map's robot."""
     return Robot.from_dh(
@@ -587,6 +668,17 @@ def plan_from_q(robot: Robot, Q: np.ndarray) -> Any:
         max_joint_step=1.0,
         joint_names=robot.joint_names,
     )
+
+
+def out_of_reach_and_back(puma: Robot) -> np.ndarray:
+    """(N, 4, 4) poses on a line from a PUMA 560 pose 2.5 m along x and back, 0.05 m apart:
+    the middle stretch lies beyond the arm's reach, both ends on it."""
+    from optik.paths import line
+
+    start = puma.fk(np.array([0.2, 0.5, -0.8, 0.1, 0.6, 0.3]))
+    far = start.copy()
+    far[:3, 3] = start[:3, 3] + np.array([2.5, 0.0, 0.0])
+    return np.concatenate([line(start, far, 0.05), line(far, start, 0.05)])
 
 
 def run_cli(argv: list[str]) -> tuple[int, str]:

@@ -191,6 +191,24 @@ def test_metric_turns_nan_into_null_so_the_file_stays_valid_json(tmp_path: Path)
         record.metric("x", "sometimes", 1.0, 1)
 
 
+def test_git_commit_names_the_checkout_and_whether_its_optik_changed(tmp_path: Path) -> None:
+    assert record.git_commit(tmp_path) == "?"  # not a checkout
+    git = ["git", "-c", "user.name=t", "-c", "user.email=t@t", "-c", "commit.gpgsign=false"]
+    (tmp_path / "optik").mkdir()
+    (tmp_path / "optik" / "__init__.py").write_text("")
+    (tmp_path / "notes.txt").write_text("")
+    for cmd in (["init", "-q"], ["add", "."], ["commit", "-q", "-m", "one"]):
+        subprocess.run([*git, *cmd], cwd=tmp_path, check=True, capture_output=True)
+    rev = subprocess.check_output(["git", "rev-parse", "--short", "HEAD"], cwd=tmp_path, text=True)
+    rev = rev.strip()
+    (tmp_path / "notes.txt").write_text("a change outside optik/")
+    assert record.git_commit(tmp_path) == rev
+    (tmp_path / "optik" / "__init__.py").write_text("X = 1\n")
+    assert record.git_commit(tmp_path) == rev + "+dirty"
+    # The harness names its trees with the same function.
+    assert interleave.git_commit(tmp_path) == rev + "+dirty"
+
+
 def _run_script(script: str, tmp_path: Path, *args: str) -> dict[str, object]:
     out = tmp_path / f"{script}.json"
     env = dict(os.environ, PYTHONPATH=str(ROOT))

@@ -9,14 +9,10 @@ URDF with a cycle.
 
 from __future__ import annotations
 
-import contextlib
-import signal
-from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
 
 import pytest
-from conftest import ROOT
+from conftest import ROOT, time_limit
 
 from optik.cli import main
 
@@ -173,26 +169,8 @@ FILE_CASES: list[list[str]] = [
 ]
 
 
-class _Hang(Exception):
-    """A case ran past :data:`TIME_LIMIT_S`."""
-
-
-@contextlib.contextmanager
-def _time_limit(seconds: float) -> Iterator[None]:
-    def on_alarm(signum: int, frame: Any) -> None:
-        raise _Hang(f"no answer within {seconds} s")
-
-    previous = signal.signal(signal.SIGALRM, on_alarm)
-    signal.setitimer(signal.ITIMER_REAL, seconds)
-    try:
-        yield
-    finally:
-        signal.setitimer(signal.ITIMER_REAL, 0)
-        signal.signal(signal.SIGALRM, previous)
-
-
 def _run(argv: list[str]) -> int:
-    with _time_limit(TIME_LIMIT_S):
+    with time_limit(TIME_LIMIT_S):
         try:
             return main(argv)
         except SystemExit as exc:  # argparse's usage errors

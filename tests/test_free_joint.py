@@ -14,8 +14,9 @@ from pathlib import Path
 import numpy as np
 import pybullet_data  # the test extra: its absence is a failure, not a skip
 import pytest
+from conftest import frozen_answers_among_branches
 
-from optik import Robot, load_problem, solve_ik
+from optik import Robot, load_problem
 from optik.analytic import analytic_ik
 from optik.errors import AnalyticIKError, OptikError
 from optik.problems import builtin_problems
@@ -178,25 +179,7 @@ def test_every_singularity_at_once(iiwa: Robot, k: int) -> None:
 def test_numeric_solutions_with_the_joint_frozen_are_among_the_branches(iiwa: Robot) -> None:
     """``solve_ik(frozen=...)`` from random starts finds nothing the closed form lacks."""
     rng = np.random.default_rng(99)
-    name = iiwa.joint_names[2]
-    found = 0
-    for q in rng.uniform(iiwa.lower, iiwa.upper, (6, 7)):
-        target = iiwa.fk(q)
-        branches = analytic_ik(iiwa, target, free_joint=name, free_value=q[2])
-        for seed in range(5):
-            q0 = rng.uniform(iiwa.lower, iiwa.upper)
-            q0[2] = q[2]
-            # warm_start="q0": from q0 alone (the closed form would start it on a branch)
-            res = solve_ik(
-                iiwa, target, q0=q0, seed=seed, frozen={name: q[2]}, tol=1e-10, solver="dls",
-                warm_start="q0",
-            )  # fmt: skip
-            if not res.success:
-                continue
-            found += 1
-            assert res.q[2] == pytest.approx(q[2], abs=1e-12)
-            assert _source_distance(branches, res.q) < 1e-6
-    assert found >= 10
+    assert frozen_answers_among_branches(iiwa, iiwa.fk, 2, rng, _source_distance) >= 10
 
 
 # ---------------------------------------------------------------------- bad input

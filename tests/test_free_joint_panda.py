@@ -25,6 +25,7 @@ import numpy as np
 import pinocchio as pin
 import pybullet_data  # the test extra: its absence is a failure, not a skip
 import pytest
+from conftest import frozen_answers_among_branches
 from eaik.IK_HP import HPRobot
 from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
@@ -446,26 +447,9 @@ def test_axis_6_never_meets_the_shoulder(problems_arm: Arm) -> None:
 # ---------------------------------------------------------------------- independent references
 def test_numeric_solutions_with_q7_frozen_are_among_the_branches(arm: Arm) -> None:
     """``solve_ik(frozen={q7: v})`` from random starts finds nothing the closed form lacks."""
-    robot = arm.robot
+    assert arm.robot.joint_names[6] == Q7
     rng = np.random.default_rng(80)
-    found = 0
-    for q in rng.uniform(robot.lower, robot.upper, (6, 7)):
-        T = arm.fk(q)
-        branches = analytic_ik(robot, T, free_joint=Q7, free_value=q[6])
-        for seed in range(5):
-            q0 = rng.uniform(robot.lower, robot.upper)
-            q0[6] = q[6]
-            # warm_start="q0": from q0 alone (the closed form would start it on a branch)
-            res = solve_ik(
-                robot, T, q0=q0, seed=seed, frozen={Q7: q[6]}, tol=1e-10, solver="dls",
-                warm_start="q0",
-            )  # fmt: skip
-            if not res.success:
-                continue
-            found += 1
-            assert res.q[6] == pytest.approx(q[6], abs=1e-12)
-            assert _source_distance(branches, res.q) < 1e-6, (q, res.q)
-    assert found >= 10
+    assert frozen_answers_among_branches(arm.robot, arm.fk, 6, rng, _source_distance) >= 10
 
 
 def test_batch_equals_single_calls(arm: Arm) -> None:

@@ -9,14 +9,13 @@ fails without its rule); part two throws hypothesis-drawn values at every argume
 from __future__ import annotations
 
 import math
-from collections import Counter
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
-from conftest import Hang, robot_of, time_limit
+from conftest import HostileCases, robot_of
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -33,7 +32,7 @@ FUZZ = settings(
     deadline=None,  # the per-case alarm bounds each case; a cold compile may take seconds
     suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
 )
-STATS: Counter[str] = Counter()
+HOSTILE = HostileCases(TIME_LIMIT_S)
 
 PUMA = robot_of("puma560")  # closed form (compiled spherical wrist)
 PANDA = robot_of("panda")  # numeric (7 dof)
@@ -93,36 +92,11 @@ def _finite(*arrays: Any) -> bool:
     return all(bool(np.all(np.isfinite(np.asarray(a, dtype=float)))) for a in arrays)
 
 
-def _attempt(target: str, call: Callable[[], Any]) -> Any:
-    """Run one hostile case: its result, or ``None`` if it raised an OptikError.
-
-    Any other exception, or running past the time limit, fails the test.
-    """
-    STATS["cases"] += 1
-    STATS[f"cases {target}"] += 1
-    try:
-        with time_limit(TIME_LIMIT_S):
-            result = call()
-    except Hang as exc:
-        STATS["hangs"] += 1
-        raise AssertionError(f"{target}: {exc}") from exc
-    except OptikError as exc:
-        assert isinstance(exc, ValueError)
-        STATS["typed errors"] += 1
-        return None
-    except Exception as exc:
-        STATS["other exceptions"] += 1
-        raise AssertionError(f"{target} raised {type(exc).__name__}: {exc}") from exc
-    STATS["successes"] += 1
-    return result
-
-
 @pytest.fixture(scope="module", autouse=True)
 def _report_stats() -> Iterator[None]:
     """Print the tally of hostile cases (run with ``-s -p no:xdist`` to see all of it)."""
     yield
-    if STATS["cases"]:
-        print("\nhostile cases:", dict(sorted(STATS.items())))
+    HOSTILE.report()
 
 
 @pytest.fixture(scope="module")
@@ -195,7 +169,7 @@ def test_linalg_option_values(warm: None, bad: Any) -> None:
                 if fn is optik.min_norm
                 else (lambda kw=kwargs: optik.least_squares(A.T, A.T @ b, **kw))
             )
-            outcome = _attempt(fn.__name__, call)
+            outcome = HOSTILE.attempt(fn.__name__, call)
             if outcome is not None:
                 assert option == "damping" and bad in (1e-300, 0.0)
                 if fn is optik.min_norm:
@@ -388,7 +362,7 @@ def test_hostile_solve_ik(
         kwargs[option] = value
     if option in ("restarts", "max_iter"):
         kwargs["timeout_s"] = 2.0  # a legal 10**9 restarts is bounded by the clock
-    result = _attempt("solve_ik", lambda: optik.solve_ik(robot, target, **kwargs))
+    result = HOSTILE.attempt("solve_ik", lambda: optik.solve_ik(robot, target, **kwargs))
     if result is not None:
         _check_ik(result, robot)
 
@@ -421,7 +395,9 @@ def test_hostile_solve_ik_batch(
         kwargs["restarts"] = value if abs(value) < 1e3 else 2  # a legal 1e9 is just slow
     if option == "max_iter" and isinstance(value, int | float) and not isinstance(value, bool):
         kwargs["max_iter"] = value if abs(value) < 1e3 else 30
-    result = _attempt("solve_ik_batch", lambda: optik.solve_ik_batch(robot, targets, **kwargs))
+    result = HOSTILE.attempt(
+        "solve_ik_batch", lambda: optik.solve_ik_batch(robot, targets, **kwargs)
+    )
     if result is not None:
         n = result.q.shape[0]
         _check_batch(result, robot, n)
@@ -442,7 +418,7 @@ def test_hostile_analytic_ik(
         target = PUMA.fk(PUMA.mid_limits)
     if batch:
         targets = np.asarray(target)[None] if isinstance(target, np.ndarray) else [target]
-        out = _attempt(
+        out = HOSTILE.attempt(
             "analytic_ik_batch",
             lambda: optik.analytic_ik_batch(PUMA, targets, mode, q_ref, within_limits),
         )
@@ -450,7 +426,7 @@ def test_hostile_analytic_ik(
             for k, count in enumerate(out.counts):
                 assert _finite(out.q[k, :count])
     else:
-        out = _attempt(
+        out = HOSTILE.attempt(
             "analytic_ik", lambda: optik.analytic_ik(PUMA, target, mode, q_ref, within_limits)
         )
         if out is not None:
@@ -467,7 +443,7 @@ def test_hostile_analytic_ik_python_family(
     warm: None, target: Any, q_ref: Any, batch: bool
 ) -> None:
     if batch:
-        out = _attempt(
+        out = HOSTILE.attempt(
             "analytic_ik_batch",
             lambda: optik.analytic_ik_batch(PLANAR, [target], "position", q_ref),
         )
@@ -475,7 +451,9 @@ def test_hostile_analytic_ik_python_family(
             for k, count in enumerate(out.counts):
                 assert _finite(out.q[k, :count])
     else:
-        out = _attempt("analytic_ik", lambda: optik.analytic_ik(PLANAR, target, "position", q_ref))
+        out = HOSTILE.attempt(
+            "analytic_ik", lambda: optik.analytic_ik(PLANAR, target, "position", q_ref)
+        )
         if out is not None:
             assert all(_finite(q) for q in out)
 
@@ -505,7 +483,7 @@ def test_hostile_diff_ik(warm: None, q: Any, twist: Any, option: str, data: st.D
     kwargs: dict[str, Any] = {"dt": 0.01, option: data.draw(DIFF_OPTIONS[option])}
     if option == "damping":
         kwargs["objective"] = "least_squares"
-    dq = _attempt("diff_ik", lambda: optik.diff_ik(PUMA, q, twist, **kwargs))
+    dq = HOSTILE.attempt("diff_ik", lambda: optik.diff_ik(PUMA, q, twist, **kwargs))
     if dq is not None:
         assert dq.shape == (6,) and _finite(dq)
 
@@ -522,7 +500,7 @@ TRIG_VALUES = st.one_of(SCALARS, FLOATS, st.sampled_from([1.0, 0.5, -2.0, 1e200]
     tol=st.one_of(st.just(1e-12), TRIG_VALUES),
 )
 def test_hostile_solve_trig(warm: None, a: Any, b: Any, c: Any, free_value: Any, tol: Any) -> None:
-    roots = _attempt(
+    roots = HOSTILE.attempt(
         "solve_trig", lambda: optik.solve_trig(a, b, c, free_value=free_value, tol=tol)
     )
     if roots is not None:
@@ -541,7 +519,7 @@ def test_hostile_solve_trig(warm: None, a: Any, b: Any, c: Any, free_value: Any,
 def test_hostile_solve_trig_batch(
     warm: None, a: Any, b: Any, c: Any, free_value: Any, tol: Any
 ) -> None:
-    out = _attempt(
+    out = HOSTILE.attempt(
         "solve_trig_batch", lambda: solve_trig_batch(a, b, c, free_value=free_value, tol=tol)
     )
     if out is not None:
@@ -579,7 +557,7 @@ def test_hostile_linalg(
     call = (lambda: fn(A, **kwargs)) if name == "generalized_inverse" else (
         lambda: fn(A, b, **kwargs)
     )  # fmt: skip
-    x = _attempt(name, call)
+    x = HOSTILE.attempt(name, call)
     if x is not None:
         assert _finite(x)
 
@@ -611,18 +589,20 @@ POSE_VALUES = st.one_of(
 def test_hostile_poses(
     warm: None, values: dict[str, Any], target: Any, mode: Any, converter: str
 ) -> None:
-    T = _attempt("pose", lambda: optik.pose(**values))
+    T = HOSTILE.attempt("pose", lambda: optik.pose(**values))
     if T is not None:
         assert _finite(T)
-    T = _attempt("as_target_pose", lambda: optik.as_target_pose(target, mode))
+    T = HOSTILE.attempt("as_target_pose", lambda: optik.as_target_pose(target, mode))
     if T is not None:
         assert _finite(T)
-    out = _attempt(converter, lambda: getattr(optik, converter)(target))
+    out = HOSTILE.attempt(converter, lambda: getattr(optik, converter)(target))
     if out is not None and converter != "to_rotation":
         parts = out if isinstance(out, tuple) else (out,)
         assert _finite(*parts)
     if converter == "to_rpy":
-        out = _attempt("to_rpy", lambda: optik.to_rpy(_pose(), rpy_convention=mode, degrees=mode))
+        out = HOSTILE.attempt(
+            "to_rpy", lambda: optik.to_rpy(_pose(), rpy_convention=mode, degrees=mode)
+        )
         assert out is None or _finite(out)
 
 
@@ -642,13 +622,13 @@ def test_hostile_robot_argument(warm: None, robot: Any, name: str) -> None:
         "reachability": lambda: optik.reachability(robot, np.zeros((1, 3))),
     }
     for label, call in (*calls.items(), *(extra.items() if name == "solve_ik" else ())):
-        _attempt(label, call)
+        HOSTILE.attempt(label, call)
 
 
 @FUZZ
 @given(kind=st.one_of(SCALARS, st.sampled_from(["ik", "step", "IK", ["step"]])))
 def test_hostile_available_solvers(kind: Any) -> None:
-    names = _attempt("available_solvers", lambda: optik.available_solvers(kind=kind))
+    names = HOSTILE.attempt("available_solvers", lambda: optik.available_solvers(kind=kind))
     if names is not None:
         assert kind in ("ik", "step") and names and all(isinstance(n, str) for n in names)
 

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import out_of_reach_and_back
 
 from optik import DHJoint, Robot, solve_ik, solve_ik_batch
 from optik.errors import OptikError, ShapeError
@@ -48,11 +49,7 @@ def test_plan_avoids_the_branch_jump_of_the_greedy_choice() -> None:
 
 def test_unreachable_stretch_is_flagged_and_nothing_is_dropped() -> None:
     robot = load_problem("puma560").robot
-    q = np.array([0.2, 0.5, -0.8, 0.1, 0.6, 0.3])
-    start = robot.fk(q)
-    far = start.copy()
-    far[:3, 3] = start[:3, 3] + np.array([2.5, 0.0, 0.0])
-    poses = np.concatenate([line(start, far, 0.05), line(far, start, 0.05)])
+    poses = out_of_reach_and_back(robot)
     plan = plan_path(robot, poses, max_joint_step=0.3)
     _verify_plan(robot, plan)
     assert len(plan.status) == len(poses)

@@ -12,7 +12,7 @@ import pytest
 import toppra
 import toppra.algorithm
 import toppra.constraint
-from conftest import plan_from_q
+from conftest import out_of_reach_and_back, plan_from_q
 from scipy.interpolate import CubicSpline
 from scipy.spatial.transform import Rotation, Slerp
 
@@ -223,12 +223,7 @@ def test_total_time_between_bounds_and_near_the_toppra_optimum(
 
 # ----------------------------------------------------------------------- segments
 def test_an_unreachable_stretch_gives_two_segments(puma: Robot) -> None:
-    q = np.array([0.2, 0.5, -0.8, 0.1, 0.6, 0.3])
-    start = puma.fk(q)
-    far = start.copy()
-    far[:3, 3] = start[:3, 3] + np.array([2.5, 0.0, 0.0])
-    poses = np.concatenate([line(start, far, 0.05), line(far, start, 0.05)])
-    plan = plan_path(puma, poses, max_joint_step=0.3)
+    plan = plan_path(puma, out_of_reach_and_back(puma), max_joint_step=0.3)
     solved = plan.solved
     assert solved.any() and not solved.all()
     trajectory = plan.to_trajectory(VLIM, ALIM, robot=puma)

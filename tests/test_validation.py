@@ -10,14 +10,13 @@ from __future__ import annotations
 
 import math
 import threading
-from collections import Counter
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
-from conftest import Hang, time_limit
+from conftest import HostileCases
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -676,7 +675,7 @@ FUZZ = settings(
     deadline=None,  # the per-case alarm bounds each case; a cold compile may take seconds
     suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
 )
-STATS: Counter[str] = Counter()
+HOSTILE = HostileCases(TIME_LIMIT_S)
 
 SCALARS = st.sampled_from(
     [NAN, INF, -INF, 1e300, -1e300, 1e154, 1e10, -0.0, 0.0, 0.5, 1.0, -1, 3, 1j, 1 + 0j,
@@ -687,35 +686,11 @@ FLOATS = st.sampled_from([NAN, INF, -INF, 1e300, -1e300, 1e154, 1e10, -0.0, 0.0,
 DTYPES = st.sampled_from([complex, bool, object, str, np.float32, np.int64])
 
 
-def _attempt(target: str, call: Callable[[], Any]) -> Any:
-    """Run one hostile case: its result, or ``None`` if it raised an OptikError.
-
-    Any other exception, or running past the time limit, fails the test.
-    """
-    STATS["cases"] += 1
-    STATS[f"cases {target}"] += 1
-    try:
-        with time_limit(TIME_LIMIT_S):
-            result = call()
-    except Hang as exc:
-        STATS["hangs"] += 1
-        raise AssertionError(f"{target}: {exc}") from exc
-    except OptikError:
-        STATS["typed errors"] += 1
-        return None
-    except Exception as exc:
-        STATS["other exceptions"] += 1
-        raise AssertionError(f"{target} raised {type(exc).__name__}: {exc}") from exc
-    STATS["successes"] += 1
-    return result
-
-
 @pytest.fixture(scope="module", autouse=True)
 def _report_stats() -> Iterator[None]:
     """Print the tally of hostile cases (run with ``-s -p no:xdist`` to see all of it)."""
     yield
-    if STATS["cases"]:
-        print("\nhostile cases:", dict(sorted(STATS.items())))
+    HOSTILE.report()
 
 
 @pytest.fixture(scope="module")
@@ -795,7 +770,7 @@ def test_hostile_dh(
 ) -> None:  # fmt: skip
     rows: Any = _rows(**{key: value}) if whole is None else whole
     kwargs = {option: option_value} if option else {}
-    robot = _attempt(build, lambda: getattr(Robot, build)(rows, **kwargs))
+    robot = HOSTILE.attempt(build, lambda: getattr(Robot, build)(rows, **kwargs))
     if robot is not None:
         _check_robot(robot)
 
@@ -846,7 +821,7 @@ def test_hostile_urdf(
     if as_file:
         source = tmp_path / "r.urdf"
         source.write_text(text, encoding="utf-8")
-    robot = _attempt("from_urdf", lambda: Robot.from_urdf(source, "base", tip, tool=tool))
+    robot = HOSTILE.attempt("from_urdf", lambda: Robot.from_urdf(source, "base", tip, tool=tool))
     if robot is not None:
         _check_robot(robot)
 
@@ -899,7 +874,7 @@ def test_hostile_problem_file(
         lines += [f"{key} = {value}" for key, value in fields.items()]
     file = tmp_path / "hostile.toml"
     file.write_text("\n".join(lines) + "\n", encoding="utf-8")
-    problem = _attempt("load_problem", lambda: load_problem(file))
+    problem = HOSTILE.attempt("load_problem", lambda: load_problem(file))
     if problem is not None:
         _check_robot(problem.robot)
         for target in problem.targets.values():
@@ -931,7 +906,7 @@ def test_hostile_primitives(
         "arc": lambda: paths.arc(start, end, center, step, long_way=long_way),
         "circle": lambda: paths.circle(start, center, normal, step),
     }
-    poses = _attempt(kind, calls[kind])
+    poses = HOSTILE.attempt(kind, calls[kind])
     if poses is not None:
         assert poses.ndim == 3 and poses.shape[1:] == (4, 4) and len(poses) <= MAX_PATH_SAMPLES
         assert _finite(poses)
@@ -967,7 +942,7 @@ def test_hostile_path_files(
             file.write_bytes(b"PK\x03\x04 truncated")
     else:
         file.write_bytes(bytes(range(256)))
-    result = _attempt("read_path", lambda: read_path(file))
+    result = HOSTILE.attempt("read_path", lambda: read_path(file))
     if result is not None:
         poses, mode = result
         assert mode in ("pose", "position") and poses.shape[1:] == (4, 4) and _finite(poses)
@@ -996,7 +971,7 @@ def _check_plan(plan: Any, n: int) -> None:
 )
 def test_hostile_plan_path(warm: None, option: str | None, value: Any, path: Any) -> None:
     kwargs = {option: value} if option else {}
-    plan = _attempt("plan_path", lambda: plan_path(PLANAR, path, **kwargs))
+    plan = HOSTILE.attempt("plan_path", lambda: plan_path(PLANAR, path, **kwargs))
     if plan is not None:
         _check_plan(plan, len(plan.poses))
 
@@ -1009,7 +984,7 @@ def test_hostile_plan_path(warm: None, option: str | None, value: Any, path: Any
 )
 def test_hostile_reachability(warm: None, option: str | None, value: Any, points: Any) -> None:
     kwargs = {option: value} if option else {}
-    result = _attempt("reachability", lambda: reachability(PLANAR, points, **kwargs))
+    result = HOSTILE.attempt("reachability", lambda: reachability(PLANAR, points, **kwargs))
     if result is not None:
         assert _finite(result.q[result.reachable])
 
@@ -1026,10 +1001,10 @@ def test_hostile_reachability(warm: None, option: str | None, value: Any, points
 def test_hostile_kinematics(
     warm: None, robot: Robot, method: str, q: Any, lower: Any, upper: Any
 ) -> None:
-    out = _attempt(method, lambda: getattr(robot, method)(q))
+    out = HOSTILE.attempt(method, lambda: getattr(robot, method)(q))
     if out is not None:
         assert _finite(out)
-    clone = _attempt("with_limits", lambda: robot.with_limits(lower, upper))
+    clone = HOSTILE.attempt("with_limits", lambda: robot.with_limits(lower, upper))
     if clone is not None:
         assert not np.any(np.isnan(clone.lower)) and np.all(clone.lower <= clone.upper)
         assert _finite(clone.fk(np.zeros(2)))
