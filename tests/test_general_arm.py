@@ -18,7 +18,7 @@ from scipy.optimize import brentq, least_squares
 
 from optik import Robot
 from optik.analytic import analytic_ik
-from optik.analytic.general_arm import sampled_roots, trig2_roots
+from optik.analytic._quartic import sampled_roots, trig2_roots
 from optik.analytic.geometry import joint_axes
 from optik.analytic.spherical_axes import GENERAL, axes_plan
 
@@ -86,17 +86,17 @@ def test_newton_stops_at_rounding(monkeypatch: pytest.MonkeyPatch) -> None:
     down to rounding: the iteration stops when a step or the bracket is at rounding,
     also where the slope is small (a root near a double one). Counted on the Python
     function with a counting ``f``, on 3,000 random polynomials."""
-    from optik.analytic import general_arm
+    from optik.analytic import _quartic
 
     calls = [0]
-    evaluate = general_arm._trig2.py_func
+    evaluate = _quartic._trig2.py_func
 
     def counted(k: np.ndarray, t: float) -> tuple[float, float]:
         calls[0] += 1
         return evaluate(k, t)
 
-    monkeypatch.setattr(general_arm, "_trig2", counted)
-    bracketed = general_arm._bracketed_root.py_func
+    monkeypatch.setattr(_quartic, "_trig2", counted)
+    bracketed = _quartic._bracketed_root.py_func
     rng = np.random.default_rng(1)
     worst = 0
     for k in rng.normal(size=(3000, 5)):
@@ -110,7 +110,7 @@ def test_newton_stops_at_rounding(monkeypatch: pytest.MonkeyPatch) -> None:
             m = 0.5 * (a + b)
             fm, dm = evaluate(k, m)
             bound2 = abs(k[1]) + abs(k[2]) + 4 * (abs(k[3]) + abs(k[4]))
-            if general_arm._verdict(fa, fb, fm, dm, width, bound2, 0.0) != 1:
+            if _quartic._verdict(fa, fb, fm, dm, width, bound2, 0.0) != 1:
                 continue  # not proven monotone: halved first, not this test's case
             calls[0] = 0
             root = bracketed(k, a, b, fa, m, fm, dm)

@@ -26,7 +26,7 @@ from scipy.spatial.transform import Rotation
 
 from optik import Robot, solve_ik
 from optik.analytic import analytic_ik, analytic_ik_batch, family_of
-from optik.analytic.general_arm import angle_pairs, pair_continuum
+from optik.analytic._angle_pairs import angle_pairs, pair_continuum
 
 ROOTS = (1e-12, 1e-12, 1e-9, 1e-9)
 """``(trig_tol, eps, free_tol, reach_tol)``, the closed forms' values."""

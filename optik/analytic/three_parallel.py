@@ -43,6 +43,14 @@ import math
 import numpy as np
 
 from optik._numba import jit as _jit
+from optik.analytic._angle_pairs import (
+    Mat2,
+    Vec2,
+    angle_pairs,
+    pair_continuum,
+    quartic_vanishes,
+    singular_pairs,
+)
 from optik.analytic._compiled import MAX_BRANCHES, closed_form_tols, mul3, store_branch
 from optik.analytic._subproblems import (
     RootTols,
@@ -65,14 +73,6 @@ from optik.analytic._subproblems import (
     turn_point,
     unit,
     vec_at,
-)
-from optik.analytic.general_arm import (
-    Mat2,
-    Vec2,
-    angle_pairs,
-    pair_continuum,
-    quartic_vanishes,
-    singular_pairs,
 )
 from optik.analytic.pair_wrist import REACH_TOL, AxesQuery, target_frame
 
