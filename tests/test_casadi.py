@@ -32,8 +32,7 @@ from optik.programs import nlp as nlp_module
 from optik.programs.casadi_qp import build_conic
 from optik.programs.diff_qp import DiffIKProgram, QPSolution
 from optik.programs.nlp import build_nlp, symbolic_fk
-from optik.solvers import casadi_conic, casadi_nlp
-from optik.solvers._base import IKQuery, available_solvers, get_solver
+from optik.solvers import IKQuery, available_solvers, casadi_conic, casadi_nlp, get_solver
 from optik.solvers.casadi_conic import (
     CONIC_OPTIONS,
     EXCLUDED_PLUGINS,
