@@ -15,6 +15,7 @@ import math
 import numpy as np
 
 from optik._math import sincos, trig_roots
+from optik._numba import inline as _inline
 from optik._numba import jit as _jit
 
 CIRCLE_TOL = 1e-6
@@ -125,18 +126,37 @@ def sampled_roots(k: np.ndarray, out: np.ndarray) -> int:
         fm, dm = _grid_value(k, 2 * i + 1)
         a = -math.pi + i * width
         verdict = _verdict(fa, fb, fm, dm, width, bound2, slack)
-        if verdict == _ROOT_FREE:
-            continue
         if verdict == _ONE_ROOT:
-            if n == 4:
-                return -1
-            out[n] = _bracketed_root(k, a, a + width, fa, a + 0.5 * width, fm, dm)
-            n += 1
-            continue
-        n = _halved_roots(k, a, a + width, fa, fb, bound2, slack, out, n)
+            n = _one_root(k, a, a + width, fa, a + 0.5 * width, fm, dm, out, n)
+        elif verdict == _UNDECIDED:
+            n = _halved_roots(k, a, a + width, fa, fb, bound2, slack, out, n)
         if n < 0:
             return -1
     return n
+
+
+@_inline
+def _one_root(
+    k: np.ndarray,
+    a: float,
+    b: float,
+    fa: float,
+    m: float,
+    fm: float,
+    dm: float,
+    out: np.ndarray,
+    n: int,
+) -> int:
+    """The one root of ``[a, b]`` into ``out[n]``: ``n + 1``, or -1 for a fifth root.
+
+    ``fa``: ``f(a)``; ``fm``, ``dm``: ``f`` and ``f'`` at ``m``, where the search starts.
+    A quartic has four roots: a fifth is rounding, which the caller leaves to the
+    eigenvalues.
+    """
+    if n == 4:
+        return -1
+    out[n] = _bracketed_root(k, a, b, fa, m, fm, dm)
+    return n + 1
 
 
 @_jit
@@ -184,19 +204,17 @@ def _halved_roots(
         m = 0.5 * (a + b)
         fm, dm = _trig2(k, m)
         verdict = _verdict(fa, fb, fm, dm, w, bound2, slack)
-        if verdict == _ROOT_FREE:
-            continue
         if verdict == _ONE_ROOT:
-            if n == 4:
+            n = _one_root(k, a, b, fa, m, fm, dm, out, n)
+            if n < 0:
                 return -1
-            out[n] = _bracketed_root(k, a, b, fa, m, fm, dm)
-            n += 1
-            continue
-        if w < 1e-6 or top + 2 > _STACK:
-            return -1
-        stack[top, 0], stack[top, 1], stack[top, 2], stack[top, 3] = m, b, fm, fb
-        stack[top + 1, 0], stack[top + 1, 1], stack[top + 1, 2], stack[top + 1, 3] = a, m, fa, fm
-        top += 2
+        elif verdict == _UNDECIDED:
+            if w < 1e-6 or top + 2 > _STACK:
+                return -1
+            stack[top, 0], stack[top, 1], stack[top, 2], stack[top, 3] = m, b, fm, fb
+            stack[top + 1, 0], stack[top + 1, 1], stack[top + 1, 2] = a, m, fa
+            stack[top + 1, 3] = fm
+            top += 2
     return n
 
 
