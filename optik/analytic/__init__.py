@@ -45,6 +45,8 @@ from optik.analytic import general_6r  # noqa: F401
 # isort: split
 # After the families: the pipeline imports two of them, which would register them first.
 from optik.analytic import _pipeline, _pipeline_args
+from optik.analytic._arguments import F64 as _F64
+from optik.analytic._arguments import POSE_SHAPE as _SHAPE_4x4
 from optik.analytic._arguments import (
     AnalyticBatch,
     batch_refs,
@@ -85,10 +87,8 @@ from optik.model import DECLARED_FAMILY_CHECKS, Robot
 from optik.poses import as_target_pose
 from optik.spatial import invert_transform
 
-_F64 = np.dtype(np.float64)
 # Constants of the hot path of analytic_ik, bound once (each module attribute lookup
 # costs more than the comparison it feeds).
-_SHAPE_4x4 = (4, 4)
 _SHAPE_DOF = (_compiled.DOF,)
 _SHAPE_OUT = (_compiled.MAX_BRANCHES, _compiled.DOF)
 _SORT = _pipeline_args.SORT

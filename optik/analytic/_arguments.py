@@ -21,7 +21,10 @@ from optik.model import Robot
 from optik.poses import as_target_pose
 from optik.spatial import as_pose
 
-_F64 = np.dtype(np.float64)
+F64 = np.dtype(np.float64)
+"""The dtype the compiled kernels take (a target of any other goes through :func:`plain`)."""
+POSE_SHAPE = (4, 4)
+"""The shape of one pose."""
 
 
 def plain(array: FloatArray) -> FloatArray:
@@ -30,7 +33,7 @@ def plain(array: FloatArray) -> FloatArray:
     The compiled kernels are specialised for exactly this array type; any other layout
     would trigger a new compilation.
     """
-    if array.dtype == _F64 and array.flags.carray:
+    if array.dtype == F64 and array.flags.carray:
         return array
     return np.array(array, dtype=np.float64, order="C")
 

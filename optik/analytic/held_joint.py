@@ -16,6 +16,8 @@ import numpy as np
 from optik._checks import FloatArray, check_real, finite_array
 from optik._clock import one_time_setup
 from optik.analytic import _compiled, free_joint
+from optik.analytic._arguments import F64 as _F64
+from optik.analytic._arguments import POSE_SHAPE as _SHAPE_4x4
 from optik.analytic._arguments import (
     AnalyticBatch,
     batch_refs,
@@ -35,9 +37,6 @@ from optik.errors import AnalyticIKError, OptikError
 from optik.limits import LIMIT_TOLERANCE
 from optik.model import Robot
 from optik.poses import as_target_pose
-
-_F64 = np.dtype(np.float64)
-_SHAPE_4x4 = (4, 4)
 
 
 def free_joint_plans(robot: Robot) -> dict[int, free_joint.FreeJointPlan]:
