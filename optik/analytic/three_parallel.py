@@ -15,7 +15,7 @@ conditions tie ``q_5`` to ``q_1`` alone:
   chosen off axis 5 by the plan).
 
 Both are linear in ``(cos q_1, sin q_1)`` and ``(cos q_5, sin q_5)``: the system of
-:func:`optik.analytic.general_arm.angle_pairs`, a quartic, up to 4 pairs. Then ``q_6`` by
+:func:`optik.analytic._angle_pairs.angle_pairs`, a quartic, up to 4 pairs. Then ``q_6`` by
 subproblem 1 (``R_6 F^T h = R_5^-1 h`` with ``F`` the rotation of ``R_1^-1 G``), the turn
 ``theta`` from the rest of the rotation, and the planar arm: the point ``p_4`` of axis 4
 must reach ``X = R_1^-1 G R_6^-1 R_5^-1 p_4``: ``q_3`` by its distance from axis 2
@@ -155,9 +155,9 @@ def _continuum_rows(
 
     ``q_1`` takes the reference's value and the value half a turn from it (the
     shoulder's two sides: parts of the curve the elbow's reach may separate), each with
-    its ``q_5`` (:func:`optik.analytic.general_arm.singular_pairs`, the conditions'
+    its ``q_5`` (:func:`optik.analytic._angle_pairs.singular_pairs`, the conditions'
     rows ``proportional``); or, where they only share the curve
-    (:func:`optik.analytic.general_arm.quartic_vanishes`), the quartic's eliminated
+    (:func:`optik.analytic._angle_pairs.quartic_vanishes`), the quartic's eliminated
     angle takes them. Where the elbow reaches its target at neither, the next values of
     an even grid over half a turn, nearest first (:data:`CONTINUUM_TRIES`).
     """
