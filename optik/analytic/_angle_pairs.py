@@ -151,7 +151,8 @@ def angle_pairs(
     keep_a = root_separation(N, minus_v0, M)
     keep_b = root_separation(M, v0, N)
     singular = not max(keep_a, keep_b) > PAIR_RANK_TOL
-    if singular and pair_continuum(M, v0, N):
+    sine = pair_sine(M, v0, N) if singular else 1.0
+    if not sine > PAIR_CONTINUUM_TOL:  # one equation: pair_continuum, its sine computed once
         return singular_pairs(M, v0, N, ref_a, ref_b, roots, angles)  # the reference's point
     if keep_a > keep_b:
         count = quartic_pairs(N, minus_v0, M, roots[0], ref_a, angles)  # roots a, partners b
@@ -182,7 +183,7 @@ def angle_pairs(
     found = 0
     if good == 0:
         found = singular_pairs(M, v0, N, ref_a, ref_b, roots, direct)
-    direct_first = pair_sine(M, v0, N) > PAIR_RANK_TOL
+    direct_first = sine > PAIR_RANK_TOL
     kept = good
     if direct_first:
         kept = _append_pairs(angles, kept, direct, found)

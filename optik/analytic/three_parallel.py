@@ -222,12 +222,13 @@ def _inner_rows(
             tries = WRIST_TRIES
         if math.isnan(t6):
             t6 = ref[5]
+        p4_5 = turn_point(z5, p5, -t5, p4)  # R_5^-1 p_4: the same for every q6 tried
         for k in range(tries):
             if k > 0:
                 t6 = ref[5] + _grid_shift(k, 2.0 * math.pi / WRIST_TRIES)
             theta = _planar_rest(h, F, mul3(R5, rotation(z6, t6)), across)
             # X = R_1^-1 G R_6^-1 R_5^-1 p_4, by line turns.
-            X = turn_point(z6, p6, -t6, turn_point(z5, p5, -t5, p4))
+            X = turn_point(z6, p6, -t6, p4_5)
             X = turn_point(back, p1, t1, axpy(1.0, apply(RG, X), tG))
             d = sub(X, p2)
             n3, u1, v1, u2, v2 = reach_angles(
