@@ -355,7 +355,17 @@ NEAR_ALONG_ARMS = {
 each with a configuration on that self-motion (q2, q3, q4 and q6 move along it). The
 quartic returns its (q1, q5) as a double root, off by about sqrt(eps): axis 6 is then not
 exactly along the parallel axes, q6 came out of an ill-conditioned subproblem, and the
-elbow fell short (no branch, without a reference or from a far one)."""
+elbow fell short (no branch, without a reference or from a far one). Only q5 moves the
+pose off the self-motion (the others move it along another): 1e-8 rad off, the solutions
+are isolated points 1.5 rad along the curve from where the grid of q6 met it."""
+NEAR_ALONG_OFFSETS = [(0, 0.0), *((j, e) for e in (1e-10, 1e-8, 1e-6) for j in range(6))]
+"""(joint, offset in rad) moving the source configuration."""
+OFF_CURVE_MATCH = 1e-5
+"""How near (rad) a branch must come to a source moved 1e-8 rad or more off the
+self-motion by q5, where the curve's points miss the pose by more than the FK check
+allows (at 1e-10 they pass it, and any of them is an answer). The pose's conditioning
+(a singular value about 1e-9) lets FK round-trip a configuration 1e-6 rad along the
+curve."""
 
 
 @pytest.mark.parametrize("arm", sorted(NEAR_ALONG_ARMS))
@@ -363,7 +373,7 @@ def test_axis_6_nearly_along_the_parallel_axes(arm: str, tmp_path: Path) -> None
     H, P, source = (np.array(x) for x in NEAR_ALONG_ARMS[arm])
     robot = axes_urdf_robot(H, P, tmp_path / "arm.urdf")
     assert family_of(robot).name == "three_parallel"
-    for joint, offset in [(0, 0.0), *((j, 1e-10) for j in range(6))]:
+    for joint, offset in NEAR_ALONG_OFFSETS:
         q = source.copy()
         q[joint] += offset
         T = poe_fk(H, P, q)
@@ -374,6 +384,9 @@ def test_axis_6_nearly_along_the_parallel_axes(arm: str, tmp_path: Path) -> None
                 F = poe_fk(H, P, b)
                 assert np.linalg.norm(F[:3, 3] - T[:3, 3]) < FK_TOL
                 assert Rotation.from_matrix(F[:3, :3].T @ T[:3, :3]).magnitude() < FK_TOL
+            if joint == 4 and offset >= 1e-8:
+                nearest = min(joint_distance(robot, b, q) for b in branches)
+                assert nearest < OFF_CURVE_MATCH, f"joint {joint} + {offset}: {nearest:.1e}"
 
 
 SHARED_CURVE_ARM = (

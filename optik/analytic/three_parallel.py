@@ -32,8 +32,13 @@ Up to 8 branches each, refined by one Newton step on the chain and checked by FK
 post-processing; the same read backwards (axes 3, 4, 5 parallel; axes 4, 5, 6 parallel
 with axes 1 and 2 meeting). At a singularity a free angle takes the reference; where
 the inner kind's two conditions are one equation (a self-motion), ``q_1`` takes the
-reference's value and its opposite, or failing those a grid's (:func:`_continuum_rows`);
-``q_6`` likewise where axis 6 lies along the parallel axes.
+reference's value and its opposite, or failing those a grid's (:func:`_continuum_rows`).
+Where axis 6 lies along the parallel axes (``q_5`` then a double root of the quartic, off
+by about sqrt(eps), and ``q_6`` from it ill-conditioned) the solutions are found along
+``q_6`` instead (:func:`_wrist_along_triples`): for each ``q_6`` the rotation gives ``(q_1,
+q_5)`` by subproblems 4 and 1, well conditioned, and the one condition left, the height
+of the elbow's target, is a smooth function of ``q_6`` whose zeros are the branches (a
+self-motion where it vanishes along the turn).
 """
 
 from __future__ import annotations
@@ -81,11 +86,24 @@ CONTINUUM_TRIES = 8
 """Values of ``q_1`` (each with its opposite) tried on a self-motion of the inner kind:
 the reference's, then the rest of an even grid over half a turn, nearest first."""
 WRIST_TRIES = 32
-"""Values of ``q_6`` tried where axis 6 lies along the parallel axes (``q_6`` free in its
-subproblem but not for the elbow): the reference's, then an even grid over the turn."""
+"""Values of ``q_6`` in the even grid over the turn that :func:`_wrist_along_triples` samples
+where axis 6 lies along the parallel axes (``q_6`` free in its subproblem but not for the
+elbow), starting at the reference's (:func:`_wrist_along_triples`)."""
 WRIST_ALONG_TOL = 1e-6
 """Axis 6 counts as along the parallel axes for that grid when the sine of their angle
 is at most this: a q5 found as a double root is off by about sqrt(eps) = 1.5e-8."""
+HEIGHT_TOL = 1e-12
+"""A height mismatch (:func:`_pairs_at`) at most this times the arm's size (m) is zero: a
+self-motion, whose rows at that ``q_6`` are taken as they are."""
+FOLLOW_GAP = 0.5
+"""Largest change (rad, ``|dq_1| + |dq_5|``) of a pair between neighbouring values of
+``q_6`` still taken as the same pair followed along ``q_6`` (:func:`_follow`); past it a
+change of sign of the mismatch is not searched."""
+ALONG = -1
+"""What :func:`_inner_rows` returns where a pair puts axis 6 along the parallel axes."""
+ROOT_STEPS = 64
+"""Most steps of the bracketed search for a zero of the height mismatch in ``q_6``
+(:func:`_mismatch_zero`); it converges in about ten."""
 
 
 @_jit
@@ -131,6 +149,8 @@ def three_inner_candidates(query: AxesQuery, cand: np.ndarray) -> int:
     pairs = np.empty((2, 4))
     count = angle_pairs(A, b0, B, ref[0], ref[4], roots, pairs)
     n = _inner_rows(z, p, RG, tG, pairs, count, ref, roots, axis_tol, cand)
+    if n == ALONG:
+        return _wrist_along_rows(z, p, RG, tG, ref, roots, axis_tol, cand)
     if n == 0 and quartic_vanishes(A, b0, B):
         return _continuum_rows(A, b0, B, False, z, p, RG, tG, ref, roots, axis_tol, cand)
     return n
@@ -171,6 +191,8 @@ def _continuum_rows(
         else:
             count = angle_pairs(A, b0, B, t1, ref[4] + shift, roots, pairs)
         n = _inner_rows(z, p, RG, tG, pairs, count, ref, roots, axis_tol, cand)
+        if n == ALONG:
+            return _wrist_along_rows(z, p, RG, tG, ref, roots, axis_tol, cand)
         if n > 0:
             return n
     return 0
@@ -180,6 +202,27 @@ def _continuum_rows(
 def _grid_shift(k: int, step: float) -> float:
     """The ``k``-th offset (rad) of an even grid, nearest first: 0, +step, -step, +2 step..."""
     return ((k + 1) // 2) * step * (1.0 if k % 2 == 1 else -1.0)
+
+
+@_jit
+def _wrist_along_rows(
+    z: np.ndarray,
+    p: np.ndarray,
+    RG: Rot9,
+    tG: Vec3,
+    ref: np.ndarray,
+    roots: RootTols,
+    axis_tol: float,
+    cand: np.ndarray,
+) -> int:
+    """The rows of the triples of :func:`_wrist_along_triples` (:func:`_inner_rows`).
+
+    Where :func:`_inner_rows` returns :data:`ALONG`: a call of its own, so that the common
+    path allocates nothing. Returns the number of rows written to ``cand``.
+    """
+    triples = np.empty((3, MAX_BRANCHES))
+    m = _wrist_along_triples(z, p, RG, tG, ref, roots, axis_tol, triples)
+    return _inner_rows(z, p, RG, tG, triples, m, ref, roots, axis_tol, cand)
 
 
 @_jit
@@ -197,8 +240,11 @@ def _inner_rows(
 ) -> int:
     """The rows of :func:`three_inner_candidates` from its ``count`` pairs ``(q_1, q_5)``.
 
-    ``pairs`` (2, >= count): ``q_1`` then ``q_5`` (rad); ``RG``, ``tG`` the target
-    frame's rotation and translation; writes up to 8 rows of ``cand``, returns how many.
+    ``pairs`` (2, >= count): ``q_1`` then ``q_5`` (rad), and ``q_6`` given in a third row
+    (else from subproblem 1); ``RG``, ``tG`` the target frame's rotation and translation.
+    Writes up to 8 rows of ``cand`` and returns how many, or :data:`ALONG` where a pair
+    puts axis 6 along the parallel axes (:func:`_wrist_along_rows` then searches along
+    ``q_6``).
     """
     z1, z2, z3, z4, z5, z6 = six_rows(z)
     p1, p2, p3, p4, p5, p6 = six_rows(p)
@@ -206,36 +252,27 @@ def _inner_rows(
     back = (-z1[0], -z1[1], -z1[2])
     # A direction across h, to read theta off a rotation about h.
     across = unit(cross(h, z1))
+    given = pairs.shape[0] > 2
     n = 0
     for i in range(count):
         t1, t5 = pairs[0, i], pairs[1, i]
         F = mul3(rotation(back, t1), RG)  # the rotation of R_1^-1 G
         R5 = rotation(z5, t5)
-        h5 = apply_t(R5, h)
-        t6 = sp1_angle(z6, apply_t(F, h), h5, math.nan, axis_tol)
-        # Axis 6 along h (q6 free, or nearly: a double root's q5 is off by sqrt(eps)): q6
-        # also turns the planar arm's target, which the elbow may reach at other q6 than
-        # the reference's or the ill-conditioned one (a self-motion; the FK check's Newton
-        # steps mend a near one's rounding).
-        tries = 1
-        if math.isnan(t6) or norm(cross(z6, h5)) <= WRIST_ALONG_TOL:
-            tries = WRIST_TRIES
-        if math.isnan(t6):
-            t6 = ref[5]
-        p4_5 = turn_point(z5, p5, -t5, p4)  # R_5^-1 p_4: the same for every q6 tried
-        for k in range(tries):
-            if k > 0:
-                t6 = ref[5] + _grid_shift(k, 2.0 * math.pi / WRIST_TRIES)
-            theta = _planar_rest(h, F, mul3(R5, rotation(z6, t6)), across)
-            # X = R_1^-1 G R_6^-1 R_5^-1 p_4, by line turns.
-            X = turn_point(z6, p6, -t6, p4_5)
-            X = turn_point(back, p1, t1, axpy(1.0, apply(RG, X), tG))
-            d = sub(X, p2)
-            n3, u1, v1, u2, v2 = reach_angles(
-                z2, p2, z3, p3, p4, d, ref[1], ref[2], roots, axis_tol
-            )
-            if n3 > 0:
-                break
+        if given:
+            t6 = pairs[2, i]
+        else:
+            h5 = apply_t(R5, h)
+            t6 = sp1_angle(z6, apply_t(F, h), h5, math.nan, axis_tol)
+            # Axis 6 along h (q6 free, or nearly: a double root's q5 is off by sqrt(eps)
+            # and q6 from it by as much as a turn).
+            if math.isnan(t6) or norm(cross(z6, h5)) <= WRIST_ALONG_TOL:
+                return ALONG
+        theta = _planar_rest(h, F, mul3(R5, rotation(z6, t6)), across)
+        # X = R_1^-1 G R_6^-1 R_5^-1 p_4, by line turns (:func:`_elbow_target`).
+        X = turn_point(z6, p6, -t6, turn_point(z5, p5, -t5, p4))
+        X = turn_point(back, p1, t1, axpy(1.0, apply(RG, X), tG))
+        d = sub(X, p2)
+        n3, u1, v1, u2, v2 = reach_angles(z2, p2, z3, p3, p4, d, ref[1], ref[2], roots, axis_tol)
         for i3 in range(n3):
             t2, t3 = (u1, v1) if i3 == 0 else (u2, v2)
             t4 = dot(h, z4) * (theta - dot(h, z2) * t2 - dot(h, z3) * t3)
@@ -243,6 +280,186 @@ def _inner_rows(
                 t4 = math.atan2(math.sin(t4), math.cos(t4))
                 n = store_branch(cand, n, (t1, t2, t3, t4, t5, t6))
     return n
+
+
+@_jit
+def _elbow_target(
+    z: np.ndarray, p: np.ndarray, RG: Rot9, tG: Vec3, t1: float, t5: float, t6: float
+) -> Vec3:
+    """``X = R_1^-1 G R_6^-1 R_5^-1 p_4``: where the planar arm must put ``p_4`` (m)."""
+    z1, z5, z6 = vec_at(z, 0), vec_at(z, 4), vec_at(z, 5)
+    p1, p4, p5, p6 = vec_at(p, 0), vec_at(p, 3), vec_at(p, 4), vec_at(p, 5)
+    X = turn_point(z6, p6, -t6, turn_point(z5, p5, -t5, p4))
+    return turn_point((-z1[0], -z1[1], -z1[2]), p1, t1, axpy(1.0, apply(RG, X), tG))
+
+
+@_jit
+def _pairs_at(
+    z: np.ndarray,
+    p: np.ndarray,
+    RG: Rot9,
+    tG: Vec3,
+    t6: float,
+    ref: np.ndarray,
+    roots: RootTols,
+    axis_tol: float,
+    out: np.ndarray,
+    col: int,
+) -> int:
+    """The pairs ``(q_1, q_5)`` completing the rotation for ``q_6 = t6``, with their mismatch.
+
+    ``R_1 Rot(h, theta) R_5 = F_6`` (``F_6`` the rotation of ``G R_6^-1``) turns ``h``
+    to ``R_5^-1 h = F_6^-1 R_1 h``: its component along ``z_5`` gives ``q_1`` (subproblem
+    4, up to two), then ``q_5`` turns it onto ``h`` (subproblem 1). The mismatch is the
+    height along ``h`` of the elbow's target above ``p_4`` (:func:`_elbow_target`), which
+    the planar arm keeps: zero at a branch. Each pair goes to a column of ``out`` (4, >=
+    col + 2) from ``col`` on: ``q_1``, ``q_5`` (rad), the mismatch (m), and 1.0 where the
+    elbow reaches the target's distance from axis 2 (else 0.0). Returns the number of
+    pairs.
+    """
+    z1, z2, z3, z5, z6 = vec_at(z, 0), vec_at(z, 1), vec_at(z, 2), vec_at(z, 4), vec_at(z, 5)
+    p2, p3, p4 = vec_at(p, 1), vec_at(p, 2), vec_at(p, 3)
+    h = z2
+    R6 = rotation(z6, t6)
+    a = apply(RG, apply_t(R6, z5))  # F_6 z_5
+    count, a1, a2 = plane_angles(z1, _ORIGIN, h, a, dot(z5, h), ref[0], roots)
+    for i in range(count):
+        t1 = a1 if i == 0 else a2
+        w = apply(R6, apply_t(RG, apply(rotation(z1, t1), h)))  # F_6^-1 R_1 h
+        t5 = sp1_angle(z5, w, h, ref[4], axis_tol)
+        X = _elbow_target(z, p, RG, tG, t1, t5, t6)
+        reach = reach_angles(z2, p2, z3, p3, p4, sub(X, p2), ref[1], ref[2], roots, axis_tol)
+        out[0, col + i] = t1
+        out[1, col + i] = t5
+        out[2, col + i] = dot(h, sub(X, p4))
+        out[3, col + i] = 1.0 if reach[0] > 0 else 0.0
+    return count
+
+
+@_jit
+def _wrist_along_triples(
+    z: np.ndarray,
+    p: np.ndarray,
+    RG: Rot9,
+    tG: Vec3,
+    ref: np.ndarray,
+    roots: RootTols,
+    axis_tol: float,
+    out: np.ndarray,
+) -> int:
+    """The triples ``(q_1, q_5, q_6)`` of the branches where axis 6 lies along the parallel axes.
+
+    Over an even grid of :data:`WRIST_TRIES` values of ``q_6`` from the reference's, the
+    pairs of :func:`_pairs_at` and their height mismatch. A self-motion (the mismatch
+    zero to :data:`HEIGHT_TOL`) gives the pairs at the grid's ``q_6`` nearest the
+    reference where the elbow reaches, as the other free angles do; every change of sign
+    of a pair's mismatch between neighbouring grid values (the pair followed by
+    continuity, :func:`_follow`) is searched to its zero (:func:`_mismatch_zero`), an
+    isolated branch. Writes the triples to the columns of ``out`` (3, 8) (rad) and
+    returns how many.
+    """
+    step = 2.0 * math.pi / WRIST_TRIES
+    size = 0.0
+    for j in range(1, 6):
+        size += norm(sub(vec_at(p, j), vec_at(p, j - 1)))
+    flat = HEIGHT_TOL * max(size, 1.0)
+    grid = np.empty((4, 2 * (WRIST_TRIES + 1)))
+    counts = np.empty(WRIST_TRIES + 1, dtype=np.int64)
+    for k in range(WRIST_TRIES + 1):
+        counts[k] = _pairs_at(z, p, RG, tG, ref[5] + k * step, ref, roots, axis_tol, grid, 2 * k)
+    m = 0
+    for j in range(WRIST_TRIES):
+        k = (int(_grid_shift(j, 1.0)) + WRIST_TRIES) % WRIST_TRIES
+        for c in range(2 * k, 2 * k + counts[k]):
+            if abs(grid[2, c]) <= flat and grid[3, c] > 0.0 and m < out.shape[1]:
+                out[0, m], out[1, m], out[2, m] = grid[0, c], grid[1, c], ref[5] + k * step
+                m += 1
+        if m > 0:
+            break
+    for k in range(WRIST_TRIES):
+        for c in range(2 * k, 2 * k + counts[k]):
+            if abs(grid[2, c]) <= flat:
+                continue
+            e = _follow(grid, 2 * (k + 1), counts[k + 1], grid[0, c], grid[1, c])
+            if e < 0 or abs(grid[2, e]) <= flat or (grid[2, c] > 0.0) == (grid[2, e] > 0.0):
+                continue
+            t6, t1, t5, g = _mismatch_zero(
+                z, p, RG, tG, ref, roots, axis_tol, ref[5] + k * step, grid[2, c],
+                ref[5] + (k + 1) * step, grid[2, e], grid[0, c], grid[1, c],
+            )  # fmt: skip
+            if abs(g) <= flat and m < out.shape[1]:
+                out[0, m], out[1, m], out[2, m] = t1, t5, t6
+                m += 1
+    return m
+
+
+@_jit
+def _follow(grid: np.ndarray, col: int, count: int, t1: float, t5: float) -> int:
+    """The column of ``grid[:, col:col + count]`` whose pair is nearest ``(t1, t5)``, or -1.
+
+    Angles are compared modulo a turn; the nearest counts within :data:`FOLLOW_GAP`.
+    """
+    best, at = FOLLOW_GAP, -1
+    for i in range(count):
+        gap = abs(_wrapped(grid[0, col + i] - t1)) + abs(_wrapped(grid[1, col + i] - t5))
+        if gap <= best:
+            best, at = gap, col + i
+    return at
+
+
+@_jit
+def _wrapped(t: float) -> float:
+    """``t`` (rad) into (-pi, pi]."""
+    return math.atan2(math.sin(t), math.cos(t))
+
+
+@_jit
+def _mismatch_zero(
+    z: np.ndarray,
+    p: np.ndarray,
+    RG: Rot9,
+    tG: Vec3,
+    ref: np.ndarray,
+    roots: RootTols,
+    axis_tol: float,
+    a: float,
+    ga: float,
+    b: float,
+    gb: float,
+    t1: float,
+    t5: float,
+) -> tuple[float, float, float, float]:
+    """The zero in ``q_6`` of a pair's height mismatch, bracketed by ``a`` and ``b``.
+
+    ``ga`` and ``gb`` (m) have opposite signs; ``(t1, t5)`` is the pair at ``a``, followed
+    by continuity (:func:`_follow`). The Illinois rule (regula falsi that halves a stale
+    end's value), at most :data:`ROOT_STEPS` steps. Returns ``(q_6, q_1, q_5, mismatch)``
+    at the last point.
+    """
+    pairs = np.empty((4, 2))
+    c, gc = a, ga
+    side = 0
+    for _ in range(ROOT_STEPS):
+        c = b - gb * (b - a) / (gb - ga)
+        if not (min(a, b) < c < max(a, b)):
+            break  # the bracket is down to rounding
+        at = _follow(pairs, 0, _pairs_at(z, p, RG, tG, c, ref, roots, axis_tol, pairs, 0), t1, t5)
+        if at < 0:
+            break
+        t1, t5, gc = pairs[0, at], pairs[1, at], pairs[2, at]
+        if gc == 0.0:
+            break
+        if (gc > 0.0) == (gb > 0.0):
+            b, gb = c, gc
+            if side == -1:
+                ga *= 0.5
+            side = -1
+        else:
+            a, ga = c, gc
+            if side == 1:
+                gb *= 0.5
+            side = 1
+    return c, t1, t5, gc
 
 
 @_jit
