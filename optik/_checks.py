@@ -331,6 +331,7 @@ def _shaped(name: str, value: Any, trailing: tuple[int, ...], batch: bool) -> Fl
     ok = array.shape == trailing or (batch and array.ndim == nd + 1 and array.shape[1:] == trailing)
     if not ok:
         dims = ", ".join(str(t) for t in trailing)
-        expected = f"({dims})" + (f" or (N, {dims})" if batch else "")
+        alone = f"({dims},)" if nd == 1 else f"({dims})"  # written as numpy writes shapes
+        expected = alone + (f" or (N, {dims})" if batch else "")
         raise ShapeError(name, expected, array.shape)
     return array

@@ -121,7 +121,10 @@ def query_bounds(
         names = robot.joint_names
         for name, value in frozen.items():
             if name not in names:
-                raise OptikError(f"frozen: {name!r} is not a joint of {robot.name!r} ({names})")
+                raise OptikError(
+                    f"frozen: {name!r} is not a joint of {robot.name!r} (joints: "
+                    f"{', '.join(names)})"
+                )
             i = names.index(name)
             v = check_real(f"frozen[{name!r}]", value)
             joint = robot.joints[i]

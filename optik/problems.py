@@ -7,6 +7,7 @@ the field of the first problem it finds.
 
 from __future__ import annotations
 
+import difflib
 import math
 import os
 import sys
@@ -448,7 +449,9 @@ def _load(path: str | Path, default_source: str | None) -> Problem:
         file = PROBLEMS_DIR / f"{file}.toml"
     reader = _Reader(str(file))
     if not _is_file(file):
-        raise reader.fail("", "", "file not found (or a path the system cannot look up)")
+        raise reader.fail(
+            "", "", "file not found (or a path the system cannot look up)" + _hint(file)
+        )
     try:
         text = file.read_text(encoding="utf-8")
     except UnicodeDecodeError as exc:
@@ -478,6 +481,16 @@ def _load(path: str | Path, default_source: str | None) -> Problem:
         targets=_targets(reader, data, length, angle),
         paths=_paths(reader, data, length, angle),
     )
+
+
+def _hint(file: Path) -> str:
+    """For a bare name that is not a file: the built-in problems, the nearest first if close."""
+    if file.suffix or len(file.parts) != 1:
+        return ""
+    names = [p.stem for p in builtin_problems()]
+    close = difflib.get_close_matches(file.name[:200], names, n=1)
+    guess = f"; did you mean {close[0]!r}?" if close else ""
+    return f", nor the name of a built-in problem{guess} (built-in problems: {', '.join(names)})"
 
 
 def builtin_problems() -> list[Path]:

@@ -36,6 +36,7 @@ with ``path_tolerance``, enforced. The sampled arrays hold at most
 from __future__ import annotations
 
 import csv
+import importlib.util
 import json
 import math
 from collections.abc import Sequence
@@ -496,6 +497,20 @@ def _grid(knots: FloatArray, intervals: int) -> FloatArray:
     return np.concatenate([inner, knots[-1:]])
 
 
+TOPPRA_MISSING = "trajectories need toppra: pip install 'optik[trajectory]'"
+"""The error of a trajectory asked for without the ``trajectory`` extra."""
+
+
+def require_toppra() -> None:
+    """Raise :class:`~optik.errors.OptikError` naming the extra unless toppra is installed.
+
+    For a caller that would otherwise do its other work first (``optik plan
+    --trajectory`` solves the whole path before it times it).
+    """
+    if importlib.util.find_spec("toppra") is None:
+        raise OptikError(TOPPRA_MISSING)
+
+
 def _toppra_speed(path: Any, grid: FloatArray, vlim: FloatArray, alim: FloatArray) -> FloatArray:
     """TOPP-RA's fastest path speed ``ds/dt`` at the grid points, at rest at both ends.
 
@@ -508,7 +523,7 @@ def _toppra_speed(path: Any, grid: FloatArray, vlim: FloatArray, alim: FloatArra
         import toppra.algorithm
         import toppra.constraint
     except ImportError as exc:  # pragma: no cover - toppra is in the test extra
-        raise OptikError("trajectories need toppra: pip install 'optik[trajectory]'") from exc
+        raise OptikError(TOPPRA_MISSING) from exc
 
     length = float(grid[-1])
     # A time scale (s) of the segment: the longer of cruising and accelerating through it.

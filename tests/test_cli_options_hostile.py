@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import math
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -66,6 +67,22 @@ def test_plan_step_samples_a_line_only(tmp_path: Path) -> None:
     )
     assert code == 2 and "--step samples --line only" in err
     assert not (tmp_path / "o").exists()  # a refused run makes no folder
+
+
+def test_plan_trajectory_without_toppra_fails_before_the_work(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setitem(sys.modules, "toppra", None)  # as if the extra were not installed
+
+    def no_planning(*args: object, **kwargs: object) -> None:
+        raise AssertionError("the path was planned before the missing extra was named")
+
+    monkeypatch.setattr("optik.cli._plan.plan_path", no_planning)
+    limits = ["--velocity-limits", "1", "--acceleration-limits", "2"]
+    out = tmp_path / "out"
+    code, err = run_cli(["plan", "planar_2r", *LINE, "--trajectory", *limits, "--out", str(out)])
+    assert code == 2 and "pip install 'optik[trajectory]'" in err, err
+    assert not out.exists()
 
 
 def test_a_reused_plan_folder_keeps_no_stale_trajectory(tmp_path: Path) -> None:

@@ -401,6 +401,16 @@ def _options() -> list[tuple[str, argparse.Action]]:
     ]
 
 
+TEXT_TYPES = ("str", "path_text", "peer_list")
+"""The CLI's argument types whose values are text (names, paths, lists of names)."""
+
+
+def _takes_numbers(action: argparse.Action) -> bool:
+    """Whether an option's values are numbers: not a flag, a choice, a name or a path."""
+    text = action.type is None or getattr(action.type, "__name__", "") in TEXT_TYPES
+    return action.nargs != 0 and not action.choices and not text
+
+
 @pytest.mark.parametrize(
     ("command", "action"),
     _options(),
@@ -408,6 +418,11 @@ def _options() -> list[tuple[str, argparse.Action]]:
 )
 def test_every_option_states_its_unit(command: str, action: argparse.Action) -> None:
     assert action.help, f"optik {command} {action.option_strings or action.dest}: no help"
+    if not _takes_numbers(action):
+        # A flag or a choice has no unit to state (a file may state its contents' units).
+        if action.nargs == 0 or action.choices:
+            assert "no unit" not in action.help, f"optik {command} {action.option_strings}"
+        return
     assert UNIT_WORD.search(action.help), (
         f"optik {command} {action.option_strings or action.dest}: help names no unit "
         f"(m, rad, deg, s, ms or 'no unit'): {action.help!r}"

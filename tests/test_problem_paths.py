@@ -17,6 +17,17 @@ def test_an_unusable_path_is_a_problem_file_error(path: str, load: object) -> No
         load(path)  # type: ignore[operator]
 
 
+def test_a_misspelled_built_in_name_lists_the_built_ins() -> None:
+    with pytest.raises(ProblemFileError) as info:
+        load_problem("pumma560")
+    message = str(info.value)
+    assert "file not found" in message and "did you mean 'puma560'?" in message
+    assert "built-in problems: " in message and "planar_2r" in message
+    with pytest.raises(ProblemFileError) as info:
+        load_problem("no/such/dir.toml")  # a path, not a name: no list
+    assert "built-in problems" not in str(info.value)
+
+
 def test_load_robot_needs_no_source_and_load_problem_does(tmp_path: Path) -> None:
     file = tmp_path / "r.toml"
     file.write_text(

@@ -6,9 +6,9 @@ by the input, printed as one ``optik: error: ...`` line); 3 an internal error (a
 traceback is printed).
 
 Units: SI everywhere, in files, arrays and options (m, rad, s); an option in another
-unit names it (``--rpy-deg``, ``--timeout-ms``), and every option's help states its unit
-or "no unit". Output prints every value with its unit (revolute joints in rad, with
-degrees alongside).
+unit names it (``--rpy-deg``, ``--timeout-ms``), and the help of every option that takes
+numbers states their unit or "no unit" (counts, seeds, quaternions). Output prints every
+value with its unit (revolute joints in rad, with degrees alongside).
 """
 
 from __future__ import annotations
@@ -65,7 +65,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--version",
         action="version",
         version=f"optik {__version__}",
-        help="print the version and exit (no unit)",
+        help="print the version and exit",
     )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     add_problems_command(sub)

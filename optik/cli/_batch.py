@@ -75,8 +75,6 @@ def add_batch_command(sub: Any) -> None:
         chunk_help="targets per chunk",
         max_iter=True,
     )
-    add_out_argument(
-        p, "PATH", "the Parquet folder to write (no unit); it must not exist unless --resume"
-    )
+    add_out_argument(p, "PATH", "the Parquet folder to write; it must not exist unless --resume")
     add_engine_arguments(p)
     p.set_defaults(func=_cmd_batch)

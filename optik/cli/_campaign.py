@@ -31,12 +31,12 @@ def add_engine_arguments(p: argparse.ArgumentParser) -> None:
     where.add_argument(
         "--scheduler",
         metavar="ADDRESS",
-        help="run on the running Dask scheduler at ADDRESS, e.g. tcp://host:8786 (no unit)",
+        help="run on the running Dask scheduler at ADDRESS, e.g. tcp://host:8786",
     )
     p.add_argument(
         "--resume",
         action="store_true",
-        help="finish the run already at --out (same settings), skipping finished chunks (no unit)",
+        help="finish the run already at --out (same settings), skipping finished chunks",
     )
 
 
@@ -73,11 +73,9 @@ def add_campaign_ik_arguments(
     """
     p.set_defaults(axis_modes=tuple(axis_modes))
     p.add_argument(
-        "--mode", choices=list(modes), default="pose", help=f"{mode_help} (no unit; default pose)"
+        "--mode", choices=list(modes), default="pose", help=f"{mode_help} (default pose)"
     )
-    p.add_argument(
-        "--axis", choices=["x", "y", "z"], default=None, help=f"{axis_help} (no unit; default z)"
-    )
+    p.add_argument("--axis", choices=["x", "y", "z"], default=None, help=f"{axis_help} (default z)")
     add_tol_argument(p, "IK tolerance")
     p.add_argument(
         "--restarts",

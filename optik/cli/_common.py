@@ -305,8 +305,8 @@ def add_robot_arguments(p: argparse.ArgumentParser, *, positional: bool = True) 
             nargs="?",
             metavar="PROBLEM",
             type=path_text,
-            help="a built-in problem name or a problem file (.toml); no unit (the file "
-            "names its units). Or give --urdf or --dh instead",
+            help="a built-in problem name or a problem file (.toml; the file names its "
+            "units). Or give --urdf or --dh instead",
         )
     group = p.add_argument_group("your own robot (instead of a problem)")
     group.add_argument(
@@ -315,12 +315,8 @@ def add_robot_arguments(p: argparse.ArgumentParser, *, positional: bool = True) 
         type=path_text,
         help="a URDF file (its lengths in m, angles in rad), with --base and --tip",
     )
-    group.add_argument(
-        "--base", metavar="LINK", help="base link of the --urdf chain (a link name; no unit)"
-    )
-    group.add_argument(
-        "--tip", metavar="LINK", help="tip link of the --urdf chain (a link name; no unit)"
-    )
+    group.add_argument("--base", metavar="LINK", help="base link of the --urdf chain (a link name)")
+    group.add_argument("--tip", metavar="LINK", help="tip link of the --urdf chain (a link name)")
     group.add_argument(
         "--dh",
         metavar="FILE",
@@ -406,9 +402,7 @@ def add_path_group(
             metavar=("X0", "Y0", "Z0", "X1", "Y1", "Z1"),
             help="a straight line between two positions, m",
         )
-    source.add_argument(
-        "--problem-path", metavar="NAME", help="a named path of the problem file (no unit)"
-    )
+    source.add_argument("--problem-path", metavar="NAME", help="a named path of the problem file")
     return group
 
 

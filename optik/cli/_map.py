@@ -122,16 +122,14 @@ def add_map_command(sub: Any) -> None:
     p.add_argument(
         "--keep-q",
         action="store_true",
-        help="also store every reached sample's joint values, rad or m (no unit)",
+        help="also store every reached sample's joint values, rad or m",
     )
-    add_out_argument(
-        p, "PATH", "the Zarr folder to write (no unit); it must not exist unless --resume"
-    )
+    add_out_argument(p, "PATH", "the Zarr folder to write; it must not exist unless --resume")
     p.add_argument(
         "--plots",
         metavar="DIR",
         type=path_text,
-        help="also write reachability.png, manipulability.png and map3d.png here (no unit)",
+        help="also write reachability.png, manipulability.png and map3d.png here",
     )
     add_engine_arguments(p)
     p.set_defaults(func=_cmd_map)

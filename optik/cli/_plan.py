@@ -32,7 +32,7 @@ from optik.errors import OptikError
 from optik.paths import line
 from optik.planning import PLAN_STATUSES, plan_path
 from optik.problems import Problem
-from optik.trajectory import rate_limits
+from optik.trajectory import rate_limits, require_toppra
 
 DEFAULT_STEP = 0.01
 """Sampling step of ``--line`` (m)."""
@@ -83,7 +83,8 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     check_folder(args.out)  # fail before the work; the folder is made when written to
     problem = problem_from_args(args)
     robot = problem.robot
-    if args.trajectory:  # limits are checked before the work, not after it
+    if args.trajectory:  # the extra and the limits are checked before the work, not after it
+        require_toppra()
         _trajectory_limits(robot, args)
     elif (
         args.velocity_limits is not None
@@ -233,7 +234,7 @@ def add_plan_command(sub: Any) -> None:
         "--trajectory",
         action="store_true",
         help="also write OUT/trajectory.csv and trajectory.json (a ROS JointTrajectory per "
-        "segment; times in s)",
+        "segment; times in s). Needs the trajectory extra: pip install 'optik[trajectory]'",
     )
     timing.add_argument(
         "--velocity-limits",
@@ -258,5 +259,5 @@ def add_plan_command(sub: Any) -> None:
         metavar="S",
         help="sampling step of trajectory.csv, s (default 0.01)",
     )
-    add_out_argument(p, "DIR", "output folder (no unit; default ./optik-plan)", "optik-plan")
+    add_out_argument(p, "DIR", "output folder (default ./optik-plan)", "optik-plan")
     p.set_defaults(func=_cmd_plan)

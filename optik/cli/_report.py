@@ -173,7 +173,7 @@ def add_report_command(subparsers: Any) -> argparse.ArgumentParser:
         nargs="+",
         metavar="PROBLEM",
         type=path_text,
-        help="problem names or files (no unit; default: all built-ins)",
+        help="problem names or files (default: all built-ins)",
     )
     add_robot_arguments(p, positional=False)
     names = list(default_solvers())
@@ -182,15 +182,15 @@ def add_report_command(subparsers: Any) -> argparse.ArgumentParser:
         nargs="+",
         metavar="SOLVER",
         choices=names,
-        help="solvers (no unit; default: all of them); choices: " + ", ".join(names),
+        help="solvers (default: all of them); choices: " + ", ".join(names),
     )
     p.add_argument(
         "--peers",
         type=peer_list,
         default=None,
         metavar="NAMES",
-        help="also run these peer IK libraries, comma-separated, on the same targets (no "
-        f"unit); names: {','.join(peer_names())}; one not installed or unable to model the "
+        help="also run these peer IK libraries, comma-separated, on the same targets; "
+        f"names: {','.join(peer_names())}; one not installed or unable to model the "
         "robot is listed with the reason",
     )
     p.add_argument(
@@ -215,16 +215,16 @@ def add_report_command(subparsers: Any) -> argparse.ArgumentParser:
         metavar="SOLVER=N",
         help="run SOLVER on at most N targets per robot (no unit; repeatable)",
     )
-    add_out_argument(p, "DIR", "output folder (no unit; default optik-report)", "optik-report")
+    add_out_argument(p, "DIR", "output folder (default optik-report)", "optik-report")
     p.add_argument(
         "--quick",
         action="store_true",
-        help="a small run (4 robots, 5 targets, fast solvers, 100 ms per call; no unit)",
+        help="a small run (4 robots, 5 targets, fast solvers, 100 ms per call)",
     )
     p.add_argument(
         "--resume",
         action="store_true",
-        help="continue OUT/results.csv, skipping rows present (no unit)",
+        help="continue OUT/results.csv, skipping rows present",
     )
     p.set_defaults(func=_cmd_report)
     return p

@@ -92,11 +92,10 @@ def add_robot_command(sub: Any) -> None:
         "file",
         metavar="FILE",
         type=path_text,
-        help="a URDF (.urdf, .xml), a problem file or DH table (.toml), or a built-in "
-        "problem name; no unit",
+        help="a URDF (.urdf, .xml), a problem file or DH table (.toml), or a built-in problem name",
     )
-    p.add_argument("--base", metavar="LINK", help="base link of a URDF chain (no unit)")
-    p.add_argument("--tip", metavar="LINK", help="tip link of a URDF chain (no unit)")
+    p.add_argument("--base", metavar="LINK", help="base link of a URDF chain")
+    p.add_argument("--tip", metavar="LINK", help="tip link of a URDF chain")
     p.set_defaults(func=_cmd_robot)
 
 
@@ -114,6 +113,6 @@ def add_problems_command(sub: Any) -> None:
         nargs="*",
         metavar="PROBLEM",
         type=path_text,
-        help="problem files or built-in names (no unit)",
+        help="problem files or built-in names",
     )
     p.set_defaults(func=_cmd_problems)

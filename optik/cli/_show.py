@@ -91,11 +91,9 @@ def add_show_command(sub: Any) -> None:
     p.add_argument(
         "--no-meshes",
         action="store_true",
-        help="do not draw the --urdf file's visual meshes (no unit)",
+        help="do not draw the --urdf file's visual meshes",
     )
-    add_out_argument(
-        p, "FILE", "image file, .png, .svg or .pdf (no unit; default ./robot.png)", "robot.png"
-    )
+    add_out_argument(p, "FILE", "image file, .png, .svg or .pdf (default ./robot.png)", "robot.png")
     p.set_defaults(func=_cmd_show)
 
 

@@ -129,7 +129,7 @@ def add_solve_command(sub: Any) -> None:
     )
     add_robot_arguments(p)
     target = p.add_argument_group("target")
-    target.add_argument("--target", metavar="NAME", help="a named target of the problem (no unit)")
+    target.add_argument("--target", metavar="NAME", help="a named target of the problem")
     target.add_argument(
         "--position",
         nargs=3,
@@ -151,7 +151,7 @@ def add_solve_command(sub: Any) -> None:
         "--solver",
         default="auto",
         choices=["auto", *available_solvers()],
-        help="solver name (no unit; default auto)",
+        help="solver name (default auto)",
     )
     add_tol_argument(p, of_target=True)
     p.add_argument(
@@ -165,7 +165,5 @@ def add_solve_command(sub: Any) -> None:
         "--timeout-ms", type=positive_float, metavar="MS", help="time budget of the solver, ms"
     )
     add_seed_argument(p, "seed of the restarts")
-    p.add_argument(
-        "--json", action="store_true", help="print the result as one JSON object (no unit)"
-    )
+    p.add_argument("--json", action="store_true", help="print the result as one JSON object")
     p.set_defaults(func=_cmd_solve)

@@ -37,13 +37,12 @@ def add_task_arguments(p: argparse.ArgumentParser, mode_default: str) -> Any:
         choices=list(MODES),
         help="what the target constrains: the full pose, the position, the orientation, "
         "or the tool axis (position + the direction of --axis, the roll about it free); "
-        f"no unit (default: {mode_default})",
+        f"(default: {mode_default})",
     )
     group.add_argument(
         "--axis",
         choices=list(AXES),
-        help="the tool axis of --mode axis, which points along the target's same axis "
-        "(no unit; default z)",
+        help="the tool axis of --mode axis, which points along the target's same axis (default z)",
     )
     group.add_argument(
         "--weights",

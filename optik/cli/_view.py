@@ -111,7 +111,7 @@ def add_view_command(sub: Any) -> None:
     server.add_argument(
         "--host",
         default="127.0.0.1",
-        help="address to bind (no unit; default 127.0.0.1, this machine only; 0.0.0.0 "
+        help="address to bind (default 127.0.0.1, this machine only; 0.0.0.0 "
         "serves every network interface)",
     )
     server.add_argument(
@@ -125,13 +125,13 @@ def add_view_command(sub: Any) -> None:
         "--mode",
         choices=VIEW_MODES,
         default="pose",
-        help="initial task mode of the target (no unit; default pose)",
+        help="initial task mode of the target (default pose)",
     )
     p.add_argument(
         "--solver",
         choices=["auto", *available_solvers()],
         default="auto",
-        help="initial IK solver (no unit; default auto); the page's dropdown changes it",
+        help="initial IK solver (default auto); the page's dropdown changes it",
     )
     p.add_argument(
         "--q0",

@@ -66,7 +66,7 @@ def add_warmup_command(sub: Any) -> None:
     p.add_argument(
         "--groups",
         metavar="NAMES",
-        help="comma-separated warm-up groups to compile (no unit; default: the install's "
+        help="comma-separated warm-up groups to compile (default: the install's "
         "groups, or $OPTIK_WARMUP_GROUPS)",
     )
     p.set_defaults(func=_cmd_warmup)
