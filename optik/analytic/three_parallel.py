@@ -44,6 +44,7 @@ self-motion where it vanishes along the turn).
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
@@ -82,6 +83,26 @@ from optik.analytic._subproblems import (
 from optik.analytic.pair_wrist import REACH_TOL, AxesQuery, target_frame
 
 _ORIGIN = (0.0, 0.0, 0.0)
+
+
+class AlongQuery(NamedTuple):
+    """What the search along ``q_6`` reads (:func:`_wrist_along_rows`; built only there).
+
+    ``z`` (6, 3) and ``p`` (6, 3): the axes' unit directions and points at ``q = 0`` (m);
+    ``RG``, ``tG``: the target frame's rotation and translation (m); ``ref`` (6,): the
+    reference (rad); ``roots``: the tolerances of the trigonometric roots; ``axis_tol``:
+    the relative length under which a point lies on an axis.
+    """
+
+    z: np.ndarray
+    p: np.ndarray
+    RG: Rot9
+    tG: Vec3
+    ref: np.ndarray
+    roots: RootTols
+    axis_tol: float
+
+
 CONTINUUM_TRIES = 8
 """Values of ``q_1`` (each with its opposite) tried on a self-motion of the inner kind:
 the reference's, then the rest of an even grid over half a turn, nearest first."""
@@ -150,7 +171,7 @@ def three_inner_candidates(query: AxesQuery, cand: np.ndarray) -> int:
     count = angle_pairs(A, b0, B, ref[0], ref[4], roots, pairs)
     n = _inner_rows(z, p, RG, tG, pairs, count, ref, roots, axis_tol, cand)
     if n == ALONG:
-        return _wrist_along_rows(z, p, RG, tG, ref, roots, axis_tol, cand)
+        return _wrist_along_rows(AlongQuery(z, p, RG, tG, ref, roots, axis_tol), cand)
     if n == 0 and quartic_vanishes(A, b0, B):
         return _continuum_rows(A, b0, B, False, z, p, RG, tG, ref, roots, axis_tol, cand)
     return n
@@ -192,7 +213,7 @@ def _continuum_rows(
             count = angle_pairs(A, b0, B, t1, ref[4] + shift, roots, pairs)
         n = _inner_rows(z, p, RG, tG, pairs, count, ref, roots, axis_tol, cand)
         if n == ALONG:
-            return _wrist_along_rows(z, p, RG, tG, ref, roots, axis_tol, cand)
+            return _wrist_along_rows(AlongQuery(z, p, RG, tG, ref, roots, axis_tol), cand)
         if n > 0:
             return n
     return 0
@@ -205,23 +226,15 @@ def _grid_shift(k: int, step: float) -> float:
 
 
 @_jit
-def _wrist_along_rows(
-    z: np.ndarray,
-    p: np.ndarray,
-    RG: Rot9,
-    tG: Vec3,
-    ref: np.ndarray,
-    roots: RootTols,
-    axis_tol: float,
-    cand: np.ndarray,
-) -> int:
+def _wrist_along_rows(query: AlongQuery, cand: np.ndarray) -> int:
     """The rows of the triples of :func:`_wrist_along_triples` (:func:`_inner_rows`).
 
     Where :func:`_inner_rows` returns :data:`ALONG`: a call of its own, so that the common
     path allocates nothing. Returns the number of rows written to ``cand``.
     """
+    z, p, RG, tG, ref, roots, axis_tol = query
     triples = np.empty((3, MAX_BRANCHES))
-    m = _wrist_along_triples(z, p, RG, tG, ref, roots, axis_tol, triples)
+    m = _wrist_along_triples(query, triples)
     return _inner_rows(z, p, RG, tG, triples, m, ref, roots, axis_tol, cand)
 
 
@@ -283,10 +296,9 @@ def _inner_rows(
 
 
 @_jit
-def _elbow_target(
-    z: np.ndarray, p: np.ndarray, RG: Rot9, tG: Vec3, t1: float, t5: float, t6: float
-) -> Vec3:
+def _elbow_target(query: AlongQuery, t1: float, t5: float, t6: float) -> Vec3:
     """``X = R_1^-1 G R_6^-1 R_5^-1 p_4``: where the planar arm must put ``p_4`` (m)."""
+    z, p, RG, tG = query.z, query.p, query.RG, query.tG
     z1, z5, z6 = vec_at(z, 0), vec_at(z, 4), vec_at(z, 5)
     p1, p4, p5, p6 = vec_at(p, 0), vec_at(p, 3), vec_at(p, 4), vec_at(p, 5)
     X = turn_point(z6, p6, -t6, turn_point(z5, p5, -t5, p4))
@@ -294,18 +306,7 @@ def _elbow_target(
 
 
 @_jit
-def _pairs_at(
-    z: np.ndarray,
-    p: np.ndarray,
-    RG: Rot9,
-    tG: Vec3,
-    t6: float,
-    ref: np.ndarray,
-    roots: RootTols,
-    axis_tol: float,
-    out: np.ndarray,
-    col: int,
-) -> int:
+def _pairs_at(query: AlongQuery, t6: float, out: np.ndarray, col: int) -> int:
     """The pairs ``(q_1, q_5)`` completing the rotation for ``q_6 = t6``, with their mismatch.
 
     ``R_1 Rot(h, theta) R_5 = F_6`` (``F_6`` the rotation of ``G R_6^-1``) turns ``h``
@@ -317,6 +318,14 @@ def _pairs_at(
     elbow reaches the target's distance from axis 2 (else 0.0). Returns the number of
     pairs.
     """
+    z, p, RG, ref, roots, axis_tol = (
+        query.z,
+        query.p,
+        query.RG,
+        query.ref,
+        query.roots,
+        query.axis_tol,
+    )
     z1, z2, z3, z5, z6 = vec_at(z, 0), vec_at(z, 1), vec_at(z, 2), vec_at(z, 4), vec_at(z, 5)
     p2, p3, p4 = vec_at(p, 1), vec_at(p, 2), vec_at(p, 3)
     h = z2
@@ -327,7 +336,7 @@ def _pairs_at(
         t1 = a1 if i == 0 else a2
         w = apply(R6, apply_t(RG, apply(rotation(z1, t1), h)))  # F_6^-1 R_1 h
         t5 = sp1_angle(z5, w, h, ref[4], axis_tol)
-        X = _elbow_target(z, p, RG, tG, t1, t5, t6)
+        X = _elbow_target(query, t1, t5, t6)
         reach = reach_angles(z2, p2, z3, p3, p4, sub(X, p2), ref[1], ref[2], roots, axis_tol)
         out[0, col + i] = t1
         out[1, col + i] = t5
@@ -337,16 +346,7 @@ def _pairs_at(
 
 
 @_jit
-def _wrist_along_triples(
-    z: np.ndarray,
-    p: np.ndarray,
-    RG: Rot9,
-    tG: Vec3,
-    ref: np.ndarray,
-    roots: RootTols,
-    axis_tol: float,
-    out: np.ndarray,
-) -> int:
+def _wrist_along_triples(query: AlongQuery, out: np.ndarray) -> int:
     """The triples ``(q_1, q_5, q_6)`` of the branches where axis 6 lies along the parallel axes.
 
     Over an even grid of :data:`WRIST_TRIES` values of ``q_6`` from the reference's, the
@@ -358,6 +358,7 @@ def _wrist_along_triples(
     isolated branch. Writes the triples to the columns of ``out`` (3, 8) (rad) and
     returns how many.
     """
+    p, ref = query.p, query.ref
     step = 2.0 * math.pi / WRIST_TRIES
     size = 0.0
     for j in range(1, 6):
@@ -366,7 +367,7 @@ def _wrist_along_triples(
     grid = np.empty((4, 2 * (WRIST_TRIES + 1)))
     counts = np.empty(WRIST_TRIES + 1, dtype=np.int64)
     for k in range(WRIST_TRIES + 1):
-        counts[k] = _pairs_at(z, p, RG, tG, ref[5] + k * step, ref, roots, axis_tol, grid, 2 * k)
+        counts[k] = _pairs_at(query, ref[5] + k * step, grid, 2 * k)
     m = 0
     for j in range(WRIST_TRIES):
         k = (int(_grid_shift(j, 1.0)) + WRIST_TRIES) % WRIST_TRIES
@@ -384,8 +385,8 @@ def _wrist_along_triples(
             if e < 0 or abs(grid[2, e]) <= flat or (grid[2, c] > 0.0) == (grid[2, e] > 0.0):
                 continue
             t6, t1, t5, g = _mismatch_zero(
-                z, p, RG, tG, ref, roots, axis_tol, ref[5] + k * step, grid[2, c],
-                ref[5] + (k + 1) * step, grid[2, e], grid[0, c], grid[1, c],
+                query, ref[5] + k * step, grid[2, c], ref[5] + (k + 1) * step, grid[2, e],
+                grid[0, c], grid[1, c],
             )  # fmt: skip
             if abs(g) <= flat and m < out.shape[1]:
                 out[0, m], out[1, m], out[2, m] = t1, t5, t6
@@ -415,19 +416,7 @@ def _wrapped(t: float) -> float:
 
 @_jit
 def _mismatch_zero(
-    z: np.ndarray,
-    p: np.ndarray,
-    RG: Rot9,
-    tG: Vec3,
-    ref: np.ndarray,
-    roots: RootTols,
-    axis_tol: float,
-    a: float,
-    ga: float,
-    b: float,
-    gb: float,
-    t1: float,
-    t5: float,
+    query: AlongQuery, a: float, ga: float, b: float, gb: float, t1: float, t5: float
 ) -> tuple[float, float, float, float]:
     """The zero in ``q_6`` of a pair's height mismatch, bracketed by ``a`` and ``b``.
 
@@ -443,7 +432,7 @@ def _mismatch_zero(
         c = b - gb * (b - a) / (gb - ga)
         if not (min(a, b) < c < max(a, b)):
             break  # the bracket is down to rounding
-        at = _follow(pairs, 0, _pairs_at(z, p, RG, tG, c, ref, roots, axis_tol, pairs, 0), t1, t5)
+        at = _follow(pairs, 0, _pairs_at(query, c, pairs, 0), t1, t5)
         if at < 0:
             break
         t1, t5, gc = pairs[0, at], pairs[1, at], pairs[2, at]
