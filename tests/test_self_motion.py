@@ -350,14 +350,33 @@ NEAR_ALONG_ARMS = {
         [0.7804260244690879, 0.7831628387010414, 2.743178013193864, 1.3824610464647211,
          -2.3368335121124946, 1.1364237454352701],
     ),
+    "seed23 (read backwards)": (
+        [[0.84518279196137, -0.48834344794515, 0.21722505615473017],
+         [-0.7302253590919655, 0.13587609605909245, -0.6695585198164162],
+         [0.6628978920225723, 0.4414594290905623, 0.6047147734420459],
+         [0.6628978920225723, 0.4414594290905623, 0.6047147734420459],
+         [0.6628978920225723, 0.4414594290905623, 0.6047147734420459],
+         [-0.9676784656965365, -0.17165020330183947, -0.18475549987384524]],
+        [[-0.09196736458637092, 0.07696549376025617, -0.08815681650773984],
+         [-0.10641253949663051, -0.18504454576114504, 0.02687534007182662],
+         [-0.4032498002419907, 0.015655469792333006, 0.39300771970455933],
+         [-0.23007386365015628, -0.013617521410046012, 0.8451627049452729],
+         [-0.2978023229282869, -0.4863424572635604, -0.12804273947397682],
+         [0.5420813941134506, 0.6105346535352273, -0.3647961789391559],
+         [0.17104217654110118, 0.0013564294029404754, -0.17651122663060442]],
+        [-1.798409178012705, 2.311797470165354, -1.1090952419149014, -1.2448221387732317,
+         -0.04733193734072838, 1.729195611339403],
+    ),
 }  # fmt: skip
 """Random three-inner arms (axes 2-4 parallel) whose axis 6 q5 turns onto the parallel axes,
 each with a configuration on that self-motion (q2, q3, q4 and q6 move along it). The
 quartic returns its (q1, q5) as a double root, off by about sqrt(eps): axis 6 is then not
 exactly along the parallel axes, q6 came out of an ill-conditioned subproblem, and the
-elbow fell short (no branch, without a reference or from a far one). Only q5 moves the
-pose off the self-motion (the others move it along another): 1e-8 rad off, the solutions
-are isolated points 1.5 rad along the curve from where the grid of q6 met it."""
+elbow fell short (no branch, without a reference or from a far one). Only q5 (q2 read
+backwards) moves the pose off the self-motion (the others move it along another): 1e-8
+rad off, the solutions are isolated points 1.5 rad along the curve from where the grid of
+q6 met it. On seed23, 1e-10 rad off, a grid value of q6 lies within 1e-12 m of a zero of
+the elbow target's height mismatch (the search along q6 must still bracket it)."""
 NEAR_ALONG_OFFSETS = [(0, 0.0), *((j, e) for e in (1e-10, 1e-8, 1e-6) for j in range(6))]
 """(joint, offset in rad) moving the source configuration."""
 OFF_CURVE_MATCH = 1e-5
@@ -373,6 +392,7 @@ def test_axis_6_nearly_along_the_parallel_axes(arm: str, tmp_path: Path) -> None
     H, P, source = (np.array(x) for x in NEAR_ALONG_ARMS[arm])
     robot = axes_urdf_robot(H, P, tmp_path / "arm.urdf")
     assert family_of(robot).name == "three_parallel"
+    off_curve = 1 if "backwards" in arm else 4  # the joint that turns axis 6 off h
     for joint, offset in NEAR_ALONG_OFFSETS:
         q = source.copy()
         q[joint] += offset
@@ -384,7 +404,7 @@ def test_axis_6_nearly_along_the_parallel_axes(arm: str, tmp_path: Path) -> None
                 F = poe_fk(H, P, b)
                 assert np.linalg.norm(F[:3, 3] - T[:3, 3]) < FK_TOL
                 assert Rotation.from_matrix(F[:3, :3].T @ T[:3, :3]).magnitude() < FK_TOL
-            if joint == 4 and offset >= 1e-8:
+            if joint == off_curve and offset >= 1e-8:
                 nearest = min(joint_distance(robot, b, q) for b in branches)
                 assert nearest < OFF_CURVE_MATCH, f"joint {joint} + {offset}: {nearest:.1e}"
 
@@ -412,6 +432,11 @@ SHARED_CURVE_CONFIGS = [
       -2.6135888318985887, 2.2969180652150447], 0, 0.0),
     ([-2.312115774504842, -1.9490307890066114, 2.3169605412471403, -0.8482956475816916,
       -2.613588831898589, -1.5082363180401803], 0, 1e-6),
+    # One of the curve's pairs puts axis 6 along the parallel axes; the search along q6
+    # then finds no branch the elbow reaches (subproblem 4 degenerates on the curve), and
+    # the pairs with their own q6 answer.
+    ([-2.312115774504842, -1.9490307890066114, 2.3169605412471403, -0.8482956475816916,
+      -2.613588831898589, -1.5082363180401803], 3, 1e-6),
 ]  # fmt: skip
 COAXIAL_GENERAL_ARM = [
     (0.3, 0.9, 0.35, 0.1),

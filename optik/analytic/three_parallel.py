@@ -171,7 +171,8 @@ def three_inner_candidates(query: AxesQuery, cand: np.ndarray) -> int:
     count = angle_pairs(A, b0, B, ref[0], ref[4], roots, pairs)
     n = _inner_rows(z, p, RG, tG, pairs, count, ref, roots, axis_tol, cand)
     if n == ALONG:
-        return _wrist_along_rows(AlongQuery(z, p, RG, tG, ref, roots, axis_tol), cand)
+        along = AlongQuery(z, p, RG, tG, ref, roots, axis_tol)
+        return _wrist_along_rows(along, pairs, count, cand)
     if n == 0 and quartic_vanishes(A, b0, B):
         return _continuum_rows(A, b0, B, False, z, p, RG, tG, ref, roots, axis_tol, cand)
     return n
@@ -213,7 +214,8 @@ def _continuum_rows(
             count = angle_pairs(A, b0, B, t1, ref[4] + shift, roots, pairs)
         n = _inner_rows(z, p, RG, tG, pairs, count, ref, roots, axis_tol, cand)
         if n == ALONG:
-            return _wrist_along_rows(AlongQuery(z, p, RG, tG, ref, roots, axis_tol), cand)
+            along = AlongQuery(z, p, RG, tG, ref, roots, axis_tol)
+            return _wrist_along_rows(along, pairs, count, cand)
         if n > 0:
             return n
     return 0
@@ -226,16 +228,57 @@ def _grid_shift(k: int, step: float) -> float:
 
 
 @_jit
-def _wrist_along_rows(query: AlongQuery, cand: np.ndarray) -> int:
-    """The rows of the triples of :func:`_wrist_along_triples` (:func:`_inner_rows`).
+def _wrist_along_rows(query: AlongQuery, pairs: np.ndarray, count: int, cand: np.ndarray) -> int:
+    """The rows where :func:`_inner_rows` returned :data:`ALONG` for its ``count`` ``pairs``.
 
-    Where :func:`_inner_rows` returns :data:`ALONG`: a call of its own, so that the common
-    path allocates nothing. Returns the number of rows written to ``cand``.
+    Those of the triples of :func:`_wrist_along_triples`; where the search finds none that
+    the elbow reaches, those of the pairs themselves with ``q_6`` on a grid
+    (:func:`_grid_triples`): a pose where the search's subproblems degenerate too (axis 1
+    on axis 5's line, a second self-motion) keeps the pairs of the self-motion rules. A
+    call of its own, so that the common path allocates nothing. Returns the number of rows
+    written to ``cand``.
     """
     z, p, RG, tG, ref, roots, axis_tol = query
     triples = np.empty((3, MAX_BRANCHES))
     m = _wrist_along_triples(query, triples)
+    n = _inner_rows(z, p, RG, tG, triples, m, ref, roots, axis_tol, cand)
+    if n > 0:
+        return n
+    m = _grid_triples(query, pairs, count, triples)
     return _inner_rows(z, p, RG, tG, triples, m, ref, roots, axis_tol, cand)
+
+
+@_jit
+def _grid_triples(query: AlongQuery, pairs: np.ndarray, count: int, out: np.ndarray) -> int:
+    """The pairs ``(q_1, q_5)`` with a ``q_6`` each, into the columns of ``out`` (3, >= count).
+
+    ``q_6`` from subproblem 1; where axis 6 lies along the parallel axes, the first of the
+    reference's and an even grid of :data:`WRIST_TRIES` values over the turn (nearest first)
+    at which the elbow reaches. Returns ``count``.
+    """
+    z, p, RG, _, ref, roots, axis_tol = query
+    z1, z2, z3, z5, z6 = vec_at(z, 0), vec_at(z, 1), vec_at(z, 2), vec_at(z, 4), vec_at(z, 5)
+    p2, p3, p4 = vec_at(p, 1), vec_at(p, 2), vec_at(p, 3)
+    h = z2
+    back = (-z1[0], -z1[1], -z1[2])
+    for i in range(count):
+        t1, t5 = pairs[0, i], pairs[1, i]
+        F = mul3(rotation(back, t1), RG)
+        h5 = apply_t(rotation(z5, t5), h)
+        t6 = sp1_angle(z6, apply_t(F, h), h5, math.nan, axis_tol)
+        tries = 1
+        if math.isnan(t6) or norm(cross(z6, h5)) <= WRIST_ALONG_TOL:
+            tries = WRIST_TRIES
+        if math.isnan(t6):
+            t6 = ref[5]
+        for k in range(tries):
+            if k > 0:
+                t6 = ref[5] + _grid_shift(k, 2.0 * math.pi / WRIST_TRIES)
+            d = sub(_elbow_target(query, t1, t5, t6), p2)
+            if reach_angles(z2, p2, z3, p3, p4, d, ref[1], ref[2], roots, axis_tol)[0] > 0:
+                break
+        out[0, i], out[1, i], out[2, i] = t1, t5, t6
+    return count
 
 
 @_jit
@@ -318,14 +361,7 @@ def _pairs_at(query: AlongQuery, t6: float, out: np.ndarray, col: int) -> int:
     elbow reaches the target's distance from axis 2 (else 0.0). Returns the number of
     pairs.
     """
-    z, p, RG, ref, roots, axis_tol = (
-        query.z,
-        query.p,
-        query.RG,
-        query.ref,
-        query.roots,
-        query.axis_tol,
-    )
+    z, p, RG, _, ref, roots, axis_tol = query
     z1, z2, z3, z5, z6 = vec_at(z, 0), vec_at(z, 1), vec_at(z, 2), vec_at(z, 4), vec_at(z, 5)
     p2, p3, p4 = vec_at(p, 1), vec_at(p, 2), vec_at(p, 3)
     h = z2
@@ -354,9 +390,9 @@ def _wrist_along_triples(query: AlongQuery, out: np.ndarray) -> int:
     zero to :data:`HEIGHT_TOL`) gives the pairs at the grid's ``q_6`` nearest the
     reference where the elbow reaches, as the other free angles do; every change of sign
     of a pair's mismatch between neighbouring grid values (the pair followed by
-    continuity, :func:`_follow`) is searched to its zero (:func:`_mismatch_zero`), an
-    isolated branch. Writes the triples to the columns of ``out`` (3, 8) (rad) and
-    returns how many.
+    continuity, :func:`_follow`; not both values zero) is searched to its zero
+    (:func:`_mismatch_zero`), an isolated branch. Writes the triples to the columns of
+    ``out`` (3, 8) (rad) and returns how many.
     """
     p, ref = query.p, query.ref
     step = 2.0 * math.pi / WRIST_TRIES
@@ -379,10 +415,12 @@ def _wrist_along_triples(query: AlongQuery, out: np.ndarray) -> int:
             break
     for k in range(WRIST_TRIES):
         for c in range(2 * k, 2 * k + counts[k]):
-            if abs(grid[2, c]) <= flat:
-                continue
             e = _follow(grid, 2 * (k + 1), counts[k + 1], grid[0, c], grid[1, c])
-            if e < 0 or abs(grid[2, e]) <= flat or (grid[2, c] > 0.0) == (grid[2, e] > 0.0):
+            if e < 0 or (grid[2, c] > 0.0) == (grid[2, e] > 0.0):
+                continue
+            # Both ends flat: the self-motion above (its rounding changes sign at random);
+            # one: a zero near that grid value, where the elbow may reach only beside it.
+            if abs(grid[2, c]) <= flat and abs(grid[2, e]) <= flat:
                 continue
             t6, t1, t5, g = _mismatch_zero(
                 query, ref[5] + k * step, grid[2, c], ref[5] + (k + 1) * step, grid[2, e],

@@ -298,6 +298,12 @@ def problem_from_args(args: argparse.Namespace) -> Problem:
     return named_problem(args.problem)
 
 
+def add_chain_links(p: argparse.ArgumentParser | argparse._ArgumentGroup, chain: str) -> None:
+    """``--base LINK`` and ``--tip LINK``: the ends of ``chain`` (as the help names it)."""
+    p.add_argument("--base", metavar="LINK", help=f"base link of {chain}")
+    p.add_argument("--tip", metavar="LINK", help=f"tip link of {chain}")
+
+
 def add_robot_arguments(p: argparse.ArgumentParser, *, positional: bool = True) -> None:
     if positional:
         p.add_argument(
@@ -315,8 +321,7 @@ def add_robot_arguments(p: argparse.ArgumentParser, *, positional: bool = True) 
         type=path_text,
         help="a URDF file (its lengths in m, angles in rad), with --base and --tip",
     )
-    group.add_argument("--base", metavar="LINK", help="base link of the --urdf chain (a link name)")
-    group.add_argument("--tip", metavar="LINK", help="tip link of the --urdf chain (a link name)")
+    add_chain_links(group, "the --urdf chain (a link name)")
     group.add_argument(
         "--dh",
         metavar="FILE",

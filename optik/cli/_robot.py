@@ -9,6 +9,7 @@ from typing import Any
 from optik.cli._common import (
     EXIT_OK,
     URDF_SUFFIXES,
+    add_chain_links,
     command,
     named_problem,
     path_text,
@@ -94,8 +95,7 @@ def add_robot_command(sub: Any) -> None:
         type=path_text,
         help="a URDF (.urdf, .xml), a problem file or DH table (.toml), or a built-in problem name",
     )
-    p.add_argument("--base", metavar="LINK", help="base link of a URDF chain")
-    p.add_argument("--tip", metavar="LINK", help="tip link of a URDF chain")
+    add_chain_links(p, "a URDF chain")
     p.set_defaults(func=_cmd_robot)
 
 
