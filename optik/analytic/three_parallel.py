@@ -107,9 +107,10 @@ CONTINUUM_TRIES = 8
 """Values of ``q_1`` (each with its opposite) tried on a self-motion of the inner kind:
 the reference's, then the rest of an even grid over half a turn, nearest first."""
 WRIST_TRIES = 32
-"""Values of ``q_6`` in the even grid over the turn that :func:`_wrist_along_triples` samples
-where axis 6 lies along the parallel axes (``q_6`` free in its subproblem but not for the
-elbow), starting at the reference's (:func:`_wrist_along_triples`)."""
+"""Values of ``q_6`` in an even grid over the turn from the reference's, where axis 6 lies
+along the parallel axes (``q_6`` free in its subproblem but not for the elbow): sampled by
+the search along ``q_6`` (:func:`_wrist_along_triples`), tried by the pairs' own grid
+(:func:`_grid_triples`)."""
 WRIST_ALONG_TOL = 1e-6
 """Axis 6 counts as along the parallel axes for that grid when the sine of their angle
 is at most this: a q5 found as a double root is off by about sqrt(eps) = 1.5e-8."""
@@ -461,10 +462,10 @@ def _mismatch_zero(
     ``ga`` and ``gb`` (m) have opposite signs; ``(t1, t5)`` is the pair at ``a``, followed
     by continuity (:func:`_follow`). The Illinois rule (regula falsi that halves a stale
     end's value), at most :data:`ROOT_STEPS` steps. Returns ``(q_6, q_1, q_5, mismatch)``
-    at the last point.
+    at the last point evaluated.
     """
     pairs = np.empty((4, 2))
-    c, gc = a, ga
+    last, gc = a, ga
     side = 0
     for _ in range(ROOT_STEPS):
         c = b - gb * (b - a) / (gb - ga)
@@ -473,7 +474,7 @@ def _mismatch_zero(
         at = _follow(pairs, 0, _pairs_at(query, c, pairs, 0), t1, t5)
         if at < 0:
             break
-        t1, t5, gc = pairs[0, at], pairs[1, at], pairs[2, at]
+        last, t1, t5, gc = c, pairs[0, at], pairs[1, at], pairs[2, at]
         if gc == 0.0:
             break
         if (gc > 0.0) == (gb > 0.0):
@@ -486,7 +487,7 @@ def _mismatch_zero(
             if side == 1:
                 gb *= 0.5
             side = 1
-    return c, t1, t5, gc
+    return last, t1, t5, gc
 
 
 @_jit
