@@ -368,15 +368,16 @@ NEAR_ALONG_ARMS = {
          -0.04733193734072838, 1.729195611339403],
     ),
 }  # fmt: skip
-"""Random three-inner arms (axes 2-4 parallel) whose axis 6 q5 turns onto the parallel axes,
-each with a configuration on that self-motion (q2, q3, q4 and q6 move along it). The
-quartic returns its (q1, q5) as a double root, off by about sqrt(eps): axis 6 is then not
-exactly along the parallel axes, q6 came out of an ill-conditioned subproblem, and the
-elbow fell short (no branch, without a reference or from a far one). Only q5 (q2 read
-backwards) moves the pose off the self-motion (the others move it along another): 1e-8
-rad off, the solutions are isolated points 1.5 rad along the curve from where the grid of
-q6 met it. On seed23, 1e-10 rad off, a grid value of q6 lies within 1e-12 m of a zero of
-the elbow target's height mismatch (the search along q6 must still bracket it)."""
+"""Random three-inner arms (axes 2-4 parallel; seed23's 3-5, read backwards) whose axis 6 q5
+turns onto the parallel axes, each with a configuration on that self-motion (q2, q3, q4 and
+q6 move along it). The quartic returns its (q1, q5) as a double root, off by about
+sqrt(eps): axis 6 is then not exactly along the parallel axes, q6 came out of an
+ill-conditioned subproblem, and the elbow fell short (no branch, without a reference or from
+a far one). Only q5 (q2 read backwards) moves the pose off the self-motion (the others move
+it along another): 1e-8 rad off, the solutions are isolated points 1.5 rad along the curve
+from where the grid of q6 met it. On seed23, 1e-10 rad off, a grid value of q6 lies within
+1e-12 m of a zero of the elbow target's height mismatch (the search along q6 must still
+bracket it)."""
 NEAR_ALONG_OFFSETS = [(0, 0.0), *((j, e) for e in (1e-10, 1e-8, 1e-6) for j in range(6))]
 """(joint, offset in rad) moving the source configuration."""
 OFF_CURVE_MATCH = 1e-5
