@@ -1008,3 +1008,15 @@ def test_hostile_kinematics(
     if clone is not None:
         assert not np.any(np.isnan(clone.lower)) and np.all(clone.lower <= clone.upper)
         assert _finite(clone.fk(np.zeros(2)))
+
+
+def test_shape_and_frozen_joint_messages_read_as_numpy_and_list_the_joints() -> None:
+    puma = load_problem("puma560").robot
+    with pytest.raises(ShapeError, match=r"q0: expected shape \(6,\), got \(3,\)"):
+        solve_ik(puma, puma.fk(np.zeros(6)), q0=[0.0, 0.0, 0.0])
+    with pytest.raises(ShapeError, match=r"expected shape \(6,\) or \(N, 6\), got \(3,\)"):
+        puma.fk([0.0, 0.0, 0.0])
+    with pytest.raises(OptikError) as info:
+        solve_ik(puma, puma.fk(np.zeros(6)), frozen={"j9": 0.0})
+    names = ", ".join(puma.joint_names)
+    assert str(info.value) == f"frozen: 'j9' is not a joint of 'puma560' (joints: {names})"

@@ -48,6 +48,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from optik._math import wrap_angle
+from optik._numba import inline as _inline
 from optik._numba import jit as _jit
 from optik.analytic._angle_pairs import (
     Mat2,
@@ -249,6 +251,19 @@ def _wrist_along_rows(query: AlongQuery, pairs: np.ndarray, count: int, cand: np
     return _inner_rows(z, p, RG, tG, triples, m, ref, roots, axis_tol, cand)
 
 
+@_inline
+def _wrist_q6(h: Vec3, z6: Vec3, F: Rot9, R5: Rot9, axis_tol: float) -> tuple[float, bool]:
+    """``q_6`` by subproblem 1 (NaN where free), and whether axis 6 lies along ``h``.
+
+    ``F`` is the rotation of ``R_1^-1 G`` and ``R5`` that of ``R_5``: ``R_6`` turns ``F^-1
+    h`` onto ``R_5^-1 h``. Along (q6 free, or nearly: a double root's q5 is off by
+    sqrt(eps), and q6 from it by as much as a turn) within :data:`WRIST_ALONG_TOL`.
+    """
+    h5 = apply_t(R5, h)
+    t6 = sp1_angle(z6, apply_t(F, h), h5, math.nan, axis_tol)
+    return t6, math.isnan(t6) or norm(cross(z6, h5)) <= WRIST_ALONG_TOL
+
+
 @_jit
 def _grid_triples(query: AlongQuery, pairs: np.ndarray, count: int, out: np.ndarray) -> int:
     """The pairs ``(q_1, q_5)`` with a ``q_6`` each, into the columns of ``out`` (3, >= count).
@@ -265,11 +280,8 @@ def _grid_triples(query: AlongQuery, pairs: np.ndarray, count: int, out: np.ndar
     for i in range(count):
         t1, t5 = pairs[0, i], pairs[1, i]
         F = mul3(rotation(back, t1), RG)
-        h5 = apply_t(rotation(z5, t5), h)
-        t6 = sp1_angle(z6, apply_t(F, h), h5, math.nan, axis_tol)
-        tries = 1
-        if math.isnan(t6) or norm(cross(z6, h5)) <= WRIST_ALONG_TOL:
-            tries = WRIST_TRIES
+        t6, along = _wrist_q6(h, z6, F, rotation(z5, t5), axis_tol)
+        tries = WRIST_TRIES if along else 1
         if math.isnan(t6):
             t6 = ref[5]
         for k in range(tries):
@@ -318,11 +330,8 @@ def _inner_rows(
         if given:
             t6 = pairs[2, i]
         else:
-            h5 = apply_t(R5, h)
-            t6 = sp1_angle(z6, apply_t(F, h), h5, math.nan, axis_tol)
-            # Axis 6 along h (q6 free, or nearly: a double root's q5 is off by sqrt(eps)
-            # and q6 from it by as much as a turn).
-            if math.isnan(t6) or norm(cross(z6, h5)) <= WRIST_ALONG_TOL:
+            t6, along = _wrist_q6(h, z6, F, R5, axis_tol)
+            if along:
                 return ALONG
         theta = _planar_rest(h, F, mul3(R5, rotation(z6, t6)), across)
         # X = R_1^-1 G R_6^-1 R_5^-1 p_4, by line turns (:func:`_elbow_target`).
@@ -441,16 +450,10 @@ def _follow(grid: np.ndarray, col: int, count: int, t1: float, t5: float) -> int
     """
     best, at = FOLLOW_GAP, -1
     for i in range(count):
-        gap = abs(_wrapped(grid[0, col + i] - t1)) + abs(_wrapped(grid[1, col + i] - t5))
+        gap = abs(wrap_angle(grid[0, col + i] - t1)) + abs(wrap_angle(grid[1, col + i] - t5))
         if gap <= best:
             best, at = gap, col + i
     return at
-
-
-@_jit
-def _wrapped(t: float) -> float:
-    """``t`` (rad) into (-pi, pi]."""
-    return math.atan2(math.sin(t), math.cos(t))
 
 
 @_jit
