@@ -248,6 +248,42 @@ def _closed_form_proof(
     return _result(query, start_time, "analytic", outcome, None)
 
 
+def _reach_proof(query: IKQuery, q_start: FloatArray, start_time: float) -> IKResult | None:
+    """``"unreachable"`` for a target beyond the reach sphere, else ``None``.
+
+    :attr:`optik.Robot.reach_sphere` holds every tool position inside the robot's limits
+    (its prismatic strokes), so the proof needs no closed form and holds for frozen joints
+    and margins, which only narrow that box. Over the constrained position axes of the
+    target frame (a freed axis leaves a line or plane to miss the sphere,
+    :func:`optik.verify.beyond_reach_task`). Graded weights still get their compromise,
+    the weighted minimum from ``q_start``.
+    """
+    robot, T_target, task = query.robot, query.target, query.spec
+    if not beyond_reach_task(robot, T_target, task):
+        return None
+    centre, radius = robot.reach_sphere
+    free = [axis for axis, w in zip("xyz", task.weights[:3], strict=True) if w == 0.0]
+    # Over the constrained axes of the target frame; math.hypot is exact in the range
+    # (no overflow: a target 1e155 m away is beyond).
+    local = T_target[:3, :3].T @ (T_target[:3, 3] - centre)
+    distance = math.hypot(*(v for v, w in zip(local, task.weights[:3], strict=True) if w))
+    where = (
+        "the target lies"
+        if not free
+        else f"the target's {'line' if len(free) == 1 else 'plane'} along its free "
+        f"{' and '.join(free)} passes"
+    )
+    reason = (
+        f"{where} {distance:.6g} m from the reach sphere's centre, beyond its radius {radius:.6g} m"
+    )
+    q_end, used = q_start, 0
+    if task.is_graded:
+        q_end, used, _ = compromise(query, q_start)
+    return _result(
+        query, start_time, "reach", _without_run(q_end, "unreachable", reason, used), None
+    )
+
+
 def solve_ik(
     robot: Robot,
     target: Any,
@@ -599,6 +635,10 @@ def _plan(
         if provable:
             proof = _closed_form_proof(robot, query, q_start, start_time, int(seed), held)
             return plan([], [], proof)
+        # The branch set proves nothing about a narrowed box; the reach sphere still does.
+        far = _reach_proof(query, q_start, start_time)
+        if far is not None:
+            return plan([], [], far)
         lower, upper = bounds if bounds is not None else (robot.lower, robot.upper)
         given = found or analytic_ik(
             robot, T_target, mode, q_ref=q_start, within_limits=False,
@@ -636,32 +676,9 @@ def _plan(
     if held is not None and task.search.is_pose_or_position and task.mode == "pose":
         # Complete for the held value inside the limits; a margin narrows the others.
         return closed_form("pose", provable=float(limit_margin) == 0.0, held=held)
-    # No closed form: the reach sphere still proves a target unreachable.
-    if beyond_reach_task(robot, T_target, task):
-        centre, radius = robot.reach_sphere
-        free = [axis for axis, w in zip("xyz", task.weights[:3], strict=True) if w == 0.0]
-        # Over the constrained axes of the target frame; math.hypot is exact in the range
-        # (no overflow: a target 1e155 m away is beyond).
-        local = T_target[:3, :3].T @ (T_target[:3, 3] - centre)
-        distance = math.hypot(*(v for v, w in zip(local, task.weights[:3], strict=True) if w))
-        where = (
-            "the target lies"
-            if not free
-            else f"the target's {'line' if len(free) == 1 else 'plane'} along its free "
-            f"{' and '.join(free)} passes"
-        )
-        reason = (
-            f"{where} {distance:.6g} m from "
-            f"the reach sphere's centre, beyond its radius {radius:.6g} m"
-        )
-        # Graded weights ask for a compromise even here: the weighted minimum from q0.
-        q_end, used = q_start, 0
-        if task.is_graded:
-            q_end, used, _ = compromise(query, q_start)
-        outcome = _without_run(q_end, "unreachable", reason, used)
-        early = _result(query, start_time, "reach", outcome, None)
-        return plan([], [], early)
-    return plan(starts_given, [])
+    # No closed form (or a sampled roll that found nothing): the reach sphere still proves.
+    far = _reach_proof(query, q_start, start_time)
+    return plan([], [], far) if far is not None else plan(starts_given, [])
 
 
 def _task_target(target: Any, task: Task) -> FloatArray:

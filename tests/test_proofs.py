@@ -117,6 +117,30 @@ def test_numeric_robot_outside_reach_sphere_is_unreachable() -> None:
     assert res.status == "unreachable" and res.iterations == 0
 
 
+@pytest.mark.parametrize(
+    ("name", "box"),
+    [
+        ("ur5", {"limit_margin": 0.01}),
+        ("ur5", {"frozen": {"shoulder_pan": 0.1}}),
+        ("puma560", {"limit_margin": 0.01}),
+        ("panda", {"frozen": {"panda_joint7": 0.3}, "limit_margin": 0.01}),
+    ],
+)
+def test_a_narrowed_box_beyond_the_reach_sphere_is_unreachable(name: str, box: dict) -> None:
+    # A closed form's branch set proves nothing about a narrowed box, so the search ran
+    # and said "max_iter"; the reach sphere holds the narrowed box too (as in the batch).
+    robot = load_problem(name).robot
+    centre, radius = robot.reach_sphere
+    T = robot.fk(robot.mid_limits)
+    T[:3, 3] = centre + np.array([0.0, 0.0, 3.0 * radius])
+    res = optik.solve_ik(robot, T, **box)
+    assert (res.status, res.solver, res.iterations) == ("unreachable", "reach", 0)
+    assert "beyond its radius" in res.message
+    batch = optik.solve_ik_batch(robot, T[None], **box)
+    assert batch.status.tolist() == ["unreachable"]
+    assert optik.solve_ik_all(robot, T, **box) == []
+
+
 def test_position_mode_with_a_tool_offset_falls_back_to_numeric() -> None:
     base = load_problem("jumbo_spherical_arm").robot
     family = family_of(base)
