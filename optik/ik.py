@@ -75,7 +75,7 @@ from optik.ik_batch import (
 from optik.limits import LIMIT_TOLERANCE
 from optik.model import Robot
 from optik.poses import PositionOnlyTargetError, as_target_pose
-from optik.posture import check_posture, posture_answers, refine_posture
+from optik.posture import check_posture, nearest_turns, posture_answers, refine_posture
 from optik.solvers import get_solver
 from optik.solvers._base import IKQuery, IKSolver, RunOutput, budget_now, compromise, now
 from optik.solvers._seeds import start_sequence
@@ -418,7 +418,7 @@ def _polished_branches(plan: _Plan, answer: IKResult) -> IKResult:
 def _posture_answer(plan: _Plan, q_ref: FloatArray, weights: FloatArray) -> IKResult:
     """The answer of :func:`solve_ik` with a checked ``posture`` and its norm's weights."""
     if plan.branches and plan.numeric is None:
-        found = [(q, 0, 0) for q in plan.branches]
+        found = [(q, 0, 0) for q in nearest_turns(plan.query, np.array(plan.branches), q_ref)]
         solver_name = "analytic"
         last_run = None
     else:

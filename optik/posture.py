@@ -28,6 +28,7 @@ from typing import NamedTuple
 import numpy as np
 
 from optik._checks import FloatArray, finite_array, finite_length_array
+from optik.analytic import wrap_into_limits
 from optik.errors import OptikError
 from optik.solvers._base import IKQuery, IKSolver, RunOutput, budget_now
 from optik.solvers._posture_kernel import TIGHTEN, posture_refine, posture_search
@@ -53,6 +54,7 @@ __all__ = [
     "Refinement",
     "check_joint_weights",
     "check_posture",
+    "nearest_turns",
     "posture_answers",
     "posture_candidates",
     "refine",
@@ -147,6 +149,27 @@ def refine(
         np.ascontiguousarray(weights, dtype=np.float64), int(max_iter),
     )  # fmt: skip
     return Refinement(out, bool(converged), float(measure), int(iterations))
+
+
+def nearest_turns(query: IKQuery, Q: FloatArray, q_ref: FloatArray) -> FloatArray:
+    """The rows of ``Q`` (k, dof), each revolute angle turned by whole turns nearest ``q_ref``.
+
+    The same poses. Where a joint's range spans more than a turn (a UR's +-2 pi, a
+    continuous joint), an answer can sit a turn or more from ``q_ref`` (a closed form's
+    branch is wrapped nearest ``q0``), and the refinement, which is local, never crosses
+    it. A turn that would leave the query's box (a margin, a frozen joint) is not taken.
+    """
+    turned = wrap_into_limits(Q, query.robot, q_ref)
+    inside = (turned >= query.lower) & (turned <= query.upper)
+    return np.where(inside, turned, Q)
+
+
+def _turned_and_refined(
+    query: IKQuery, q: FloatArray, q_ref: FloatArray, weights: FloatArray
+) -> FloatArray:
+    """``q`` (refined from its own start) turned nearest ``q_ref``, refined again if turned."""
+    turned = nearest_turns(query, q[None], q_ref)[0]
+    return q if np.array_equal(turned, q) else refine_posture(query, turned, q_ref, weights)
 
 
 def refine_posture(
@@ -245,7 +268,13 @@ def posture_answers(
         found, run = posture_candidates(
             query, numeric, given, q_ref, seed, max_iter, last, deadline
         )
-        refined = [(refine_posture(query, q, q_ref, weights), it, r) for q, it, r in found]
+        turned = nearest_turns(
+            query, np.array([q for q, _, _ in found]).reshape(-1, query.robot.dof), q_ref
+        )
+        refined = [
+            (refine_posture(query, q, q_ref, weights), it, r)
+            for q, (_, it, r) in zip(turned, found, strict=True)
+        ]
         return sorted(refined, key=lambda f: cost(f[0])), run
     robot = query.robot
     start = np.clip(q_ref, query.lower, query.upper)
@@ -259,7 +288,11 @@ def posture_answers(
         np.ascontiguousarray(weights, dtype=np.float64), POSTURE_ANSWERS, POSTURE_STEPS,
     )  # fmt: skip
     used = int(attempts) - 1
-    found = [(refined_q[k].copy(), int(iterations), used) for k in range(int(count)) if kept[k]]
+    found = [
+        (_turned_and_refined(query, refined_q[k].copy(), q_ref, weights), int(iterations), used)
+        for k in range(int(count))
+        if kept[k]
+    ]
     if found:
         run = RunOutput(found[0][0], int(iterations), used, True, "converged", "max_iter")
         return sorted(found, key=lambda f: cost(f[0])), run
@@ -271,5 +304,5 @@ def posture_answers(
     used = stop + 1 + run.restarts
     if not run.converged:
         return [], RunOutput(run.q, total, used, False, run.message, run.status_if_failed)
-    q = refine_posture(query, run.q, q_ref, weights)
+    q = refine_posture(query, nearest_turns(query, run.q[None], q_ref)[0], q_ref, weights)
     return [(q, total, used)], RunOutput(run.q, total, used, True, "converged", "max_iter")

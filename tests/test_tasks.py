@@ -376,6 +376,27 @@ def test_posture_on_a_closed_form_picks_the_nearest_branch() -> None:
         assert res.success and float(d @ (weights * d)) <= min(costs) + 1e-12
 
 
+@pytest.mark.parametrize("limit", [2.0 * math.pi, math.inf])
+@pytest.mark.parametrize(
+    "kwargs", [{}, {"solver": "dls"}, {"warm_start": "q0"}, {"limit_margin": 0.05}]
+)
+def test_posture_is_reached_a_turn_away_on_joints_of_more_than_a_turn(
+    limit: float, kwargs: dict[str, object]
+) -> None:
+    # A UR's +-2 pi joints (or continuous ones): the closed form's branches were wrapped
+    # nearest q0 (mid-limits), the refinement is local, and the answer sat whole turns
+    # from a posture that itself solves the target (5 to 11 rad away).
+    ur5 = load_problem("ur5").robot
+    wide = ur5.with_limits(np.full(6, -limit), np.full(6, limit))
+    rng = np.random.default_rng(4)
+    for _ in range(6):
+        q_ref = rng.uniform(-3.0, 3.0, 6)
+        j = rng.integers(6)
+        q_ref[j] += 2.0 * math.pi if q_ref[j] < 0.0 else -2.0 * math.pi  # a turn beyond pi
+        res = optik.solve_ik(wide, wide.fk(q_ref), posture=q_ref, **kwargs)
+        assert res.success and np.max(np.abs(res.q - q_ref)) <= 1e-6, (kwargs, q_ref, res.q)
+
+
 @pytest.mark.parametrize(
     ("kwargs", "field"),
     [
