@@ -95,7 +95,8 @@ class IKBatchResult:
 
     Attributes:
         q: (N, dof) joint vectors (the best attempt where unsuccessful; NaN where the
-            target was proved unreachable and not solved).
+            target was proved unreachable and not solved, except with graded weights,
+            which take their compromise there too, from the row's ``q0``).
         success: (N,) verified success (FK errors within ``tol``, limits respected).
         status: (N,) strings from :data:`BATCH_STATUSES`.
         position_error: (N,) m (inf where not solved).
@@ -157,6 +158,23 @@ def _compromise(
         query = IKQuery(robot, poses[k], task.mode, task.position_tol, task, bounds)
         Q[k], it, _ = compromise(query, Q[k])
         iterations[k] += it
+
+
+def _row_starts(
+    robot: Robot,
+    given: FloatArray,
+    rows: np.ndarray,
+    bounds: tuple[FloatArray, FloatArray] | None,
+) -> FloatArray:
+    """The first start (M, dof) of each of ``rows`` (M,), as in :func:`optik.solve_ik`.
+
+    The row's ``q0`` (``given``, from :func:`_given_starts`), else the middle of the
+    limits clipped into ``bounds``.
+    """
+    if given.shape[1] > 0:
+        return given[rows if given.shape[0] > 1 else np.zeros_like(rows), 0]
+    start = robot.mid_limits if bounds is None else np.clip(robot.mid_limits, *bounds)
+    return np.tile(start, (len(rows), 1))
 
 
 def _bad(array: np.ndarray) -> FloatArray:
@@ -251,7 +269,10 @@ def solve_ik_batch(
         Q[part], iterations[part], used[part] = Qp, it, u
     verdict = verify(robot, Q, poses, task)
     if search is not task:
-        failed = rows[~verdict.success[rows]]
+        # Beyond the reach sphere too (no search ran): from the row's q0, as solve_ik.
+        far = np.flatnonzero(~reachable)
+        Q[far] = _row_starts(robot, given, far, bounds)
+        failed = np.flatnonzero(~verdict.success)
         _compromise(robot, (task, poses, bounds), Q, iterations, failed)
         verdict = verify(robot, Q, poses, task)
     status = np.where(verdict.success, "converged", np.where(reachable, "max_iter", "unreachable"))

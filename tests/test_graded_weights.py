@@ -246,6 +246,26 @@ def test_the_compromise_is_not_cut_by_the_searchs_iterations() -> None:
     assert _left_to_descend(panda, result.q, T, HEAVY_POSITION) <= 1e-9
 
 
+def test_the_batch_takes_the_compromise_beyond_the_reach_sphere_too() -> None:
+    # The batch left q NaN (position error inf) on a row beyond the reach sphere, where
+    # solve_ik returns the weighted compromise from q0.
+    panda = optik.load_problem("panda").robot
+    far = np.array(PANDA_FAR)
+    further = far.copy()
+    further[:3, 3] += 0.3
+    T = np.stack([far, further])
+    per_row = np.stack([panda.mid_limits + 0.2, panda.mid_limits - 0.1])
+    for q0 in (None, panda.mid_limits + 0.2, per_row):
+        batch = optik.solve_ik_batch(panda, T, weights=HEAVY_POSITION, q0=q0)
+        assert batch.status.tolist() == ["unreachable", "unreachable"]
+        for k in range(2):
+            row_q0 = per_row[k] if q0 is per_row else q0
+            single = optik.solve_ik(panda, T[k], weights=HEAVY_POSITION, q0=row_q0)
+            assert np.allclose(batch.q[k], single.q, rtol=0.0, atol=1e-9)
+            assert batch.position_error[k] == pytest.approx(single.position_error, abs=1e-9)
+            assert _left_to_descend(panda, batch.q[k], T[k], HEAVY_POSITION) <= 1e-6
+
+
 @pytest.mark.parametrize("name", ["ur5", "puma560"])
 def test_rows_weighted_1e_minus_12_still_reach_their_compromise(name: str) -> None:
     # The damping's bias (1e-3, a search's) swamped rows weighted 1e-12: the UR5's
