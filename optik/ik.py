@@ -357,7 +357,8 @@ def solve_ik(
         select: ``"first"`` (the first verified answer) or ``"nearest"`` (the verified
             answer nearest ``q0`` among all found within ``restarts`` / ``timeout_s``;
             with a closed form, the branch nearest ``q0``; in ``mode="axis"`` the nearest
-            over the roll's grid, refined, see :mod:`optik.analytic.roll`).
+            over the roll's grid, refined, see :mod:`optik.analytic.roll`). A numeric
+            ``"nearest"`` spends its whole budget: with ``timeout_s``, all of it.
         posture: ``q_ref`` (dof,): an answer nearest it in the ``joint_weights`` norm:
             the answer from a start at ``q_ref``, then up to one more of the ordinary
             starts (more only while none is found), each refined by
@@ -468,6 +469,10 @@ def solve_ik_all(
     limit_margin: float = 0.0,
 ) -> list[IKResult]:
     """Up to ``k`` distinct verified IK answers for one target, nearest ``q0`` first.
+
+    The order is among the answers found: where they form a continuum (a redundant arm,
+    a free roll) they sample it, and ``solve_ik(..., select="nearest")`` or ``posture``
+    may find one nearer still.
 
     With a closed form (``solver="auto"`` and a family that solves the task) these are the
     in-limit branches; in ``mode="axis"`` the answers over the free roll
