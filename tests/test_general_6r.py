@@ -252,3 +252,46 @@ def test_a_singular_pose_of_a_generic_arm_keeps_its_configuration() -> None:
     assert branches
     for b in branches:
         assert np.max(np.abs(robot.fk(b) - robot.fk(q))) < 1e-9
+
+
+def test_branches_at_singular_poses_are_distinct() -> None:
+    """At a singular pose two roots of the pencil merge: the answers keep one of them.
+
+    Random arms, each pose with one joint moved to where the Jacobian's smallest singular
+    value vanishes; every pair of answers differs by at least the closed forms' duplicate
+    tolerance, 1e-9 (without the de-duplication these arms give pairs closer than that).
+    """
+    rng = np.random.default_rng(1)
+
+    def smallest_singular_value(robot: optik.Robot, q: np.ndarray) -> float:
+        return float(np.linalg.svd(robot.jacobian(q), compute_uv=False)[-1])
+
+    arms = [
+        _arm([
+            [rng.uniform(-0.5, 0.5), rng.uniform(-0.5, 0.5), rng.uniform(-math.pi, math.pi),
+             rng.uniform(-1.0, 1.0)]
+            for _ in range(6)
+        ])
+        for _ in range(2)
+    ]  # fmt: skip
+    rng.uniform(-3.0, 3.0, (12, 6))  # the draws of the search that found these poses
+    checked = 0
+    for robot in arms:
+        assert family_of(robot) is FAMILIES["general_6r"]
+        for k in range(12):
+            q = rng.uniform(-3.0, 3.0, 6)
+            j = k % 6
+
+            def smallest(
+                x: np.ndarray, robot: optik.Robot = robot, q: np.ndarray = q, j: int = j
+            ) -> list[float]:
+                return [smallest_singular_value(robot, np.r_[q[:j], x, q[j + 1 :]])]
+
+            q[j] = least_squares(smallest, [q[j]], xtol=1e-15, ftol=1e-15, gtol=1e-15).x[0]
+            branches = np.array(analytic_ik(robot, robot.fk(q), within_limits=False))
+            assert len(branches) >= 1
+            for a in range(len(branches)):
+                for b in range(a):
+                    assert np.max(np.abs(branches[a] - branches[b])) >= 1e-9  # documented
+            checked += len(branches)
+    assert checked >= 90

@@ -301,6 +301,15 @@ def test_q0_within_clip_tolerance_is_clipped(robot: optik.Robot) -> None:
     assert optik.solve_ik(robot, robot.fk(robot.mid_limits), q0=q_low).status in STATUSES
 
 
+def test_the_clip_tolerance_is_the_documented_micro_unit() -> None:
+    # The tests above scale the tolerance itself; these pin its documented 1e-6 (rad).
+    target = PUMA.fk(PUMA.mid_limits)
+    accepted = optik.solve_ik(PUMA, target, q0=_at_limit(PUMA, 1, 5e-7))
+    assert accepted.success
+    with pytest.raises(JointLimitError, match=PUMA.joints[1].name):
+        optik.solve_ik(PUMA, target, q0=_at_limit(PUMA, 1, 5e-4))
+
+
 @pytest.mark.parametrize("robot", [PUMA, PANDA], ids=["puma", "panda"])
 def test_q0_beyond_clip_tolerance_is_rejected(robot: optik.Robot) -> None:
     q0 = _at_limit(robot, 1, 2.0 * Q_CLIP_TOLERANCE)

@@ -290,3 +290,17 @@ def test_bad_options_raise_optik_errors(bad: dict[str, object]) -> None:
 def test_not_a_robot() -> None:
     with pytest.raises(OptikError, match=r"optik\.Robot"):
         optik.solve_ik("panda", np.eye(4))  # type: ignore[arg-type]
+
+
+def test_the_batch_verification_refuses_a_configuration_outside_the_limits() -> None:
+    # solve_ik_batch hands verify only answers inside the limits: its limit term is
+    # checked here directly, on a row that reaches its own pose 1e-3 rad past a limit.
+    puma = load_problem("puma560").robot
+    inside = puma.mid_limits
+    outside = puma.mid_limits.copy()
+    outside[1] = puma.upper[1] + 1e-3
+    Q = np.stack([inside, outside])
+    verdict = optik.verify.verify(puma, Q, puma.fk(Q), "pose")
+    assert verdict.success.tolist() == [True, False]
+    assert verdict.position_error.max() <= 1e-12 and verdict.orientation_error.max() <= 1e-12
+    assert verdict.limit_violation == pytest.approx([0.0, 1e-3], abs=1e-12)

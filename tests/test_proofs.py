@@ -186,3 +186,18 @@ def test_closed_form_recovers_a_branch_next_to_a_fold() -> None:
         assert np.linalg.norm(robot.fk(b)[:3, 3] - p) <= 1e-9 * robot.reach_sphere[1]
     batch = optik.analytic_ik_batch(robot, p[None], "position")
     assert batch.counts[0] == len(branches)
+
+
+def test_the_cross_check_answers_where_the_closed_form_misses(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # A closed form that finds no branch (as one can at a degenerate pose) for a target
+    # that is reachable: the dls cross-check's answer, never a proof.
+    puma = load_problem("puma560").robot
+    q = puma.mid_limits + 0.2
+    T = puma.fk(q)
+    monkeypatch.setattr("optik.ik.analytic_ik", lambda *args, **kwargs: [])
+    res = optik.solve_ik(puma, T)
+    assert (res.success, res.status, res.solver) == (True, "converged", "dls")
+    position, angle = pose_error(puma.fk(res.q), T)
+    assert position <= 1e-6 and angle <= 1e-6 and puma.within_limits(res.q)
