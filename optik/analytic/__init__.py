@@ -246,6 +246,8 @@ def analytic_ik(
             return [out[i] for i in range(n)]  # cheaper than list(out[:n]): no slice view
         if n < 0:
             raise_input_error(robot, target, q_ref, n)
+        if _beyond_reach(robot, target, within_limits):
+            return []  # a proof: no branch to recover at a degenerate pose
         if (
             within_limits
             and proven_outside(
@@ -261,7 +263,7 @@ def analytic_ik(
     T_target = as_target_pose(target, mode)
     sort = q_ref is not None
     ref = robot.mid_limits if q_ref is None else check_ref(robot, q_ref)
-    if _beyond_reach(robot, T_target):
+    if _beyond_reach(robot, T_target, within_limits):
         return []  # a proof, before the family's arithmetic could overflow (1e155 m)
     if mode == "position" and not places_tool_point(family, robot):
         raise AnalyticIKError(
@@ -325,7 +327,7 @@ def _degenerate(
     :data:`FREE_REFERENCES` references spread over the limits. Isolated branches outside
     the limits stay a proof.
     """
-    if _beyond_reach(robot, T_target):
+    if _beyond_reach(robot, T_target, within_limits):
         return []
     if raw is None:
         inverse_base, inverse_tool = robot.cached(_frame_inverses)
@@ -582,7 +584,7 @@ def _python_family_batch(
     N = T.shape[0]
     R = np.broadcast_to(robot.mid_limits if refs is None else refs, (N, robot.dof))
     inverse_base, inverse_tool = robot.cached(_frame_inverses)
-    beyond = beyond_reach_rows(robot, T).tolist()
+    beyond = beyond_reach_rows(robot, T, within_limits).tolist()
     raws = [
         [] if beyond[k] else family.candidates(robot, inverse_base @ T[k] @ inverse_tool, mode, ref)
         for k, ref in enumerate(R)

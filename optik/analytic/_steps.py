@@ -21,6 +21,7 @@ from optik.analytic._base import (
 )
 from optik.model import Robot
 from optik.spatial import rotation_angle
+from optik.verify import beyond_reach
 
 
 def wrap_into_limits(Q: FloatArray, robot: Robot, q_ref: FloatArray) -> FloatArray:
@@ -59,20 +60,24 @@ def _wrap_bounds(robot: Robot) -> tuple[NDArray[np.bool_], FloatArray, FloatArra
     return revolute, lower, upper
 
 
-def _beyond_reach(robot: Robot, T_target: FloatArray) -> bool:
-    """Whether one coordinate alone puts the target (4, 4) outside the reach sphere.
+def _beyond_reach(robot: Robot, T_target: FloatArray, within_limits: bool = True) -> bool:
+    """Whether the target (4, 4) lies beyond the reach sphere: a proof of no branch.
 
-    Sound (the distance is at least the largest coordinate difference) and free of
-    squares, so a target 1e155 m away is ruled out without an overflow.
+    The sphere's one test (:func:`optik.verify.beyond_reach`), free of overflow: a
+    target 1e155 m away is ruled out. The sphere counts prismatic strokes up to their
+    limits: for branches outside the limits (``within_limits=False``) it proves nothing
+    on an arm with a prismatic joint.
     """
-    return bool(beyond_reach_rows(robot, T_target[None])[0])
+    return bool(beyond_reach_rows(robot, T_target[None], within_limits)[0])
 
 
-def beyond_reach_rows(robot: Robot, T_targets: FloatArray) -> NDArray[np.bool_]:
+def beyond_reach_rows(
+    robot: Robot, T_targets: FloatArray, within_limits: bool = True
+) -> NDArray[np.bool_]:
     """:func:`_beyond_reach` of each target of ``T_targets`` (N, 4, 4): (N,) bool."""
-    centre, radius = robot.reach_sphere
-    reach = radius * (1 + 1e-9) + 1e-12
-    return np.asarray(np.max(np.abs(T_targets[:, :3, 3] - centre), axis=1) > reach)
+    if not within_limits and any(joint.kind == "prismatic" for joint in robot.joints):
+        return np.zeros(len(T_targets), dtype=bool)
+    return np.asarray(beyond_reach(robot, T_targets[:, :3, 3]), dtype=bool)
 
 
 def _finish(

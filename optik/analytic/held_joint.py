@@ -188,7 +188,7 @@ def free_joint_fallback(
     values: verified candidates are not polished again, and candidates that do not depend
     on the reference are not recomputed (about 1 ms per target before, 20-30 us now).
     """
-    if _beyond_reach(robot, T_target):
+    if _beyond_reach(robot, T_target, within):
         return []
     k = plan.held
     ref = np.array(ref, dtype=float)
