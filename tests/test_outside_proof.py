@@ -267,7 +267,7 @@ def test_a_pose_without_any_candidate_is_answered_without_the_polish(name, monke
     while len(targets) < 12:
         T = robot.fk(rng.uniform(robot.lower, robot.upper))
         T[:3, 3] = centre + 1.25 * (T[:3, 3] - centre)
-        if np.max(np.abs(T[:3, 3] - centre)) < 0.9 * radius and not analytic.analytic_ik(
+        if np.linalg.norm(T[:3, 3] - centre) < 0.9 * radius and not analytic.analytic_ik(
             robot, T, within_limits=False
         ):
             targets.append(T)
