@@ -1,7 +1,8 @@
 """The IK API: :func:`solve_ik`, :func:`solve_ik_all` and :class:`IKResult`.
 
-:func:`solve_ik_batch` and :class:`IKBatchResult` live in :mod:`optik.ik_batch` and are
-importable from here too.
+:func:`solve_ik_batch` and :class:`IKBatchResult` live in :mod:`optik.ik_batch`, and
+:class:`IKResult` and its statuses in :mod:`optik.ik_result`; both are importable from
+here too.
 
 Warm-start policy: when the robot has a closed-form family that solves the mode, its
 branches inside the limits (nearest ``q0`` first) are the starting points; with
@@ -72,6 +73,7 @@ from optik.ik_batch import (
     IKBatchResult,
     solve_ik_batch,
 )
+from optik.ik_result import STATUSES, IKResult, from_run, verified_result, without_run
 from optik.limits import LIMIT_TOLERANCE
 from optik.model import Robot
 from optik.poses import PositionOnlyTargetError, as_target_pose
@@ -90,94 +92,14 @@ AUTO_NUMERIC_SOLVER = "dls"
 """What ``solver="auto"`` uses without a closed form: the fastest solver that meets the
 tolerance in ``benchmarks/bench_ik.py`` (compiled damped least squares)."""
 
-STATUSES = ("converged", "unreachable", "outside_limits", "max_iter", "timeout", "solver_failed")
-
-
-@dataclass
-class IKResult:
-    """The outcome of one IK query, verified by optik.
-
-    Attributes:
-        q: joint vector (dof,), rad / m (the best attempt when unsuccessful).
-        success: both errors within the task's tolerances and every joint inside its
-            limits.
-        status: one of :data:`STATUSES`.
-        position_error: the task's position error from forward kinematics (m): ``||p(q) -
-            p*||``, over the constrained target axes when weights free some
-            (:mod:`optik.task`).
-        orientation_error: the task's orientation error (rad): the angle of ``R*^T R(q)``,
-            the angle between the tool axis and the target's in ``axis`` mode, 0 without
-            orientation.
-        limit_violation: largest excursion beyond a limit (rad or m); 0 inside.
-        iterations: solver iterations over all attempts.
-        restarts: attempts after the first.
-        time_s: wall time of the call (``time.perf_counter``).
-        solver: the method that produced ``q`` (``"analytic"`` for a closed-form branch).
-        message: backend text or the reason for the status.
-        backend_converged: the backend's own convergence claim for ``q`` (``None`` for the
-            closed form).
-    """
-
-    q: FloatArray
-    success: bool
-    status: str
-    position_error: float
-    orientation_error: float
-    limit_violation: float
-    iterations: int = 0
-    restarts: int = 0
-    time_s: float = 0.0
-    solver: str = ""
-    message: str = ""
-    backend_converged: bool | None = None
-
-
-def _result(
-    query: IKQuery, start_time: float, solver: str, outcome: RunOutput, claim: bool | None
-) -> IKResult:
-    """The result for ``outcome.q``, verified here from FK and the limits.
-
-    ``outcome`` gives what a failed verification reports (its ``status_if_failed`` and
-    ``message``) and the counts; ``claim`` is the backend's own claim (``None`` for a
-    closed form or a proof).
-    """
-    q = outcome.q
-    position, orientation, violation, success = verify_one(query.robot, q, query.target, query.spec)
-    return IKResult(
-        q=q,
-        success=success,
-        status="converged" if success else outcome.status_if_failed,
-        position_error=position,
-        orientation_error=orientation,
-        limit_violation=violation,
-        iterations=outcome.iterations,
-        restarts=outcome.restarts,
-        time_s=now() - start_time,
-        solver=solver,
-        message=outcome.message if not success else "",
-        backend_converged=claim,
-    )
-
-
-def _without_run(
-    q: FloatArray, status: str, message: str = "", iterations: int = 0, restarts: int = 0
-) -> RunOutput:
-    """The outcome of a closed form or a proof, in a run's terms (no backend claim)."""
-    return RunOutput(q, iterations, restarts, False, message, status)
-
-
-def _from_run(query: IKQuery, start_time: float, solver: str, run: RunOutput) -> IKResult:
-    """The result of a numeric run: its answer, or its best attempt and why it failed."""
-    return _result(query, start_time, solver, run, run.converged)
-
 
 def _answer(
     plan: _Plan, q: FloatArray, solver: str, iterations: int = 0, restarts: int = 0
 ) -> IKResult:
     """A found answer (a closed-form branch, or a run's verified ``q``), verified again."""
-    outcome = _without_run(q, "max_iter", "", iterations, restarts)
+    outcome = without_run(q, "max_iter", "", iterations, restarts)
     claim = None if solver == "analytic" else True
-    return _result(plan.query, plan.start_time, solver, outcome, claim)
+    return verified_result(plan.query, plan.start_time, solver, outcome, claim)
 
 
 CROSS_CHECK_RESTARTS = 20
@@ -241,7 +163,7 @@ def _closed_form_proof(
     sequence = start_sequence(robot, query.target, query.spec, given, seed)
     run = numeric.run(query, sequence, numeric.default_max_iter, CROSS_CHECK_RESTARTS, math.inf)
     if verify_one(robot, run.q, query.target, query.spec)[3]:
-        return _from_run(query, start_time, numeric.name, run)
+        return from_run(query, start_time, numeric.name, run)
     status = "outside_limits" if outside else "unreachable"
     form = "closed form" if held is None else f"closed form with {held[0]!r} at {held[1]:g}"
     reason = (
@@ -252,8 +174,8 @@ def _closed_form_proof(
     reason += f" (a {numeric.name} cross-check found no answer either)"
     # Graded weights ask for a compromise where the target cannot be met: the run's.
     q = run.q if query.spec.is_graded else (outside[0] if outside else q_start)
-    outcome = _without_run(q, status, reason, run.iterations, run.restarts)
-    return _result(query, start_time, "analytic", outcome, None)
+    outcome = without_run(q, status, reason, run.iterations, run.restarts)
+    return verified_result(query, start_time, "analytic", outcome, None)
 
 
 def _reach_proof(query: IKQuery, q_start: FloatArray, start_time: float) -> IKResult | None:
@@ -287,8 +209,8 @@ def _reach_proof(query: IKQuery, q_start: FloatArray, start_time: float) -> IKRe
     q_end, used = q_start, 0
     if task.is_graded:
         q_end, used, _ = compromise(query, q_start)
-    return _result(
-        query, start_time, "reach", _without_run(q_end, "unreachable", reason, used), None
+    return verified_result(
+        query, start_time, "reach", without_run(q_end, "unreachable", reason, used), None
     )
 
 
@@ -392,10 +314,10 @@ def solve_ik(
     numeric = plan.numeric or get_solver(AUTO_NUMERIC_SOLVER)
     if select == "first":
         run = numeric.run(plan.query, plan.starts, plan.max_iter, plan.last, plan.deadline)
-        return _from_run(plan.query, plan.start_time, numeric.name, run)
+        return from_run(plan.query, plan.start_time, numeric.name, run)
     found, last_run, searched = _collect(plan, numeric, want=None, min_separation=0.0)
     if not found:
-        return _from_run(plan.query, plan.start_time, numeric.name, last_run)
+        return from_run(plan.query, plan.start_time, numeric.name, last_run)
     nearest = min(found, key=lambda f: float(np.linalg.norm(f[0] - plan.q_start)))
     # The whole search's iterations and attempts, not those of the run that ended it.
     return _answer(plan, nearest[0], numeric.name, *searched)
@@ -412,7 +334,7 @@ def _polished_branches(plan: _Plan, answer: IKResult) -> IKResult:
     numeric = get_solver(AUTO_NUMERIC_SOLVER)
     last = len(plan.branches) - 1
     run = numeric.run(plan.query, plan.starts, plan.max_iter, last, plan.deadline)
-    polished = _from_run(plan.query, plan.start_time, numeric.name, run)
+    polished = from_run(plan.query, plan.start_time, numeric.name, run)
     return polished if polished.success else answer
 
 
@@ -432,7 +354,7 @@ def _posture_answer(plan: _Plan, q_ref: FloatArray, weights: FloatArray) -> IKRe
     if not found:
         if last_run is None:  # pragma: no cover - a closed form always has branches here
             raise OptikError("posture: no answer and no run to report")
-        return _from_run(plan.query, plan.start_time, solver_name, last_run)
+        return from_run(plan.query, plan.start_time, solver_name, last_run)
 
     def cost(q: FloatArray) -> float:
         d = q - q_ref

@@ -28,7 +28,7 @@ __all__ = ["PEER_PREFIX", "PeerStatus", "peer_settings", "peer_solver", "prepare
 #: Solver column of a peer's rows: ``peer:<name>``.
 PEER_PREFIX: Final[str] = "peer:"
 
-#: Statuses of a peer row (``ik`` rows of optik's solvers use :data:`optik.ik.STATUSES`).
+#: Statuses of a peer row (``ik`` rows of optik's solvers use :data:`optik.ik_result.STATUSES`).
 PEER_STATUSES: Final[tuple[str, ...]] = ("converged", "rejected", "no_answer", "error")
 
 

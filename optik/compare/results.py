@@ -56,7 +56,7 @@ class ResultRow:
         settings: canonical JSON of the settings that define the row (sorted keys).
         success: optik's verdict: ``ik``/``seed*``: pose errors within ``tol`` and the
             limits respected; ``closed_form``: deviation within :data:`AGREEMENT_TOL`.
-        status: ``ik``: :data:`optik.ik.STATUSES` or ``"error"``; ``closed_form``:
+        status: ``ik``: :data:`optik.ik_result.STATUSES` or ``"error"``; ``closed_form``:
             ``"agrees"``, ``"deviates"``, ``"solver_failed"`` or ``"error"``.
         position_error: ``||p(q) - p*||``, m (empty for ``closed_form``).
         orientation_error: rotation angle of ``R*^T R(q)``, rad; 0 in position mode.
