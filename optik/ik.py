@@ -286,7 +286,8 @@ def solve_ik(
             starts (more only while none is found), each refined by
             :func:`optik.posture.refine_posture` (a local optimum of
             ``min ||q - q_ref||_W s.t. the task``, compiled), the nearest kept; with a
-            closed form, every branch is refined.
+            closed form, every branch is refined (in ``mode="axis"``, the roll's refined
+            answers nearest ``q_ref``, see :mod:`optik.analytic.roll`).
         joint_weights: (dof,) in [1e-100, 1e100], the norm of ``posture`` (default ones).
 
     Returns:
@@ -299,15 +300,14 @@ def solve_ik(
     plan = _plan(
         robot, target, solver=solver, q0=q0, warm_start=warm_start, max_iter=max_iter,
         timeout_s=timeout_s, restarts=restarts, seed=seed, frozen=frozen,
-        limit_margin=limit_margin, mode=mode, axis=axis, weights=weights, tol=tol,
+        limit_margin=limit_margin, posture=posture, joint_weights=joint_weights, mode=mode,
+        axis=axis, weights=weights, tol=tol,
     )  # fmt: skip
     check_choice("select", select, ("first", "nearest"))
-    # Checked before any answer, an early one included.
-    q_ref, norm = check_posture(posture, joint_weights, robot.dof)
     if plan.early is not None:
         return plan.early
-    if q_ref is not None and norm is not None:
-        return _posture_answer(plan, q_ref, norm)
+    if plan.posture is not None and plan.joint_weights is not None:
+        return _posture_answer(plan, plan.posture, plan.joint_weights)
     if plan.branches and plan.numeric is None:
         answer = _answer(plan, plan.branches[0], "analytic")
         return answer if answer.success else _polished_branches(plan, answer)
@@ -468,6 +468,10 @@ class _Plan:
     early: IKResult | None
     samples: list[FloatArray]
     """More closed-form answers after ``branches`` (the roll's grid in ``axis`` mode)."""
+    posture: FloatArray | None = None
+    """The checked ``posture`` (dof,), rad / m, or ``None``."""
+    joint_weights: FloatArray | None = None
+    """Its norm's weights (dof,), with a ``posture``."""
 
     @property
     def starts(self) -> StartSequence:
@@ -495,6 +499,8 @@ def _plan(
     seed: Any = 0,
     frozen: Any = None,
     limit_margin: Any = 0.0,
+    posture: Any = None,
+    joint_weights: Any = None,
     slow_families: bool = False,
     **task_keywords: Unpack[TaskKeywords],
 ) -> _Plan:
@@ -502,7 +508,8 @@ def _plan(
 
     The keywords' defaults are those :func:`solve_ik` documents (the task's are
     :func:`optik.task.make_task`'s). ``slow_families``: use a family that is not
-    ``fast`` too (``general_6r``), as :func:`solve_ik_all` does.
+    ``fast`` too (``general_6r``), as :func:`solve_ik_all` does. With a ``posture``, the
+    free roll's closed form (``mode="axis"``) is refined nearest it rather than ``q0``.
     """
     start_time = now()
     if not isinstance(robot, Robot):
@@ -519,6 +526,7 @@ def _plan(
         T_target = np.array(T_target, dtype=np.float64, order="C")
     q_start = check_q0(robot, q0)
     bounds = query_bounds(robot, frozen, limit_margin)
+    q_ref, norm = check_posture(posture, joint_weights, robot.dof)
     numeric: IKSolver | None = None if solver == "auto" else get_solver(solver)
     plain = task.is_pose_or_position and bounds is None
     if numeric is not None and numeric.plain_tasks_only and not plain:
@@ -552,7 +560,7 @@ def _plan(
         per_attempt = iterations or solver_for_run.default_max_iter
         return _Plan(
             query, q_start, numeric, branches, starts_given, int(seed), per_attempt, last,
-            deadline, start_time, early, samples or [],
+            deadline, start_time, early, samples or [], q_ref, norm,
         )  # fmt: skip
 
     def closed_form(mode: str, provable: bool, held: tuple[str, float] | None = None) -> _Plan:
@@ -588,7 +596,9 @@ def _plan(
     if family is not None and solves_axis_task(family, task):
         box = bounds if bounds is not None else (robot.lower, robot.upper)
         if numeric is None:  # the answers themselves: the roll refined nearest q0
-            roll = axis_branches(robot, T_target, task.axis, q_start[None], *box)[0]
+            # (or the posture: its answer is refined from these).
+            reference = q_start if q_ref is None else q_ref
+            roll = axis_branches(robot, T_target, task.axis, reference[None], *box)[0]
         else:  # starts for the named solver, which refines them itself
             roll = grid_branches(robot, T_target, task.axis, q_start, *box)
         if roll.nearest:

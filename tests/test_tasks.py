@@ -397,6 +397,21 @@ def test_posture_is_reached_a_turn_away_on_joints_of_more_than_a_turn(
         assert res.success and np.max(np.abs(res.q - q_ref)) <= 1e-6, (kwargs, q_ref, res.q)
 
 
+def test_posture_in_axis_mode_is_reached_where_it_solves_the_task() -> None:
+    # The roll's closed form was refined nearest q0, not the posture: next to a straight
+    # elbow the posture's own elbow branch was not among the refined answers, and the
+    # refinement (local) stopped on the other elbow's, 0.05 to 0.12 rad away.
+    ur5 = load_problem("ur5").robot
+    rng = np.random.default_rng(0)
+    lo, hi = np.maximum(ur5.lower, -3.0), np.minimum(ur5.upper, 3.0)
+    for _ in range(12):
+        q_ref = rng.uniform(lo, hi)
+        q_ref[2] = rng.choice([-1.0, 1.0]) * rng.uniform(0.02, 0.06)  # elbow near straight
+        res = optik.solve_ik(ur5, ur5.fk(q_ref), posture=q_ref, mode="axis")
+        assert res.success and res.solver == "analytic"
+        assert np.max(np.abs(res.q - q_ref)) <= 1e-6, (q_ref, res.q)
+
+
 @pytest.mark.parametrize(
     ("kwargs", "field"),
     [
