@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 import pytest
 from conftest import HostileCases, robot_of
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 import optik
@@ -38,6 +38,8 @@ PUMA = robot_of("puma560")  # closed form (compiled spherical wrist)
 PANDA = robot_of("panda")  # numeric (7 dof)
 PLANAR = robot_of("planar_2r")  # closed form in Python (position mode)
 ROBOTS = {"puma": PUMA, "panda": PANDA}
+FK_TARGETS = {name: robot.fk(robot.mid_limits) for name, robot in ROBOTS.items()}
+"""A reachable target of each robot (the pose of its mid-limits)."""
 
 SCALARS = st.sampled_from(
     [NAN, INF, -INF, 1e300, -1e300, 1e155, 1e10, -0.0, 0.0, 0.5, 1.0, -1, 3, 1j, 1 + 0j,
@@ -359,12 +361,17 @@ OPTION_VALUES = st.one_of(
     option=st.one_of(st.none(), IK_OPTIONS),
     value=OPTION_VALUES,
 )
+# Answerable queries among the hostile ones: the checks of a success run too (drawn
+# rarely: a reachable target with a valid q0 and option).
+@example(robot_name="puma", target="fk", q0=None, option=None, value=0.5)
+@example(robot_name="panda", target="fk", q0=None, option=None, value=0.5)
+@example(robot_name="panda", target="fk", q0=np.full(7, 0.1), option="solver", value="dls")
 def test_hostile_solve_ik(
     warm: None, robot_name: str, target: Any, q0: Any, option: str | None, value: Any
 ) -> None:
     robot = ROBOTS[robot_name]
     if isinstance(target, str):
-        target = robot.fk(robot.mid_limits)
+        target = FK_TARGETS[robot_name]
     # A finite budget keeps a hard but legal query short; the options under test override.
     kwargs: dict[str, Any] = {"restarts": 3, "q0": q0}
     if option is not None:
@@ -374,6 +381,8 @@ def test_hostile_solve_ik(
     result = HOSTILE.attempt("solve_ik", lambda: optik.solve_ik(robot, target, **kwargs))
     if result is not None:
         _check_ik(result, robot)
+        if target is FK_TARGETS[robot_name] and q0 is None and option is None:
+            assert result.success, result  # a reachable target and the defaults
 
 
 @FUZZ
