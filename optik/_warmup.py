@@ -215,12 +215,14 @@ def _numeric() -> None:
 
 
 def _batch() -> None:
-    """``solve_ik_batch`` (compiled kernel on worker threads)."""
+    """``solve_ik_batch`` (compiled kernel on worker threads; a closed form's batch)."""
     import optik
 
     robot = _problem_robot("panda")
     targets = _targets(robot, 16, 2)
     optik.solve_ik_batch(robot, targets)
+    puma = _problem_robot("puma560")
+    optik.solve_ik_batch(puma, _targets(puma, 8, 2))
     graded = [1.0, 1.0, 1.0, 0.5, 0.5, 0.5]
     optik.solve_ik_batch(robot, targets[:1], weights=graded, q0=robot.lower, restarts=0, max_iter=1)
 

@@ -54,13 +54,7 @@ from optik._ik_options import (
     check_q0,
     query_bounds,
 )
-from optik.analytic import (
-    AnalyticFamily,
-    analytic_ik,
-    family_of,
-    free_joint_reason,
-    places_tool_point,
-)
+from optik.analytic import analytic_ik, family_of, family_solves, free_joint_reason
 from optik.analytic.roll import axis_branches, grid_branches, solves_axis_task
 from optik.errors import OptikError
 
@@ -74,7 +68,8 @@ from optik.ik_batch import (
     solve_ik_batch,
 )
 from optik.ik_result import STATUSES, IKResult, from_run, verified_result, without_run
-from optik.limits import LIMIT_TOLERANCE
+from optik.limits import FROZEN_MATCH_TOLERANCE as FROZEN_MATCH_TOLERANCE  # its old home
+from optik.limits import into_box
 from optik.model import Robot
 from optik.poses import PositionOnlyTargetError, as_target_pose
 from optik.posture import check_posture, nearest_turns, posture_answers, refine_posture
@@ -108,25 +103,9 @@ reported as a proof: at singular poses (a wrist or elbow aligned, a joint free) 
 form can miss the one-parameter family of solutions that passes through them."""
 
 
-def _family_solves(robot: Robot, family: AnalyticFamily, mode: str) -> bool:
-    """Whether the closed form applies to ``mode`` on ``robot``.
-
-    The mode must be one the family solves, and for position-only IK the family must
-    reach the tool point (:func:`optik.analytic.places_tool_point`).
-    """
-    if mode not in family.modes:
-        return False
-    return mode != "position" or places_tool_point(family, robot)
-
-
 ROLL_STARTS = 8
 """Grid branches outside the limits (clipped into them) that start the numeric search
 when the roll's closed form finds no answer inside them."""
-
-FROZEN_MATCH_TOLERANCE = 1e-9
-"""How far (rad or m) a closed-form branch's frozen joint may lie from the frozen value
-and still be taken as holding it (then set to it exactly): the rounding of a joint
-recovered from a pose, which grows near a singularity."""
 
 
 def _closed_form_proof(
@@ -610,7 +589,7 @@ def _plan(
     elif (
         family is not None
         and (task.is_pose_or_position or task.search.is_pose_or_position)
-        and _family_solves(robot, family, task.mode)
+        and family_solves(family, robot, task.mode)
     ):
         # Frozen joints or a margin narrow the box (the branch set proves nothing about
         # it), and a numerical family (general_6r) proves nothing at all. Graded positive
@@ -668,16 +647,13 @@ def _into_box(
     """The closed-form branches inside the box ``bounds``, snapped onto it, in order.
 
     A branch recovers a frozen joint's value only to rounding: it counts as holding it
-    within :data:`FROZEN_MATCH_TOLERANCE` and is then given the value exactly; other
-    joints keep :data:`~optik.limits.LIMIT_TOLERANCE`.
+    within :data:`~optik.limits.FROZEN_MATCH_TOLERANCE` and is then given the value
+    exactly (:func:`optik.limits.into_box`).
     """
     if not branches:
         return []
-    lower, upper = bounds
-    slack = np.where(lower == upper, FROZEN_MATCH_TOLERANCE, LIMIT_TOLERANCE)
-    rows = np.array(branches)
-    inside = ((rows >= lower - slack) & (rows <= upper + slack)).all(axis=1)
-    return list(np.clip(rows[inside], lower, upper))
+    inside, clipped = into_box(np.array(branches), *bounds)
+    return list(clipped[inside])
 
 
 def _distinct(

@@ -1,9 +1,12 @@
 """Many IK targets at once: :func:`solve_ik_batch` and :class:`IKBatchResult`.
 
-Every target runs the compiled damped least squares (:mod:`optik.solvers._lm_kernel`) in
-worker threads (:mod:`optik.solvers._batch_threads`), with its own random stream, and the
-batch is verified in one compiled call (:func:`optik.verify.verify`). Importable from
-:mod:`optik.ik` and :mod:`optik` too.
+Where the robot has a closed form with a compiled pipeline, each target's branch nearest
+its ``q0`` is its answer, as in :func:`optik.solve_ik`; the other targets run the compiled
+damped least squares (:mod:`optik.solvers._lm_kernel`) in worker threads
+(:mod:`optik.solvers._batch_threads`), each with its own random stream, and a closed form
+run in Python answers the targets that search missed. The batch is verified in one
+compiled call (:func:`optik.verify.verify`). Importable from :mod:`optik.ik` and
+:mod:`optik` too.
 """
 
 from __future__ import annotations
@@ -24,8 +27,10 @@ from optik._ik_options import (
     check_q0,
     query_bounds,
 )
+from optik.analytic import AnalyticFamily, checked_batch, compiled_batch, family_of, family_solves
 from optik.diffik import clip_into_limits
 from optik.errors import ArgumentError, OptikError, ShapeError
+from optik.limits import into_box
 from optik.model import Robot
 from optik.solvers._base import IKQuery, compromise, now, search_length
 from optik.solvers._batch_threads import solve_batch
@@ -177,6 +182,48 @@ def _row_starts(
     return np.tile(start, (len(rows), 1))
 
 
+def _batch_family(robot: Robot, task: Task) -> AnalyticFamily | None:
+    """The robot's closed-form family where it answers ``task``, as :func:`optik.solve_ik`.
+
+    A fast family that solves the task's mode, a pose or a point (graded positive weights
+    too: the same exact answers); else ``None``.
+    """
+    family = family_of(robot)
+    if family is None or not family.fast:
+        return None
+    if not (task.is_pose_or_position or task.search.is_pose_or_position):
+        return None
+    return family if family_solves(family, robot, task.mode) else None
+
+
+def _branches(
+    robot: Robot,
+    family: AnalyticFamily,
+    mode: str,
+    poses: FloatArray,
+    refs: FloatArray,
+    bounds: tuple[FloatArray, FloatArray] | None,
+) -> FloatArray:
+    """Each pose's closed-form branch nearest its reference inside the query's box (M, dof).
+
+    ``poses`` (M, 4, 4), ``refs`` (M, dof). One batched call
+    (:func:`optik.analytic.checked_batch`, without the polish of a pose that has no
+    branch: the search answers there); a frozen joint is held to rounding
+    (:func:`optik.limits.into_box`). NaN rows where there is none.
+    """
+    M = len(poses)
+    none = np.full((M, robot.dof), math.nan)
+    if M == 0:
+        return none
+    refs = np.ascontiguousarray(refs, dtype=np.float64)
+    branches = checked_batch(robot, family, poses, mode, refs, True, polish=False).q
+    lower, upper = bounds if bounds is not None else (robot.lower, robot.upper)
+    inside, clipped = into_box(branches, lower, upper)  # (M, B), (M, B, dof)
+    first = np.argmax(inside, axis=1)
+    found = inside[np.arange(M), first]
+    return np.where(found[:, None], clipped[np.arange(M), first], none)
+
+
 def _bad(array: np.ndarray) -> FloatArray:
     raise ShapeError("targets", "(N, 4, 4) (or (N, 3) in position mode)", array.shape)
 
@@ -197,12 +244,20 @@ def solve_ik_batch(
     frozen: Mapping[str, float] | None = None,
     limit_margin: float = 0.0,
 ) -> IKBatchResult:
-    """Solve many targets with the compiled damped least squares, in parallel threads.
+    """Solve many targets: the closed form where there is one, else the compiled search.
 
-    Every target starts from ``q0`` when given, then from the seed table's entries nearest
-    it and seeded uniform draws (:mod:`optik.solvers._starts`; target ``k`` uses the stream
-    ``seed + k``, so results do not depend on the thread count or the slicing). Targets
-    outside the robot's reach sphere are not solved: their status is ``"unreachable"``.
+    With a closed form that answers the task (a pose or a point, graded weights too, as
+    in :func:`solve_ik`) and runs compiled (:func:`optik.analytic.compiled_batch`), each
+    target's branch nearest its ``q0`` (the middle of the limits without one) inside the
+    box is its answer, ``iterations`` 0: the row :func:`solve_ik` gives. The other targets
+    run the compiled damped least squares in parallel threads, from ``q0`` when given,
+    then the seed table's entries nearest it and seeded uniform draws
+    (:mod:`optik.solvers._starts`; target ``k`` uses the stream ``seed + k``, so results
+    do not depend on the thread count or the slicing); a branch that misses a ``tol``
+    tighter than the closed form's own starts its target's search. A closed form run in
+    Python (the small textbook families, position mode) answers the targets that search
+    missed. Targets outside the robot's reach sphere are not solved: their status is
+    ``"unreachable"``. No other status is a proof: ``"max_iter"`` means not found.
 
     Args:
         robot: the robot.
@@ -257,16 +312,48 @@ def solve_ik_batch(
     # Searched with the task's search twin (optik.task), the same success: graded weights
     # at 1, the units balanced for the arm's size.
     search = balanced_search(task, search_length(robot))
-    for lo in range(0, len(rows), BATCH_SLICE):
-        part = rows[lo : lo + BATCH_SLICE]
-        workers = threads if len(part) >= PARALLEL_BATCH else 1
-        # Target k keeps the stream seed + k whatever slice or thread it falls in.
-        targets_part = np.ascontiguousarray(poses[part])
-        seeds = part.astype(np.int64) + int(seed)
-        own = given[part] if given.shape[0] == N else given  # per-target or shared
-        job = (targets_part, search.packed, own, table.kernel_args(), settings, seeds)
-        Qp, it, u, _ = solve_batch(chain, job, workers)
-        Q[part], iterations[part], used[part] = Qp, it, u
+
+    def run(targets_rows: np.ndarray, starts: FloatArray) -> None:
+        """The search of ``targets_rows``; ``starts`` (1 or rows, G, dof) their given starts."""
+        for lo in range(0, len(targets_rows), BATCH_SLICE):
+            part = targets_rows[lo : lo + BATCH_SLICE]
+            workers = threads if len(part) >= PARALLEL_BATCH else 1
+            # Target k keeps the stream seed + k whatever slice or thread it falls in.
+            targets_part = np.ascontiguousarray(poses[part])
+            seeds = part.astype(np.int64) + int(seed)
+            own = starts[lo : lo + BATCH_SLICE] if starts.shape[0] > 1 else starts
+            job = (targets_part, search.packed, own, table.kernel_args(), settings, seeds)
+            Qp, it, u, _ = solve_batch(chain, job, workers)
+            Q[part], iterations[part], used[part] = Qp, it, u
+
+    own = given[rows] if given.shape[0] == N else given  # per row, or shared
+    family = _batch_family(robot, task)
+    if family is not None and compiled_batch(robot, task.mode):
+        # As solve_ik: the branch nearest q0 answers; the search runs where there is none,
+        # and from the branch first where it misses a tol tighter than the closed form's.
+        refs = _row_starts(robot, given, rows, bounds)
+        branch = _branches(robot, family, task.mode, poses[rows], refs, bounds)
+        has = np.all(np.isfinite(branch), axis=1)
+        Q[rows[has]] = branch[has]
+        exact = np.zeros(len(rows), dtype=bool)
+        exact[has] = verify(robot, branch[has], poses[rows[has]], task).success
+        run(rows[~has], own[~has] if own.shape[0] > 1 else own)
+        polish = has & ~exact
+        if np.any(polish):
+            others = own[polish] if own.shape[0] > 1 else np.repeat(own, polish.sum(), 0)
+            run(
+                rows[polish],
+                np.ascontiguousarray(np.concatenate([branch[polish, None], others], 1)),
+            )
+    else:
+        run(rows, own)
+        if family is not None:  # a closed form run in Python: for the rows the search missed
+            missed = np.flatnonzero(~verify(robot, Q[rows], poses[rows], task).success)
+            refs = _row_starts(robot, given, rows[missed], bounds)
+            branch = _branches(robot, family, task.mode, poses[rows[missed]], refs, bounds)
+            has = np.flatnonzero(np.all(np.isfinite(branch), axis=1))
+            exact = verify(robot, branch[has], poses[rows[missed[has]]], task).success
+            Q[rows[missed[has[exact]]]] = branch[has[exact]]
     verdict = verify(robot, Q, poses, task)
     if search is not task:
         # Beyond the reach sphere too (no search ran): from the row's q0, as solve_ik.

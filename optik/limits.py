@@ -35,6 +35,27 @@ finer than the resolution of a typical 20-bit joint encoder (6e-6 rad).
 """
 
 
+FROZEN_MATCH_TOLERANCE = 1e-9
+"""How far (rad or m) a closed-form branch's frozen joint may lie from the frozen value
+and still be taken as holding it (then set to it exactly): the rounding of a joint
+recovered from a pose, which grows near a singularity."""
+
+
+def into_box(
+    rows: FloatArray, lower: FloatArray, upper: FloatArray
+) -> tuple[np.ndarray, FloatArray]:
+    """Which closed-form branches (..., dof) lie inside a query's box, and all snapped onto it.
+
+    A frozen joint (``lower == upper``) counts as held within
+    :data:`FROZEN_MATCH_TOLERANCE` (a branch recovers it to rounding only), the others
+    within :data:`LIMIT_TOLERANCE`. Returns ``(inside (...,), clipped (..., dof))``; NaN
+    rows are not inside.
+    """
+    slack = np.where(lower == upper, FROZEN_MATCH_TOLERANCE, LIMIT_TOLERANCE)
+    inside = np.all((rows >= lower - slack) & (rows <= upper + slack), axis=-1)
+    return inside, np.clip(rows, lower, upper)
+
+
 def resolve_limits(
     joint: str,
     kind: str,

@@ -52,12 +52,15 @@ a = optik.solve_ik(puma, T_puma)
 b = optik.solve_ik(panda, T_panda)
 c = optik.solve_ik_batch(panda, panda.fk(Q))
 d = optik.solve_ik(panda, T_panda, frozen={"panda_joint7": 0.5})
+Q_puma = rng.uniform(puma.lower, puma.upper, size=(32, puma.dof))
+e = optik.solve_ik_batch(puma, puma.fk(Q_puma))
 print(json.dumps({
     "package": optik.__file__,
     "puma": [a.status, a.solver, a.q.tolist()],
     "panda": [b.status, b.solver, b.q.tolist()],
     "batch": [c.success.tolist(), c.q.tolist()],
     "held": [d.status, d.solver, d.q.tolist()],
+    "closed_form_batch": [e.success.tolist(), e.iterations.tolist(), e.q.tolist()],
     "compiled": compiled,
 }))
 """
@@ -121,6 +124,11 @@ def test_a_wheel_built_from_the_checkout_ships_every_kernel_of_the_first_calls(
     status, solver, q = out["held"]  # the Panda's closed form with joint 7 held
     assert (status, solver) == ("converged", "analytic") and q[6] == 0.5
     assert max(_pose_errors(panda, np.array(q), T)) < 1e-9
+    success, iterations, answers = out["closed_form_batch"]  # the Puma's closed form
+    Q_puma = rng.uniform(puma.lower, puma.upper, size=(32, puma.dof))
+    assert all(success) and not any(iterations)
+    for q_answer, q_source in zip(answers, Q_puma, strict=True):
+        assert max(_pose_errors(puma, np.array(q_answer), puma.fk(q_source))) < 1e-9
     success, answers = out["batch"]
     assert sum(success) >= 31
     for ok, q_answer, q_source in zip(success, answers, Q, strict=True):

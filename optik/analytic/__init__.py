@@ -64,6 +64,7 @@ from optik.analytic._base import (
     CompiledPipeline,
     FamilyMatch,
     explain_family,
+    family_solves,
     match_families,
     places_tool_point,
 )
@@ -102,9 +103,11 @@ __all__ = [
     "FamilyMatch",
     "analytic_ik",
     "analytic_ik_batch",
+    "compiled_batch",
     "detect_family",
     "explain_family",
     "family_of",
+    "family_solves",
     "free_joint_reason",
     "match_families",
     "places_tool_point",
@@ -451,6 +454,17 @@ def _compiled_plan(robot: Robot) -> CompiledPipeline | None:
     params = _compiled.params_of(robot, family.kernel)
     return CompiledPipeline(
         _pipeline.solve, _pipeline.solve_batch, params, _compiled.mid_limits(params)
+    )
+
+
+def compiled_batch(robot: Robot, mode: str) -> bool:
+    """Whether :func:`analytic_ik_batch` solves ``mode`` on ``robot`` in one compiled loop.
+
+    A family with a compiled pose pipeline, in ``"pose"`` mode; other families (and
+    position mode) run their closed form per target in Python.
+    """
+    return (
+        mode == "pose" and family_of(robot) is not None and robot.cached(_compiled_plan) is not None
     )
 
 

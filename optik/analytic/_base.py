@@ -287,6 +287,17 @@ def places_tool_point(family: AnalyticFamily, robot: Robot) -> bool:
     return family.tool_point or not np.any(np.abs(robot.T_flange_tool[:3, 3]) > 0.0)
 
 
+def family_solves(family: AnalyticFamily, robot: Robot, mode: str) -> bool:
+    """Whether ``family``'s closed form answers ``mode`` (``"pose"``, ``"position"``) on ``robot``.
+
+    The mode must be one the family solves, and for position-only IK the family must
+    reach the tool point (:func:`places_tool_point`).
+    """
+    if mode not in family.modes:
+        return False
+    return mode != "position" or places_tool_point(family, robot)
+
+
 Vector3 = tuple[float, float, float]
 
 
