@@ -3,7 +3,8 @@
 Exit codes: 0 success; 1 a well-formed query without an answer (``optik solve`` found no
 solution); 2 bad input (a usage error, and every :class:`~optik.errors.OptikError` raised
 by the input, printed as one ``optik: error: ...`` line); 3 an internal error (a bug: the
-traceback is printed).
+traceback is printed); 141 standard output closed early (``optik problems | head -1``),
+silently.
 
 Units: SI everywhere, in files, arrays and options (m, rad, s); an option in another
 unit names it (``--rpy-deg``, ``--timeout-ms``), and the help of every option that takes
@@ -14,6 +15,7 @@ value with its unit (revolute joints in rad, with degrees alongside).
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import textwrap
 import traceback
@@ -24,7 +26,14 @@ from numba.core import event
 
 from optik import __version__
 from optik.cli._batch import add_batch_command
-from optik.cli._common import EXIT_BAD_INPUT, EXIT_INTERNAL, EXIT_NO_SOLUTION, EXIT_OK, Parser
+from optik.cli._common import (
+    EXIT_BAD_INPUT,
+    EXIT_INTERNAL,
+    EXIT_NO_SOLUTION,
+    EXIT_OK,
+    EXIT_OUTPUT_CLOSED,
+    Parser,
+)
 from optik.cli._map import add_map_command
 from optik.cli._plan import add_plan_command
 from optik.cli._report import add_report_command, config_from_args
@@ -120,7 +129,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)  # a usage error exits with 2
     say_when_compiling(sys.stderr)
     try:
-        return int(args.func(args))
+        code = int(args.func(args))
+        sys.stdout.flush()  # a closed pipe shows here, not in the interpreter's exit
+        return code
+    except BrokenPipeError:  # the reader quit (| head): stop quietly, as SIGPIPE would
+        _discard_stdout()
+        return EXIT_OUTPUT_CLOSED
     except OptikError as exc:  # bad input: one line, no traceback
         message = " ".join(str(exc).split())
         print(f"optik: error: {message}", file=sys.stderr)
@@ -132,6 +146,15 @@ def main(argv: Sequence[str] | None = None) -> int:
         traceback.print_exc()
         print("optik: internal error (a bug; please report it)", file=sys.stderr)
         return EXIT_INTERNAL
+
+
+def _discard_stdout() -> None:
+    """Point standard output at the null device: the exit's flush must not fail again."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError):  # not a file descriptor (a captured stream)
+        pass
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -31,6 +31,9 @@ EXIT_OK = 0
 EXIT_NO_SOLUTION = 1
 EXIT_BAD_INPUT = 2
 EXIT_INTERNAL = 3
+EXIT_OUTPUT_CLOSED = 141
+"""Standard output closed before the command finished (a pipe's reader, such as ``head``,
+quit): the shell's code for a process ended by SIGPIPE (128 + 13)."""
 
 URDF_SUFFIXES = (".urdf", ".xml")
 
