@@ -30,7 +30,7 @@ from optik._ik_options import (
 from optik.analytic import AnalyticFamily, checked_batch, compiled_batch, family_of, family_solves
 from optik.diffik import clip_into_limits
 from optik.errors import ArgumentError, OptikError, ShapeError
-from optik.limits import into_box
+from optik.limits import LIMIT_TOLERANCE, into_box, limit_violation
 from optik.model import Robot
 from optik.solvers._base import IKQuery, compromise, now, search_length
 from optik.solvers._batch_threads import solve_batch
@@ -38,7 +38,7 @@ from optik.solvers._seeds import seed_table
 from optik.solvers.iterative import DLSSolver
 from optik.spatial import as_pose
 from optik.task import Task, balanced_search, make_task
-from optik.verify import beyond_reach_task, verify
+from optik.verify import Verdict, beyond_reach_task, verify
 
 PARALLEL_BATCH = 64
 """Batches at least this large run in parallel threads; smaller ones on one thread."""
@@ -224,6 +224,26 @@ def _branches(
     return np.where(found[:, None], clipped[np.arange(M), first], none)
 
 
+def _verdict(
+    robot: Robot,
+    Q: FloatArray,
+    poses: FloatArray,
+    task: Task,
+    bounds: tuple[FloatArray, FloatArray] | None,
+) -> Verdict:
+    """:func:`optik.verify.verify` of the rows, a row off the query's box no success.
+
+    The box of frozen joints and a ``limit_margin`` (``bounds``), as
+    :func:`optik.ik_result.verified_result` checks one answer.
+    """
+    verdict = verify(robot, Q, poses, task)
+    if bounds is None:
+        return verdict
+    with np.errstate(invalid="ignore"):  # NaN rows (not solved) are no success anyway
+        inside = limit_violation(Q, *bounds) <= LIMIT_TOLERANCE
+    return verdict._replace(success=verdict.success & inside)
+
+
 def _bad(array: np.ndarray) -> FloatArray:
     raise ShapeError("targets", "(N, 4, 4) (or (N, 3) in position mode)", array.shape)
 
@@ -354,14 +374,14 @@ def solve_ik_batch(
             has = np.flatnonzero(np.all(np.isfinite(branch), axis=1))
             exact = verify(robot, branch[has], poses[rows[missed[has]]], task).success
             Q[rows[missed[has[exact]]]] = branch[has[exact]]
-    verdict = verify(robot, Q, poses, task)
+    verdict = _verdict(robot, Q, poses, task, bounds)
     if search is not task:
         # Beyond the reach sphere too (no search ran): from the row's q0, as solve_ik.
         far = np.flatnonzero(~reachable)
         Q[far] = _row_starts(robot, given, far, bounds)
         failed = np.flatnonzero(~verdict.success)
         _compromise(robot, (task, poses, bounds), Q, iterations, failed)
-        verdict = verify(robot, Q, poses, task)
+        verdict = _verdict(robot, Q, poses, task, bounds)
     status = np.where(verdict.success, "converged", np.where(reachable, "max_iter", "unreachable"))
     return IKBatchResult(
         Q,

@@ -10,6 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from optik._checks import FloatArray
+from optik.limits import LIMIT_TOLERANCE, limit_violation
 from optik.solvers._base import IKQuery, RunOutput, now
 from optik.verify import verify_one
 
@@ -58,14 +59,25 @@ class IKResult:
 def verified_result(
     query: IKQuery, start_time: float, solver: str, outcome: RunOutput, claim: bool | None
 ) -> IKResult:
-    """The result for ``outcome.q``, verified here from FK and the limits.
+    """The result for ``outcome.q``, verified here from FK, the limits and the query's box.
 
     ``outcome`` gives what a failed verification reports (its ``status_if_failed`` and
     ``message``) and the counts; ``claim`` is the backend's own claim (``None`` for a
-    closed form or a proof).
+    closed form or a proof). A configuration off a frozen joint's value or inside a
+    ``limit_margin`` (the query's box, beyond :data:`~optik.limits.LIMIT_TOLERANCE`) is no
+    success, whatever produced it.
     """
     q = outcome.q
     position, orientation, violation, success = verify_one(query.robot, q, query.target, query.spec)
+    message = outcome.message
+    if success and query.bounds is not None:
+        off_box = float(limit_violation(q, query.lower, query.upper))
+        if not off_box <= LIMIT_TOLERANCE:
+            success = False
+            message = (
+                f"the answer leaves the query's box (frozen joints, limit margin) by "
+                f"{off_box:.3g} rad or m"
+            )
     return IKResult(
         q=q,
         success=success,
@@ -77,7 +89,7 @@ def verified_result(
         restarts=outcome.restarts,
         time_s=now() - start_time,
         solver=solver,
-        message=outcome.message if not success else "",
+        message=message if not success else "",
         backend_converged=claim,
     )
 
