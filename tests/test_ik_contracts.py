@@ -119,3 +119,70 @@ def test_the_batch_refuses_a_row_off_the_query_s_box(monkeypatch: pytest.MonkeyP
     batch = optik.solve_ik_batch(PUMA, T, frozen={PUMA.joint_names[5]: value}, restarts=0)
     assert np.all(np.abs(Q[:, 5] - value) > 1e-3)
     assert not batch.success.any()
+
+
+def test_a_batch_row_s_stream_is_its_index_whatever_precedes_it() -> None:
+    # Target k draws from the stream seed + k: a row beyond reach before it (not searched)
+    # must not shift the streams of the rows after it. A short budget per attempt, so
+    # that the random starts decide the answers (the Panda: no closed form).
+    rng = np.random.default_rng(3)
+    T = PANDA.fk(rng.uniform(PANDA.lower, PANDA.upper, (8, PANDA.dof)))
+    far = np.eye(4)
+    far[:3, 3] = [100.0, 0.0, 0.0]
+    options = {"max_iter": 4, "restarts": 300, "seed": 7}
+    after_far = optik.solve_ik_batch(PANDA, np.concatenate([far[None], T]), **options)
+    after_near = optik.solve_ik_batch(PANDA, np.concatenate([T[:1], T]), **options)
+    assert after_far.status[0] == "unreachable"
+    np.testing.assert_array_equal(after_far.q[1:], after_near.q[1:])
+    np.testing.assert_array_equal(after_far.restarts[1:], after_near.restarts[1:])
+    assert np.any(after_far.restarts[1:] > 0)  # the draws mattered
+
+
+@pytest.mark.parametrize("tol", [(1e-2, 1e-6), (1e-6, 1e-2)])
+def test_split_tolerances_judge_each_error_by_its_own(tol: tuple[float, float]) -> None:
+    # A turn of the base by 1e-3 rad (the tool point moves ~5e-4 m): within the loose
+    # tolerance of the one error, beyond the tight one of the other.
+    from optik.verify import verify_one
+
+    q = PUMA.mid_limits + 0.3
+    turned = q + np.array([1e-3, 0.0, 0.0, 0.0, 0.0, 0.0])
+    position, orientation, _, success = verify_one(PUMA, turned, PUMA.fk(q), make_task(tol=tol))
+    assert orientation > 5e-4 and position > 1e-4
+    assert success == (position <= tol[0] and orientation <= tol[1])
+    assert not success
+
+
+def test_a_point_within_tol_of_the_reach_sphere_is_not_proved_unreachable() -> None:
+    # 5 mm beyond full stretch with tol 1 cm: an answer within the tolerance exists.
+    planar = load_problem("planar_2r").robot
+    centre, radius = planar.reach_sphere
+    point = centre + np.array([radius + 0.005, 0.0, 0.0])
+    single = optik.solve_ik(planar, point, mode="position", tol=0.01)
+    batch = optik.solve_ik_batch(planar, point[None], mode="position", tol=0.01)
+    assert single.success and batch.success.tolist() == [True]
+    far = centre + np.array([radius + 0.02, 0.0, 0.0])
+    assert optik.solve_ik_batch(planar, far[None], mode="position", tol=0.01).status[0] == (
+        "unreachable"
+    )
+
+
+def test_uniform_weights_are_the_plain_task() -> None:
+    # Weights are divided by the largest: equal ones, whatever their size, are the plain
+    # pose (its proofs and its closed form), not a graded compromise.
+    task = make_task(weights=[2.0] * 6)
+    assert task.weights.max() == 1.0 and task.is_pose_or_position and not task.is_graded
+    far = np.eye(4)
+    far[:3, 3] = [10.0, 0.0, 0.0]
+    result = optik.solve_ik(PANDA, far, weights=[1e-10] * 6)
+    assert (result.status, result.solver, result.iterations) == ("unreachable", "reach", 0)
+    T = PUMA.fk(PUMA.mid_limits + 0.2)
+    assert optik.solve_ik(PUMA, T, weights=[3.0] * 6).solver == "analytic"
+
+
+def test_solve_ik_all_s_answers_are_a_tenth_of_a_radian_apart_by_default() -> None:
+    T = PANDA.fk(PANDA.mid_limits + 0.2)
+    answers = optik.solve_ik_all(PANDA, T, k=8)
+    assert len(answers) >= 2
+    Q = np.array([r.q for r in answers])
+    gaps = np.linalg.norm(Q[:, None] - Q[None], axis=2)[np.triu_indices(len(Q), 1)]
+    assert gaps.min() >= 0.1

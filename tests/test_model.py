@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -24,6 +25,7 @@ from optik.errors import (
 )
 from optik.limits import LIMIT_TOLERANCE, ROLE_LIMITS_RAD
 from optik.model import DHJoint, Mimic, Robot
+from optik.problems import builtin_problems
 
 
 def _arm(**overrides: object) -> list[dict[str, object]]:
@@ -337,3 +339,23 @@ def test_public_names() -> None:
     """The contract of design.md section 3 (``optik.load_problem`` is in it)."""
     assert optik.Robot is Robot
     assert hasattr(optik, "load_problem"), "optik.load_problem is not exported"
+
+
+def test_a_locked_joint_with_equal_limits_loads(tmp_path: Path) -> None:
+    # lower == upper: a joint held by its limits (a fixed axis in a maker's table).
+    rows = [
+        {"a": 1.0, "lower": -1.0, "upper": 1.0},
+        {"a": 0.5, "lower": 0.5, "upper": 0.5},
+    ]
+    robot = Robot.from_dh(rows)
+    assert robot.lower[1] == robot.upper[1] == 0.5
+    result = optik.solve_ik(robot, robot.fk([0.2, 0.5])[:3, 3], mode="position")
+    assert result.success and result.q[1] == 0.5
+    (source,) = [p for p in builtin_problems() if p.stem == "planar_2r"]
+    text = source.read_text()
+    elbow = 'name = "elbow"\na = 1.0\nlower = -180\nupper = 180'
+    assert elbow in text
+    locked = tmp_path / "locked.toml"
+    locked.write_text(text.replace(elbow, 'name = "elbow"\na = 1.0\nlower = 30\nupper = 30'))
+    loaded = optik.load_problem(locked).robot
+    assert loaded.lower[1] == loaded.upper[1] == pytest.approx(math.radians(30.0))
