@@ -271,7 +271,8 @@ def robot_figure(
     set_equal_3d(ax, np.concatenate(extent))
     ax.view_init(elev=view[0], azim=view[1])
     values = ", ".join(f"{v:.3g}" for v in q)
-    ax.set_title(f"{robot.name} at q = ({values})" if title is None else title, fontsize=10)
+    default = f"{robot.name} at q = ({values}) rad or m"
+    ax.set_title(default if title is None else title, fontsize=10)
     fig.tight_layout()
     return fig, ax
 

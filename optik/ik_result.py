@@ -36,7 +36,9 @@ class IKResult:
         iterations: solver iterations over all attempts.
         restarts: attempts after the first.
         time_s: wall time of the call (``time.perf_counter``).
-        solver: the method that produced ``q`` (``"analytic"`` for a closed-form branch).
+        solver: the method that produced ``q``: ``"analytic"`` for a closed-form branch
+            (or its proof), ``"reach"`` for the reach sphere's proof (``q`` is the start,
+            no search ran), else the numeric solver's name.
         message: backend text or the reason for the status.
         backend_converged: the backend's own convergence claim for ``q`` (``None`` for the
             closed form).

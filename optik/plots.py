@@ -73,13 +73,15 @@ def plan_figure(plan: PathPlan, robot: Robot | None = None, arms: int = 5) -> Pl
     rows = math.ceil(dof / cols)
     extra = 1 if robot is not None else 0
     height = max(2.1 * rows, 5.8 if robot is not None else 0.0)
-    fig = plt.figure(figsize=(6.5 * cols + 6.0 * extra, height))
-    grid = fig.add_gridspec(rows, cols + extra, width_ratios=[6.0] * extra + [6.5] * cols)
+    fig = plt.figure(figsize=(6.5 * cols + 6.5 * extra, height))
+    # A spacer column after the 3-D panel: its z label stands clear of the joint panels.
+    ratios = [6.0, 0.5] * extra + [6.5] * cols
+    grid = fig.add_gridspec(rows, cols + 2 * extra, width_ratios=ratios)
     axes: list[list[Any]] = [[None] * cols for _ in range(rows)]
     for r in range(rows):
         for c in range(cols):
             share = axes[0][0] if (r, c) != (0, 0) else None
-            axes[r][c] = fig.add_subplot(grid[r, c + extra], sharex=share)
+            axes[r][c] = fig.add_subplot(grid[r, c + 2 * extra], sharex=share)
     index = np.arange(len(plan.status))
     names = plan.joint_names or tuple(f"q{i + 1}" for i in range(dof))
     for j in range(rows * cols):
@@ -129,11 +131,12 @@ def plan_figure(plan: PathPlan, robot: Robot | None = None, arms: int = 5) -> Pl
                 )
         ax.set_ylabel(f"{names[j]} ({unit})")
         ax.grid(True, alpha=0.3)
-    for ax in axes[-1]:
-        ax.set_xlabel("waypoint")
-    for row in axes[:-1]:
-        for ax in row:
-            ax.tick_params(labelbottom=False)
+    for c in range(cols):
+        # Each column's lowest panel (above an empty slot when dof is odd) has the axis.
+        last = max(r for r in range(rows) if r * cols + c < dof)
+        axes[last][c].set_xlabel("waypoint")
+        for r in range(last):
+            axes[r][c].tick_params(labelbottom=False)
     handles, labels = axes[0][0].get_legend_handles_labels()
     if robot is not None:
         from matplotlib.patches import Patch
@@ -143,7 +146,7 @@ def plan_figure(plan: PathPlan, robot: Robot | None = None, arms: int = 5) -> Pl
     summary = plan.summary()
     fig.suptitle(
         f"Joint path: {summary['solved']}/{summary['waypoints']} waypoints solved, "
-        f"largest step {summary['largest_step']:.3g} (bound {plan.max_joint_step:g})",
+        f"largest step {summary['largest_step']:.3g} (bound {plan.max_joint_step:g}; rad or m)",
         y=0.99,
         fontsize=11,
     )

@@ -109,6 +109,8 @@ class _Reader:
         self, data: Mapping[str, Any], table: str, name: str, default: str | None = None
     ) -> str:
         value = data.get(name, default)
+        if value is None:
+            raise self.fail(table, name, "missing (expected a non-empty string)")
         if not isinstance(value, str) or not value:
             raise self.fail(table, name, f"expected a non-empty string, got {value!r}")
         return value
@@ -286,6 +288,12 @@ def _robot(
     convention = reader.choice(robot, "robot", "convention", CONVENTIONS, "dh")
     length = LENGTH_UNITS[reader.choice(robot, "robot", "length_unit", LENGTH_UNITS, "m")]
     angle = ANGLE_UNITS[reader.choice(robot, "robot", "angle_unit", ANGLE_UNITS, "rad")]
+    if "source" not in robot and default_source is None:
+        # A robot table alone (optik robot, --dh) needs none; a problem file cites one.
+        raise reader.fail(
+            "robot", "source", "missing: a problem file names where its robot comes from "
+            '(source = "..."); a robot table without one loads with --dh FILE',
+        )  # fmt: skip
     source = reader.string(robot, "robot", "source", default_source)
     analytic = robot.get("analytic")
     if analytic is not None and not isinstance(analytic, str):

@@ -31,6 +31,9 @@ PRINTED: dict[str, dict[str, Callable[[str], bool]]] = {
         ),
         "print(optik.solve_ik(robot, far).status)": lambda out: out == "unreachable",
         "print(len(every))": lambda out: out == "8",
+        'print(plan.summary()["solved"], plan.largest_step)': lambda out: (
+            out.split()[0] == "21" and float(out.split()[1]) < 0.1
+        ),
     },
     "docs/planning.md": {
         'print(full.summary()["discontinuity"], free.summary()["ok"])': lambda out: out == "21 22",

@@ -351,7 +351,10 @@ def test_missing_robot_table(tmp_path: Path) -> None:
 
 
 def test_missing_source(tmp_path: Path) -> None:
-    _expect_error(tmp_path, GOOD.replace('source = "test"\n', ""), "robot", "source", "None")
+    # Said missing (it read "got None", as if the file had set it), with the way out.
+    text = GOOD.replace('source = "test"\n', "")
+    err = _expect_error(tmp_path, text, "robot", "source", "missing: a problem file names")
+    assert "--dh FILE" in str(err)
 
 
 def test_unknown_field_in_joint(tmp_path: Path) -> None:

@@ -44,7 +44,8 @@ def plot_slices(ds: Any, path: str | Path, value: str = "reachability") -> Path:
     plt = pyplot()
     centre = ds.attrs["settings"]["reach_centre_m"]
     data = ds[value]
-    fig, axes = plt.subplots(1, 3, figsize=(15.0, 4.8))
+    # Constrained: each slice's y label stands clear of its neighbour's ticks.
+    fig, axes = plt.subplots(1, 3, figsize=(15.0, 4.8), layout="constrained")
     top = float(np.nanmax(data.values)) if np.any(np.isfinite(data.values)) else 1.0
     planes = (("z", "x", "y"), ("y", "x", "z"), ("x", "y", "z"))
     for ax, (plane, a, b) in zip(axes, planes, strict=True):
@@ -87,7 +88,8 @@ def plot_scatter(ds: Any, path: str | Path, most: int = 20_000) -> Path:
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     ax.set_zlabel("z (m)")
-    fig.colorbar(points, ax=ax, shrink=0.7, label="reachability index")
+    # Padded: the z label sits between the axes and the colour bar.
+    fig.colorbar(points, ax=ax, shrink=0.7, pad=0.12, label="reachability index")
     ax.set_title(f"{ds.attrs['settings']['robot']}: reached voxels")
     return _save(fig, Path(path))
 
