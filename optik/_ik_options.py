@@ -129,6 +129,7 @@ def query_bounds(
             v = check_real(f"frozen[{name!r}]", value)
             joint = robot.joints[i]
             if not joint.lower - LIMIT_TOLERANCE <= v <= joint.upper + LIMIT_TOLERANCE:
-                raise JointLimitError(name, v, joint.lower, joint.upper)
+                unit = "m" if joint.kind == "prismatic" else "rad"
+                raise JointLimitError(name, v, joint.lower, joint.upper, unit)
             lower[i] = upper[i] = min(max(v, joint.lower), joint.upper)
     return read_only(lower), read_only(upper)

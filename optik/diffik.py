@@ -114,7 +114,8 @@ def clip_into_limits(robot: Robot, name: str, q: Any) -> FloatArray:
     for i, (x, lo, hi) in enumerate(values):
         if not lo <= x <= hi:
             if not lo - Q_CLIP_TOLERANCE <= x <= hi + Q_CLIP_TOLERANCE:
-                raise JointLimitError(robot.joints[i].name, x, lo, hi)
+                unit = "m" if robot.joints[i].kind == "prismatic" else "rad"
+                raise JointLimitError(robot.joints[i].name, x, lo, hi, unit)
             inside = False
     return array.copy() if inside else np.clip(array, lower, upper)
 

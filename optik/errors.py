@@ -18,11 +18,15 @@ class OptikError(ValueError):
 class ShapeError(OptikError):
     """An array argument has the wrong shape."""
 
-    def __init__(self, name: str, expected: str, got: tuple[int, ...]) -> None:
+    def __init__(
+        self, name: str, expected: str, got: tuple[int, ...], detail: str | None = None
+    ) -> None:
         self.name = name
         self.expected = expected
         self.got = tuple(got)
-        super().__init__(f"{name}: expected shape {expected}, got {self.got}")
+        # ``detail`` says what is wrong where the shape is right (a pose's last row).
+        message = detail if detail is not None else f"expected shape {expected}, got {self.got}"
+        super().__init__(f"{name}: {message}")
 
 
 class NonFiniteError(OptikError):
@@ -76,15 +80,19 @@ class JointLimitError(OptikError):
     above a limit of 2.89725 read as inside it.
     """
 
-    def __init__(self, joint: str, value: float, lower: float, upper: float) -> None:
+    def __init__(
+        self, joint: str, value: float, lower: float, upper: float, unit: str = "rad or m"
+    ) -> None:
         self.joint = joint
         self.value = value
         self.lower = lower
         self.upper = upper
         x, lo, hi = float(value), float(lower), float(upper)
         excess = max(lo - x, x - hi)
-        by = f" by {excess:.3g}" if math.isfinite(excess) else ""
-        super().__init__(f"joint {joint!r}: value {x!r} outside its limits [{lo!r}, {hi!r}]{by}")
+        by = f" by {excess:.3g} {unit}" if math.isfinite(excess) else ""
+        super().__init__(
+            f"joint {joint!r}: value {x!r} outside its limits [{lo!r}, {hi!r}] ({unit}){by}"
+        )
 
 
 class ProblemFileError(OptikError):
@@ -95,9 +103,11 @@ class ProblemFileError(OptikError):
         self.table = table
         self.field = field
         self.detail = message
-        location = f"[{table}]" if table else "(top level)"
+        # The whole file (no table, no field) needs no location: "file not found".
+        location = f"[{table}]" if table else ("(top level)" if field else "")
         field_part = f" field {field!r}" if field else ""
-        super().__init__(f"{path}: {location}{field_part}: {message}")
+        where = f"{location}{field_part}"
+        super().__init__(f"{path}: {where}: {message}" if where else f"{path}: {message}")
 
 
 class SingularMatrixError(OptikError):

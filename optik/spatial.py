@@ -163,7 +163,14 @@ def as_pose(name: str, value: Any, batch: bool = False) -> FloatArray:
         return T  # an empty batch: nothing to check
     bottom = T[3] if T.ndim == 2 else T[:, 3]
     if float(np.abs(bottom - _LAST_ROW).max()) > _ROW_TOLERANCE:
-        raise ShapeError(name, "a homogeneous transform with last row (0, 0, 0, 1)", T.shape)
+        rows = bottom.reshape(-1, 4)
+        k = int(np.argmax(np.abs(rows - _LAST_ROW).max(axis=1)))
+        where = f" (pose {k})" if T.ndim == 3 else ""
+        found = ", ".join(f"{v:g}" for v in rows[k])
+        raise ShapeError(
+            name, "a homogeneous transform with last row (0, 0, 0, 1)", T.shape,
+            f"not a homogeneous transform{where}: last row ({found}), expected (0, 0, 0, 1)",
+        )  # fmt: skip
     check_rotation(name, T[..., :3, :3])
     return T
 

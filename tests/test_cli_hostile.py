@@ -254,3 +254,36 @@ def test_a_closed_output_pipe_ends_quietly(argv: list[str]) -> None:
         os.close(write_end)
     assert done.returncode == 141, done.stderr
     assert "Traceback" not in done.stderr and "internal error" not in done.stderr
+
+
+@pytest.mark.parametrize(
+    ("argv", "says", "not_said"),
+    [
+        # One value per joint, counted and named (it read "expected shape (6,) or (N, 6)").
+        (
+            ["show", "puma560", "--q", "0", "0.5"],
+            "--q: expected 6 values, one per joint (j1,",
+            "(N, 6)",
+        ),
+        (
+            ["solve", "puma560", "--position", "0.5", "0.1", "0.4", "--q0", "0", "0", "0"],
+            "--q0: expected 6 values",
+            "shape",
+        ),
+        # `optik problems` takes no --urdf: its hint does not offer one.
+        (["problems", "nosuch"], "built-in problems: ", "--urdf"),
+        # The frozen value's limits with their unit.
+        (
+            ["solve", "puma560", "--position", "0.5", "0.1", "0.4", "--freeze", "j1=10"],
+            "(rad) by 7.",
+            "rad or m",
+        ),
+    ],
+)
+def test_messages_say_what_the_user_typed(
+    argv: list[str], says: str, not_said: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    _check(argv, capsys)
+    code = _run(argv)
+    err = capsys.readouterr().err
+    assert code == 2 and says in err and not_said not in err, err

@@ -578,3 +578,22 @@ def test_an_empty_batch_of_poses_is_valid_and_plans_to_nothing(dtype: Any) -> No
     panda = optik.load_problem("panda").robot
     plan = optik.plan_path(panda, empty)
     assert plan.q.shape == (0, panda.dof) and plan.status == []
+
+
+def test_a_wrong_last_row_is_named_with_its_values() -> None:
+    # It read "expected shape a homogeneous transform ..., got (4, 4)": the shape was right.
+    puma = optik.load_problem("puma560").robot
+    with pytest.raises(
+        ShapeError, match=r"target: not a homogeneous transform: last row \(0, 0, 0, 2\)"
+    ):
+        optik.solve_ik(puma, np.eye(4) * 2.0)
+    batch = np.stack([np.eye(4)] * 3)
+    batch[2, 3, 0] = 0.5
+    with pytest.raises(ShapeError, match=r"\(pose 2\): last row \(0.5, 0, 0, 1\)"):
+        optik.solve_ik_batch(puma, batch)
+
+
+def test_a_missing_problem_file_says_so_without_a_location() -> None:
+    with pytest.raises(optik.errors.ProblemFileError) as info:
+        optik.load_problem("nowhere-at-all.toml")
+    assert str(info.value).startswith("nowhere-at-all.toml: file not found")

@@ -17,7 +17,7 @@ from typing import Any, NoReturn
 
 import numpy as np
 
-from optik._checks import MAX_LENGTH_M
+from optik._checks import MAX_LENGTH_M, FloatArray
 from optik.compare.config import MAX_SEED, MAX_TARGETS
 from optik.errors import OptikError
 from optik.model import Robot
@@ -206,8 +206,26 @@ def exists(path: Path) -> bool:
         return False
 
 
-def named_problem(name: str) -> Problem:
+def joint_values(robot: Robot, values: Sequence[float] | None, option: str) -> FloatArray | None:
+    """``values`` of an option such as ``--q0`` with one value per joint (rad or m), or None.
+
+    Raises:
+        OptikError: not ``robot.dof`` values (the message counts them, and names the joints).
+    """
+    if values is None:
+        return None
+    if len(values) != robot.dof:
+        names = ", ".join(robot.joint_names)
+        raise OptikError(
+            f"{option}: expected {robot.dof} values, one per joint ({names}), got {len(values)}"
+        )
+    return np.array(values, dtype=np.float64)
+
+
+def named_problem(name: str, other_sources: bool = True) -> Problem:
     """A built-in problem by name, or a problem file; an unknown name lists the built-ins.
+
+    ``other_sources``: the command also takes ``--urdf`` and ``--dh`` (the message says so).
 
     Raises:
         OptikError: neither a file nor a built-in name (the message lists the built-ins),
@@ -218,9 +236,10 @@ def named_problem(name: str) -> Problem:
         return load_problem(name)
     if file.suffix or len(file.parts) > 1:  # a path, not a name
         raise OptikError(f"{name}: file not found (built-in problems: {builtin_names()})")
+    others = "; or give --urdf FILE or --dh FILE" if other_sources else ""
     raise OptikError(
         f"no problem file or built-in problem named {name!r:.200} "
-        f"(built-in problems: {builtin_names()}; or give --urdf FILE or --dh FILE)"
+        f"(built-in problems: {builtin_names()}{others})"
     )
 
 

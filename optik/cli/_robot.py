@@ -23,7 +23,7 @@ from optik.robot_text import read_urdf_tree, robot_text
 
 def _cmd_problems(args: argparse.Namespace) -> int:
     paths = args.problems or builtin_problems()
-    print(problems_table([named_problem(str(p)) for p in paths]))
+    print(problems_table([named_problem(str(p), other_sources=False) for p in paths]))
     return EXIT_OK
 
 

@@ -13,6 +13,7 @@ from optik.cli._common import (
     add_robot_arguments,
     command,
     finite_float,
+    joint_values,
     problem_from_args,
 )
 from optik.errors import OptikError
@@ -41,7 +42,8 @@ def _cmd_show(args: argparse.Namespace) -> int:
     check_folder(out.parent)  # before the robot is loaded and drawn, not after
     problem = problem_from_args(args)
     robot = problem.robot
-    q = robot.mid_limits if args.q is None else robot.check_q(args.q, "--q")
+    given = joint_values(robot, args.q, "--q")
+    q = robot.mid_limits if given is None else robot.check_q(given, "--q")
     values = ", ".join(f"{v:.4g}" for v in q)
     outside = "" if robot.within_limits(q) else " (outside the joint limits)"
     print(f"{robot.name} at q = ({values}) rad or m{outside}")
