@@ -165,3 +165,34 @@ def test_a_hand_edited_number_is_a_corrupted_row(tmp_path: Path, column: str, ce
     with pytest.raises(OptikError, match=rf"line {line}: corrupted row: column '{column}'"):
         make_report(config, tmp_path, resume=True, progress=False)
     assert path.read_bytes() == before
+
+
+@pytest.mark.parametrize(
+    ("argv", "seeds"),
+    [
+        (["report", "--quick"], True),
+        (["report"], True),
+        (["report", "--quick", "--problems", "puma560"], False),
+        (
+            [
+                "report",
+                "--quick",
+                "--urdf",
+                "problems/panda.urdf",
+                "--base",
+                "panda_link0",
+                "--tip",
+                "panda_hand",
+            ],
+            False,
+        ),
+        (["report", "--problems", "ur5"], False),
+    ],
+)
+def test_the_textbook_sections_belong_to_the_built_ins_report(
+    argv: list[str], seeds: bool, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # A report on the user's own robot ran the seeds' DOBOT and two-link sections too,
+    # and wrote their rows into its results.csv.
+    monkeypatch.chdir(Path(__file__).resolve().parent.parent)
+    assert config_from_args(build_parser().parse_args(argv)).seeds is seeds

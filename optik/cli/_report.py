@@ -103,6 +103,7 @@ def config_from_args(args: argparse.Namespace) -> RunConfig:
             caps={**quick.caps, **caps},
             closed_form_problems=problems,
             peers=args.peers,
+            seeds=problems is None,
         )
     return RunConfig(
         problems=problems or tuple(p.stem for p in builtin_problems()),
@@ -113,6 +114,9 @@ def config_from_args(args: argparse.Namespace) -> RunConfig:
         timeout_s=DEFAULT_TIMEOUT_S if timeout is None else timeout,
         caps=caps,
         peers=args.peers or (),
+        # The textbook sections (seed 001's DOBOT, seed 003's two links) belong to the
+        # built-ins' report; a report on chosen robots is about those robots.
+        seeds=problems is None,
     )
 
 
