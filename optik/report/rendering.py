@@ -139,11 +139,12 @@ def _markdown(report: Report, context: _Context) -> str:
 
 _CSS: Final[str] = """
 body{font-family:system-ui,-apple-system,Segoe UI,Roboto,sans-serif;margin:2em auto;
-max-width:1200px;padding:0 1em;color:#222;line-height:1.45}
+max-width:1440px;padding:0 1em;color:#222;line-height:1.45}
 h1{font-size:1.6em}h2{margin-top:2em;border-bottom:1px solid #ccc;padding-bottom:.2em}
 table{border-collapse:collapse;font-size:.85em;margin:.6em 0 1.2em}
 th,td{border:1px solid #ddd;padding:.25em .5em;text-align:right;white-space:nowrap}
-th{background:#f3f3f3}td:first-child,th:first-child,td:nth-child(2){text-align:left}
+th{background:#f3f3f3;white-space:normal;vertical-align:bottom}
+td:first-child,th:first-child,td:nth-child(2),th:nth-child(2){text-align:left}
 .wide{overflow-x:auto}.protocol{font-size:.9em;color:#444;background:#f8f8f4;
 padding:.4em .7em;border-left:3px solid #cc9}img{max-width:100%;height:auto}
 figure{margin:1em 0}figcaption{font-size:.9em;color:#555}code{font-size:.95em}
