@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Any
 
@@ -203,25 +204,40 @@ def _branches(
     poses: FloatArray,
     refs: FloatArray,
     bounds: tuple[FloatArray, FloatArray] | None,
+    threads: int = 1,
 ) -> FloatArray:
     """Each pose's closed-form branch nearest its reference inside the query's box (M, dof).
 
-    ``poses`` (M, 4, 4), ``refs`` (M, dof). One batched call
+    ``poses`` (M, 4, 4), ``refs`` (M, dof). Batched calls of :data:`BATCH_SLICE` poses
     (:func:`optik.analytic.checked_batch`, without the polish of a pose that has no
-    branch: the search answers there); a frozen joint is held to rounding
-    (:func:`optik.limits.into_box`). NaN rows where there is none.
+    branch: the search answers there), on ``threads`` worker threads when there are
+    several slices (the compiled pipeline releases the GIL); a frozen joint is held to
+    rounding (:func:`optik.limits.into_box`). NaN rows where there is none.
     """
     M = len(poses)
-    none = np.full((M, robot.dof), math.nan)
-    if M == 0:
-        return none
+    out = np.full((M, robot.dof), math.nan)
     refs = np.ascontiguousarray(refs, dtype=np.float64)
-    branches = checked_batch(robot, family, poses, mode, refs, True, polish=False).q
     lower, upper = bounds if bounds is not None else (robot.lower, robot.upper)
-    inside, clipped = into_box(branches, lower, upper)  # (M, B), (M, B, dof)
-    first = np.argmax(inside, axis=1)
-    found = inside[np.arange(M), first]
-    return np.where(found[:, None], clipped[np.arange(M), first], none)
+
+    def piece(lo: int) -> None:
+        hi = min(lo + BATCH_SLICE, M)
+        branches = checked_batch(robot, family, poses[lo:hi], mode, refs[lo:hi], True, polish=False)
+        inside, clipped = into_box(branches.q, lower, upper)  # (m, B), (m, B, dof)
+        first = np.argmax(inside, axis=1)
+        rows = np.arange(hi - lo)
+        found = inside[rows, first]
+        out[lo:hi][found] = clipped[rows, first][found]
+
+    starts = list(range(0, M, BATCH_SLICE))
+    if starts:
+        piece(starts[0])  # on this thread first: the robot's compiled plan is cached once
+    if threads > 1 and len(starts) > 2:
+        with ThreadPoolExecutor(max_workers=threads, thread_name_prefix="optik-branches") as pool:
+            list(pool.map(piece, starts[1:]))
+    else:
+        for lo in starts[1:]:
+            piece(lo)
+    return out
 
 
 def _verdict(
@@ -352,7 +368,7 @@ def solve_ik_batch(
         # As solve_ik: the branch nearest q0 answers; the search runs where there is none,
         # and from the branch first where it misses a tol tighter than the closed form's.
         refs = _row_starts(robot, given, rows, bounds)
-        branch = _branches(robot, family, task.mode, poses[rows], refs, bounds)
+        branch = _branches(robot, family, task.mode, poses[rows], refs, bounds, threads)
         has = np.all(np.isfinite(branch), axis=1)
         Q[rows[has]] = branch[has]
         exact = np.zeros(len(rows), dtype=bool)

@@ -102,3 +102,14 @@ def test_targets_without_a_branch_in_the_limits_are_still_searched() -> None:
     assert batch.success.tolist() == [True, False]
     assert batch.status.tolist() == ["converged", "max_iter"]
     assert batch.iterations[1] > 0
+
+
+def test_the_closed_form_s_slices_on_threads_give_the_rows_of_one_thread() -> None:
+    # More than two slices of targets: the closed form runs on worker threads.
+    Q = _configurations(UR5, 10_000, 7)
+    T = UR5.fk(Q)
+    one = optik.solve_ik_batch(UR5, T, threads=1)
+    two = optik.solve_ik_batch(UR5, T, threads=2)
+    assert one.success.all() and np.all(one.iterations == 0)
+    np.testing.assert_array_equal(one.q, two.q)
+    np.testing.assert_allclose(UR5.fk(two.q), T, atol=1e-9)
