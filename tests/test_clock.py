@@ -196,3 +196,37 @@ def test_loading_a_kernel_from_numbas_cache_is_excluded(
     finally:
         sys.path.remove(str(tmp_path))
         sys.modules.pop("loaded_kernel", None)
+
+
+def test_collecting_answers_stops_at_the_deadline(fake_clock: FakeClock) -> None:
+    # solve_ik_all with a solver whose every attempt answers (a closed-form branch, a
+    # different one each time) and takes 0.15 s of the budget's clock: with timeout_s=0.2
+    # the second answer ends past the deadline, and no run starts after it. (Without the
+    # check between runs each later run made its one admitted attempt: 8 answers.)
+    import optik
+    from optik.problems import load_problem
+    from optik.solvers import IKSolver, SolverOutput, register_solver, unregister_solver
+
+    puma = load_problem("puma560").robot
+    T = puma.fk(puma.mid_limits + 0.2)
+    branches = optik.analytic_ik(puma, T)
+    calls: list[int] = []
+
+    class Answering(IKSolver):
+        name = "test:answering"
+
+        def solve(self, query, q0, max_iter, deadline):  # type: ignore[no-untyped-def]
+            fake_clock.advance(0.15)
+            calls.append(1)
+            return SolverOutput(branches[len(calls) % len(branches)], 1, True, "converged")
+
+    register_solver("test:answering", Answering, lambda: True)
+    try:
+        found = optik.solve_ik_all(
+            puma, T, solver="test:answering", k=8, min_separation=0.0, restarts=20,
+            timeout_s=0.2,
+        )  # fmt: skip
+    finally:
+        unregister_solver("test:answering")
+    assert len(branches) >= 4
+    assert len(found) == 2 and len(calls) == 2
