@@ -225,6 +225,11 @@ def set_equal_3d(ax: Any, points: FloatArray, margin: float = 0.08) -> None:
     ax.set_ylim(centre[1] - half, centre[1] + half)
     ax.set_zlim(centre[2] - half, centre[2] + half)
     ax.set_box_aspect((1.0, 1.0, 1.0))
+    from matplotlib.ticker import MaxNLocator
+
+    for axis in (ax.xaxis, ax.yaxis, ax.zaxis):
+        # Five ticks at most: a 3-D axis's labels run into each other beyond that.
+        axis.set_major_locator(MaxNLocator(5))
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     ax.set_zlabel("z (m)")
