@@ -112,3 +112,15 @@ def test_a_tool_that_bulges_between_waypoints_departs_from_the_path() -> None:
     distance = np.linalg.norm(dense - (A + lam[:, None] * (B - A)), axis=1)
     assert distance.max() > 0.03  # the swing moves the tool by centimetres
     assert 0.8 * distance.max() <= position <= distance.max() + 1e-12
+
+
+def test_a_numeric_arm_s_waypoints_get_fresh_candidates_by_default() -> None:
+    # Without a closed form, each waypoint's candidates are the continuation of the
+    # previous ones and fresh restarts (2 by default): more than one where they differ.
+    panda = load_problem("panda").robot
+    q = panda.mid_limits + 0.2
+    path = panda.fk(np.linspace(q, q + 0.1, 5))
+    plan = optik.plan_path(panda, path, q_start=q)
+    assert plan.status == ["ok"] * 5
+    assert plan.candidates.max() > 1
+    assert optik.plan_path(panda, path, q_start=q, restarts=0).candidates.max() == 1
