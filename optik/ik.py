@@ -69,7 +69,7 @@ from optik.ik_batch import (
 )
 from optik.ik_result import STATUSES, IKResult, from_run, verified_result, without_run
 from optik.limits import FROZEN_MATCH_TOLERANCE as FROZEN_MATCH_TOLERANCE  # its old home
-from optik.limits import into_box
+from optik.limits import into_box, revolute_joints
 from optik.model import Robot
 from optik.poses import PositionOnlyTargetError, as_target_pose
 from optik.posture import check_posture, nearest_turns, posture_answers, refine_posture
@@ -551,7 +551,7 @@ def _plan(
         """
         name, value = (None, None) if held is None else held
         found = analytic_ik(robot, T_target, mode, q_ref=q_start, free_joint=name, free_value=value)
-        branches = found if bounds is None else _into_box(found, bounds)
+        branches = found if bounds is None else _into_box(robot, found, bounds, q_start)
         if branches:
             return plan(branches, branches)
         if provable:
@@ -642,18 +642,24 @@ def _held_joint(
 
 
 def _into_box(
-    branches: list[FloatArray], bounds: tuple[FloatArray, FloatArray]
+    robot: Robot,
+    branches: list[FloatArray],
+    bounds: tuple[FloatArray, FloatArray],
+    q_ref: FloatArray,
 ) -> list[FloatArray]:
-    """The closed-form branches inside the box ``bounds``, snapped onto it, in order.
+    """The closed-form branches inside the box ``bounds``, snapped onto it, nearest ``q_ref``.
 
     A branch recovers a frozen joint's value only to rounding: it counts as holding it
     within :data:`~optik.limits.FROZEN_MATCH_TOLERANCE` and is then given the value
-    exactly (:func:`optik.limits.into_box`).
+    exactly; an angle a turn away from the box is turned into it
+    (:func:`optik.limits.into_box`), which can change which branch is nearest.
     """
     if not branches:
         return []
-    inside, clipped = into_box(np.array(branches), *bounds)
-    return list(clipped[inside])
+    inside, clipped = into_box(np.array(branches), *bounds, robot.cached(revolute_joints))
+    kept = clipped[inside]
+    order = np.argsort(np.linalg.norm(kept - q_ref, axis=1), kind="stable")
+    return list(kept[order])
 
 
 def _distinct(

@@ -31,7 +31,7 @@ from optik._ik_options import (
 from optik.analytic import AnalyticFamily, checked_batch, compiled_batch, family_of, family_solves
 from optik.diffik import clip_into_limits
 from optik.errors import ArgumentError, OptikError, ShapeError
-from optik.limits import LIMIT_TOLERANCE, into_box, limit_violation
+from optik.limits import LIMIT_TOLERANCE, into_box, limit_violation, revolute_joints
 from optik.model import Robot
 from optik.solvers._base import IKQuery, compromise, now, search_length
 from optik.solvers._batch_threads import solve_batch
@@ -219,14 +219,18 @@ def _branches(
     refs = np.ascontiguousarray(refs, dtype=np.float64)
     lower, upper = bounds if bounds is not None else (robot.lower, robot.upper)
 
+    revolute = robot.cached(revolute_joints)
+
     def piece(lo: int) -> None:
         hi = min(lo + BATCH_SLICE, M)
         branches = checked_batch(robot, family, poses[lo:hi], mode, refs[lo:hi], True, polish=False)
-        inside, clipped = into_box(branches.q, lower, upper)  # (m, B), (m, B, dof)
-        first = np.argmax(inside, axis=1)
+        inside, clipped = into_box(branches.q, lower, upper, revolute)  # (m, B), (m, B, dof)
+        # Nearest the reference among those inside (a turn into the box moves a branch).
+        distance = np.linalg.norm(clipped - refs[lo:hi, None, :], axis=2)
+        nearest = np.argmin(np.where(inside, distance, math.inf), axis=1)
         rows = np.arange(hi - lo)
-        found = inside[rows, first]
-        out[lo:hi][found] = clipped[rows, first][found]
+        found = inside[rows, nearest]
+        out[lo:hi][found] = clipped[rows, nearest][found]
 
     starts = list(range(0, M, BATCH_SLICE))
     if starts:

@@ -113,3 +113,31 @@ def test_the_closed_form_s_slices_on_threads_give_the_rows_of_one_thread() -> No
     assert one.success.all() and np.all(one.iterations == 0)
     np.testing.assert_array_equal(one.q, two.q)
     np.testing.assert_allclose(UR5.fk(two.q), T, atol=1e-9)
+
+
+def test_a_branch_a_turn_from_the_margin_s_box_is_turned_into_it() -> None:
+    # The UR5's joints span +-2 pi. A branch wrapped nearest q0 can sit in a
+    # limit_margin's band next to +-2 pi while the same branch a turn over lies inside the
+    # box: it was dropped, and the search answered (150 iterations, farther from q0).
+    import itertools
+
+    rng = np.random.default_rng(11)
+    margin = 0.05
+    lower, upper = UR5.lower + margin, UR5.upper - margin
+    turns = np.array(list(itertools.product((-2.0 * np.pi, 0.0, 2.0 * np.pi), repeat=6)))
+    for _ in range(8):
+        q = rng.uniform(0.5 * UR5.lower, 0.5 * UR5.upper)
+        q[5] = rng.choice([-1.0, 1.0]) * (2.0 * np.pi - rng.uniform(0.0, 0.04))  # in the band
+        T = UR5.fk(q)
+        # Reference: every branch at every turn of every joint, inside the box, nearest q.
+        candidates = np.concatenate(
+            [b + turns for b in optik.analytic_ik(UR5, T, within_limits=False)]
+        )
+        inside = np.all((candidates >= lower) & (candidates <= upper), axis=1)
+        nearest = np.min(np.linalg.norm(candidates[inside] - q, axis=1))
+        single = optik.solve_ik(UR5, T, q0=q, limit_margin=margin)
+        assert (single.success, single.solver, single.iterations) == (True, "analytic", 0)
+        assert np.linalg.norm(single.q - q) == pytest.approx(nearest, abs=1e-9)
+        batch = optik.solve_ik_batch(UR5, T[None], q0=q, limit_margin=margin)
+        assert batch.success[0] and batch.iterations[0] == 0
+        np.testing.assert_array_equal(batch.q[0], single.q)
