@@ -233,13 +233,13 @@ def _branches(
         out[lo:hi][found] = clipped[rows, nearest][found]
 
     starts = list(range(0, M, BATCH_SLICE))
-    if starts:
-        piece(starts[0])  # on this thread first: the robot's compiled plan is cached once
-    if threads > 1 and len(starts) > 2:
+    if threads > 1 and len(starts) > 1:
+        # The family and its compiled plan are cached on the robot already (the caller
+        # asked compiled_batch): the workers only read them.
         with ThreadPoolExecutor(max_workers=threads, thread_name_prefix="optik-branches") as pool:
-            list(pool.map(piece, starts[1:]))
+            list(pool.map(piece, starts))
     else:
-        for lo in starts[1:]:
+        for lo in starts:
             piece(lo)
     return out
 
