@@ -381,10 +381,11 @@ def solve_ik_batch(
         polish = has & ~exact
         if np.any(polish):
             others = own[polish] if own.shape[0] > 1 else np.repeat(own, polish.sum(), 0)
-            run(
-                rows[polish],
-                np.ascontiguousarray(np.concatenate([branch[polish, None], others], 1)),
-            )
+            polished = rows[polish]
+            run(polished, np.ascontiguousarray(np.concatenate([branch[polish, None], others], 1)))
+            # A search that fails too leaves the branch, as solve_ik does: the nearest q0.
+            missed = ~verify(robot, Q[polished], poses[polished], task).success
+            Q[polished[missed]] = branch[polish][missed]
     else:
         run(rows, own)
         if family is not None:  # a closed form run in Python: for the rows the search missed

@@ -141,3 +141,20 @@ def test_a_branch_a_turn_from_the_margin_s_box_is_turned_into_it() -> None:
         batch = optik.solve_ik_batch(UR5, T[None], q0=q, limit_margin=margin)
         assert batch.success[0] and batch.iterations[0] == 0
         np.testing.assert_array_equal(batch.q[0], single.q)
+
+
+def test_a_branch_whose_polish_fails_stays_the_answer() -> None:
+    # A tol below rounding: neither the branch nor the search from it meets it (but where
+    # rounding gives exact zeros). The row keeps the branch nearest q0, as solve_ik's
+    # answer does (the search's last attempt could be another branch, half a turn away).
+    Q = _configurations(PUMA, 30, 12)
+    T = PUMA.fk(Q)
+    q0 = np.clip(Q + 0.01, PUMA.lower, PUMA.upper)
+    batch = optik.solve_ik_batch(PUMA, T, q0=q0, tol=1e-18, restarts=1, max_iter=3)
+    failed = np.flatnonzero(~batch.success)
+    assert len(failed) >= 10
+    for k in failed:
+        single = optik.solve_ik(PUMA, T[k], q0=q0[k], tol=1e-18, restarts=1, max_iter=3)
+        assert not single.success
+        np.testing.assert_array_equal(batch.q[k], single.q)
+        assert np.max(np.abs(batch.q[k] - Q[k])) < 1e-9  # the source's own branch
