@@ -54,7 +54,13 @@ from optik._ik_options import (
     check_q0,
     query_bounds,
 )
-from optik.analytic import analytic_ik, family_of, family_solves, free_joint_reason
+from optik.analytic import (
+    analytic_ik,
+    family_of,
+    family_solves,
+    free_joint_reason,
+    wrap_into_limits,
+)
 from optik.analytic.roll import axis_branches, grid_branches, solves_axis_task
 from optik.errors import OptikError
 
@@ -69,7 +75,7 @@ from optik.ik_batch import (
 )
 from optik.ik_result import STATUSES, IKResult, from_run, verified_result, without_run
 from optik.limits import FROZEN_MATCH_TOLERANCE as FROZEN_MATCH_TOLERANCE  # its old home
-from optik.limits import into_box, revolute_joints
+from optik.limits import into_box
 from optik.model import Robot
 from optik.poses import PositionOnlyTargetError, as_target_pose
 from optik.posture import check_posture, nearest_turns, posture_answers, refine_posture
@@ -586,11 +592,7 @@ def _plan(
         # inside a narrowed box): search numerically, from the grid's branches too.
         clipped = [np.clip(q, box[0], box[1]) for q in roll.outside[:ROLL_STARTS]]
         starts_given = [*starts_given, *clipped]
-    elif (
-        family is not None
-        and (task.is_pose_or_position or task.search.is_pose_or_position)
-        and family_solves(family, robot, task.mode)
-    ):
+    elif family is not None and family_solves(family, robot, task):
         # Frozen joints or a margin narrow the box (the branch set proves nothing about
         # it), and a numerical family (general_6r) proves nothing at all. Graded positive
         # weights have the same exact answers (optik.task): the branches answer them.
@@ -652,11 +654,14 @@ def _into_box(
     A branch recovers a frozen joint's value only to rounding: it counts as holding it
     within :data:`~optik.limits.FROZEN_MATCH_TOLERANCE` and is then given the value
     exactly; an angle a turn away from the box is turned into it
-    (:func:`optik.limits.into_box`), which can change which branch is nearest.
+    (:func:`optik.analytic.wrap_into_limits`), which can change which branch is nearest.
     """
     if not branches:
         return []
-    inside, clipped = into_box(np.array(branches), *bounds, robot.cached(revolute_joints))
+    # Into the box nearest q_ref first: a branch wrapped into the limits can sit in a
+    # margin's band (or off a frozen value) a turn away from the box.
+    turned = wrap_into_limits(np.array(branches), robot, q_ref, bounds)
+    inside, clipped = into_box(turned, *bounds)
     kept = clipped[inside]
     order = np.argsort(np.linalg.norm(kept - q_ref, axis=1), kind="stable")
     return list(kept[order])

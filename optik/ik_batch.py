@@ -28,10 +28,17 @@ from optik._ik_options import (
     check_q0,
     query_bounds,
 )
-from optik.analytic import AnalyticFamily, checked_batch, compiled_batch, family_of, family_solves
+from optik.analytic import (
+    AnalyticFamily,
+    checked_batch,
+    compiled_batch,
+    family_of,
+    family_solves,
+    wrap_into_limits,
+)
 from optik.diffik import clip_into_limits
 from optik.errors import ArgumentError, OptikError, ShapeError
-from optik.limits import LIMIT_TOLERANCE, into_box, limit_violation, revolute_joints
+from optik.limits import LIMIT_TOLERANCE, into_box, limit_violation
 from optik.model import Robot
 from optik.solvers._base import IKQuery, compromise, now, search_length
 from optik.solvers._batch_threads import solve_batch
@@ -184,17 +191,14 @@ def _row_starts(
 
 
 def _batch_family(robot: Robot, task: Task) -> AnalyticFamily | None:
-    """The robot's closed-form family where it answers ``task``, as :func:`optik.solve_ik`.
+    """The robot's (fast) closed-form family where it answers ``task``, else ``None``.
 
-    A fast family that solves the task's mode, a pose or a point (graded positive weights
-    too: the same exact answers); else ``None``.
+    The rule of :func:`optik.solve_ik` (:func:`optik.analytic.family_solves`).
     """
     family = family_of(robot)
     if family is None or not family.fast:
         return None
-    if not (task.is_pose_or_position or task.search.is_pose_or_position):
-        return None
-    return family if family_solves(family, robot, task.mode) else None
+    return family if family_solves(family, robot, task) else None
 
 
 def _branches(
@@ -219,18 +223,20 @@ def _branches(
     refs = np.ascontiguousarray(refs, dtype=np.float64)
     lower, upper = bounds if bounds is not None else (robot.lower, robot.upper)
 
-    revolute = robot.cached(revolute_joints)
-
     def piece(lo: int) -> None:
         hi = min(lo + BATCH_SLICE, M)
-        branches = checked_batch(robot, family, poses[lo:hi], mode, refs[lo:hi], True, polish=False)
-        inside, clipped = into_box(branches.q, lower, upper, revolute)  # (m, B), (m, B, dof)
+        rows = checked_batch(robot, family, poses[lo:hi], mode, refs[lo:hi], True, polish=False).q
+        if bounds is not None:
+            # Into the box nearest the reference, as solve_ik (the pipeline wrapped them
+            # into the limits: a margin's band can hold a branch a turn away from the box).
+            rows = wrap_into_limits(rows, robot, refs[lo:hi, None, :], bounds)
+        inside, clipped = into_box(rows, lower, upper)  # (m, B), (m, B, dof)
         # Nearest the reference among those inside (a turn into the box moves a branch).
         distance = np.linalg.norm(clipped - refs[lo:hi, None, :], axis=2)
         nearest = np.argmin(np.where(inside, distance, math.inf), axis=1)
-        rows = np.arange(hi - lo)
-        found = inside[rows, nearest]
-        out[lo:hi][found] = clipped[rows, nearest][found]
+        index = np.arange(hi - lo)
+        found = inside[index, nearest]
+        out[lo:hi][found] = clipped[index, nearest][found]
 
     starts = list(range(0, M, BATCH_SLICE))
     if threads > 1 and len(starts) > 1:

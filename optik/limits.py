@@ -7,15 +7,12 @@ Limits are float arrays aligned with ``q`` (rad for revolute joints, m for prism
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from optik._checks import MAX_LENGTH_M, FloatArray, as_float_array, check_finite
 from optik.errors import InvalidLimitsError, ModelError, ShapeError
-
-if TYPE_CHECKING:
-    from optik.model import Robot
 
 ROLE_LIMITS_RAD: dict[str, tuple[float, float]] = {
     "arm": (-math.radians(135.0), math.radians(135.0)),
@@ -44,40 +41,19 @@ and still be taken as holding it (then set to it exactly): the rounding of a joi
 recovered from a pose, which grows near a singularity."""
 
 
-def revolute_joints(robot: Robot) -> np.ndarray:
-    """(dof,) whether each joint is revolute (for :func:`into_box`; cache with ``robot.cached``)."""
-    return np.array([joint.kind == "revolute" for joint in robot.joints])
-
-
 def into_box(
-    rows: FloatArray,
-    lower: FloatArray,
-    upper: FloatArray,
-    revolute: np.ndarray | None = None,
+    rows: FloatArray, lower: FloatArray, upper: FloatArray
 ) -> tuple[np.ndarray, FloatArray]:
     """Which closed-form branches (..., dof) lie inside a query's box, and all snapped onto it.
 
     A frozen joint (``lower == upper``) counts as held within
     :data:`FROZEN_MATCH_TOLERANCE` (a branch recovers it to rounding only), the others
-    within :data:`LIMIT_TOLERANCE`. With ``revolute`` (dof,), a revolute angle outside the
-    box is first turned by the fewest whole turns that bring it inside, where some do: a
-    branch wrapped into the limits nearest a reference can sit in a ``limit_margin``'s band
-    (or off a frozen value) a turn away from the box, on joints that span more than a
-    turn. Returns ``(inside (...,), clipped (..., dof))``; NaN rows are not inside.
+    within :data:`LIMIT_TOLERANCE`. Returns ``(inside (...,), clipped (..., dof))``; NaN
+    rows are not inside. (Wrap the rows into the box first,
+    :func:`optik.analytic.wrap_into_limits` with ``bounds``: a branch wrapped into the
+    limits can sit a turn away from a narrower box.)
     """
     slack = np.where(lower == upper, FROZEN_MATCH_TOLERANCE, LIMIT_TOLERANCE)
-    if revolute is not None:
-        with np.errstate(invalid="ignore"):
-            turns = np.where(
-                rows < lower - slack,
-                np.ceil((lower - slack - rows) / (2.0 * math.pi)),
-                np.where(
-                    rows > upper + slack, -np.ceil((rows - upper - slack) / (2.0 * math.pi)), 0.0
-                ),
-            )
-            turned = rows + 2.0 * math.pi * np.where(np.isfinite(turns), turns, 0.0)
-            fits = (turned >= lower - slack) & (turned <= upper + slack)
-        rows = np.where(revolute & fits, turned, rows)
     inside = np.all((rows >= lower - slack) & (rows <= upper + slack), axis=-1)
     return inside, np.clip(rows, lower, upper)
 

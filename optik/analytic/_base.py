@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from abc import ABC, abstractmethod
 from collections.abc import Callable
-from typing import Any, ClassVar, NamedTuple
+from typing import TYPE_CHECKING, Any, ClassVar, NamedTuple
 
 import numpy as np
 
@@ -15,6 +15,9 @@ from optik.analytic.geometry import DHModel, NoTable, equivalent_dh, revolute_ch
 from optik.errors import AnalyticIKError
 from optik.model import DHJoint, Robot
 from optik.spatial import invert_transform
+
+if TYPE_CHECKING:
+    from optik.task import Task
 
 TANGENT_TOL = 1e-11
 """Tolerance of the closed forms' trig equations (``tol`` of :func:`optik._math.trig_roots`,
@@ -287,15 +290,19 @@ def places_tool_point(family: AnalyticFamily, robot: Robot) -> bool:
     return family.tool_point or not np.any(np.abs(robot.T_flange_tool[:3, 3]) > 0.0)
 
 
-def family_solves(family: AnalyticFamily, robot: Robot, mode: str) -> bool:
-    """Whether ``family``'s closed form answers ``mode`` (``"pose"``, ``"position"``) on ``robot``.
+def family_solves(family: AnalyticFamily, robot: Robot, task: Task) -> bool:
+    """Whether ``family``'s branches are the exact answers of ``task`` on ``robot``.
 
-    The mode must be one the family solves, and for position-only IK the family must
-    reach the tool point (:func:`places_tool_point`).
+    The rule :func:`optik.solve_ik` and :func:`optik.solve_ik_batch` share: a pose or a
+    point (graded positive weights too, whose exact answers are the same, :mod:`optik.task`)
+    in a mode the family solves; for position-only IK the family must reach the tool
+    point (:func:`places_tool_point`).
     """
-    if mode not in family.modes:
+    if not (task.is_pose_or_position or task.search.is_pose_or_position):
         return False
-    return mode != "position" or places_tool_point(family, robot)
+    if task.mode not in family.modes:
+        return False
+    return task.mode != "position" or places_tool_point(family, robot)
 
 
 Vector3 = tuple[float, float, float]

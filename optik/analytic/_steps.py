@@ -24,15 +24,24 @@ from optik.spatial import rotation_angle
 from optik.verify import beyond_reach
 
 
-def wrap_into_limits(Q: FloatArray, robot: Robot, q_ref: FloatArray) -> FloatArray:
+def wrap_into_limits(
+    Q: FloatArray,
+    robot: Robot,
+    q_ref: FloatArray,
+    bounds: tuple[FloatArray, FloatArray] | None = None,
+) -> FloatArray:
     """Shift revolute angles by multiples of 2 pi into the limits, nearest ``q_ref``.
 
-    ``Q`` is (k, dof). A joint whose range spans more than 2 pi has several
-    representatives: the one nearest ``q_ref`` is kept. An angle with no representative
-    inside its limits stays at the representative nearest ``q_ref``.
+    ``Q`` is (..., dof), ``q_ref`` broadcasts against it. A joint whose range spans more
+    than 2 pi has several representatives: the one nearest ``q_ref`` is kept. An angle
+    with no representative inside its limits stays at the representative nearest
+    ``q_ref``. ``bounds``: a query's box ``(lower, upper)`` (frozen joints, a
+    ``limit_margin``) instead of the robot's limits.
     """
     two_pi = 2.0 * math.pi
     revolute, lower, upper = robot.cached(_wrap_bounds)
+    if bounds is not None:
+        lower, upper = bounds
     base = q_ref + np.remainder(Q - q_ref + math.pi, two_pi) - math.pi
     # Representatives base + 2 pi k inside [lower, upper]: k in [k_min, k_max].
     with np.errstate(invalid="ignore"):
@@ -75,7 +84,7 @@ def beyond_reach_rows(
     robot: Robot, T_targets: FloatArray, within_limits: bool = True
 ) -> NDArray[np.bool_]:
     """:func:`_beyond_reach` of each target of ``T_targets`` (N, 4, 4): (N,) bool."""
-    if not within_limits and any(joint.kind == "prismatic" for joint in robot.joints):
+    if not within_limits and not robot.cached(_wrap_bounds)[0].all():  # a prismatic joint
         return np.zeros(len(T_targets), dtype=bool)
     return np.asarray(beyond_reach(robot, T_targets[:, :3, 3]), dtype=bool)
 
