@@ -268,7 +268,8 @@ def solve_ik(
             ``"nearest"`` spends its whole budget: with ``timeout_s``, all of it.
         posture: ``q_ref`` (dof,): an answer nearest it in the ``joint_weights`` norm:
             the answer from a start at ``q_ref``, then up to one more of the ordinary
-            starts (more only while none is found), each refined by
+            starts (a closed form's branches turned and ordered nearest ``q_ref`` first;
+            more only while none is found), each refined by
             :func:`optik.posture.refine_posture` (a local optimum of
             ``min ||q - q_ref||_W s.t. the task``, compiled), the nearest kept; with a
             closed form, every branch is refined (in ``mode="axis"``, the roll's refined
@@ -325,14 +326,24 @@ def _polished_branches(plan: _Plan, answer: IKResult) -> IKResult:
 
 def _posture_answer(plan: _Plan, q_ref: FloatArray, weights: FloatArray) -> IKResult:
     """The answer of :func:`solve_ik` with a checked ``posture`` and its norm's weights."""
+
+    def cost(q: FloatArray) -> float:
+        d = q - q_ref
+        return float(d @ (weights * d))
+
     if plan.branches and plan.numeric is None:
         found = [(q, 0, 0) for q in nearest_turns(plan.query, np.array(plan.branches), q_ref)]
         solver_name = "analytic"
         last_run = None
     else:
         numeric = plan.numeric or get_solver(AUTO_NUMERIC_SOLVER)
+        # The given starts (closed-form branches, wrapped nearest q0) turned nearest the
+        # posture and nearest first: where the start at the posture fails, the next
+        # answer comes from the start nearest it (a turn does not move the tool).
+        starts = np.array(plan.given).reshape(-1, plan.query.robot.dof)
+        given = sorted(nearest_turns(plan.query, starts, q_ref), key=cost)
         found, last_run = posture_answers(
-            plan.query, numeric, plan.given, q_ref, weights, plan.seed, plan.max_iter,
+            plan.query, numeric, given, q_ref, weights, plan.seed, plan.max_iter,
             plan.last, plan.deadline,
         )  # fmt: skip
         solver_name = numeric.name
@@ -340,10 +351,6 @@ def _posture_answer(plan: _Plan, q_ref: FloatArray, weights: FloatArray) -> IKRe
         if last_run is None:  # pragma: no cover - a closed form always has branches here
             raise OptikError("posture: no answer and no run to report")
         return from_run(plan.query, plan.start_time, solver_name, last_run)
-
-    def cost(q: FloatArray) -> float:
-        d = q - q_ref
-        return float(d @ (weights * d))
 
     if solver_name == "analytic":
         refined = [refine_posture(plan.query, q, q_ref, weights) for q, _, _ in found]
