@@ -139,7 +139,11 @@ def write_atomic_with(
             writable, or (``create_folder`` false) the folder does not exist.
     """
     target = output_path(path)
-    if target.is_dir():
+    try:
+        is_folder = target.is_dir()
+    except OSError as exc:  # a name too long for the system, a loop of links, ...
+        raise OutputFileError(str(target), exc.strerror or str(exc)) from exc
+    if is_folder:
         raise OutputFileError(str(target), "it is a folder")
     if create_folder:
         prepare_folder(target.parent)

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from optik._checks import MAX_LENGTH_M, FloatArray
+from optik._files import output_path, write_atomic_with
 from optik._pyplot import pyplot
 from optik.errors import OptikError
 from optik.model import Robot
@@ -306,8 +307,9 @@ def show_robot(
         view: elevation and azimuth of the camera, deg.
         dpi: resolution, dots per inch.
     """
+    target = output_path(path)
     fig, _ = robot_figure(robot, q, title=title, meshes=meshes, view=view)
-    return save_figure(fig, Path(path), dpi)
+    return save_figure(fig, target, dpi)
 
 
 def save_figure(fig: Any, path: str | Path, dpi: float = 110.0) -> Path:
@@ -317,16 +319,15 @@ def save_figure(fig: Any, path: str | Path, dpi: float = 110.0) -> Path:
         OptikError: a suffix matplotlib cannot write (the message lists those it can).
         OutputFileError: the file cannot be written.
     """
-    from optik._files import write_atomic_with
-
-    path = Path(path)
-    suffix = path.suffix.lower().lstrip(".")
-    formats = fig.canvas.get_supported_filetypes()
-    if suffix not in formats:
-        pyplot().close(fig)
-        raise OptikError(f"{path}: cannot write {suffix!r} images (formats: {', '.join(formats)})")
-    fig.set_dpi(dpi)
     try:
+        path = output_path(path)
+        suffix = path.suffix.lower().lstrip(".")
+        formats = fig.canvas.get_supported_filetypes()
+        if suffix not in formats:
+            raise OptikError(
+                f"{path}: cannot write {suffix!r} images (formats: {', '.join(formats)})"
+            )
+        fig.set_dpi(dpi)
         return write_atomic_with(
             path, lambda handle: fig.savefig(handle, format=suffix, dpi=dpi), binary=True
         )

@@ -48,7 +48,7 @@ from optik._checks import (
     check_progress,
     check_real,
 )
-from optik._files import write_atomic_with
+from optik._files import output_path, write_atomic_with
 from optik._ik_options import query_bounds
 from optik.analytic import analytic_ik, family_of, wrap_into_limits
 from optik.analytic.roll import axis_branches, solves_axis_task
@@ -149,7 +149,7 @@ class PathPlan:
         Args:
             path: the file to write; its suffix (``.csv``, ``.npz``, ``.json``) picks the format.
         """
-        target = Path(path)
+        target = output_path(path)
         suffix = target.suffix.lower()
         if suffix == ".npz":
             return _atomic_write(target, self._write_npz, binary=True)
@@ -218,9 +218,10 @@ class PathPlan:
         """
         from optik.plots import plot_plan
 
+        target = output_path(path)
         if len(self.q) == 0:
             raise OptikError("the plan has no waypoint to draw (its path was empty)")
-        return plot_plan(self, Path(path), robot)
+        return plot_plan(self, target, robot)
 
     def to_trajectory(
         self,

@@ -23,6 +23,7 @@ from optik._checks import (
     check_real,
     finite_array,
 )
+from optik._files import output_path
 from optik.errors import OptikError, ShapeError
 from optik.ik import solve_ik_batch
 from optik.model import Robot
@@ -51,7 +52,7 @@ class Reachability:
         """Scatter of the points near a plane ``axis = value`` coloured by reachability."""
         from optik.plots import plot_reachability
 
-        return plot_reachability(self, Path(path), axis, value)
+        return plot_reachability(self, output_path(path), axis, value)
 
 
 def reachability(

@@ -14,7 +14,7 @@ A :class:`~optik.planning.PathPlan` is a sequence of joint vectors without timin
    acceleration is continuous), or, where that spline would leave the joint limits between
    two waypoints, a monotone PCHIP spline (C1), which never overshoots its waypoints.
    Waypoints closer than :data:`MERGE_TOLERANCE` times the segment's chord length
-   (at least 1e-12 rad or m) to the previous knot are merged into it: the path passes
+   (at least 1e-9 rad or m) to the previous knot are merged into it: the path passes
    through that knot at their stated time, so the trajectory holds each waypoint's
    configuration to within that distance, and the tool's move from it is counted in
    the segment's measured departure (and ``path_tolerance``).
@@ -47,7 +47,7 @@ from typing import IO, TYPE_CHECKING, Any
 import numpy as np
 
 from optik._checks import FloatArray, as_float_array, check_int, check_real
-from optik._files import write_atomic_with
+from optik._files import output_path, write_atomic_with
 from optik.errors import OptikError, ShapeError
 from optik.path_departure import merge_departure, segment_departure
 
@@ -56,6 +56,7 @@ if TYPE_CHECKING:
     from optik.planning import PathPlan
 
 __all__ = [
+    "MAX_GRID",
     "MAX_RATE_LIMIT",
     "MAX_TRAJECTORY_SAMPLES",
     "MERGE_TOLERANCE",
@@ -68,6 +69,11 @@ __all__ = [
 MAX_TRAJECTORY_SAMPLES = 10_000_000
 """Most samples a trajectory may hold (10 million samples of a 6-joint robot are 1.5 GB)."""
 
+MAX_GRID = 20_000
+"""Largest ``grid`` of :func:`plan_trajectory`: TOPP-RA's time grows with its intervals
+(about 1 s per segment at this many, 60 s at a million), and the duration changes by
+less than 0.1 % beyond the default 200."""
+
 MIN_RATE_LIMIT = 1e-9
 """Smallest accepted velocity or acceleration limit (rad or m per s, or per s^2): the time
 scale of a segment, about its length over the limit, is squared on the way to TOPP-RA,
@@ -79,7 +85,9 @@ MERGE_TOLERANCE = 1e-6
 """Waypoints of a segment closer than this fraction of its joint-space chord length are one."""
 
 _UNSOLVED = ("unreachable", "outside_limits", "not_found")
-_SAME_POINT = 1e-12  # rad or m: the least merge distance, whatever the segment's length
+# rad or m: the least merge distance, whatever the segment's length (TOPP-RA finds no
+# parameterisation of a motion of 1e-11 to 1e-10 in all: "not controllable").
+_SAME_POINT = 1e-9
 _LIMIT_SLACK = 1e-12  # rad or m: a spline within this of a limit stays inside it
 
 
@@ -295,7 +303,7 @@ class Trajectory:
             OptikError: an unknown suffix.
             OutputFileError: the file cannot be written.
         """
-        target = Path(path)
+        target = output_path(path)
         suffix = target.suffix.lower()
         if suffix == ".csv":
             return write_atomic_with(target, self._write_csv)
@@ -430,7 +438,7 @@ def _merge_close(Q: FloatArray) -> tuple[Any, Any]:
 
     Returns ``(kept, knot_of)``: indices into ``Q`` of the knots (the first waypoint always
     one), and per waypoint the index into ``kept`` of the knot it is merged into. A
-    waypoint within ``max(MERGE_TOLERANCE * chord length, 1e-12)`` (rad or m, Euclidean) of
+    waypoint within ``max(MERGE_TOLERANCE * chord length, 1e-9)`` (rad or m, Euclidean) of
     the last knot is merged into it: a spline through both would bend sharply between
     them, and TOPP-RA's rounding over so short an interval would read as a large
     acceleration. Each waypoint is thus within that distance of its knot.
@@ -590,7 +598,7 @@ def plan_trajectory(
             end; at most :data:`MAX_TRAJECTORY_SAMPLES` samples in all.
             :meth:`Trajectory.at` evaluates at any time.
         grid: least number of TOPP-RA grid intervals per segment (every waypoint is a grid
-            point).
+            point), 1 to :data:`MAX_GRID`.
         path_tolerance: largest accepted departure (m for position, rad for orientation)
             of the tool from the Cartesian path between waypoints; needs ``robot``.
 
@@ -604,8 +612,13 @@ def plan_trajectory(
             (plan with a finer path step, or loosen it), or more than
             :data:`MAX_TRAJECTORY_SAMPLES` samples (raise ``dt`` or the limits).
     """
+    # What is read of a plan (optik.planning imports this module: no isinstance here).
+    if not all(hasattr(plan, name) for name in ("q", "status", "joint_names", "poses", "mode")):
+        raise OptikError(
+            f"plan: expected an optik.PathPlan (from optik.plan_path), got {type(plan).__name__}"
+        )
     dt = check_real("dt", dt, positive=True)
-    grid = check_int("grid", grid, minimum=1, maximum=1_000_000)
+    grid = check_int("grid", grid, minimum=1, maximum=MAX_GRID)
     dof = plan.q.shape[1]
     names = plan.joint_names or tuple(f"q{i + 1}" for i in range(dof))
     if robot is not None:

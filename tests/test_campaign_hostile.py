@@ -17,6 +17,7 @@ from conftest import robot_of, two_link_robot
 
 from optik.campaign import batch, capability_map
 from optik.campaign.batch import SETTINGS_FILE, solve_batch
+from optik.campaign.capability import open_map
 from optik.campaign.placement import BasePlacements, base_placement, planar_candidates
 from optik.campaign.sampling import MAX_SAMPLES, MAX_VOXELS, lattice, orientations
 from optik.errors import OptikError, OutputFileError
@@ -160,6 +161,49 @@ def test_a_planar_grid_far_from_the_origin_keeps_its_one_position() -> None:
 def test_a_task_pose_beyond_the_length_limit_is_an_error(coarse_map: Any) -> None:
     with pytest.raises(OptikError, match=r"task_poses translation\[0, 0\].*1e\+09 m"):
         base_placement(two_link_robot(), [[1e300, 0.0, 0.0]], map=coarse_map, step=0.5, yaws=1)
+
+
+def test_one_task_pose_or_candidate_is_a_batch_of_one(coarse_map: Any) -> None:
+    # A (4, 4) pose was an IndexError past the pose check (as_pose keeps its shape).
+    robot = two_link_robot()
+    task = np.eye(4)
+    task[:3, 3] = [0.5, 0.2, 0.0]
+    base = np.eye(4)
+    base[:3, 3] = [0.1, -0.1, 0.0]
+    for single, batch_of_one in (
+        (
+            {"task_poses": task, "step": 0.5, "yaws": 2},
+            {"task_poses": task[None], "step": 0.5, "yaws": 2},
+        ),
+        (
+            {"task_poses": task[None], "candidates": base},
+            {"task_poses": task[None], "candidates": base[None]},
+        ),
+    ):
+        one = base_placement(robot, map=coarse_map, top=0, **single)
+        reference = base_placement(robot, map=coarse_map, top=0, **batch_of_one)
+        assert len(one.placements) == len(reference.placements) > 0
+        assert [p.coverage for p in one.placements] == [p.coverage for p in reference.placements]
+        np.testing.assert_array_equal(one.task_poses, reference.task_poses)
+
+
+def test_positions_with_a_map_of_poses_are_an_error(coarse_map: Any) -> None:
+    # (P, 3) points became identity-rotation poses and were ranked without a word.
+    settings = dict(coarse_map.attrs["settings"], mode="pose")
+    pose_map = coarse_map.copy()
+    pose_map.attrs = dict(coarse_map.attrs, settings=settings)
+    with pytest.raises(OptikError, match=r"positions are for a position map.*'pose'"):
+        base_placement(two_link_robot(), [[0.5, 0.2, 0.0]], map=pose_map, step=0.5, yaws=1)
+
+
+@pytest.mark.parametrize("value", [None, 5, {}])
+def test_a_map_that_is_neither_a_dataset_nor_a_path_is_an_error(value: Any) -> None:
+    # It was read as a relative path: "None: not a capability map (.../None does not exist)".
+    name = type(value).__name__
+    with pytest.raises(OptikError, match=rf"map: expected a capability map .* got {name}"):
+        base_placement(two_link_robot(), [[0.5, 0.2, 0.0]], map=value, step=0.5, yaws=1)
+    with pytest.raises(OptikError, match=rf"map: expected a capability map .* got {name}"):
+        open_map(value)
 
 
 def test_the_best_of_an_empty_ranking_is_an_error() -> None:

@@ -14,7 +14,7 @@ from scipy.optimize import minimize_scalar
 from scipy.spatial.transform import Rotation, Slerp
 
 import optik.trajectory
-from optik.errors import OptikError
+from optik.errors import OptikError, OutputFileError
 from optik.model import Robot
 from optik.paths import line
 from optik.planning import plan_path
@@ -299,3 +299,49 @@ def test_a_free_position_axis_does_not_count_in_the_departure() -> None:
             dense = max(dense, min(float(found.fun), off(grid[j])))
     assert 0.9 * dense <= segment.position_deviation <= dense + 1e-9  # measured 3.19 / 3.24
     plan.to_trajectory(1.0, 2.0, robot=robot, path_tolerance=1.5 * dense)
+
+
+def test_a_motion_below_a_nanoradian_holds_still(puma: Robot) -> None:
+    # TOPP-RA finds no parameterisation of a motion of 1e-11 to 1e-10 rad in all: the plan
+    # was refused with "check the limits" (and 30 lines of toppra's warnings).
+    direction = np.array([1.0, 0.5, -0.3, 0.2, 0.7, 1.0])
+    Q = QA + np.array([0.0, 1e-10, 2e-10])[:, None] * direction
+    trajectory = plan_from_q(puma, Q).to_trajectory(1.0, 2.0)
+    (segment,) = trajectory.segments
+    assert segment.interpolation == "hold" and trajectory.duration == 0.0
+    assert np.max(np.abs(trajectory.q[:, None, :] - Q[None])) <= 1e-9
+
+
+def test_a_grid_beyond_its_cap_is_refused(puma: Robot) -> None:
+    # A million intervals (the old cap) took a minute on a ten-waypoint plan.
+    plan = plan_from_q(puma, np.stack([QA, QB]))
+    with pytest.raises(OptikError, match=r"grid.*20000|grid.*20,000"):
+        plan.to_trajectory(1.0, 2.0, grid=optik.trajectory.MAX_GRID + 1)
+
+
+def test_a_plan_that_is_not_a_plan_is_an_error() -> None:
+    with pytest.raises(OptikError, match=r"plan: expected an optik\.PathPlan .* got list"):
+        optik.trajectory.plan_trajectory([1, 2, 3], 1.0, 2.0)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("path", [None, b"plan.csv", 3])
+def test_writing_to_a_value_that_is_no_path_is_an_error(
+    puma: Robot, tmp_path: Path, path: Any
+) -> None:
+    # pathlib's TypeError escaped before the path was checked.
+    plan = plan_from_q(puma, np.stack([QA, QB]))
+    trajectory = plan.to_trajectory(1.0, 2.0)
+    for write in (plan.save, trajectory.save, plan.plot):
+        with pytest.raises(OutputFileError, match=r"expected a path|not bytes"):
+            write(path)
+
+
+def test_a_file_name_too_long_for_the_system_is_an_error_naming_it(
+    puma: Robot, tmp_path: Path
+) -> None:
+    # The folder check (is_dir) raised a raw OSError (ENAMETOOLONG).
+    plan = plan_from_q(puma, np.stack([QA, QB]))
+    target = tmp_path / ("a" * 300 + ".csv")
+    with pytest.raises(OutputFileError, match="a" * 300):
+        plan.save(target)
+    assert list(tmp_path.iterdir()) == []

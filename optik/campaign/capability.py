@@ -316,6 +316,11 @@ def open_map(path: str | Path) -> Any:
             read lazily: a damaged data chunk raises when it is read
             (:func:`read_variable` says which, as an OptikError).
     """
+    if not isinstance(path, (str, Path)):
+        raise OptikError(
+            "map: expected a capability map (an xarray.Dataset) or the path of a stored "
+            f"one, got {type(path).__name__}"
+        )
     xr = require("xarray", "a capability map")
     try:
         ds = xr.open_zarr(str(path), consolidated=False)

@@ -320,10 +320,11 @@ def base_placement(
 
     Args:
         robot: the robot the map was made for.
-        task_poses: (P, 4, 4) task poses in the cell frame (m); (P, 3) positions for a
-            position map.
+        task_poses: (P, 4, 4) task poses in the cell frame (m), or one (4, 4); (P, 3)
+            positions for a position map (a map of another mode refuses them).
         map: a capability map (:func:`optik.capability_map`) or the path of a stored one.
-        candidates: (K, 4, 4) base poses in the cell frame; by default a floor grid
+        candidates: (K, 4, 4) base poses in the cell frame, or one (4, 4); by default a
+            floor grid
             (:func:`planar_candidates`) over ``region``.
         region: ``[[xmin, xmax], [ymin, ymax]]`` of the base origin (m); default: the task
             poses' extent grown by the map's reach radius.
@@ -363,7 +364,7 @@ def base_placement(
     # with top=0).
     make_task(mode, tol=tol)
     restarts = check_int("restarts", restarts, minimum=0, maximum=MAX_RESTARTS)
-    tasks = _task_poses(task_poses)
+    tasks = _task_poses(task_poses, map_mode)
     if candidates is None:
         radius = float(settings["reach_radius_m"])
         if region is None:
@@ -373,7 +374,7 @@ def base_placement(
         step = float(settings["voxel_m"]) if step is None else step
         bases = planar_candidates(region, step, yaws, height)
     else:
-        bases = as_pose("candidates", candidates, batch=True)
+        bases = as_pose("candidates", candidates, batch=True).reshape(-1, 4, 4)
         if len(bases) == 0:
             raise OptikError("candidates: give at least one base pose")
         check_length_array("candidates translation", bases[:, :3, 3])
@@ -393,13 +394,19 @@ def base_placement(
     return BasePlacements(chosen + placements[top:], tasks, mode, len(chosen))
 
 
-def _task_poses(task_poses: Any) -> FloatArray:
+def _task_poses(task_poses: Any, map_mode: str) -> FloatArray:
+    """The task poses (P, 4, 4): one pose, or points of a position map, as poses."""
     array = as_float_array("task_poses", task_poses)
     if array.ndim == 2 and array.shape[1] == 3:
+        if map_mode != "position":
+            raise OptikError(
+                f"task_poses: (P, 3) positions are for a position map; this map's mode is "
+                f"{map_mode!r}: give (P, 4, 4) poses"
+            )
         poses = np.broadcast_to(np.eye(4), (len(array), 4, 4)).copy()
         poses[:, :3, 3] = array
         array = poses
-    poses = as_pose("task_poses", array, batch=True)
+    poses = as_pose("task_poses", array, batch=True).reshape(-1, 4, 4)
     if len(poses) == 0:
         raise OptikError("task_poses: give at least one task pose")
     # Beyond MAX_LENGTH_M the map lookup loses all precision (and no map reaches there).

@@ -16,15 +16,14 @@ from optik.errors import OptikError
 from optik.plots import pyplot
 
 
-def _save(fig: Any, path: Path) -> Path:
+def _save(fig: Any, path: str | Path) -> Path:
     plt = pyplot()
     try:
-        write_atomic_with(
+        return write_atomic_with(
             path, lambda handle: fig.savefig(handle, format="png", dpi=110), binary=True
         )
     finally:
         plt.close(fig)
-    return path
 
 
 def plot_slices(ds: Any, path: str | Path, value: str = "reachability") -> Path:
@@ -65,7 +64,7 @@ def plot_slices(ds: Any, path: str | Path, value: str = "reachability") -> Path:
         f"{settings['robot']}: {settings['mode']} map, voxel {settings['voxel_m']:g} m, "
         f"{settings['samples_per_voxel']} samples per voxel"
     )
-    return _save(fig, Path(path))
+    return _save(fig, path)
 
 
 def plot_scatter(ds: Any, path: str | Path, most: int = 20_000) -> Path:
@@ -91,7 +90,7 @@ def plot_scatter(ds: Any, path: str | Path, most: int = 20_000) -> Path:
     # Padded: the z label sits between the axes and the colour bar.
     fig.colorbar(points, ax=ax, shrink=0.7, pad=0.12, label="reachability index")
     ax.set_title(f"{ds.attrs['settings']['robot']}: reached voxels")
-    return _save(fig, Path(path))
+    return _save(fig, path)
 
 
 def plot_map(ds: Any, folder: str | Path) -> list[Path]:
