@@ -408,7 +408,9 @@ class _CandidateFinder:
         if branches:
             # Joints with more than 2 pi of range have several representatives of each
             # branch. Those that continue a previous candidate (within one step of it)
-            # come first; the branches themselves follow, for where the path must jump.
+            # come first; for where the path must jump, each branch's representative
+            # nearest a previous candidate follows (not one a turn away), then the
+            # branches themselves.
             B = np.array(branches)
             parts = []
             if seeds:
@@ -419,6 +421,7 @@ class _CandidateFinder:
                 for seed, continued in zip(seeds, near.any(axis=1).tolist(), strict=True):
                     if not continued:
                         parts.append(self._continuing(target, seed))
+                parts.append(V[~near])
             parts.append(B)
             return _dedupe(np.concatenate(parts), self.limit)
         # No branch inside the limits proves nothing yet: at a singularity the closed form

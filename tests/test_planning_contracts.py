@@ -11,7 +11,9 @@ from __future__ import annotations
 import numpy as np
 
 import optik
+from optik.analytic import wrap_into_limits
 from optik.path_departure import segment_departure
+from optik.paths import line
 from optik.plan_choice import SWITCH_PENALTY, Comfort, choose, step_cost
 from optik.problems import load_problem
 
@@ -124,3 +126,21 @@ def test_a_numeric_arm_s_waypoints_get_fresh_candidates_by_default() -> None:
     assert plan.status == ["ok"] * 5
     assert plan.candidates.max() > 1
     assert optik.plan_path(panda, path, q_start=q, restarts=0).candidates.max() == 1
+
+
+def test_a_jump_takes_the_representative_nearest_the_previous_waypoint() -> None:
+    # Joint 6 of the Puma spans more than a turn. Where no branch continues the path, the
+    # branches came wrapped nearest mid-limits: the plan jumped 6.27 rad (joint 6 a turn
+    # away) where the same branch lies 0.21 rad from the previous waypoint.
+    puma = load_problem("puma560").robot
+    q_now = np.array([-0.333, 3.713, -1.5713, 0.1582, 0.4196, 4.597])
+    q_far = np.array([-0.7299, 3.927, -1.5419, 1.3596, 0.5327, 4.2171])
+    path = line(puma.fk(q_now), puma.fk(q_far), 0.05)
+    branches = np.array(optik.analytic_ik(puma, path[1]))
+    turned = wrap_into_limits(branches, puma, q_now[None])
+    nearest = float(np.abs(turned - q_now).max(axis=1).min())  # 0.21 rad
+    greedy = optik.plan_path(puma, path[:2], q_start=q_now, max_joint_step=0.1, greedy=True)
+    assert greedy.status[1] == "discontinuity"
+    assert abs(greedy.step[1] - nearest) <= 1e-9, (greedy.step, nearest)
+    for plan in (greedy, optik.plan_path(puma, path, q_start=q_now, max_joint_step=0.1)):
+        assert plan.largest_step < 1.0, plan.step
