@@ -349,3 +349,17 @@ def test_drilling_pattern_example() -> None:
             assert np.linalg.norm(F[:3, 3] - T[:3, 3]) <= TOL
             assert _axis_angle(F[:3, 2], T[:3, 2]) <= TOL
         assert results[name + "_pose"]["largest_step"] > 0.6  # the full poses spin the wrist
+
+
+def test_an_axis_path_through_a_wrist_singularity_stays_continuous() -> None:
+    # At q5 = 0 every roll of the tool is singular: the roll's grid of closed-form answers
+    # held the free wrist joint at mid-limits (q6 = 0), and the plan flagged a 0.5 rad
+    # jump there although the path's own configurations move 0.03 rad a waypoint.
+    ur5 = load_problem("ur5").robot
+    Q = np.array([[0.3, 0.6, -1.0, 0.4, q5, 0.5] for q5 in (0.06, 0.03, 0.0, -0.03, -0.06)])
+    plan = plan_path(ur5, ur5.fk(Q), mode="axis", max_joint_step=0.1, q_start=Q[0])
+    assert "discontinuity" not in plan.status, (plan.status, plan.step)
+    assert plan.largest_step <= 0.03 + 1e-6
+    # One answer: the nearest to q0 at the singular pose is q0's own configuration.
+    res = optik.solve_ik(ur5, ur5.fk(Q[2]), mode="axis", q0=Q[2])
+    assert res.success and np.max(np.abs(res.q - Q[2])) <= 1e-6, res.q

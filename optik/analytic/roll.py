@@ -354,11 +354,14 @@ def axis_branches(
     dof = robot.dof
     h = 2.0 * math.pi / grid
     rolls = -math.pi + h * np.arange(grid, dtype=np.float64)
-    Q = roll.branches(rolls, None)  # (N, B, dof)
-    B = Q.shape[1]
-    nxt, prv = _links(roll, Q)
     refs = np.asarray(q_refs, dtype=float).reshape(-1, dof)
     S = len(refs)
+    # With one reference, a joint left free at a singular roll (an aligned wrist's turn)
+    # takes the reference's value, as a pose's closed form does from its q_ref: from
+    # mid-limits the answers at a singular waypoint would all hold it there.
+    Q = roll.branches(rolls, refs if S == 1 else None)  # (N, B, dof)
+    B = Q.shape[1]
+    nxt, prv = _links(roll, Q)
     V, F = roll.cost(Q[None], refs[:, None, None, :])  # (S, N, B, dof), (S, N, B)
     f_next = _neighbour_cost(F, nxt, 1)
     f_prev = _neighbour_cost(F, prv, -1)
