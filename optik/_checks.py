@@ -9,7 +9,8 @@ bare ``TypeError``, a NaN or a silently changed answer:
   string ``"false"`` for a boolean);
 - :func:`as_float_array`, :func:`check_finite`, :func:`finite_array` and
   :func:`check_length_array` for arrays (complex, bool, string and object arrays of
-  non-numbers are rejected, never cast).
+  non-numbers are rejected, never cast);
+- :func:`not_a_file` for an input file that cannot be read.
 
 Lengths are bounded by :data:`MAX_LENGTH_M`.
 """
@@ -19,6 +20,7 @@ from __future__ import annotations
 import math
 import numbers
 from collections.abc import Collection
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -335,3 +337,15 @@ def _shaped(name: str, value: Any, trailing: tuple[int, ...], batch: bool) -> Fl
         expected = alone + (f" or (N, {dims})" if batch else "")
         raise ShapeError(name, expected, array.shape)
     return array
+
+
+def not_a_file(path: Path) -> str:
+    """Why ``path``, which is no file, cannot be read: a folder, or not found.
+
+    A name the system cannot look up (too long, a NUL) counts as not found.
+    """
+    try:
+        folder = path.is_dir()
+    except (OSError, ValueError):
+        folder = False
+    return "a folder, not a file" if folder else "file not found"

@@ -39,6 +39,7 @@ from optik._checks import (
     check_length_array,
     check_real,
     finite_array,
+    not_a_file,
 )
 from optik.errors import OptikError, ShapeError
 from optik.spatial import as_pose, exp_so3, log_so3, rpy_to_matrix, transform
@@ -236,7 +237,7 @@ def read_path(path: str | Path) -> tuple[FloatArray, str]:
         raise PathFileError(f"path: expected a file path, got {path!r:.80}")
     file = Path(path)
     if not file.is_file():
-        raise PathFileError(f"{file}: file not found")
+        raise PathFileError(f"{file}: {not_a_file(file)}")
     suffix = file.suffix.lower()
     try:
         if suffix == ".csv":

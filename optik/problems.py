@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from optik._checks import MAX_LENGTH_M, FloatArray
+from optik._checks import MAX_LENGTH_M, FloatArray, not_a_file
 from optik.errors import AnalyticIKError, OptikError, ProblemFileError
 from optik.model import DHJoint, Mimic, Robot
 from optik.spatial import rpy_to_matrix, transform
@@ -134,7 +134,13 @@ class _Reader:
         value = data.get(name, default)
         if isinstance(value, bool) or not isinstance(value, int | float):
             raise self.fail(table, name, f"expected a number, got {value!r}")
-        value = float(value)
+        try:
+            value = float(value)
+        except OverflowError:  # a TOML integer beyond float64 (1 followed by 400 zeros)
+            digits = len(str(abs(value)))
+            raise self.fail(
+                table, name, f"expected a finite number, got an integer of {digits} digits"
+            ) from None
         if math.isnan(value) or (math.isinf(value) and not allow_inf):
             raise self.fail(table, name, f"expected a finite number, got {value!r}")
         return value
@@ -306,7 +312,7 @@ def _robot(
                 raise reader.fail("robot", "joints", "a urdf robot takes its joints from the file")
             urdf = base_dir / reader.string(robot, "robot", "urdf")
             if not _is_file(urdf):
-                raise reader.fail("robot", "urdf", f"file not found: {urdf}")
+                raise reader.fail("robot", "urdf", f"{not_a_file(urdf)}: {urdf}")
             base_link = reader.string(robot, "robot", "base_link")
             tip_link = reader.string(robot, "robot", "tip_link")
             try:
@@ -375,8 +381,9 @@ def _targets(
         mode, pose = _pose_from(reader, item, table, length, angle)
         tol = reader.number(item, table, "tolerance", DEFAULT_TOLERANCE / length) * length
         atol = reader.number(item, table, "angle_tolerance", DEFAULT_TOLERANCE / angle) * angle
-        if tol <= 0 or atol <= 0:
-            raise reader.fail(table, "tolerance", "tolerances must be positive")
+        for key, value in (("tolerance", tol), ("angle_tolerance", atol)):
+            if value <= 0:
+                raise reader.fail(table, key, f"tolerances must be positive, got {value:g}")
         out[name] = Target(name, mode, pose, tol, atol)
     return out
 
@@ -457,9 +464,10 @@ def _load(path: str | Path, default_source: str | None) -> Problem:
         file = PROBLEMS_DIR / f"{file}.toml"
     reader = _Reader(str(file))
     if not _is_file(file):
-        raise reader.fail(
-            "", "", "file not found (or a path the system cannot look up)" + _hint(file)
-        )
+        reason = not_a_file(file)
+        if reason == "file not found":
+            reason += " (or a path the system cannot look up)" + _hint(file)
+        raise reader.fail("", "", reason)
     try:
         text = file.read_text(encoding="utf-8")
     except UnicodeDecodeError as exc:

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from optik._checks import MAX_LENGTH_M, FloatArray
+from optik._checks import MAX_LENGTH_M, FloatArray, not_a_file
 from optik.chain import ChainLink
 from optik.errors import URDFError
 from optik.spatial import rpy_to_matrix, transform
@@ -76,8 +76,10 @@ def _read_root(source: str | Path) -> ET.Element:
             found = path.is_file()
         except (OSError, ValueError) as exc:
             raise URDFError(f"{path}: cannot read the URDF file ({exc})") from exc
-        if not found:
+        if not found and not_a_file(path) == "file not found":
             raise URDFError(f"URDF file not found: {path}")
+        if not found:
+            raise URDFError(f"URDF path is a folder, not a file: {path}")
         try:
             text = path.read_text(encoding="utf-8")
         except UnicodeDecodeError as exc:

@@ -150,3 +150,27 @@ def test_map_plots_into_a_file_is_refused_before_the_map_is_computed(
     assert code == 2
     assert "is a file, not a folder" in capsys.readouterr().err
     assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["robot", "{folder}"],
+        ["problems", "{folder}"],
+        ["solve", "--dh", "{folder}", "--position", "1", "0", "0"],
+        ["solve", "--urdf", "{folder}", "--base", "a", "--tip", "b", "--position", "1", "0", "0"],
+        ["plan", "puma560", "--path", "{folder}"],
+        ["batch", "puma560", "{folder}", "--out", "{out}"],
+    ],
+)
+def test_a_folder_given_for_a_file_is_named_a_folder(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], args: list[str]
+) -> None:
+    # Each said "file not found" about a path that exists.
+    folder = tmp_path / "given.toml"
+    folder.mkdir()
+    out = tmp_path / "out.parquet"
+    code = main([a.format(folder=folder, out=out) for a in args])
+    err = capsys.readouterr().err
+    assert code == 2 and "a folder, not a file" in err and str(folder) in err, err
+    assert "not found" not in err

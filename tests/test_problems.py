@@ -473,6 +473,29 @@ def test_urdf_file_missing(tmp_path: Path) -> None:
     _expect_error(tmp_path, text, "robot", "urdf", "file not found")
 
 
+def test_a_urdf_that_is_a_folder_is_named_so(tmp_path: Path) -> None:
+    (tmp_path / "arm.urdf").mkdir()
+    text = (
+        '[robot]\nname = "u"\nconvention = "urdf"\nsource = "s"\nurdf = "arm.urdf"\n'
+        'base_link = "a"\ntip_link = "b"\n'
+    )
+    _expect_error(tmp_path, text, "robot", "urdf", "a folder, not a file")
+
+
+@pytest.mark.parametrize("field", ["a", "alpha", "lower"])
+def test_an_integer_beyond_float64_is_an_error_naming_its_field(tmp_path: Path, field: str) -> None:
+    # float() of a 401-digit TOML integer raised a raw OverflowError (exit 3 in the CLI).
+    text = GOOD.replace("a = 1.0", "a = 1.0" if field != "a" else "") + f"{field} = 1{'0' * 400}\n"
+    if field == "lower":
+        text += "upper = 1.0\n"
+    _expect_error(tmp_path, text, "robot.joints[0]", field, "an integer of 401 digits")
+
+
+def test_a_zero_angle_tolerance_names_its_own_field(tmp_path: Path) -> None:
+    text = GOOD + '\n[[targets]]\nname = "t"\nposition = [0.5, 0, 0]\nangle_tolerance = 0\n'
+    _expect_error(tmp_path, text, "targets[0]", "angle_tolerance", "must be positive")
+
+
 def test_documented_toml_example_loads(tmp_path: Path) -> None:
     doc = (Path(__file__).resolve().parent.parent / "docs" / "problems.md").read_text()
     blocks = re.findall(r"```toml\n(.*?)```", doc, flags=re.S)

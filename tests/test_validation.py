@@ -378,7 +378,7 @@ def test_urdf_unreadable_files(tmp_path: Path) -> None:
         Robot.from_urdf(latin, "base", "l2")
     folder = tmp_path / "folder.urdf"
     folder.mkdir()
-    with pytest.raises(URDFError, match="not found"):
+    with pytest.raises(URDFError, match="a folder, not a file"):
         Robot.from_urdf(folder, "base", "l2")
     for source in (None, 5, b"<robot/>"):
         with pytest.raises(URDFError, match="source: expected a URDF path or XML text"):
@@ -500,7 +500,7 @@ def test_problem_not_utf8_or_unreadable(tmp_path: Path) -> None:
     with pytest.raises(ProblemFileError, match="not a UTF-8 text file"):
         load_problem(file)
     (tmp_path / "dir.toml").mkdir()
-    with pytest.raises(ProblemFileError, match="file not found"):
+    with pytest.raises(ProblemFileError, match="a folder, not a file"):
         load_problem(tmp_path / "dir.toml")
 
 

@@ -37,6 +37,7 @@ from optik._checks import (
     check_choice,
     check_int,
     check_progress,
+    not_a_file,
 )
 from optik._files import check_folder, prepare_folder, write_atomic, write_atomic_with
 from optik.campaign._deps import require
@@ -95,7 +96,7 @@ def read_targets(path: str | Path) -> FloatArray:
 def _read(file: Path) -> tuple[FloatArray, bool]:
     """The poses of a targets file and whether it gives orientations."""
     if not file.is_file():
-        raise OptikError(f"{file}: targets file not found")
+        raise OptikError(f"{file}: {not_a_file(file)} (the targets file)")
     suffix = file.suffix.lower()
     if suffix == ".npy":
         try:

@@ -17,7 +17,7 @@ from typing import Any, NoReturn
 
 import numpy as np
 
-from optik._checks import MAX_LENGTH_M, FloatArray
+from optik._checks import MAX_LENGTH_M, FloatArray, not_a_file
 from optik.compare.config import MAX_SEED, MAX_TARGETS
 from optik.errors import OptikError
 from optik.model import Robot
@@ -235,7 +235,8 @@ def named_problem(name: str, other_sources: bool = True) -> Problem:
     if exists(file) or (file.suffix == "" and exists(PROBLEMS_DIR / f"{name}.toml")):
         return load_problem(name)
     if file.suffix or len(file.parts) > 1:  # a path, not a name
-        raise OptikError(f"{name}: file not found (built-in problems: {builtin_names()})")
+        reason = not_a_file(file)
+        raise OptikError(f"{name}: {reason} (built-in problems: {builtin_names()})")
     others = "; or give --urdf FILE or --dh FILE" if other_sources else ""
     raise OptikError(
         f"no problem file or built-in problem named {name!r:.200} "
@@ -272,7 +273,8 @@ def dh_problem(file: str) -> Problem:
             :class:`~optik.errors.ProblemFileError` of the file.
     """
     if not Path(file).is_file():
-        raise OptikError(f"--dh {file!r:.200}: file not found (a DH table is a .toml file)")
+        reason = not_a_file(Path(file))
+        raise OptikError(f"--dh {file!r:.200}: {reason} (a DH table is a .toml file)")
     problem = load_robot(file)
     if problem.robot.convention not in ("dh", "mdh"):
         raise OptikError(
