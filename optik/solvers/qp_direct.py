@@ -16,6 +16,7 @@ import numpy as np
 import qpsolvers
 import qpsolvers.solvers
 import scipy.sparse as spa
+from scipy.linalg import cho_factor, cho_solve
 
 from optik._checks import FloatArray
 from optik._numba import jit
@@ -147,6 +148,11 @@ class DirectBackend:
             Pm = spa.csc_matrix(P)
             Am = None if Am is None else spa.csc_matrix(Am)
         bounded = bool(np.any(np.isfinite(lb)) or np.any(np.isfinite(ub)))
+        if not bounded and not self.m:
+            unconstrained = _unconstrained(P, c)
+            if unconstrained is not None:
+                self._last = unconstrained
+                return unconstrained, True, "solved (unconstrained: P x = -c by Cholesky)", 0
         problem = qpsolvers.Problem(
             Pm,
             c,
@@ -174,6 +180,22 @@ class DirectBackend:
         return x, bool(solution.found and x is not None), status, backend_iterations(solution)
 
     _last: FloatArray | None = None
+
+
+def _unconstrained(P: FloatArray, c: FloatArray) -> FloatArray | None:
+    """``argmin ½ x^T P x + c^T x`` for a positive definite ``P``, else ``None``.
+
+    qpsolvers hands a program without constraints to SciPy's LSQR instead of the backend
+    (Clarabel's wrapper does), and LSQR's default tolerances leave a residual above the
+    1e-8 it then accepts: it raised "unbounded below" on most well-conditioned damped
+    least-squares steps. A Cholesky solve is exact to rounding.
+    """
+    try:
+        factor = cho_factor(P)
+    except np.linalg.LinAlgError:
+        return None
+    x = cho_solve(factor, -c)
+    return x if np.all(np.isfinite(x)) else None
 
 
 #: Interior-point backends whose answer is polished (:func:`polish`): Clarabel stopped
