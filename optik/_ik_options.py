@@ -130,6 +130,6 @@ def query_bounds(
             joint = robot.joints[i]
             if not joint.lower - LIMIT_TOLERANCE <= v <= joint.upper + LIMIT_TOLERANCE:
                 unit = "m" if joint.kind == "prismatic" else "rad"
-                raise JointLimitError(name, v, joint.lower, joint.upper, unit)
+                raise JointLimitError(name, v, joint.lower, joint.upper, unit, argument="frozen")
             lower[i] = upper[i] = min(max(v, joint.lower), joint.upper)
     return read_only(lower), read_only(upper)

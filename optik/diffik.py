@@ -115,7 +115,7 @@ def clip_into_limits(robot: Robot, name: str, q: Any) -> FloatArray:
         if not lo <= x <= hi:
             if not lo - Q_CLIP_TOLERANCE <= x <= hi + Q_CLIP_TOLERANCE:
                 unit = "m" if robot.joints[i].kind == "prismatic" else "rad"
-                raise JointLimitError(robot.joints[i].name, x, lo, hi, unit)
+                raise JointLimitError(robot.joints[i].name, x, lo, hi, unit, argument=name)
             inside = False
     return array.copy() if inside else np.clip(array, lower, upper)
 

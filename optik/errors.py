@@ -81,7 +81,13 @@ class JointLimitError(OptikError):
     """
 
     def __init__(
-        self, joint: str, value: float, lower: float, upper: float, unit: str = "rad or m"
+        self,
+        joint: str,
+        value: float,
+        lower: float,
+        upper: float,
+        unit: str = "rad or m",
+        argument: str = "",
     ) -> None:
         self.joint = joint
         self.value = value
@@ -90,8 +96,9 @@ class JointLimitError(OptikError):
         x, lo, hi = float(value), float(lower), float(upper)
         excess = max(lo - x, x - hi)
         by = f" by {excess:.3g} {unit}" if math.isfinite(excess) else ""
+        where = f"{argument}: " if argument else ""  # the argument that holds the value
         super().__init__(
-            f"joint {joint!r}: value {x!r} outside its limits [{lo!r}, {hi!r}] ({unit}){by}"
+            f"{where}joint {joint!r}: value {x!r} outside its limits [{lo!r}, {hi!r}] ({unit}){by}"
         )
 
 

@@ -216,7 +216,20 @@ def parse_urdf_chain(
     for what, value in (("base_link", base_link), ("tip_link", tip_link)):
         if not isinstance(value, str):
             raise URDFError(f"{what}: expected a link name, got {value!r}")
-    root = _read_root(source)
+    try:
+        return _chain(_read_root(source), base_link, tip_link)
+    except URDFError as exc:
+        # A file's errors name it (the read errors do already).
+        is_file = isinstance(source, Path) or (isinstance(source, str) and "<" not in source)
+        if not is_file or str(source) in str(exc):
+            raise
+        raise URDFError(f"{source}: {exc}") from None
+
+
+def _chain(
+    root: ET.Element, base_link: str, tip_link: str
+) -> tuple[str, list[ChainLink], FloatArray]:
+    """:func:`parse_urdf_chain` of a parsed document."""
     links = {el.get("name") for el in root.findall("link")}
     for link in (base_link, tip_link):
         if link not in links:

@@ -9,13 +9,15 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 from conftest import PROBLEM_NAMES, ROOT, load
 
-from optik import cli
+from optik import cli, solve_ik
 from optik.cli import main
 from optik.compare import COLUMNS
-from optik.errors import OptikError
+from optik.errors import JointLimitError, OptikError
+from optik.problems import load_problem
 
 
 def _row(out: str, name: str) -> str:
@@ -233,3 +235,28 @@ def test_a_multi_line_error_is_printed_on_one_line(
     monkeypatch.setattr(cli._solve, "solve_ik", refuse)
     assert main(["solve", "planar_2r", "--position", "1", "1", "0"]) == 2
     assert _one_error_line(capsys.readouterr().err) == "optik: error: first part second part"
+
+
+@pytest.mark.parametrize(
+    ("option", "values", "message"),
+    [
+        ("--q0", ["100", "0"], "--q0: joint 'shoulder': value 100.0 outside its limits"),
+        ("--posture", ["0"], "--posture: expected 2 values, one per joint (shoulder, elbow)"),
+    ],
+)
+def test_a_joint_option_out_of_range_is_named(
+    capsys: pytest.CaptureFixture[str], option: str, values: list[str], message: str
+) -> None:
+    # The messages named the joint or "posture", never the option typed.
+    code = main(["solve", "planar_2r", "--position", "1", "1", "0", option, *values])
+    err = capsys.readouterr().err
+    assert code == 2 and message in err, err
+
+
+def test_the_api_names_the_argument_of_a_joint_out_of_limits() -> None:
+    robot = load_problem("planar_2r").robot
+    target = robot.fk(np.array([0.3, 0.4]))
+    with pytest.raises(JointLimitError, match=r"^q0: joint 'shoulder'"):
+        solve_ik(robot, target, q0=[100.0, 0.0])
+    with pytest.raises(JointLimitError, match=r"^frozen: joint 'elbow'"):
+        solve_ik(robot, target, frozen={"elbow": 100.0})

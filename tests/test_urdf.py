@@ -337,3 +337,18 @@ def test_empty_source_and_missing_file_named_once(tmp_path: Path) -> None:
     missing = tmp_path / "none.urdf"
     with pytest.raises(URDFError, match=r"^URDF file not found: .*none\.urdf$"):
         Robot.from_urdf(missing, "a", "b")
+
+
+def test_errors_about_a_urdf_file_name_it(tmp_path: Path) -> None:
+    # Only the read errors named the file: "link 'tip' not in the URDF" left the user to
+    # guess which of the files given was meant.
+    panda = PROBLEMS_DIR / "panda.urdf"
+    with pytest.raises(URDFError, match=rf"^{panda}: link 'nowhere' not in the URDF"):
+        Robot.from_urdf(panda, "panda_link0", "nowhere")
+    broken = tmp_path / "broken.urdf"
+    broken.write_text("<robot name='r'><link name='a'></robot>")
+    with pytest.raises(URDFError, match=rf"^{broken}: URDF is not well-formed XML"):
+        Robot.from_urdf(str(broken), "a", "b")
+    # URDF text has no file to name.
+    with pytest.raises(URDFError, match=r"^link 'b' not in the URDF"):
+        Robot.from_urdf("<robot name='r'><link name='a'/></robot>", "a", "b")

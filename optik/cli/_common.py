@@ -19,6 +19,7 @@ import numpy as np
 
 from optik._checks import MAX_LENGTH_M, FloatArray, not_a_file
 from optik.compare.config import MAX_SEED, MAX_TARGETS
+from optik.diffik import clip_into_limits
 from optik.errors import OptikError
 from optik.model import Robot
 from optik.paths import read_path
@@ -206,11 +207,18 @@ def exists(path: Path) -> bool:
         return False
 
 
-def joint_values(robot: Robot, values: Sequence[float] | None, option: str) -> FloatArray | None:
+def joint_values(
+    robot: Robot, values: Sequence[float] | None, option: str, within_limits: bool = True
+) -> FloatArray | None:
     """``values`` of an option such as ``--q0`` with one value per joint (rad or m), or None.
 
+    ``within_limits``: the values are a configuration, inside the limits as
+    :func:`optik.diffik.clip_into_limits` takes one (a posture need not be).
+
     Raises:
-        OptikError: not ``robot.dof`` values (the message counts them, and names the joints).
+        OptikError: not ``robot.dof`` values (the message counts them, and names the
+            joints), or (``within_limits``) a value beyond its joint's limits; the
+            message names the option.
     """
     if values is None:
         return None
@@ -219,7 +227,8 @@ def joint_values(robot: Robot, values: Sequence[float] | None, option: str) -> F
         raise OptikError(
             f"{option}: expected {robot.dof} values, one per joint ({names}), got {len(values)}"
         )
-    return np.array(values, dtype=np.float64)
+    q = np.array(values, dtype=np.float64)
+    return clip_into_limits(robot, option, q) if within_limits else q
 
 
 def named_problem(name: str, other_sources: bool = True) -> Problem:

@@ -42,7 +42,7 @@ def _cmd_show(args: argparse.Namespace) -> int:
     check_folder(out.parent)  # before the robot is loaded and drawn, not after
     problem = problem_from_args(args)
     robot = problem.robot
-    given = joint_values(robot, args.q, "--q")
+    given = joint_values(robot, args.q, "--q", within_limits=False)
     q = robot.mid_limits if given is None else robot.check_q(given, "--q")
     values = ", ".join(f"{v:.4g}" for v in q)
     outside = "" if robot.within_limits(q) else " (outside the joint limits)"

@@ -85,7 +85,7 @@ def _cmd_solve(args: argparse.Namespace) -> int:
         tol=target_tolerance(problem, args),
         timeout_s=None if args.timeout_ms is None else args.timeout_ms / 1000.0,
         seed=args.seed,
-        posture=args.posture,
+        posture=joint_values(robot, args.posture, "--posture", within_limits=False),
         **task_keywords(args, mode),
     )
     if args.json:
