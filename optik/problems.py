@@ -326,6 +326,11 @@ def _robot(
             if base is not None:
                 raise reader.fail("robot", "base", "not supported for urdf robots")
             return model, source
+        for key in ("urdf", "base_link", "tip_link"):
+            if key in robot:  # read only by a urdf robot: not silently dropped
+                raise reader.fail(
+                    "robot", key, f'belongs to convention = "urdf", not {convention!r}'
+                )
         joints = robot.get("joints")
         if not isinstance(joints, list) or not joints:
             raise reader.fail("robot", "joints", "expected one or more [[robot.joints]] tables")
@@ -459,6 +464,8 @@ def _load(path: str | Path, default_source: str | None) -> Problem:
         raise ProblemFileError(
             repr(path), "", "", "path: expected a file path or the name of a built-in problem"
         )
+    if not str(path):  # Path("") is "." (the working folder)
+        raise ProblemFileError("''", "", "", "path: empty (expected a file path or a name)")
     file = Path(path)
     if not _is_file(file) and file.suffix == "" and _is_file(PROBLEMS_DIR / f"{file}.toml"):
         file = PROBLEMS_DIR / f"{file}.toml"

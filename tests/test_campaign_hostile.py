@@ -51,6 +51,15 @@ def test_numpy_scalar_options_are_stored_as_plain_numbers(tmp_path: Path) -> Non
     assert resumed.equals(table)
 
 
+def test_resume_without_out_is_an_error() -> None:
+    # It was ignored: the whole run computed again, in memory, without a word.
+    robot, T = _targets()
+    with pytest.raises(OptikError, match="resume: finishes a stored run; give its folder"):
+        solve_batch(robot, T, resume=True, progress=False)
+    with pytest.raises(OptikError, match="resume: finishes a stored map; give its folder"):
+        capability_map(robot, voxel=0.5, resume=True, progress=False)
+
+
 def test_a_bad_engine_option_leaves_no_output_folder(tmp_path: Path) -> None:
     robot, T = _targets()
     out = tmp_path / "res.parquet"

@@ -346,6 +346,12 @@ def test_missing_file(tmp_path: Path) -> None:
         load_problem(missing)
 
 
+def test_an_empty_path_is_named_empty() -> None:
+    # Path("") is ".": the message read ".: file not found".
+    with pytest.raises(ProblemFileError, match=r"^'': path: empty"):
+        load_problem("")
+
+
 def test_missing_robot_table(tmp_path: Path) -> None:
     _expect_error(tmp_path, 'description = "no robot"\n', "", "robot", "missing or not a table")
 
@@ -471,6 +477,14 @@ def test_urdf_file_missing(tmp_path: Path) -> None:
         'base_link = "a"\ntip_link = "b"\n'
     )
     _expect_error(tmp_path, text, "robot", "urdf", "file not found")
+
+
+@pytest.mark.parametrize("key", ["urdf", "base_link", "tip_link"])
+def test_a_urdf_field_in_a_dh_robot_is_an_error(tmp_path: Path, key: str) -> None:
+    # The DH table was loaded and the field dropped: a file meant for a URDF arm (its
+    # convention line forgotten) loaded as whatever DH rows it also held.
+    text = GOOD.replace('length_unit = "m"', f'length_unit = "m"\n{key} = "arm.urdf"')
+    _expect_error(tmp_path, text, "robot", key, "belongs to convention = \"urdf\", not 'dh'")
 
 
 def test_a_urdf_that_is_a_folder_is_named_so(tmp_path: Path) -> None:

@@ -514,6 +514,8 @@ def solve_batch(
     progress = check_progress(progress)
     # A place it cannot be written to fails before the targets are read, not at the end.
     folder = None if out is None else check_folder(out)
+    if resume and folder is None:
+        raise OptikError("resume: finishes a stored run; give its folder as out=")
     # The validated values, as plain Python numbers: a numpy scalar would not go into the
     # settings file, and every check must pass before anything is written.
     axis = str(axis)

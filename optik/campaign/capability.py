@@ -470,6 +470,8 @@ def capability_map(
     x, y, z = lattice(centre, radius, voxel, bounds)
     rotations = sample_orientations(mode, orientations, rolls, axis)
     target = None if out is None else output_path(out)
+    if resume and target is None:
+        raise OptikError("resume: finishes a stored map; give its folder as out=")
     if target is not None and target.exists() and not resume:
         raise OutputFileError(str(target), "it exists (resume=True, or --resume, finishes it)")
     if target is not None:
