@@ -27,11 +27,15 @@ def _floats(text: str | None, count: int, what: str, default: tuple[float, ...])
     if text is None:
         return np.array(default, dtype=float)
     try:
+        # Python's float() also reads "1_0" as 10; XML's (and urdfdom's) doubles do not.
+        if "_" in text:
+            raise ValueError("an underscore in a number")
         values = [float(v) for v in text.split()]
     except ValueError as exc:
         raise URDFError(f"{what}: cannot read numbers from {text!r}") from exc
     if len(values) != count or not all(math.isfinite(v) for v in values):
-        raise URDFError(f"{what}: expected {count} finite numbers, got {text!r}")
+        numbers = "a finite number" if count == 1 else f"{count} finite numbers"
+        raise URDFError(f"{what}: expected {numbers}, got {text!r}")
     return np.array(values)
 
 
@@ -248,6 +252,11 @@ def _chain(
         origin = _origin(joint, jname)
         if jtype == "fixed":
             pending = pending @ origin
+            if float(np.max(np.abs(pending[:3, 3]))) > MAX_LENGTH_M:  # ten 9e8 m offsets
+                raise URDFError(
+                    f"joint {jname!r}: the fixed joints up to it place the next frame "
+                    f"beyond {MAX_LENGTH_M:g} m"
+                )
             continue
         if jtype not in _MOVING:
             raise URDFError(f"joint {jname!r}: unknown joint type {jtype!r}")

@@ -352,3 +352,35 @@ def test_errors_about_a_urdf_file_name_it(tmp_path: Path) -> None:
     # URDF text has no file to name.
     with pytest.raises(URDFError, match=r"^link 'b' not in the URDF"):
         Robot.from_urdf("<robot name='r'><link name='a'/></robot>", "a", "b")
+
+
+def test_a_number_with_an_underscore_is_refused() -> None:
+    # float() reads "1_0" as 10: a file urdfdom refuses loaded with a meaning of its own.
+    text = (
+        "<robot name='r'><link name='a'/><link name='b'/>"
+        "<joint name='j' type='revolute'><parent link='a'/><child link='b'/>"
+        "<origin xyz='1_0 0 0'/><axis xyz='0 0 1'/><limit lower='-1' upper='1'/></joint>"
+        "</robot>"
+    )
+    with pytest.raises(
+        URDFError, match=r"joint 'j' origin xyz: cannot read numbers from '1_0 0 0'"
+    ):
+        Robot.from_urdf(text, "a", "b")
+
+
+def test_fixed_joints_that_add_up_beyond_the_length_bound_are_refused() -> None:
+    # Each origin was checked, not their sum: ten 9e8 m offsets gave a 9e9 m tool.
+    links = "".join(f"<link name='l{i}'/>" for i in range(12))
+    fixed = "".join(
+        f"<joint name='f{i}' type='fixed'><parent link='l{i}'/><child link='l{i + 1}'/>"
+        "<origin xyz='9e8 0 0'/></joint>"
+        for i in range(10)
+    )
+    moving = (
+        "<joint name='j' type='revolute'><parent link='l10'/><child link='l11'/>"
+        "<axis xyz='0 0 1'/><limit lower='-1' upper='1'/></joint>"
+    )
+    with pytest.raises(
+        URDFError, match=r"joint 'f1': the fixed joints up to it .* beyond 1e\+09 m"
+    ):
+        Robot.from_urdf(f"<robot name='r'>{links}{fixed}{moving}</robot>", "l0", "l11")
