@@ -461,3 +461,23 @@ def test_plan_draws_progress_for_every_waypoint(
     assert main([*argv, "--out", str(tmp_path)]) == 0
     err = capsys.readouterr().err
     assert "11/11" in err and err.count("\r") == 11
+
+
+def test_robot_lists_the_links_of_a_urdf_whose_one_chain_cannot_be_loaded(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # The mimic joint's error stopped the command before the links it exists to show.
+    urdf = tmp_path / "mimic.urdf"
+    urdf.write_text(
+        "<robot name='r'><link name='a'/><link name='b'/><link name='c'/>"
+        "<joint name='j1' type='revolute'><parent link='a'/><child link='b'/>"
+        "<limit lower='-1' upper='1'/></joint>"
+        "<joint name='j2' type='revolute'><parent link='b'/><child link='c'/>"
+        "<limit lower='-1' upper='1'/><mimic joint='j1'/></joint></robot>"
+    )
+    assert main(["robot", str(urdf)]) == 0
+    out = capsys.readouterr().out
+    assert "links (3): a, b, c" in out
+    assert "chain a -> c: cannot be loaded (joint 'j2': mimic joints are not supported" in out
+    # Asked for by name, the chain is an error, as before.
+    assert main(["robot", str(urdf), "--base", "a", "--tip", "c"]) == 2

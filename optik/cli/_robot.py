@@ -15,7 +15,7 @@ from optik.cli._common import (
     path_text,
     problems_table,
 )
-from optik.errors import OptikError
+from optik.errors import OptikError, URDFError
 from optik.model import Robot
 from optik.problems import builtin_problems, load_robot
 from optik.robot_text import read_urdf_tree, robot_text
@@ -56,19 +56,26 @@ def _describe_robot_file(name: str) -> int:
 def _describe_urdf(file: Path, base: str | None, tip: str | None) -> int:
     tree = read_urdf_tree(file)
     robot: Robot | None = None
+    unloadable = ""  # why the file's one chain, picked here, cannot be a robot
     if base is not None or tip is not None:
         if base is None or tip is None:
             raise OptikError("give both --base LINK and --tip LINK (or neither)")
+        robot = Robot.from_urdf(file, base, tip)  # the chain asked for: fails at once
     elif len(tree.chains) == 1:
         base, tip = tree.chains[0].base, tree.chains[0].tip
-    if base is not None and tip is not None:
-        robot = Robot.from_urdf(file, base, tip)  # fails before anything is printed
+        try:
+            robot = Robot.from_urdf(file, base, tip)
+        except URDFError as exc:  # a mimic joint, no moving joint: the links still print
+            unloadable = str(exc).removeprefix(f"{file}: ")
     details = robot_text(robot) if robot is not None else ""
     print(f"robot {tree.name} (URDF {file})")
     print(f"links ({len(tree.links)}): " + ", ".join(tree.links))
     print("chains (root -> leaf):")
     for chain in tree.chains:
         print(f"  {chain.text()}")
+    if unloadable:
+        print(f"chain {base} -> {tip}: cannot be loaded ({unloadable})")
+        return EXIT_OK
     if robot is None:
         print("pick a chain with --base LINK --tip LINK to see its joints")
         return EXIT_OK
