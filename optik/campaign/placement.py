@@ -324,8 +324,7 @@ def base_placement(
             positions for a position map (a map of another mode refuses them).
         map: a capability map (:func:`optik.capability_map`) or the path of a stored one.
         candidates: (K, 4, 4) base poses in the cell frame, or one (4, 4); by default a
-            floor grid
-            (:func:`planar_candidates`) over ``region``.
+            floor grid (:func:`planar_candidates`) over ``region``.
         region: ``[[xmin, xmax], [ymin, ymax]]`` of the base origin (m); default: the task
             poses' extent grown by the map's reach radius.
         step: grid spacing of ``region`` (m); default: the map's voxel.

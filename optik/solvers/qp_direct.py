@@ -140,7 +140,10 @@ class DirectBackend:
             return None, False, f"{type(exc).__name__}: {exc}", -1
 
     def _solve(self, qp: ScaledProgram, warm: bool) -> DirectAnswer:
-        """Through ``qpsolvers.solve_problem`` (the backends without an own-API path)."""
+        """Through ``qpsolvers.solve_problem`` (the backends without an own-API path).
+
+        A program without constraints or bounds is solved here (:func:`_unconstrained`).
+        """
         P, c, A, b, lb, ub = qp.P, qp.c, qp.A, qp.b, qp.lb, qp.ub
         Pm: Any = P
         Am: Any = A if self.m else None
