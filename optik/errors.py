@@ -81,14 +81,9 @@ class JointLimitError(OptikError):
     """
 
     def __init__(
-        self,
-        joint: str,
-        value: float,
-        lower: float,
-        upper: float,
-        unit: str = "rad or m",
-        argument: str = "",
-    ) -> None:
+        self, joint: str, value: float, lower: float, upper: float,
+        unit: str = "rad or m", argument: str = "",
+    ) -> None:  # fmt: skip
         self.joint = joint
         self.value = value
         self.lower = lower

@@ -471,12 +471,18 @@ def test_path_rpy_count(tmp_path: Path) -> None:
     _expect_error(tmp_path, text, "paths[0]", "rpy", "one [r, p, y] per position")
 
 
-def test_urdf_file_missing(tmp_path: Path) -> None:
+@pytest.mark.parametrize(
+    ("folder", "detail"), [(False, "file not found"), (True, "a folder, not a file")]
+)
+def test_urdf_file_missing_or_a_folder(tmp_path: Path, folder: bool, detail: str) -> None:
+    # A folder was "file not found" too, about a path that exists.
+    if folder:
+        (tmp_path / "arm.urdf").mkdir()
     text = (
-        '[robot]\nname = "u"\nconvention = "urdf"\nsource = "s"\nurdf = "none.urdf"\n'
+        '[robot]\nname = "u"\nconvention = "urdf"\nsource = "s"\nurdf = "arm.urdf"\n'
         'base_link = "a"\ntip_link = "b"\n'
     )
-    _expect_error(tmp_path, text, "robot", "urdf", "file not found")
+    _expect_error(tmp_path, text, "robot", "urdf", detail)
 
 
 @pytest.mark.parametrize("key", ["urdf", "base_link", "tip_link"])
@@ -485,15 +491,6 @@ def test_a_urdf_field_in_a_dh_robot_is_an_error(tmp_path: Path, key: str) -> Non
     # convention line forgotten) loaded as whatever DH rows it also held.
     text = GOOD.replace('length_unit = "m"', f'length_unit = "m"\n{key} = "arm.urdf"')
     _expect_error(tmp_path, text, "robot", key, "belongs to convention = \"urdf\", not 'dh'")
-
-
-def test_a_urdf_that_is_a_folder_is_named_so(tmp_path: Path) -> None:
-    (tmp_path / "arm.urdf").mkdir()
-    text = (
-        '[robot]\nname = "u"\nconvention = "urdf"\nsource = "s"\nurdf = "arm.urdf"\n'
-        'base_link = "a"\ntip_link = "b"\n'
-    )
-    _expect_error(tmp_path, text, "robot", "urdf", "a folder, not a file")
 
 
 @pytest.mark.parametrize("field", ["a", "alpha", "lower"])
