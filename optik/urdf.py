@@ -8,6 +8,7 @@ rest of the file; the tests compare both where it is installed.
 
 from __future__ import annotations
 
+import difflib
 import math
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -237,8 +238,22 @@ def _chain(
     links = {el.get("name") for el in root.findall("link")}
     for link in (base_link, tip_link):
         if link not in links:
-            raise URDFError(f"link {link!r} not in the URDF (links: {sorted(map(str, links))})")
-    path = _path_to(_parent_joints(root), base_link, tip_link)
+            names = sorted(map(str, links))
+            near = difflib.get_close_matches(link, names, n=1)
+            hint = f"; did you mean {near[0]!r}?" if near else ""
+            raise URDFError(f"link {link!r} not in the URDF{hint} (links: {names})")
+    by_child = _parent_joints(root)
+    try:
+        path = _path_to(by_child, base_link, tip_link)
+    except URDFError as no_path:
+        try:
+            _path_to(by_child, tip_link, base_link)
+        except URDFError:
+            raise no_path from None
+        raise URDFError(
+            f"no kinematic path from {base_link!r} to {tip_link!r}: {tip_link!r} is the "
+            f"base side; swap them (base_link={tip_link!r}, tip_link={base_link!r})"
+        ) from None
 
     chain: list[ChainLink] = []
     pending = np.eye(4)  # fixed transforms since the last moving joint

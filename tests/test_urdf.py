@@ -384,3 +384,23 @@ def test_fixed_joints_that_add_up_beyond_the_length_bound_are_refused() -> None:
         URDFError, match=r"joint 'f1': the fixed joints up to it .* beyond 1e\+09 m"
     ):
         Robot.from_urdf(f"<robot name='r'>{links}{fixed}{moving}</robot>", "l0", "l11")
+
+
+def test_a_misspelt_or_swapped_link_gets_a_hint() -> None:
+    panda = PROBLEMS_DIR / "panda.urdf"
+    with pytest.raises(
+        URDFError, match=r"link 'panda_lnk7' not in the URDF; did you mean 'panda_link7'\?"
+    ):
+        Robot.from_urdf(panda, "panda_link0", "panda_lnk7")
+    with pytest.raises(URDFError, match=r"'panda_link0' is the base side; swap them"):
+        Robot.from_urdf(panda, "panda_link7", "panda_link0")
+    # Two links on different branches: no path either way, and no swap offered.
+    text = (
+        "<robot name='r'><link name='a'/><link name='b'/><link name='c'/>"
+        "<joint name='j1' type='revolute'><parent link='a'/><child link='b'/>"
+        "<limit lower='-1' upper='1'/></joint>"
+        "<joint name='j2' type='revolute'><parent link='a'/><child link='c'/>"
+        "<limit lower='-1' upper='1'/></joint></robot>"
+    )
+    with pytest.raises(URDFError, match=r"^no kinematic path from 'b' to 'c'$"):
+        Robot.from_urdf(text, "b", "c")
