@@ -65,7 +65,14 @@ class InvalidLimitsError(ModelError):
         self.lower = lower
         self.upper = upper
         detail = reason or "lower > upper"
-        super().__init__(f"joint {joint!r}: invalid limits [{lower}, {upper}] ({detail})")
+        shown = f"{_cut(lower)}, {_cut(upper)}"
+        super().__init__(f"joint {joint!r}: invalid limits [{shown}] ({detail})")
+
+
+def _cut(value: Any, most: int = 40) -> str:
+    """``value`` as given, cut to ``most`` characters (an integer of 400 digits)."""
+    text = str(value)
+    return text if len(text) <= most else text[:most] + "..."
 
 
 class URDFError(ModelError):

@@ -9,6 +9,7 @@ under a time limit.
 from __future__ import annotations
 
 import math
+import re
 import threading
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -198,6 +199,15 @@ def test_joint_values_beyond_length_bound() -> None:
         ArgumentError, match=r"q\[1\]: expected a value of magnitude <= 1e\+09 rad or m"
     ):
         PLANAR.fk([0.0, 1e154])
+
+
+def test_a_limit_of_hundreds_of_digits_is_cut_in_the_message() -> None:
+    # The 401-digit integer was printed in full, twice.
+    with pytest.raises(InvalidLimitsError) as info:
+        Robot.from_dh([{"lower": -(10**400), "upper": 1}])
+    message = str(info.value)
+    assert re.match(r"joint 'j1': invalid limits \[-10{38}\.\.\., 1\]", message), message
+    assert len(message) < 300, message
 
 
 def test_finite_revolute_limits_beyond_the_value_bound_are_refused() -> None:
