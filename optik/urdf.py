@@ -71,11 +71,16 @@ def _align_z(axis: FloatArray) -> FloatArray:
     return transform(R)
 
 
+def _is_file_path(source: object) -> bool:
+    """Whether ``source`` names a URDF file (a string holding ``<`` is URDF text)."""
+    return isinstance(source, Path) or (isinstance(source, str) and "<" not in source)
+
+
 def _read_root(source: str | Path) -> ET.Element:
     text: str
     if isinstance(source, str) and not source.strip():
         raise URDFError("source: empty (expected a URDF path or XML text)")
-    if isinstance(source, Path) or (isinstance(source, str) and "<" not in source):
+    if _is_file_path(source):
         path = Path(source)
         try:
             found = path.is_file()
@@ -225,8 +230,7 @@ def parse_urdf_chain(
         return _chain(_read_root(source), base_link, tip_link)
     except URDFError as exc:
         # A file's errors name it (the read errors do already).
-        is_file = isinstance(source, Path) or (isinstance(source, str) and "<" not in source)
-        if not is_file or str(source) in str(exc):
+        if not _is_file_path(source) or str(source) in str(exc):
             raise
         raise URDFError(f"{source}: {exc}") from None
 
