@@ -25,8 +25,10 @@ only when every component is at most :data:`REFINE_MAX_STEP`
 
 The Jacobian and the two solvers are compiled calls of their own, not inlined into the
 step: numba types their scalar code once instead of inside each caller (seconds of the
-install's compilation). The calls cost nothing measurable next to the step's FK: the
-Kinova's batch, every row of which takes a step, runs at the same speed.
+install's compilation). A call costs little when its arrays are borrowed views
+(:func:`optik._nrt.borrowed`, as the batch loops pass them): a counted array passed to a
+call costs an atomic increment and decrement each, which took a quarter of the Kinova's
+batch time (every row of it takes a step).
 """
 
 from __future__ import annotations

@@ -34,6 +34,7 @@ from typing import NamedTuple
 import numpy as np
 
 from optik._checks import FloatArray
+from optik._nrt import borrowed
 from optik._numba import inline as _inline
 from optik._numba import jit as _jit
 from optik.analytic._compiled import (
@@ -348,11 +349,45 @@ def solve_batch(
     Returns:
         ``Q`` (N, 8, 7): branches, rows past each count filled with NaN; ``counts`` (N,).
     """
-    N = T.shape[0]
-    k = int(params[AT_HELD])
-    sort, within, pre, flat, rows, newton, Q, counts = batch_work(N, FREE_DOF, flags)
+    sort, within, pre, flat, rows, newton, Q, counts = batch_work(T.shape[0], FREE_DOF, flags)
     work = _scratch()
     refs = np.empty((1, FREE_DOF))
+    _solve_each(
+        params, T, ref, values, sort, within, pre, flat, rows, newton, Q, counts, work, refs
+    )
+    return Q, counts
+
+
+@_jit
+def _solve_each(
+    params: np.ndarray,
+    T: np.ndarray,
+    ref: np.ndarray,
+    values: np.ndarray,
+    sort: bool,
+    within: bool,
+    pre: np.ndarray,
+    flat: np.ndarray,
+    rows: np.ndarray,
+    newton: np.ndarray,
+    Q: np.ndarray,
+    counts: np.ndarray,
+    work: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+    refs: np.ndarray,
+) -> None:
+    """:func:`solve_batch`'s loop over the targets, on borrowed views of its arrays.
+
+    The caller owns every array for the whole call, so the loop passes views without an
+    owner record (:func:`optik._nrt.borrowed`): the per-row calls (the FK, the Newton
+    step) then count no references.
+    """
+    params, T, ref, values = borrowed(params), borrowed(T), borrowed(ref), borrowed(values)
+    pre, flat, rows, newton = borrowed(pre), borrowed(flat), borrowed(rows), borrowed(newton)
+    Q, refs = borrowed(Q), borrowed(refs)
+    axes, frames, six_refs, six = work
+    work = (borrowed(axes), borrowed(frames), borrowed(six_refs), borrowed(six))
+    N = T.shape[0]
+    k = int(params[AT_HELD])
     for i in range(N):
         kr = 0 if ref.shape[0] == 1 else i
         value = values[0] if values.shape[0] == 1 else values[i]
@@ -365,7 +400,6 @@ def solve_batch(
             n, pre, Q, True, newton,
         )  # fmt: skip
         pad_rows(Q, i, counts[i])
-    return Q, counts
 
 
 __all__ = [

@@ -44,6 +44,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from optik._checks import FloatArray
+from optik._nrt import borrowed
 from optik._numba import inline as _inline
 from optik._numba import jit as _jit
 from optik.analytic._base import CompiledPipeline, PlannedFamily, register
@@ -344,8 +345,13 @@ def postprocess_axes(
     once, on the first call of any kind (or by ``optik warmup --groups axes_arms``), and
     every other kind's first call then compiles only its own closed form.
     Arguments and result as ``postprocess_rows`` with the layout of :func:`pack_axes_params`
-    and the Newton step on.
+    and the Newton step on. The caller owns every array for the whole call: the steps
+    take borrowed views (:func:`optik._nrt.borrowed`), whose per-row calls count no
+    references.
     """
+    params, T, ref = borrowed(params), borrowed(T), borrowed(ref)
+    rows, flat, pre = borrowed(rows), borrowed(flat), borrowed(pre)
+    Q, newton = borrowed(Q), borrowed(newton)
     return postprocess_rows(
         params, AXES_LAYOUT, DOF, -1, 0.0, T, k, ref, kr, sort, within, rows, flat, n, pre, Q,
         True, newton,
