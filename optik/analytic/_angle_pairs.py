@@ -18,7 +18,7 @@ import math
 
 import numpy as np
 
-from optik._math import sincos
+from optik._math import atan2, sincos
 from optik._numba import jit as _jit
 from optik.analytic._quartic import trig2_roots
 from optik.analytic._subproblems import RootTols, roots_or_tangent
@@ -75,8 +75,8 @@ def quartic_pairs(
     k = np.empty(5)
     det, m0, m1, m2, terms = _quartic(M, v0, N, k)
     if _vanishing(k, terms):
-        angles[0, 0] = math.atan2(math.sin(free), math.cos(free))
-        angles[0, 1] = math.atan2(-math.sin(free), -math.cos(free))
+        angles[0, 0] = atan2(math.sin(free), math.cos(free))
+        angles[0, 1] = atan2(-math.sin(free), -math.cos(free))
         count = 2
     else:
         count = trig2_roots(k, trig_tol, angles[0])
@@ -84,7 +84,7 @@ def quartic_pairs(
     for i in range(count):
         s, c = sincos(angles[0, i])
         w = (m0[0] + m1[0] * c + m2[0] * s, m0[1] + m1[1] * c + m2[1] * s)
-        angles[1, i] = math.atan2(sign * w[1], sign * w[0])
+        angles[1, i] = atan2(sign * w[1], sign * w[0])
     return count
 
 
@@ -324,9 +324,9 @@ def _one_equation(
         angles[0, 1], angles[1, 1] = ref_a, b2
         return count
     if _dot2(n, n) > 0.0:
-        b = math.atan2(n[1], n[0])
+        b = atan2(n[1], n[0])
         if m[0] * co + m[1] * s - c < 0.0:
-            b = math.atan2(-n[1], -n[0])
+            b = atan2(-n[1], -n[0])
     else:
         b = ref_b
     s, co = sincos(b)

@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from optik._math import mod_two_pi, sincos
+from optik._math import atan2, mod_two_pi, sincos
 from optik._numba import inline as _inline
 from optik._numba import jit as _jit
 from optik.analytic._compiled import COS_ROWS, SIN_ROWS, mul3tn
@@ -163,8 +163,8 @@ def _pose_verified(
     sz = rr[3] - rr[1]
     s = 0.5 * math.sqrt(sx * sx + sy * sy + sz * sz)
     c = 0.5 * (rr[0] + rr[4] + rr[8] - 1.0)
-    # atan2(s, c) <= s / c for s >= 0 < c: a tiny ratio accepts without the libm call.
-    return s <= 0.5 * verify_tol * c or math.atan2(s, c) <= verify_tol
+    # atan2(s, c) <= s / c for s >= 0 < c: a tiny ratio accepts without the atan2.
+    return s <= 0.5 * verify_tol * c or atan2(s, c) <= verify_tol
 
 
 @_inline

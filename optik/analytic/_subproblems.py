@@ -31,7 +31,7 @@ import math
 
 import numpy as np
 
-from optik._math import sincos, trig_roots
+from optik._math import atan2, sincos, trig_roots
 from optik._numba import inline as _inline
 from optik._numba import jit as _jit
 
@@ -168,7 +168,7 @@ def sp1_angle(w: Vec3, u: Vec3, v: Vec3, free: float, axis_tol: float) -> float:
     size = max(norm(u), norm(v))
     if not (norm(up) > axis_tol * size and norm(vp) > axis_tol * size):
         return free
-    return math.atan2(dot(w, cross(up, vp)), dot(up, vp))
+    return atan2(dot(w, cross(up, vp)), dot(up, vp))
 
 
 @_jit
@@ -334,8 +334,8 @@ def roots_or_tangent(
     n, t1, t2 = trig_roots(a, b, c, ref, trig_tol, eps, free_tol)
     r = math.sqrt(a * a + b * b)
     if n == 0 and r > eps and abs(c) <= r * (1.0 + reach_tol):
-        t = math.atan2(b, a) + (0.0 if c > 0.0 else math.pi)
-        t = math.atan2(math.sin(t), math.cos(t))
+        t = atan2(b, a) + (0.0 if c > 0.0 else math.pi)
+        t = atan2(math.sin(t), math.cos(t))
         return 1, t, t
     return n, t1, t2
 

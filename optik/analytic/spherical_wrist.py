@@ -36,7 +36,7 @@ import math
 
 import numpy as np
 
-from optik._math import sincos, trig_roots, wrap_angle
+from optik._math import atan2, sincos, trig_roots, wrap_angle
 from optik._numba import inline as _inline
 from optik._numba import jit as _jit
 from optik.analytic import _compiled
@@ -137,7 +137,7 @@ def _sw_wrist(
     t6 = 0.0
     for b in range(2):
         if singular:
-            t5 = math.atan2(0.0, c5)
+            t5 = atan2(0.0, c5)
             sn5t, c5t = sincos(t5)
             t4 = th4 + ref[kr, 3]
             if b == 1:
@@ -154,8 +154,8 @@ def _sw_wrist(
             sn4, c4 = sincos(t4)
         else:
             sign = 1.0 if b == 0 else -1.0
-            t5 = math.atan2(sign * s5_mag, c5)
-            t4 = math.atan2(s5 * sign * M[5], s5 * sign * M[2])
+            t5 = atan2(sign * s5_mag, c5)
+            t4 = atan2(s5 * sign * M[5], s5 * sign * M[2])
             c4, sn4 = cos_sin(t4, t4, s5 * sign * M[2], s5 * sign * M[5])
             c5t, sn5t = cos_sin(t5, t5, c5, sign * s5_mag)
         t6 = _sw_q6(M, c4, sn4, c5t, sn5t, ca4, sa4, ca5, sa5)
@@ -183,7 +183,7 @@ def _sw_q6(
     P = mul3(dh_rot(c4, sn4, ca4, sa4), dh_rot(c5t, sn5t, ca5, sa5))
     n00 = P[0] * M[0] + P[3] * M[3] + P[6] * M[6]
     n10 = P[1] * M[0] + P[4] * M[3] + P[7] * M[6]
-    return math.atan2(n10, n00)
+    return atan2(n10, n00)
 
 
 @_jit
@@ -230,7 +230,7 @@ def spherical_wrist_candidates(
         vx = c1 * wx + sn1 * wy - a1
         vy = s1 * (wz - d1)
         rho2 = vx * vx + vy * vy
-        phi_v = math.atan2(vy, vx)
+        phi_v = atan2(vy, vx)
         q1 = t1 - th1
         theta1 = th1 + q1
         # A zero offset (the usual case) reuses c1, s1.
@@ -249,7 +249,7 @@ def spherical_wrist_candidates(
                 sn3, c3 = sincos(t3)
                 ux = a2 + a3 * c3 - b3 * sn3
                 uy = a3 * sn3 + b3 * c3
-                t2 = phi_v - math.atan2(uy, ux)
+                t2 = phi_v - atan2(uy, ux)
                 q2 = t2 - th2
                 q3 = t3 - th3
                 theta3 = th3 + q3
@@ -265,7 +265,7 @@ def spherical_wrist_candidates(
             n_len = 1 if root == 0.0 else 2
             for iL in range(n_len):
                 L = root if iL == 0 else -root
-                t2 = phi_v - math.atan2(-s2 * L, base)
+                t2 = phi_v - atan2(-s2 * L, base)
                 q2 = t2 - th2
                 q3 = L - ca3 * d4 - d3
                 R03 = mul3(mul3(R1, dh_rotation(th2 + q2, ca2, sa2)), R3)

@@ -31,7 +31,7 @@ import math
 import numpy as np
 
 from optik._kernels import Rows12
-from optik._math import sincos, trig_roots, wrap_angle
+from optik._math import atan2, sincos, trig_roots, wrap_angle
 from optik._numba import inline as _inline
 from optik._numba import jit as _jit
 from optik.analytic import _compiled
@@ -99,7 +99,7 @@ def _ur_wrist_origin(
     a6, _, d6, _, _, ca6, sa6, _ = dh_row(dh, 5)
     T15 = times_inverse_dh(T16, c6t, sn6t, ca6, sa6, a6, d6)
     T14 = times_inverse_dh(T15, c5t, sn5t, ca5, sa5, a5, d5)
-    return T14[3], T14[7], math.atan2(T14[4], T14[0])
+    return T14[3], T14[7], atan2(T14[4], T14[0])
 
 
 @_jit
@@ -127,7 +127,7 @@ def _ur_reachable_q6(dh: np.ndarray, T16: Rows12, c5t: float, sn5t: float, t6_re
     middle = 0.5 * ((a2 - a3) ** 2 + (a2 + a3) ** 2)
     if R < 1e-300:
         return t6_ref
-    phi = math.atan2(C, B)
+    phi = atan2(C, B)
     off = math.acos(min(max((middle - A) / R, -1.0), 1.0))
     best = t6_ref
     gap = np.inf
@@ -165,7 +165,7 @@ def _ur_elbow(
     th1, th4, th5, th6 = dh_row(dh, 0)[3], dh_row(dh, 3)[3], dh_row(dh, 4)[3], dh_row(dh, 5)[3]
     trig_tol, eps, free_tol, _ = closed_form_tols(tols)
     x, y, t234 = _ur_wrist_origin(dh, T16, c5t, sn5t, c6t, sn6t)
-    phi = math.atan2(y, x)
+    phi = atan2(y, x)
     n3, t3a, t3b = elbow_roots(
         2 * a2 * a3,
         0.0,
@@ -176,7 +176,7 @@ def _ur_elbow(
     for i3 in range(n3):
         t3 = t3a if i3 == 0 else t3b
         sn3, c3 = sincos(t3)
-        t2 = phi - math.atan2(a3 * sn3, a2 + a3 * c3)
+        t2 = phi - atan2(a3 * sn3, a2 + a3 * c3)
         t4 = t234 - t2 - t3
         n = store_branch(cand, n, (t1 - th1, t2 - th2, t3 - th3, t4 - th4, t5 - th5, t6 - th6))
     return n
@@ -241,13 +241,13 @@ def ur_candidates(
                 # reference, unless the elbow then cannot reach; then the q6 whose elbow
                 # reach is the middle of the elbow's range (nearest the reference of the
                 # two): the second pass of the loop below.
-                t5 = math.atan2(0.0, c5)
+                t5 = atan2(0.0, c5)
                 sn5t, c5t = sincos(t5)
                 t6 = th6 + ref[kr, 5]
                 sn6t, c6t = sincos(t6)
             else:
-                t5 = math.atan2(sign * s5_mag, c5)
-                t6 = math.atan2(-sign * T16[9], sign * T16[8])
+                t5 = atan2(sign * s5_mag, c5)
+                t6 = atan2(-sign * T16[9], sign * T16[8])
                 theta5 = th5 + (t5 - th5)
                 theta6 = th6 + (t6 - th6)
                 c5t, sn5t = cos_sin(theta5, t5, c5, sign * s5_mag)
