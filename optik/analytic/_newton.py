@@ -23,12 +23,13 @@ the wrist step misses it only by the axes' miss times the step), and a step is a
 only when every component is at most :data:`REFINE_MAX_STEP`
 (a larger one means an ill-posed system).
 
-The Jacobian and the two solvers are compiled calls of their own, not inlined into the
-step: numba types their scalar code once instead of inside each caller (seconds of the
-install's compilation). A call costs little when its arrays are borrowed views
-(:func:`optik._nrt.borrowed`, as the batch loops pass them): a counted array passed to a
-call costs an atomic increment and decrement each, which took a quarter of the Kinova's
-batch time (every row of it takes a step).
+The wrist step, taken by nearly every row, is inlined into the step (3 % of the Kinova's
+batch); the Jacobian and the damped solve, off that path, are compiled calls of their
+own. The step's one caller, :func:`optik.analytic._pipeline._newton_move`, is compiled
+once for every pipeline (run-time arguments), so inlining costs no install time. A call
+costs little when its arrays are borrowed views (:func:`optik._nrt.borrowed`, as the
+batch loops pass them): a counted array passed to a call costs an atomic increment and
+decrement, which took a quarter of the Kinova's batch time (every row of it takes a step).
 """
 
 from __future__ import annotations
@@ -140,7 +141,7 @@ volume of its unit columns): below it the block is near singular (an elbow, shou
 wrist singularity) and the damped step of the whole Jacobian takes over."""
 
 
-@_jit
+@_inline
 def _cramer(
     ax: float,
     ay: float,
@@ -181,7 +182,7 @@ def _cramer(
     )
 
 
-@_jit
+@_inline
 def _wrist_step(
     params: np.ndarray,
     at: int,
