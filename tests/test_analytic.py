@@ -317,3 +317,16 @@ def test_python_family_has_no_compiled_table() -> None:
     planar = load_problem("planar_2r").robot
     with pytest.raises(AnalyticIKError, match="no compiled kernel"):
         FAMILIES["planar_2r"].model(planar)
+
+
+def test_row_views_list_the_first_rows_as_views_for_every_count() -> None:
+    from optik.analytic._arguments import ROW_VIEWS
+
+    out = np.arange(48.0).reshape(8, 6)
+    assert len(ROW_VIEWS) == 9
+    for n, row_views in enumerate(ROW_VIEWS):
+        rows = row_views(out)
+        assert isinstance(rows, list) and len(rows) == n
+        for i, row in enumerate(rows):
+            assert row.shape == (6,) and np.shares_memory(row, out[i])
+            np.testing.assert_array_equal(row, out[i])

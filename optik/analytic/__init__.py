@@ -47,6 +47,7 @@ from optik.analytic import general_6r  # noqa: F401
 from optik.analytic import _pipeline, _pipeline_args
 from optik.analytic._arguments import F64 as _F64
 from optik.analytic._arguments import POSE_SHAPE as _SHAPE_4x4
+from optik.analytic._arguments import ROW_VIEWS as _ROW_VIEWS
 from optik.analytic._arguments import (
     AnalyticBatch,
     batch_refs,
@@ -246,7 +247,7 @@ def analytic_ik(
         out = np.empty(_SHAPE_OUT)
         n = solve(params, target, ref, flags, out)
         if n > 0:
-            return [out[i] for i in range(n)]  # cheaper than list(out[:n]): no slice view
+            return _ROW_VIEWS[n](out)
         if n < 0:
             raise_input_error(robot, target, q_ref, n)
         if _beyond_reach(robot, target, within_limits):

@@ -18,6 +18,7 @@ from optik._clock import one_time_setup
 from optik.analytic import _compiled, free_joint
 from optik.analytic._arguments import F64 as _F64
 from optik.analytic._arguments import POSE_SHAPE as _SHAPE_4x4
+from optik.analytic._arguments import ROW_VIEWS as _ROW_VIEWS
 from optik.analytic._arguments import (
     AnalyticBatch,
     batch_refs,
@@ -162,7 +163,7 @@ def free_joint_ik(
     out = np.empty((_compiled.MAX_BRANCHES, free_joint.FREE_DOF))
     n = free_joint.solve(plan.params, target, ref, value, flags, out)
     if n > 0:
-        return [out[i] for i in range(n)]
+        return _ROW_VIEWS[n](out)
     if n < 0:
         raise_input_error(robot, target, q_ref, n)
     return free_joint_fallback(robot, plan, value, target, ref, q_ref is not None, within)
