@@ -8,6 +8,7 @@ the batch's result (:class:`AnalyticBatch`).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -27,7 +28,7 @@ POSE_SHAPE = (4, 4)
 """The shape of one pose."""
 
 
-ROW_VIEWS = (
+ROW_VIEWS: tuple[Callable[[FloatArray], list[FloatArray]], ...] = (
     lambda o: [],
     lambda o: [o[0]],
     lambda o: [o[0], o[1]],

@@ -395,19 +395,42 @@ def kind_pipeline(kind: int) -> KindPipeline:
         )  # fmt: skip
 
     @_jit
-    def solve_batch(
-        params: np.ndarray, T: np.ndarray, ref: np.ndarray, flags: int
-    ) -> tuple[np.ndarray, np.ndarray]:
-        N = T.shape[0]
-        sort, within, pre, flat, rows, newton, Q, counts = batch_work(N, DOF, flags)
-        scratch = _scratch(params)
-        for k in range(N):
+    def solve_each(
+        params: np.ndarray,
+        T: np.ndarray,
+        ref: np.ndarray,
+        sort: bool,
+        within: bool,
+        rows: np.ndarray,
+        flat: np.ndarray,
+        pre: np.ndarray,
+        Q: np.ndarray,
+        counts: np.ndarray,
+        newton: np.ndarray,
+        scratch: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+    ) -> None:
+        # The batch's loop on borrowed views (optik._nrt): the caller owns every array
+        # for the whole call, and the per-target calls then count no references.
+        params, T, ref = borrowed(params), borrowed(T), borrowed(ref)
+        rows, flat, pre = borrowed(rows), borrowed(flat), borrowed(pre)
+        Q, newton = borrowed(Q), borrowed(newton)
+        z, p, M, Ti, work = scratch
+        scratch = (borrowed(z), borrowed(p), borrowed(M), borrowed(Ti), borrowed(work))
+        for k in range(T.shape[0]):
             kr = 0 if ref.shape[0] == 1 else k
             n = _candidates_into(params, T[k], ref[kr], rows, scratch, kind)
             counts[k] = postprocess_axes(
                 params, T, k, ref, kr, sort, within, rows, flat, n, pre, Q, newton
             )
             pad_rows(Q, k, counts[k])
+
+    @_jit
+    def solve_batch(
+        params: np.ndarray, T: np.ndarray, ref: np.ndarray, flags: int
+    ) -> tuple[np.ndarray, np.ndarray]:
+        sort, within, pre, flat, rows, newton, Q, counts = batch_work(T.shape[0], DOF, flags)
+        scratch = _scratch(params)
+        solve_each(params, T, ref, sort, within, rows, flat, pre, Q, counts, newton, scratch)
         return Q, counts
 
     @_jit
