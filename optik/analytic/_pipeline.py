@@ -142,15 +142,19 @@ def robot_candidates(
     """Raw branches of the robot's family, in the robot's joint variables, into ``rows``.
 
     :func:`candidates` on the table (``dh``, the (6, 8) block of ``params``; flange
-    target ``T0`` in its frame 0); a table variable that is ``-q``
-    (``params[AT_FLIPPED]``) has its reference and branches turned. A table that is not
+    target ``T0`` in its frame 0) into ``rows``, the (24, 6) scratch of
+    :func:`optik.analytic._pipeline_args.work_rows`; a table variable that is ``-q``
+    (``params[AT_FLIPPED]``) has its reference (held in the last row) and branches
+    turned. A table that is not
     exact (``params[AT_REFINE]``) gives the branches of the ideal arm: the
     post-processing refines them (:func:`postprocess_rows`).
     """
     family = int(params[AT_FAMILY])
     tols = params[AT_TOLS:]
     if params[AT_FLIPPED] != 0.0:
-        turned = np.empty((1, DOF))
+        # The turned reference in the last row of the scratch: the candidates fill only
+        # rows[:8], and the sines and cosines come after them (no allocation per target).
+        turned = rows[rows.shape[0] - 1 :]
         for j in range(DOF):
             turned[0, j] = params[AT_SENSES + j] * ref[kr, j]
         n = candidates(family, dh, T0, turned, np.int64(0), tols, rows)
