@@ -82,6 +82,7 @@ from optik.analytic._newton import (
     REFINE_ROUNDING,
     REFINE_TRUSTED_STEP,
     newton_step,
+    newton_work_size,
     pose_residual,
     restore_row,
 )
@@ -142,12 +143,11 @@ def robot_candidates(
     """Raw branches of the robot's family, in the robot's joint variables, into ``rows``.
 
     :func:`candidates` on the table (``dh``, the (6, 8) block of ``params``; flange
-    target ``T0`` in its frame 0) into ``rows``, the pipeline's (24, 6) scratch of
-    rows, sines and cosines; a table variable that is ``-q``
-    (``params[AT_FLIPPED]``) has its reference (held in the last row) and branches
-    turned. A table that is not
-    exact (``params[AT_REFINE]``) gives the branches of the ideal arm: the
-    post-processing refines them (:func:`postprocess_rows`).
+    target ``T0`` in its frame 0) into ``rows``, the pipeline's (24, 6) scratch of rows,
+    sines and cosines. A table variable that is ``-q`` (``params[AT_FLIPPED]``) has its
+    reference (held in the last row) and branches turned. A table that is not exact
+    (``params[AT_REFINE]``) gives the branches of the ideal arm: the post-processing
+    refines them (:func:`postprocess_rows`).
     """
     family = int(params[AT_FAMILY])
     tols = params[AT_TOLS:]
@@ -627,7 +627,7 @@ _PRE_SIZE = (DOF + 2) * 12
 """Length of the FK scratch ``pre`` (dof + 2, 12) of :func:`postprocess_rows`."""
 _FLAT_SIZE = 3 * MAX_BRANCHES * DOF
 """Length of the rows, their sines and their cosines (24, dof) of :func:`postprocess_rows`."""
-_SINGLE_SCRATCH = 16 + _PRE_SIZE + _FLAT_SIZE + 6 + 2 * DOF + 6 * DOF + DOF * DOF
+_SINGLE_SCRATCH = 16 + _PRE_SIZE + _FLAT_SIZE + newton_work_size.py_func(DOF)
 """Length of :func:`_solve_one`'s scratch: the flange target (4, 4), ``pre``, the rows,
 and the Newton step's (:func:`optik.analytic._newton.newton_work_size`)."""
 
