@@ -67,7 +67,6 @@ from optik.analytic._compiled import (
     COL_PRISMATIC,
     COS_ROWS,
     DOF,
-    MAX_BRANCHES,
     NCOL,
     SIN_ROWS,
     SPHERICAL_WRIST,
@@ -82,7 +81,6 @@ from optik.analytic._newton import (
     REFINE_ROUNDING,
     REFINE_TRUSTED_STEP,
     newton_step,
-    newton_work_size,
     pose_residual,
     restore_row,
 )
@@ -91,6 +89,8 @@ from optik.analytic._pipeline_args import (
     flag_bits,
     input_code,
     pad_rows,
+    scratch_blocks,
+    scratch_size,
 )
 from optik.analytic._rows import (
     Layout,
@@ -620,16 +620,7 @@ def solve(params: np.ndarray, T: np.ndarray, ref: np.ndarray, flags: int, out: n
     code = input_code(params, AT_TOLS, T1, ref)
     if code != 0:
         return code
-    return _solve_one(params, T1, ref[None], flags, out, np.empty(_SINGLE_SCRATCH))
-
-
-_PRE_SIZE = (DOF + 2) * 12
-"""Length of the FK scratch ``pre`` (dof + 2, 12) of :func:`postprocess_rows`."""
-_FLAT_SIZE = 3 * MAX_BRANCHES * DOF
-"""Length of the rows, their sines and their cosines (24, dof) of :func:`postprocess_rows`."""
-_SINGLE_SCRATCH = 16 + _PRE_SIZE + _FLAT_SIZE + newton_work_size.py_func(DOF)
-"""Length of :func:`_solve_one`'s scratch: the flange target (4, 4), ``pre``, the rows,
-and the Newton step's (:func:`optik.analytic._newton.newton_work_size`)."""
+    return _solve_one(params, T1, ref[None], flags, out, np.empty(16 + scratch_size(DOF)))
 
 
 @_jit
@@ -644,18 +635,15 @@ def _solve_one(
     """:func:`solve`'s steps for the validated target ``T1[0]``, on borrowed views.
 
     As in :func:`_solve_each`, the caller owns every array for the whole call. One
-    scratch array (:data:`_SINGLE_SCRATCH`), carved here into the target, FK, rows and
-    Newton blocks, costs one allocation instead of four: with the borrowing, a single
-    call of the Kinova (a Newton step on each of its 8 rows) takes 0.8 us less, the
-    others about 0.1 us.
+    scratch array, the flange target (4, 4) then the blocks of
+    :func:`optik.analytic._pipeline_args.scratch_blocks`, costs one allocation instead
+    of four: with the borrowing, a single call of the Kinova (a Newton step on each of
+    its 8 rows) takes 0.8 us less, the others about 0.1 us.
     """
     params, T1, ref1, out = borrowed(params), borrowed(T1), borrowed(ref1), borrowed(out)
     scratch = borrowed(scratch)
     T0 = scratch[:16].reshape((4, 4))
-    pre = scratch[16 : 16 + _PRE_SIZE].reshape((DOF + 2, 12))
-    flat = scratch[16 + _PRE_SIZE : 16 + _PRE_SIZE + _FLAT_SIZE]
-    rows = flat.reshape((3 * MAX_BRANCHES, DOF))
-    work = scratch[16 + _PRE_SIZE + _FLAT_SIZE :]
+    pre, flat, rows, work = scratch_blocks(scratch[16:], DOF)
     k = np.int64(0)  # not the literal 0: the batch's signatures serve this call too
     _transform_target(params, T1, k, T0)
     dh = params[AT_DH:AT_LOWER].reshape((DOF, NCOL))

@@ -34,17 +34,38 @@ def input_code(params: np.ndarray, tols: int, T1: np.ndarray, ref: np.ndarray) -
 
 
 @_inline
-def work_rows(dof: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Scratch of ``postprocess_rows`` for ``dof`` joints: ``(pre, flat, rows, work)``.
+def scratch_size(dof: int) -> int:
+    """Length of the flat scratch :func:`scratch_blocks` carves for ``dof`` joints."""
+    return (dof + 2) * 12 + 3 * MAX_BRANCHES * dof + newton_work_size(dof)
 
-    ``pre`` (dof + 2, 12) for the FK, ``rows`` (24, dof) for the raw branches and their
-    sines and cosines, ``flat`` the same memory seen flat, ``work`` the Newton step's
-    (:func:`optik.analytic._newton.newton_work_size`). Made once per call or batch.
+
+@_inline
+def scratch_blocks(
+    scratch: np.ndarray, dof: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Scratch of ``postprocess_rows`` for ``dof`` joints carved from one flat array.
+
+    ``(pre, flat, rows, work)``: ``pre`` (dof + 2, 12) for the FK, ``rows`` (24, dof) for
+    the raw branches and their sines and cosines, ``flat`` the same memory seen flat,
+    ``work`` the Newton step's (:func:`optik.analytic._newton.newton_work_size`).
+    ``scratch`` holds at least :func:`scratch_size` values; one array costs one
+    allocation instead of three.
     """
-    pre = np.empty((dof + 2, 12))
-    flat = np.empty(3 * MAX_BRANCHES * dof)
-    work = np.empty(newton_work_size(dof))
-    return pre, flat, flat.reshape((3 * MAX_BRANCHES, dof)), work
+    pre_end = (dof + 2) * 12
+    flat_end = pre_end + 3 * MAX_BRANCHES * dof
+    flat = scratch[pre_end:flat_end]
+    return (
+        scratch[:pre_end].reshape((dof + 2, 12)),
+        flat,
+        flat.reshape((3 * MAX_BRANCHES, dof)),
+        scratch[flat_end:],
+    )
+
+
+@_inline
+def work_rows(dof: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`scratch_blocks` of a new array, made once per call or batch."""
+    return scratch_blocks(np.empty(scratch_size(dof)), dof)
 
 
 @_inline
@@ -91,5 +112,7 @@ __all__ = [
     "flag_bits",
     "input_code",
     "pad_rows",
+    "scratch_blocks",
+    "scratch_size",
     "work_rows",
 ]
