@@ -3,22 +3,28 @@
 Run: ``python benchmarks/bench_analytic.py [--single 500] [--batch 20000] [--repeat 9]
 [--no-peers] [--json FIGURES.json]``
 
-For the Puma 560 and the UR5 (problems/*.toml) it times, after a warm-up:
+For the Puma 560 and the UR5 (problems/*.toml), and for the arms of makers' URDFs that
+both libraries solve (``urdf:ur3``, ``urdf:ur5``, ``urdf:ur10`` from ``ur_description``
+and ``urdf:kinova``, the Kinova j2s6s200, read from the ``example-robot-data`` package
+when it is installed: the ``test`` extra), it times, after a warm-up:
 
 - single calls ``analytic_ik(robot, T)``: every branch, wrapped into the limits, filtered
   by them and verified by forward kinematics (µs per pose), and the same with
   ``within_limits=False`` (every branch verified, none dropped);
 - ``analytic_ik_batch(robot, T)`` over a batch of poses (poses per second, one core);
 - EAIK (``pip install eaik``, the ``bench`` extra), in the same process when it imports:
-  ``DhRobot(alpha, a, d).IK(T)`` per pose (alone, and followed by reading the solutions'
-  ``.Q`` and ``.is_LS``, which a caller needs: optik's call returns its branches as
-  arrays) and ``IK_batched(poses, num_worker_threads=1)``. EAIK solves by subproblem
+  ``DhRobot(alpha, a, d).IK(T)`` for a DH robot, ``UrdfRobot(path).IK(T)`` for a URDF
+  arm, per pose (alone, and followed by reading the solutions' ``.Q`` and ``.is_LS``,
+  which a caller needs: optik's call returns its branches as arrays) and
+  ``IK_batched(poses, num_worker_threads=1)``. Both libraries solve the same
+  configurations' poses, each in its own end frame (EAIK's URDF end frame need not be
+  optik's tip; its DH frame is the flange in frame 0). EAIK solves by subproblem
   decomposition in C++, ignores joint limits and does not verify its branches.
 
 Load from other processes shifts every timing, so optik and EAIK alternate within each
 timed run and the table gives medians over runs, the ratio of the medians, and the
-one-minute load average read before and after. Targets (from the issue): a single call no
-slower than EAIK's; a batch at >= 200,000 poses per second. The branch counts are compared
+one-minute load average read before and after. Targets: a single call no
+slower than EAIK's; a batch at >= 400,000 poses per second. The branch counts are compared
 too: optik without limits against EAIK's non-least-squares solutions. ``--no-peers``
 leaves EAIK out; ``--json`` writes the figures (median seconds per pose of each row) in the
 shape that ``interleave.py`` reads (see ``_record.py``). Only optik's public names are
@@ -55,8 +61,19 @@ from optik import Robot, analytic_ik, analytic_ik_batch, load_problem  # noqa: E
 
 Array = NDArray[np.float64]
 ROBOTS = ("puma560", "ur5")
+URDF_ARMS = {
+    "urdf:ur3": ("ur_description/urdf/ur3_robot.urdf", "base_link", "tool0"),
+    "urdf:ur5": ("ur_description/urdf/ur5_robot.urdf", "base_link", "tool0"),
+    "urdf:ur10": ("ur_description/urdf/ur10_robot.urdf", "base_link", "tool0"),
+    "urdf:kinova": (
+        "kinova_description/robots/kinova.urdf",
+        "j2s6s200_link_base",
+        "j2s6s200_end_effector",
+    ),
+}
+"""Arms of makers' URDFs (``example-robot-data``): path under its robots folder, base, tip."""
 SINGLE_TARGET_FACTOR = 1.0  # optik single call / EAIK single call must be <= this
-BATCH_TARGET = 200_000.0  # poses per second
+BATCH_TARGET = 400_000.0  # poses per second, one core (the six-joint families)
 
 
 def invert_transform(T: Array) -> Array:
@@ -65,6 +82,37 @@ def invert_transform(T: Array) -> Array:
     out[:3, :3] = T[:3, :3].T
     out[:3, 3] = -T[:3, :3].T @ T[:3, 3]
     return out
+
+
+# ---------------------------------------------------------------------- robots
+def urdf_robots_dir() -> Path | None:
+    """The robots folder of ``example-robot-data`` (the makers' URDFs), if installed."""
+    try:
+        from importlib.metadata import PackageNotFoundError, distribution
+    except ImportError:  # pragma: no cover - the standard library has it
+        return None
+    try:
+        dist = distribution("example-robot-data")
+    except PackageNotFoundError:
+        return None
+    path = Path(str(dist.locate_file("cmeel.prefix/share/example-robot-data/robots")))
+    return path if path.is_dir() else None
+
+
+def default_robots() -> list[str]:
+    """The DH problems, then the URDF arms when ``example-robot-data`` is installed."""
+    return list(ROBOTS) + (list(URDF_ARMS) if urdf_robots_dir() is not None else [])
+
+
+def load_robot(name: str) -> Robot:
+    """A problem's robot, or a URDF arm of :data:`URDF_ARMS` (``urdf:...``)."""
+    if name not in URDF_ARMS:
+        return load_problem(name).robot
+    root = urdf_robots_dir()
+    if root is None:
+        raise SystemExit(f"{name}: needs the example-robot-data package (the 'test' extra)")
+    path, base, tip = URDF_ARMS[name]
+    return Robot.from_urdf(root / path, base, tip)
 
 
 # ---------------------------------------------------------------------- EAIK
@@ -82,13 +130,22 @@ def eaik_version() -> str | None:
         return "unknown version"
 
 
-def eaik_robot(robot: Robot) -> Any | None:
-    """EAIK's ``DhRobot`` for a standard-DH robot with zero joint offsets, else ``None``.
+def eaik_robot(name: str, robot: Robot) -> Any | None:
+    """EAIK's robot for ``name``, or ``None`` (EAIK absent, or the robot not comparable).
 
-    EAIK's DH constructor takes ``alpha, a, d`` (no ``theta`` offsets) and solves for the
-    flange in frame 0; its forward kinematics is checked against optik's here.
+    A URDF arm gets EAIK's ``UrdfRobot`` of the same file; a standard-DH robot with zero
+    joint offsets its ``DhRobot``. EAIK's DH constructor takes ``alpha, a, d`` (no
+    ``theta`` offsets) and solves for the flange in frame 0; its forward kinematics is
+    checked against optik's here.
     """
-    if eaik_version() is None or robot.dh is None or robot.convention != "dh":
+    if eaik_version() is None:
+        return None
+    if name in URDF_ARMS:
+        from eaik.IK_URDF import UrdfRobot
+
+        root = urdf_robots_dir()
+        return None if root is None else UrdfRobot(str(root / URDF_ARMS[name][0]))
+    if robot.dh is None or robot.convention != "dh":
         return None
     if any(abs(r.theta) > 0.0 or r.kind != "revolute" for r in robot.dh):
         return None
@@ -177,7 +234,7 @@ class Row:
 def print_table(rows: Sequence[Row]) -> None:
     """Print the results as a plain-text table."""
     header = (
-        f"{'robot':<9}{'operation':<42}{'unit':<9}{'median':>10}{'(best)':>10}"
+        f"{'robot':<13}{'operation':<42}{'unit':<9}{'median':>10}{'(best)':>10}"
         f"{'vs EAIK':>9}  {'target':<16}{'met':<4}"
     )
     print(header)
@@ -191,41 +248,46 @@ def print_table(rows: Sequence[Row]) -> None:
             # time ratio: > 1 means optik is slower than EAIK
             ratio = f"{r.series.median / r.reference.median:.2f}x"
         met = "-" if r.met is None else ("yes" if r.met else "NO")
-        print(f"{r.robot:<9}{r.operation:<42}{unit:<9}{cells}{ratio:>9}  {r.target:<16}{met:<4}")
+        print(f"{r.robot:<13}{r.operation:<42}{unit:<9}{cells}{ratio:>9}  {r.target:<16}{met:<4}")
 
 
 # ---------------------------------------------------------------------- runs
-def random_poses(robot: Robot, count: int, seed: int) -> Array:
-    """World poses of the tool at configurations drawn uniformly inside the limits."""
+def random_configurations(robot: Robot, count: int, seed: int) -> Array:
+    """Configurations (count, dof) drawn uniformly inside the limits (clipped to +-pi)."""
     rng = np.random.default_rng(seed)
-    return robot.fk(rng.uniform(robot.lower, robot.upper, size=(count, robot.dof)))
+    lower = np.maximum(robot.lower, -math.pi)
+    upper = np.minimum(robot.upper, math.pi)
+    return rng.uniform(lower, upper, size=(count, robot.dof))
 
 
-def branch_agreement(robot: Robot, bot: Any, poses: Array) -> tuple[int, int, float]:
+def branch_agreement(
+    robot: Robot, bot: Any, poses: Array, poses_eaik: Sequence[Array]
+) -> tuple[int, int, float]:
     """Poses where optik (no limits) and EAIK find the same branch count; EAIK's FK error.
 
-    Returns ``(agreeing poses, poses, largest FK position error of EAIK's branches)``.
+    ``poses`` are optik's targets, ``poses_eaik`` the same configurations' poses in EAIK's
+    end frame. Returns ``(agreeing poses, poses, largest position error, in EAIK's own
+    forward kinematics, of EAIK's exact branches)``.
     """
-    T_base_inv = invert_transform(robot.T_world_base)
-    T_tool_inv = invert_transform(robot.T_flange_tool)
     same = 0
     worst = 0.0
-    for T in poses:
+    for T, T_eaik in zip(poses, poses_eaik, strict=True):
         ours = analytic_ik(robot, T, within_limits=False)
-        theirs = eaik_branches(bot.IK(T_base_inv @ T @ T_tool_inv))
+        theirs = eaik_branches(bot.IK(T_eaik))
         same += len(ours) == len(theirs)
-        if len(theirs):
-            err = np.linalg.norm(robot.fk(theirs)[:, :3, 3] - T[:3, 3], axis=1)
-            worst = max(worst, float(err.max()))
+        for q in theirs:
+            worst = max(worst, float(np.linalg.norm(bot.fwdKin(q)[:3, 3] - T_eaik[:3, 3])))
     return same, len(poses), worst
 
 
 def run(name: str, single: int, batch: int, repeat: int, peers: bool) -> tuple[list[Row], str]:
     """Time one robot; returns its table rows and a line on branch agreement."""
-    robot = load_problem(name).robot
-    bot = eaik_robot(robot) if peers else None
-    poses = random_poses(robot, single, seed=0)
-    big = random_poses(robot, batch, seed=1)
+    robot = load_robot(name)
+    bot = eaik_robot(name, robot) if peers else None
+    configurations = random_configurations(robot, single, seed=0)
+    big_configurations = random_configurations(robot, batch, seed=1)
+    poses = robot.fk(configurations)
+    big = robot.fk(big_configurations)
 
     def optik_single() -> None:
         for T in poses:
@@ -241,10 +303,10 @@ def run(name: str, single: int, batch: int, repeat: int, peers: bool) -> tuple[l
     }
     batches: dict[str, Callable[[], object]] = {"optik": lambda: analytic_ik_batch(robot, big)}
     if bot is not None:
-        T_base_inv = invert_transform(robot.T_world_base)
-        T_tool_inv = invert_transform(robot.T_flange_tool)
-        poses_0 = [T_base_inv @ T @ T_tool_inv for T in poses]  # EAIK: flange in frame 0
-        big_0 = [T_base_inv @ T @ T_tool_inv for T in big]
+        # The same configurations' poses in EAIK's own end frame (for a DH robot the
+        # flange in frame 0: its FK was checked against optik's above).
+        poses_0 = [np.asarray(bot.fwdKin(q)) for q in configurations]
+        big_0 = [np.asarray(bot.fwdKin(q)) for q in big_configurations]
 
         def eaik_single() -> None:
             for T in poses_0:
@@ -282,7 +344,8 @@ def run(name: str, single: int, batch: int, repeat: int, peers: bool) -> tuple[l
     if not peers:
         note = f"{name}: EAIK not run (--no-peers)"
     if bot is not None:
-        same, total, worst = branch_agreement(robot, bot, poses[: min(200, single)])
+        count = min(200, single)
+        same, total, worst = branch_agreement(robot, bot, poses[:count], poses_0[:count])
         note = (
             f"{name}: branch count (optik without limits vs EAIK exact solutions) equal on "
             f"{same}/{total} poses; EAIK's worst FK position error {worst:.1e} m"
@@ -296,7 +359,13 @@ def main(argv: Sequence[str] | None = None) -> None:
     parser.add_argument("--single", type=int, default=500, help="poses per single-call run")
     parser.add_argument("--batch", type=int, default=20_000, help="poses per batch")
     parser.add_argument("--repeat", type=int, default=9, help="timed runs (median)")
-    parser.add_argument("--robots", nargs="+", default=list(ROBOTS), help="problem names")
+    parser.add_argument(
+        "--robots",
+        nargs="+",
+        default=None,
+        help="problem names and URDF arms (" + ", ".join(URDF_ARMS) + "); default: the "
+        "problems " + ", ".join(ROBOTS) + " and, with example-robot-data, the URDF arms",
+    )
     parser.add_argument(
         "--peers",
         action=argparse.BooleanOptionalAction,
@@ -320,7 +389,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     load_before = os.getloadavg()[0]
     rows: list[Row] = []
     notes: list[str] = []
-    for name in args.robots:
+    for name in args.robots or default_robots():
         robot_rows, note = run(name, args.single, args.batch, args.repeat, args.peers)
         rows += robot_rows
         notes.append(note)

@@ -55,9 +55,9 @@ HERE = Path(__file__).resolve().parent
 
 # The options of each benchmark in the interleaved runs: the single-query solve_ik medians
 # (dls and auto on the three robots) and the solve_ik_batch throughput of bench_ik.py,
-# every row of bench_analytic.py. Sized so that a default run (warm-up plus 7 rounds of
-# both benchmarks in both trees) takes about 3 minutes on a quiet 2-core machine, 6 when
-# other processes keep both cores busy.
+# every row of bench_analytic.py for its two DH robots (not its URDF arms). Sized so that
+# a default run (warm-up plus 7 rounds of both benchmarks in both trees) takes about 3
+# minutes on a quiet 2-core machine, 6 when other processes keep both cores busy.
 BENCHES: dict[str, tuple[str, tuple[str, ...]]] = {
     "ik": (
         "bench_ik.py",
@@ -73,7 +73,7 @@ BENCHES: dict[str, tuple[str, tuple[str, ...]]] = {
     ),
     "analytic": (
         "bench_analytic.py",
-        ("--single", "500", "--batch", "20000", "--repeat", "9"),
+        ("--robots", "puma560", "ur5", "--single", "500", "--batch", "20000", "--repeat", "9"),
     ),
 }  # fmt: skip
 ORDERS = ("alternate", "abba")

@@ -579,6 +579,17 @@ class Robot:
                 value = self._cache[build] = build(self)
             return value
 
+    def __getstate__(self) -> dict[str, Any]:
+        """The robot as pickled (a Dask worker's copy): without its cache of derived values.
+
+        The cache holds compiled kernels; numba pickles one as its source, which the
+        receiving process compiles again (about 20 s for a closed form) instead of loading
+        it from its cache. Everything in the cache is rebuilt there on demand.
+        """
+        state = self.__dict__.copy()
+        state["_cache"] = {}
+        return state
+
     def cached_value(self, build: Callable[[Robot], T_cached]) -> T_cached | None:
         """What :meth:`cached` holds for ``build``, or ``None`` if it was not built yet.
 

@@ -212,13 +212,15 @@ def test_git_commit_names_the_checkout_and_whether_its_optik_changed(tmp_path: P
 def _run_script(script: str, tmp_path: Path, *args: str) -> dict[str, object]:
     out = tmp_path / f"{script}.json"
     env = dict(os.environ, PYTHONPATH=str(ROOT))
-    subprocess.run(
+    run = subprocess.run(
         [sys.executable, str(BENCH / script), *args, "--json", str(out)],
         cwd=tmp_path,
         env=env,
         check=True,
         capture_output=True,
+        text=True,
     )
+    (tmp_path / "out.txt").write_text(run.stdout)
     data: dict[str, object] = json.loads(out.read_text())
     assert data["meta"]["optik_path"] == str(ROOT / "optik")  # type: ignore[index]
     return data
@@ -239,6 +241,31 @@ def test_bench_analytic_json_figures(tmp_path: Path) -> None:
         assert m["seconds_per_query"] == statistics.median(m["runs_s"]) > 0
     assert figures["ur5: analytic_ik_batch, N = 30"]["kind"] == "batch"
     assert figures["ur5: analytic_ik_batch, N = 30"]["n"] == 30
+
+
+def test_bench_analytic_urdf_arm_beside_eaik(tmp_path: Path) -> None:
+    # A maker's URDF arm, against EAIK's UrdfRobot of the same file (both in the test extra).
+    data = _run_script(
+        "bench_analytic.py", tmp_path,
+        "--robots", "urdf:kinova", "--single", "5", "--batch", "20", "--repeat", "3",
+    )  # fmt: skip
+    figures = {m["name"]: m for m in data["metrics"]}  # type: ignore[attr-defined]
+    assert set(figures) == {
+        "urdf:kinova: analytic_ik (limits, FK-verified)",
+        "urdf:kinova: analytic_ik (no limits, FK-verified)",
+        "urdf:kinova: analytic_ik_batch, N = 20",
+        "urdf:kinova: EAIK IK (no limits, not verified)",
+        "urdf:kinova: EAIK IK, then reading .Q and .is_LS",
+        "urdf:kinova: EAIK IK_batched, 1 thread, N = 20",
+    }
+    for m in figures.values():
+        assert len(m["runs_s"]) == 3 and m["seconds_per_query"] > 0
+    printed = (tmp_path / "out.txt").read_text()
+    # Eight exact branches per pose in both libraries (the Jaco 2's spherical wrist).
+    assert (
+        "urdf:kinova: branch count (optik without limits vs EAIK exact solutions) "
+        "equal on 5/5 poses"
+    ) in printed
 
 
 def test_bench_ik_json_figures(tmp_path: Path) -> None:

@@ -7,6 +7,7 @@ that its message names what is wrong.
 from __future__ import annotations
 
 import math
+import pickle
 import warnings
 from pathlib import Path
 
@@ -15,6 +16,7 @@ import pytest
 from conftest import assert_close, robot_of
 
 import optik
+from optik.analytic import _compiled_plan
 from optik.errors import (
     InvalidLimitsError,
     InvalidRotationError,
@@ -359,3 +361,23 @@ def test_a_locked_joint_with_equal_limits_loads(tmp_path: Path) -> None:
     locked.write_text(text.replace(elbow, 'name = "elbow"\na = 1.0\nlower = 30\nupper = 30'))
     loaded = optik.load_problem(locked).robot
     assert loaded.lower[1] == loaded.upper[1] == pytest.approx(math.radians(30.0))
+
+
+def test_a_pickled_robot_travels_without_its_cache() -> None:
+    # A Dask worker gets the robot pickled: the cache's compiled kernels would travel as
+    # numba's source and be compiled again there (about 20 s), so the cache stays behind.
+    robot = optik.load_problem("ur5").robot
+    before = pickle.dumps(robot)
+    q = np.array([0.3, -1.1, 1.4, -0.6, 0.9, 0.2])
+    T = robot.fk(q)
+    expected = optik.analytic_ik(robot, T)
+    assert robot.cached_value(_compiled_plan) is not None
+    assert pickle.dumps(robot) == before  # the same bytes as the unused robot
+    clone = pickle.loads(before)
+    assert clone.cached_value(_compiled_plan) is None
+    assert robot.cached_value(_compiled_plan) is not None  # the original keeps its own
+    branches = optik.analytic_ik(clone, T)  # rebuilt on demand
+    assert len(branches) == len(expected) > 0
+    for a, b in zip(branches, expected, strict=True):
+        np.testing.assert_array_equal(a, b)
+    assert np.min([np.max(np.abs(b - q)) for b in branches]) < 1e-9
