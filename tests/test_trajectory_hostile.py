@@ -204,6 +204,8 @@ def _rotation_departure(robot: Robot, trajectory: Any, path: np.ndarray, axis: i
         t0, t1 = segment.waypoint_times[i], segment.waypoint_times[i + 1]
         q, _, _ = trajectory.at(0, np.linspace(t0, t1, 43)[1:-1])
         slerp = Slerp([0.0, 1.0], Rotation.from_matrix(path[[i, i + 1], :3, :3]))
+        grid = np.linspace(0.0, 1.0, 101)
+        frames = slerp(grid).as_matrix()  # (101, 3, 3): the path's rotation on the grid
         for T in robot.fk(q):
 
             def angle(u: float, T: np.ndarray = T, slerp: Slerp = slerp) -> float:
@@ -213,8 +215,11 @@ def _rotation_departure(robot: Robot, trajectory: Any, path: np.ndarray, axis: i
                 c = np.clip(R[:, axis] @ T[:3, axis], -1.0, 1.0)
                 return float(np.arccos(c))
 
-            grid = np.linspace(0.0, 1.0, 101)
-            u = grid[int(np.argmin([angle(g) for g in grid]))]
+            if axis is None:
+                on_grid = Rotation.from_matrix(frames.transpose(0, 2, 1) @ T[:3, :3]).magnitude()
+            else:
+                on_grid = np.arccos(np.clip(frames[:, :, axis] @ T[:3, axis], -1.0, 1.0))
+            u = grid[int(np.argmin(on_grid))]
             found = minimize_scalar(
                 angle, bounds=(max(0.0, u - 0.01), min(1.0, u + 0.01)), method="bounded",
                 options={"xatol": 1e-12},
@@ -282,8 +287,13 @@ def test_a_free_position_axis_does_not_count_in_the_departure() -> None:
         return A[:3, :3] @ Rotation.from_rotvec(u * turn).as_matrix()
 
     dense = 0.0  # the largest x-y distance (in the path's frame) to the path, 80 samples
+    grid = np.linspace(0.0, 1.0, 401)
     for i in range(segment.first, segment.last):
         A, B = plan.poses[i], plan.poses[i + 1]
+        # The path's frame and point at each grid value, for every sample of the segment.
+        turn = Rotation.from_matrix(A[:3, :3].T @ B[:3, :3]).as_rotvec()
+        frames = A[:3, :3] @ Rotation.from_rotvec(grid[:, None] * turn).as_matrix()
+        points = A[:3, 3] + grid[:, None] * (B[:3, 3] - A[:3, 3])
         t = np.linspace(segment.waypoint_times[i], segment.waypoint_times[i + 1], 80)
         for q in trajectory.at(0, t)[0]:
             p = robot.fk(q)[:3, 3]
@@ -292,8 +302,8 @@ def test_a_free_position_axis_does_not_count_in_the_departure() -> None:
                 d = p - A[:3, 3] - u * (B[:3, 3] - A[:3, 3])
                 return float(np.linalg.norm((slerp(A, B, u).T @ d)[:2]))
 
-            grid = np.linspace(0.0, 1.0, 401)
-            j = int(np.argmin([off(u) for u in grid]))
+            local = np.einsum("uji,uj->ui", frames, p - points)[:, :2]
+            j = int(np.argmin(np.linalg.norm(local, axis=1)))
             found = minimize_scalar(off, bounds=(grid[max(j - 1, 0)], grid[min(j + 1, 400)]),
                                     method="bounded")  # fmt: skip
             dense = max(dense, min(float(found.fun), off(grid[j])))
