@@ -253,10 +253,15 @@ def print_table(rows: Sequence[Row]) -> None:
 
 # ---------------------------------------------------------------------- runs
 def random_configurations(robot: Robot, count: int, seed: int) -> Array:
-    """Configurations (count, dof) drawn uniformly inside the limits (clipped to +-pi)."""
+    """Configurations (count, dof) drawn uniformly inside the limits.
+
+    A revolute joint's range is clipped to one turn (+-pi rad): a continuous joint has
+    infinite limits.
+    """
     rng = np.random.default_rng(seed)
-    lower = np.maximum(robot.lower, -math.pi)
-    upper = np.minimum(robot.upper, math.pi)
+    revolute = np.array([joint.kind == "revolute" for joint in robot.joints])
+    lower = np.where(revolute, np.maximum(robot.lower, -math.pi), robot.lower)
+    upper = np.where(revolute, np.minimum(robot.upper, math.pi), robot.upper)
     return rng.uniform(lower, upper, size=(count, robot.dof))
 
 
