@@ -692,3 +692,50 @@ def test_a_branch_on_its_limit_next_to_a_singularity_is_kept_on_the_limit() -> N
         F = kinova.fk(b)
         assert np.linalg.norm(F[:3, 3] - T[:3, 3]) <= 1e-9
         assert Rotation.from_matrix(F[:3, :3].T @ T[:3, :3]).magnitude() <= 1e-9
+
+
+@needs_erd
+def test_a_declared_spherical_axes_arm_takes_its_newton_step_at_the_wrist_centre() -> None:
+    """The Jaco 2 declared ``spherical_axes``: its URDF's axes meet only to about 1e-12 m,
+    so every branch takes a Newton step, referred to where axes 4, 5 and 6 meet (two
+    3 x 3 solves). The centre is fixed in the last link and in link 3 alike: it does not
+    move with the wrist joints. Without it (NaN) the step is the damped 6 x 6 one; both
+    give the same branches, each reaching its pose to rounding."""
+    from optik.analytic.spherical_axes import (
+        AT_WRIST,
+        axes_plan,
+        kind_pipeline,
+        pack_axes_params,
+    )
+
+    assert ROBOTS_DIR is not None
+    path = ROBOTS_DIR / "kinova_description" / "robots" / "kinova.urdf"
+    robot = Robot.from_urdf(
+        path, "j2s6s200_link_base", "j2s6s200_end_effector", analytic="spherical_axes"
+    )
+    plan = axes_plan(robot)
+    params = pack_axes_params(robot, plan)
+    centre = np.append(params[AT_WRIST : AT_WRIST + 3], 1.0)
+    assert np.all(np.isfinite(centre))
+    rng = np.random.default_rng(11)
+    lower, upper = np.maximum(robot.lower, -math.pi), np.minimum(robot.upper, math.pi)
+    for q in rng.uniform(lower, upper, (20, 6)):
+        moved = q.copy()
+        moved[3:] = rng.uniform(lower[3:], upper[3:])
+        np.testing.assert_allclose(robot.fk(moved) @ centre, robot.fk(q) @ centre, atol=1e-12)
+    damped = params.copy()
+    damped[AT_WRIST : AT_WRIST + 3] = np.nan
+    solve = kind_pipeline(plan.kind).solve
+    ref = robot.mid_limits
+    steps = 0
+    for q in rng.uniform(lower, upper, (200, 6)):
+        T = robot.fk(q)
+        at_wrist, plain = np.empty((8, 6)), np.empty((8, 6))
+        n = solve(params, T, ref, 0, at_wrist)
+        assert solve(damped, T, ref, 0, plain) == n > 0
+        np.testing.assert_allclose(at_wrist[:n], plain[:n], rtol=0.0, atol=1e-12)
+        for b in at_wrist[:n]:
+            F = robot.fk(b)
+            assert np.max(np.abs(F - T)) <= 1e-13
+        steps += n
+    assert steps >= 1000  # every pose has its 8 branches in all (limits off: flags 0)

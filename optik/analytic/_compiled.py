@@ -54,7 +54,14 @@ from optik.analytic._base import (
     table_target,
     verify_position_tolerance,
 )
-from optik.analytic.geometry import DHModel, joint_axes, wrist_centre
+from optik.analytic.geometry import (
+    LENGTH_TOL,
+    DHModel,
+    arm_size,
+    joint_axes,
+    point_line_distance,
+    wrist_centre,
+)
 from optik.errors import AnalyticIKError
 from optik.limits import LIMIT_TOLERANCE
 from optik.spatial import ROTATION_TOLERANCE, invert_transform
@@ -241,6 +248,8 @@ class AxesOffsets(NamedTuple):
         directions: (dof, 3) unit joint directions at ``q = 0`` of the chain solved.
         points: (dof, 3) a point on each of its axes (m).
         tool: (4, 4) its tool at ``q = 0``, row-major.
+        wrist: (3,) where the robot's axes 4, 5 and 6 meet, in its tool's frame (m), or
+            NaN (:func:`axes_wrist_centre`): the Newton step's wrist centre.
         tols: the tolerance block (:func:`tolerance_block`).
     """
 
@@ -251,12 +260,13 @@ class AxesOffsets(NamedTuple):
     directions: int
     points: int
     tool: int
+    wrist: int
     tols: int
 
     @property
     def layout(self) -> tuple[int, int, int, int, int, int, int]:
         """Where :func:`optik.analytic._pipeline.postprocess_rows` finds the robot's data."""
-        return (self.kind, 1, self.lower, self.upper, self.chain, self.tols, -1)
+        return (self.kind, 1, self.lower, self.upper, self.chain, self.tols, self.wrist)
 
 
 def axes_offsets(dof: int, head: int) -> AxesOffsets:
@@ -267,7 +277,31 @@ def axes_offsets(dof: int, head: int) -> AxesOffsets:
     directions = chain + 12 * (dof + 1)
     points = directions + 3 * dof
     tool = points + 3 * dof
-    return AxesOffsets(head, lower, upper, chain, directions, points, tool, tool + 16)
+    wrist = tool + 16
+    return AxesOffsets(head, lower, upper, chain, directions, points, tool, wrist, wrist + 3)
+
+
+def axes_wrist_centre(robot: Robot) -> FloatArray:
+    """(3,) where a six-joint robot's own axes 4, 5 and 6 meet, in its tool's frame (m).
+
+    NaN unless each of the three passes within the geometry's length tolerance
+    (``LENGTH_TOL`` times the arm's size) of that point: then the Newton step of a branch
+    is referred to it (:func:`optik.analytic._newton.newton_step`, two 3 x 3 solves),
+    whatever chain the closed form solved (read backwards, a spherical shoulder's).
+    """
+    missing = np.full(3, np.nan)
+    if robot.dof != DOF:
+        return missing
+    axes = joint_axes(robot)
+    centre = wrist_centre(axes)
+    if not np.all(np.isfinite(centre)):
+        return missing
+    world = axes.tool[:3, :3] @ centre + axes.tool[:3, 3]
+    tol = LENGTH_TOL * arm_size(axes.points)
+    for i in (3, 4, 5):
+        if point_line_distance(axes.directions[i], axes.points[i], world) > tol:
+            return missing
+    return centre
 
 
 def pack_axes_vector(
@@ -277,6 +311,7 @@ def pack_axes_vector(
     points: FloatArray,
     tool: FloatArray,
     tols: FloatArray,
+    wrist: FloatArray | None = None,
 ) -> FloatArray:
     """The flat parameter vector of a family solved on the joint axes (:class:`AxesOffsets`).
 
@@ -288,6 +323,8 @@ def pack_axes_vector(
         points: (dof, 3) a point on each of its axes (m).
         tool: (4, 4) its tool at ``q = 0``.
         tols: the tolerance block (:func:`tolerance_block`; numba freezes globals).
+        wrist: (3,) the wrist centre of the Newton step (:func:`axes_wrist_centre`);
+            ``None``: none (the damped step).
     """
     at = axes_offsets(robot.dof, len(head))
     params = np.zeros(at.tols + len(tols))
@@ -298,7 +335,8 @@ def pack_axes_vector(
     params[at.chain : at.directions] = robot.chain.K[:, :3, :].reshape(-1)
     params[at.directions : at.points] = directions.reshape(-1)
     params[at.points : at.tool] = points.reshape(-1)
-    params[at.tool : at.tols] = tool.reshape(-1)
+    params[at.tool : at.wrist] = tool.reshape(-1)
+    params[at.wrist : at.tols] = np.nan if wrist is None else wrist
     params[at.tols :] = tols
     params[at.tols + TOL_VERIFY_POSITION] = verify_position_tolerance(robot)
     return params

@@ -58,11 +58,12 @@ FREE_DOF = 7
 
 # Layout of the compiled kernels' parameter vector (:func:`pack_free_params`, flat
 # float64): the held joint and the form's direction, then the blocks of
-# optik.analytic._compiled.AxesOffsets (limits, chain, axes and tool at q = 0, tolerances).
+# optik.analytic._compiled.AxesOffsets (limits, chain, axes and tool at q = 0, wrist centre,
+# tolerances).
 AT_HELD = 0  # (1,) the held joint's index
 AT_REVERSE = 1  # (1,) 1.0 when the closed form solves the chain read backwards
 _AT = axes_offsets(FREE_DOF, 2)
-AT_KIND, AT_LOWER, AT_UPPER, AT_CHAIN, AT_DIRECTIONS, AT_POINTS, AT_TOOL, AT_TOLS = _AT
+AT_KIND, AT_LOWER, AT_UPPER, AT_CHAIN, AT_DIRECTIONS, AT_POINTS, AT_TOOL, AT_WRIST, AT_TOLS = _AT
 FREE_LAYOUT: Layout = _AT.layout
 """Where :func:`optik.analytic._pipeline.postprocess_rows` finds the robot's data."""
 

@@ -52,6 +52,7 @@ from optik.analytic._compiled import (
     MAX_BRANCHES,
     axes_block,
     axes_offsets,
+    axes_wrist_centre,
     pack_axes_vector,
     tolerance_block,
 )
@@ -226,11 +227,12 @@ def _arrays(axes: Axes) -> tuple[FloatArray, FloatArray, FloatArray]:
 DOF = 6
 # Layout of the compiled kernels' parameter vector (pack_axes_params, flat float64): the
 # arm's kind and the form's direction, then the blocks of
-# optik.analytic._compiled.AxesOffsets (limits, chain, axes and tool at q = 0, tolerances).
+# optik.analytic._compiled.AxesOffsets (limits, chain, axes and tool at q = 0, wrist centre,
+# tolerances).
 AT_ARM = 0  # (1,) the arm's kind
 AT_REVERSE = 1  # (1,) 1.0 when the closed form solves the chain read backwards
 _AT = axes_offsets(DOF, 2)
-AT_KIND, AT_LOWER, AT_UPPER, AT_CHAIN, AT_DIRECTIONS, AT_POINTS, AT_TOOL, AT_TOLS = _AT
+AT_KIND, AT_LOWER, AT_UPPER, AT_CHAIN, AT_DIRECTIONS, AT_POINTS, AT_TOOL, AT_WRIST, AT_TOLS = _AT
 AXES_LAYOUT: Layout = _AT.layout
 """Where :func:`optik.analytic._pipeline.postprocess_rows` finds the robot's data."""
 
@@ -243,7 +245,9 @@ def pack_axes_params(robot: Robot, plan: AxesPlan) -> FloatArray:
         plan: its :func:`axes_plan`.
     """
     head = (plan.kind, 1.0 if plan.reverse else 0.0)
-    return pack_axes_vector(robot, head, plan.directions, plan.points, plan.tool, plan.tols)
+    return pack_axes_vector(
+        robot, head, plan.directions, plan.points, plan.tool, plan.tols, axes_wrist_centre(robot)
+    )
 
 
 @_jit
