@@ -451,12 +451,58 @@ def damped_step_reference(J: np.ndarray, e: np.ndarray) -> np.ndarray:
     return np.linalg.solve(J.T @ J + REFINE_DAMPING**2 * np.eye(J.shape[1]), J.T @ e)
 
 
+def _skew(v: np.ndarray) -> np.ndarray:
+    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+
+
+def wrist_step_reference(
+    robot: Robot, q: np.ndarray, e: np.ndarray, held: int | None
+) -> np.ndarray | None:
+    """The wrist-centre Newton step, or ``None`` where the closed forms take the damped one.
+
+    Taken when the last three axes meet (to 1e-9 of the arm's reach) with three arm
+    joints before them (six joints, none held; seven, one of the first four held) and
+    neither 3 x 3 block is near singular (``BLOCK_CONDITION``): then it is the Newton
+    step of the free columns, ``J_F dq = e``. The wrist centre ``W`` comes from the
+    Jacobian alone: a wrist joint's column referred to ``W`` has no linear part, so
+    ``z_i x (p - W) = J_v,i`` for the three.
+    """
+    from optik.analytic._newton import BLOCK_CONDITION
+
+    n = robot.dof
+    if not (n == 6 and held is None) and not (n == 7 and held is not None and held < 4):
+        return None
+    J = robot.jacobian(q)
+    p = robot.fk(q)[:3, 3]
+    wrist = range(n - 3, n)
+    A = np.vstack([_skew(J[3:, i]) for i in wrist])
+    b = np.concatenate([J[:3, i] for i in wrist])
+    r = np.linalg.lstsq(A, b, rcond=None)[0]  # p - W
+    reach = 1.0 + float(np.linalg.norm(p))
+    if np.linalg.norm(A @ r - b) > 1e-9 * reach:
+        return None  # the last three axes do not meet
+    arm = [i for i in range(n - 3) if i != held]
+    blocks = (
+        np.column_stack([J[:3, i] - np.cross(J[3:, i], r) for i in arm]),
+        np.column_stack([J[3:, i] for i in wrist]),
+    )
+    for block in blocks:
+        scale = float(np.prod(np.linalg.norm(block, axis=0)))
+        if not abs(np.linalg.det(block)) >= BLOCK_CONDITION * scale:
+            return None
+    free = [i for i in range(n) if i != held]
+    dq = np.zeros(n)
+    dq[free] = np.linalg.solve(J[:, free], e)
+    return dq
+
+
 def newton_reference(
     robot: Robot, rows: list[np.ndarray], target: np.ndarray, held: int | None = None
 ) -> list[np.ndarray]:
     """Each row after the closed forms' Newton step, in numpy on ``Robot.fk``/``jacobian``.
 
-    The damped least-squares step (:func:`damped_step_reference`), with the column of
+    The wrist-centre step where it applies (:func:`wrist_step_reference`), else the
+    damped least-squares step (:func:`damped_step_reference`), with the column of
     ``held`` left out; kept when every component is at most ``REFINE_MAX_STEP`` and the
     residual (:func:`pose_residual_reference`) does not grow.
     """
@@ -468,7 +514,9 @@ def newton_reference(
         J = robot.jacobian(q)
         if held is not None:
             J[:, held] = 0.0
-        dq = damped_step_reference(J, e)
+        dq = wrist_step_reference(robot, q, e, held)
+        if dq is None or not np.max(np.abs(dq)) <= REFINE_MAX_STEP:
+            dq = damped_step_reference(J, e)
         moved = q + dq
         keep = np.max(np.abs(dq)) <= REFINE_MAX_STEP
         grows = np.linalg.norm(pose_residual_reference(robot, moved, target)) > np.linalg.norm(e)

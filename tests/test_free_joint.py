@@ -219,3 +219,118 @@ def test_unreachable_target_gives_no_branch(iiwa: Robot) -> None:
     target = np.eye(4)
     target[:3, 3] = (5.0, 0.0, 0.5)
     assert analytic_ik(iiwa, target, free_joint="lbr_iiwa_joint_3", free_value=0.2) == []
+
+
+@pytest.mark.parametrize("held", [0, 2])
+def test_a_held_arm_joint_leaves_the_newton_step_at_the_wrist_centre(
+    tmp_path: Path, held: int
+) -> None:
+    """Holding joint 1 or 3 of an iiwa leaves three arm joints before the wrist (axes 5,
+    6, 7 meet): a branch's Newton step is referred to the wrist centre, two 3 x 3
+    solves. Here axis 6 is moved 3e-10 m off axis 5 (inside the geometry's tolerance:
+    the closed form solves the ideal arm), so every branch misses by about that much and
+    takes the step. The centre does not move with the wrist joints; away from the
+    singularities (q2, q4, q6 at least 0.1 rad from 0) the branches equal those of the
+    damped step (the centre NaN) and reach their poses to rounding. Nearer, the two
+    steps part by what the conditioning allows (5.8e-5 rad at ``|q4| = 1e-4`` on the
+    URDF's own iiwa, both within 5e-13 of the pose)."""
+    from optik.analytic.free_joint import AT_WRIST, free_joint_plan, pack_free_params, solve
+
+    text = IIWA_URDF.read_text()
+    joint_6 = '<origin rpy="1.57079632679 0 0" xyz="0 0 0.2155"/>'
+    assert text.count(joint_6) == 2  # joints 4 and 6: the second is joint 6's
+    head, tail = text.rsplit(joint_6, 1)
+    path = tmp_path / "iiwa.urdf"
+    path.write_text(head + joint_6.replace('xyz="0 0', 'xyz="3e-10 0') + tail)
+    iiwa = Robot.from_urdf(path, "lbr_iiwa_link_0", "lbr_iiwa_link_7")
+    params = pack_free_params(iiwa, free_joint_plan(iiwa, held))
+    centre = np.append(params[AT_WRIST : AT_WRIST + 3], 1.0)
+    assert np.all(np.isfinite(centre))
+    rng = np.random.default_rng(held)
+    for q in rng.uniform(iiwa.lower, iiwa.upper, (10, 7)):
+        moved = q.copy()
+        moved[4:] = rng.uniform(iiwa.lower[4:], iiwa.upper[4:])
+        np.testing.assert_allclose(iiwa.fk(moved) @ centre, iiwa.fk(q) @ centre, atol=1e-9)
+    damped = params.copy()
+    damped[AT_WRIST : AT_WRIST + 3] = np.nan
+    ref = iiwa.mid_limits
+    total = 0
+    for q in rng.uniform(iiwa.lower, iiwa.upper, (200, 7)):
+        if min(abs(q[1]), abs(q[3]), abs(q[5])) < 0.1:
+            continue
+        T = iiwa.fk(q)
+        at_wrist, plain = np.empty((8, 7)), np.empty((8, 7))
+        n = solve(params, T, ref, q[held], 0, at_wrist)
+        assert solve(damped, T, ref, q[held], 0, plain) == n > 0
+        np.testing.assert_allclose(at_wrist[:n], plain[:n], rtol=0.0, atol=1e-10)
+        assert min(_wrapped(b, q) for b in at_wrist[:n]) < SOURCE_TOL
+        for b in at_wrist[:n]:
+            assert b[held] == q[held]
+            assert np.max(np.abs(iiwa.fk(b) - T)) < 1e-14
+        total += n
+    assert total >= 400
+
+
+def test_a_held_wrist_joint_keeps_the_damped_step(iiwa: Robot) -> None:
+    # Holding joint 5 (or 7) leaves two wrist joints: no block structure, the damped
+    # step (the same centre in the vector, unused: the branches equal the NaN's).
+    from optik.analytic.free_joint import AT_WRIST, free_joint_plan, pack_free_params, solve
+
+    params = pack_free_params(iiwa, free_joint_plan(iiwa, 4))
+    damped = params.copy()
+    damped[AT_WRIST : AT_WRIST + 3] = np.nan
+    rng = np.random.default_rng(9)
+    for q in rng.uniform(iiwa.lower, iiwa.upper, (20, 7)):
+        T = iiwa.fk(q)
+        a, b = np.empty((8, 7)), np.empty((8, 7))
+        n = solve(params, T, iiwa.mid_limits, q[4], 0, a)
+        assert solve(damped, T, iiwa.mid_limits, q[4], 0, b) == n > 0
+        np.testing.assert_array_equal(a[:n], b[:n])
+
+
+def _prefixes(robot: Robot, q: np.ndarray) -> np.ndarray:
+    """The chain's prefix products (top three rows, row-major) as the Newton step reads
+    them: ``pre[0] = K[0]``, ``pre[i + 1] = pre[i] Rz(q_i) K[i + 1]``, the pose last."""
+    K = robot.chain.K
+    pre = np.zeros((robot.dof + 2, 12))
+    P = K[0].copy()
+    pre[0] = P[:3].reshape(-1)
+    for i, t in enumerate(q):
+        c, s = math.cos(t), math.sin(t)
+        P = P @ np.array([[c, -s, 0, 0], [s, c, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]) @ K[i + 1]
+        pre[i + 1] = P[:3].reshape(-1)
+    return pre
+
+
+@pytest.mark.parametrize("held", [0, 2])
+def test_the_wrist_centre_step_around_a_held_joint_is_the_newton_step(
+    iiwa: Robot, held: int
+) -> None:
+    # The wrist-centre step itself (no damped fallback): it equals numpy's solve of the
+    # Jacobian's six free columns for the pose residual, 1e-6 rad from the target.
+    from optik.analytic._newton import RESIDUAL, _wrist_step, newton_work_size, pose_residual
+    from optik.analytic.free_joint import AT_WRIST, FREE_LAYOUT, free_joint_plan, pack_free_params
+
+    params = pack_free_params(iiwa, free_joint_plan(iiwa, held))
+    free = [j for j in range(7) if j != held]
+    rng = np.random.default_rng(4 + held)
+    checked = 0
+    for _ in range(40):
+        q = rng.uniform(iiwa.lower, iiwa.upper)
+        if min(abs(q[1]), abs(q[3]), abs(q[5])) < 0.1:
+            continue  # away from the singularities, where the blocks are refused
+        target = q.copy()
+        target[free] += rng.uniform(-1e-6, 1e-6, 6)
+        T = iiwa.fk(target)[None]
+        pre = _prefixes(iiwa, q)
+        work = np.zeros(newton_work_size(7))
+        pose_residual(pre, 7, T, 0, work)
+        step = RESIDUAL + 6 + 7
+        assert _wrist_step(
+            params, FREE_LAYOUT[0], FREE_LAYOUT[1], 7, held, AT_WRIST, pre, work, step, 1e-4
+        )
+        expected = np.linalg.solve(iiwa.jacobian(q)[:, free], work[RESIDUAL : RESIDUAL + 6])
+        assert work[step + held] == 0.0
+        np.testing.assert_allclose(work[step : step + 7][free], expected, rtol=0.0, atol=1e-15)
+        checked += 1
+    assert checked >= 15

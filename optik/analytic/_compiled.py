@@ -57,7 +57,6 @@ from optik.analytic._base import (
 from optik.analytic.geometry import (
     LENGTH_TOL,
     DHModel,
-    arm_size,
     joint_axes,
     point_line_distance,
     wrist_centre,
@@ -282,23 +281,26 @@ def axes_offsets(dof: int, head: int) -> AxesOffsets:
 
 
 def axes_wrist_centre(robot: Robot) -> FloatArray:
-    """(3,) where a six-joint robot's own axes 4, 5 and 6 meet, in its tool's frame (m).
+    """(3,) where a robot's own last three axes meet, in its tool's frame (m).
 
     NaN unless each of the three passes within the geometry's length tolerance
     (``LENGTH_TOL`` times the arm's size) of that point: then the Newton step of a branch
     is referred to it (:func:`optik.analytic._newton.newton_step`, two 3 x 3 solves),
-    whatever chain the closed form solved (read backwards, a spherical shoulder's).
+    whatever chain the closed form solved (read backwards, a spherical shoulder's; around
+    a held arm joint of a seven-joint arm).
     """
     missing = np.full(3, np.nan)
-    if robot.dof != DOF:
-        return missing
     axes = joint_axes(robot)
-    centre = wrist_centre(axes)
+    n = len(axes.points)
+    if n < 6 or n != robot.dof or np.any(robot.chain.prismatic[-3:]):
+        return missing
+    first = n - 3
+    centre = wrist_centre(axes, first)
     if not np.all(np.isfinite(centre)):
         return missing
     world = axes.tool[:3, :3] @ centre + axes.tool[:3, 3]
-    tol = LENGTH_TOL * arm_size(axes.points)
-    for i in (3, 4, 5):
+    tol = LENGTH_TOL * axes.size
+    for i in (first, first + 1, first + 2):
         if point_line_distance(axes.directions[i], axes.points[i], world) > tol:
             return missing
     return centre

@@ -10,9 +10,11 @@ the Jacobian is a cross product per joint.
 
 Two ways to solve for the step:
 
-- a six-joint arm whose axes 4, 5 and 6 meet: the Newton step referred to the wrist
-  centre, where the Jacobian is block triangular (:func:`_wrist_step`, two 3 x 3 solves
-  by Cramer's rule instead of six normal equations);
+- an arm whose last three axes meet, with three arm joints before them (six joints, or
+  seven with one of the first four held, outside a near miss): the Newton step referred
+  to the wrist centre,
+  where the Jacobian is block triangular (:func:`_wrist_step`, two 3 x 3 solves by
+  Cramer's rule instead of six normal equations);
 - otherwise, or where a block is near singular: the damped normal equations
   ``(J^T J + lambda^2 I) dq = J^T e`` (:func:`_damped_step`,
   :data:`REFINE_DAMPING`: directions of ``J`` with singular
@@ -187,25 +189,30 @@ def _wrist_step(
     params: np.ndarray,
     at: int,
     stride: int,
+    dof: int,
+    held: int,
     wrist_at: int,
     pre: np.ndarray,
     work: np.ndarray,
     step: int,
     max_step: float,
 ) -> bool:
-    """The step of a six-joint arm whose axes 4, 5 and 6 meet, by two 3 x 3 solves.
+    """The step of an arm whose last three axes meet, by two 3 x 3 solves.
 
     Referred to the wrist centre ``W`` (``params[wrist_at:wrist_at + 3]``, in the tool's
     frame) instead of the tool point, the Jacobian is block lower-triangular: the wrist
-    joints turn about axes through ``W`` and do not move it. So the arm joints come from
-    ``W``'s error ``e_p + e_w x (W - p)``, then the wrist joints from the rotation error
-    the arm joints leave (Cramer's rule, each system refused when its determinant is
-    below :data:`BLOCK_CONDITION` of the product of its columns' norms). Axes that meet
-    only to within the geometry's tolerances leave a block of size ``d`` (the miss, m)
-    out of ``J``: the step then misses the linearised target by ``d |dq|``, about 1e-20.
-    Returns whether the step was solved, with every component at most ``max_step``.
+    joints turn about axes through ``W`` and do not move it. So the arm joints (the
+    three before the wrist, or the three of the first four that are not ``held``) come
+    from ``W``'s error ``e_p + e_w x (W - p)``, then the wrist joints from the rotation
+    error the arm joints leave (Cramer's rule, each system refused when its determinant
+    is below :data:`BLOCK_CONDITION` of the product of its columns' norms). Axes that
+    meet only to within the geometry's tolerances leave a block of size ``d`` (the miss,
+    m) out of ``J``: the step then misses the linearised target by ``d |dq|``, about
+    1e-20. The held joint's step is 0. Returns whether the step was solved, with every
+    component at most ``max_step``.
     """
-    d = 6
+    d = dof
+    w = dof - 3  # the first wrist joint
     wl0, wl1, wl2 = params[wrist_at], params[wrist_at + 1], params[wrist_at + 2]
     px, py, pz = pre[d, 3], pre[d, 7], pre[d, 11]
     rx = pre[d, 0] * wl0 + pre[d, 1] * wl1 + pre[d, 2] * wl2
@@ -218,18 +225,23 @@ def _wrist_step(
     by = ey + wz * rx - wx * rz
     bz = ez + wx * ry - wy * rx
     cx, cy, cz = px + rx, py + ry, pz + rz
-    # Columns of the arm block: w_i x (W - o_i), or w_i for a sliding joint.
+    # Columns of the arm block: w_i x (W - o_i), or w_i for a sliding joint; the arm
+    # joints are i0 < i1 < i2, the joints before the wrist less the held one.
+    i0 = 1 if held == 0 else 0
+    i1 = i0 + 1 + (1 if held == i0 + 1 else 0)
+    i2 = i1 + 1 + (1 if held == i1 + 1 else 0)
     a0x = a0y = a0z = a1x = a1y = a1z = a2x = a2y = a2z = 0.0
-    for i in range(3):
+    for c in range(3):
+        i = i0 if c == 0 else (i1 if c == 1 else i2)
         zx, zy, zz = pre[i, 2], pre[i, 6], pre[i, 10]
         if params[at + stride * i] != 0.0:
             vx, vy, vz = zx, zy, zz
         else:
             dx, dy, dz = cx - pre[i, 3], cy - pre[i, 7], cz - pre[i, 11]
             vx, vy, vz = zy * dz - zz * dy, zz * dx - zx * dz, zx * dy - zy * dx
-        if i == 0:
+        if c == 0:
             a0x, a0y, a0z = vx, vy, vz
-        elif i == 1:
+        elif c == 1:
             a1x, a1y, a1z = vx, vy, vz
         else:
             a2x, a2y, a2z = vx, vy, vz
@@ -239,23 +251,26 @@ def _wrist_step(
     if not ok:
         return False
     # The rotation the arm joints leave to the wrist.
-    for i in range(3):
+    for c in range(3):
+        i = i0 if c == 0 else (i1 if c == 1 else i2)
         if params[at + stride * i] == 0.0:
-            xi = x0 if i == 0 else (x1 if i == 1 else x2)
+            xi = x0 if c == 0 else (x1 if c == 1 else x2)
             wx -= xi * pre[i, 2]
             wy -= xi * pre[i, 6]
             wz -= xi * pre[i, 10]
     y0, y1, y2, ok = _cramer(
-        pre[3, 2], pre[3, 6], pre[3, 10], pre[4, 2], pre[4, 6], pre[4, 10],
-        pre[5, 2], pre[5, 6], pre[5, 10], wx, wy, wz,
+        pre[w, 2], pre[w, 6], pre[w, 10], pre[w + 1, 2], pre[w + 1, 6], pre[w + 1, 10],
+        pre[w + 2, 2], pre[w + 2, 6], pre[w + 2, 10], wx, wy, wz,
     )  # fmt: skip
     if not ok:
         return False
     largest = max(abs(x0), abs(x1), abs(x2), abs(y0), abs(y1), abs(y2))
     if not largest <= max_step:
         return False
-    work[step], work[step + 1], work[step + 2] = x0, x1, x2
-    work[step + 3], work[step + 4], work[step + 5] = y0, y1, y2
+    for j in range(w):
+        work[step + j] = 0.0  # the held joint's
+    work[step + i0], work[step + i1], work[step + i2] = x0, x1, x2
+    work[step + w], work[step + w + 1], work[step + w + 2] = y0, y1, y2
     return True
 
 
@@ -317,11 +332,13 @@ def newton_step(
 ) -> float:
     """One Gauss–Newton step of ``rows[r]`` from the residual in ``work[:6]``.
 
-    A six-joint arm with a wrist centre (``wrist_at >= 0``, no joint held) takes the
-    wrist-centre step (:func:`_wrist_step`: two 3 x 3 solves), which equals the Newton
-    step of the whole Jacobian wherever its blocks are well conditioned. Where it is
-    refused (near a singularity), and for other chains, the damped least-squares step
-    (:func:`_damped_step`), which leaves the weak directions where they are.
+    An arm with a wrist centre (``wrist_at >= 0``) and three arm joints before it (six
+    joints, none held; or seven, one of the first four held, for a step of at most
+    :data:`REFINE_MAX_STEP`) takes the wrist-centre step (:func:`_wrist_step`: two 3 x 3
+    solves), which equals the Newton step of the whole Jacobian wherever its blocks are
+    well conditioned. Where it is refused (near a singularity), and for other chains, the
+    damped least-squares step (:func:`_damped_step`), which leaves the weak directions
+    where they are.
 
     Args:
         params: the vector holding joint ``j``'s prismatic flag at ``at + stride * j``
@@ -330,8 +347,8 @@ def newton_step(
         stride: distance between two joints' flags.
         dof: number of joints.
         held: a joint that must not move (its column of ``J`` left out), or -1.
-        wrist_at: offset in ``params`` of the point where axes 4, 5 and 6 meet, in the
-            tool's frame (m), or -1 when they do not.
+        wrist_at: offset in ``params`` of the point where the last three axes meet, in
+            the tool's frame (m), or -1 when they do not.
         pre: (dof + 2, 12) the prefix products of the row's FK (top three rows of
             each, row-major): joint ``i`` turns about the z axis of ``pre[i]``, the pose
             is ``pre[dof]``.
@@ -351,8 +368,15 @@ def newton_step(
     jac = step + dof
     normal = jac + 6 * dof
     solved = False
-    if dof == 6 and held < 0 and wrist_at >= 0:
-        solved = _wrist_step(params, at, stride, wrist_at, pre, work, step, max_step)
+    # Three arm joints before the wrist: six joints, or seven with one of the first
+    # four held. A held arm's near miss (a larger step, at a singular pose) keeps the
+    # damped step: at an iiwa's stretched elbow the exact step overshot and lost a
+    # wrist-flip branch the damped steps recover.
+    held_arm = dof == 7 and 0 <= held < 4 and max_step <= REFINE_MAX_STEP
+    if wrist_at >= 0 and ((dof == 6 and held < 0) or held_arm):
+        solved = _wrist_step(
+            params, at, stride, dof, held, wrist_at, pre, work, step, max_step
+        )  # fmt: skip
     if not solved:
         _jacobian(params, at, stride, dof, held, pre, work, jac)
         solved = _damped_step(dof, work, jac, step, normal, max_step)

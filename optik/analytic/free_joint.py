@@ -40,6 +40,7 @@ from optik._numba import jit as _jit
 from optik.analytic._compiled import (
     MAX_BRANCHES,
     axes_offsets,
+    axes_wrist_centre,
     pack_axes_vector,
     tolerance_block,
 )
@@ -145,7 +146,10 @@ def pack_free_params(robot: Robot, plan: FreeJointPlan) -> FloatArray:
     and the tolerances (read from their home modules: numba freezes globals).
     """
     head = (plan.held, 1.0 if plan.reverse else 0.0)
-    return pack_axes_vector(robot, head, plan.directions, plan.points, plan.tool, tolerance_block())
+    return pack_axes_vector(
+        robot, head, plan.directions, plan.points, plan.tool, tolerance_block(),
+        axes_wrist_centre(robot),
+    )  # fmt: skip
 
 
 # ---------------------------------------------------------------------- the compiled kernels

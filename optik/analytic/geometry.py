@@ -183,15 +183,16 @@ def line_distance(z1: FloatArray, p1: FloatArray, z2: FloatArray, p2: FloatArray
     return abs(float(r @ c)) / sn
 
 
-def wrist_centre(axes: Axes) -> FloatArray:
-    """(3,) where axes 4 and 5 meet, in the tool's frame at ``q = 0`` (m).
+def wrist_centre(axes: Axes, first: int = 3) -> FloatArray:
+    """(3,) where axes ``first + 1`` and ``first + 2`` meet, in the tool's frame at ``q = 0`` (m).
 
     The midpoint of the two lines' common normal (axes that meet only to within the
-    tolerances meet there best); NaN when they are parallel. Fixed in the last link, so
-    ``fk(q) @ (c, 1)`` is the wrist centre at any ``q``.
+    tolerances meet there best); NaN when they are parallel. With the wrist's first two
+    axes (``first``: axes 4 and 5 of a six-joint arm by default) it is fixed in the last
+    link, so ``fk(q) @ (c, 1)`` is the wrist centre at any ``q``.
     """
-    z4, z5 = axes.directions[3], axes.directions[4]
-    p4, p5 = axes.points[3], axes.points[4]
+    z4, z5 = axes.directions[first], axes.directions[first + 1]
+    p4, p5 = axes.points[first], axes.points[first + 1]
     k = float(z4 @ z5)
     den = 1.0 - k * k
     if den <= ANGLE_TOL * ANGLE_TOL:
