@@ -247,7 +247,7 @@ class AxesOffsets(NamedTuple):
         directions: (dof, 3) unit joint directions at ``q = 0`` of the chain solved.
         points: (dof, 3) a point on each of its axes (m).
         tool: (4, 4) its tool at ``q = 0``, row-major.
-        wrist: (3,) where the robot's axes 4, 5 and 6 meet, in its tool's frame (m), or
+        wrist: (3,) where the robot's last three axes meet, in its tool's frame (m), or
             NaN (:func:`axes_wrist_centre`): the Newton step's wrist centre.
         tols: the tolerance block (:func:`tolerance_block`).
     """

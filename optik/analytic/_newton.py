@@ -12,9 +12,8 @@ Two ways to solve for the step:
 
 - an arm whose last three axes meet, with three arm joints before them (six joints, or
   seven with one of the first four held, outside a near miss): the Newton step referred
-  to the wrist centre,
-  where the Jacobian is block triangular (:func:`_wrist_step`, two 3 x 3 solves by
-  Cramer's rule instead of six normal equations);
+  to the wrist centre, where the Jacobian is block triangular (:func:`_wrist_step`, two
+  3 x 3 solves by Cramer's rule instead of six normal equations);
 - otherwise, or where a block is near singular: the damped normal equations
   ``(J^T J + lambda^2 I) dq = J^T e`` (:func:`_damped_step`,
   :data:`REFINE_DAMPING`: directions of ``J`` with singular
