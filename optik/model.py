@@ -25,16 +25,14 @@ from optik import _kernels
 from optik._checks import (
     FloatArray,
     as_float_array,
-    check_bool,
-    check_length,
     check_length_array,
-    check_real,
     finite_length_array,
 )
 from optik._clock import one_time_setup
 from optik.chain import Chain, ChainLink, JointKind, Mimic, read_only
 from optik.chain_checks import JOINT_KINDS, check_mimic_range, checked_link, rigid
-from optik.errors import ArgumentError, InvalidLimitsError, ModelError, OptikError, ShapeError
+from optik.dh_rows import DHJoint, checked_dh_rows, dh_links, dh_row, joint_motion
+from optik.errors import ArgumentError, InvalidLimitsError, ModelError, ShapeError
 from optik.limits import (
     check_limit_magnitude,
     finite_or_inf_limits,
@@ -42,47 +40,9 @@ from optik.limits import (
     resolve_limits,
     within_limits,
 )
-from optik.spatial import as_pose, rot_x, rot_z, transform
+from optik.spatial import as_pose
 
 _KINDS = JOINT_KINDS
-
-
-@dataclass(frozen=True)
-class DHJoint:
-    """One row of a (standard or modified) Denavit–Hartenberg table, SI units.
-
-    The joint variable adds to ``theta`` (revolute) or ``d`` (prismatic); the stated
-    value of that parameter is the constant offset at ``q = 0``.
-
-    Attributes:
-        a: link length (m).
-        alpha: link twist (rad).
-        d: link offset (m); the offset of a prismatic joint.
-        theta: joint angle (rad); the offset of a revolute joint.
-        kind: ``"revolute"`` or ``"prismatic"``.
-        name: joint name (default ``"j<i>"``, 1-based).
-        role: ``"arm"``, ``"wrist"``, ``"spindle"`` or ``None`` (default limits).
-        lower: lower limit (rad or m), ``None`` to use the role default.
-        upper: upper limit (rad or m), ``None`` to use the role default.
-        continuous: an unbounded revolute joint.
-        mimic: make this a passive joint driven by another joint.
-        velocity: speed limit (rad/s or m/s), ``None`` when unknown.
-        acceleration: acceleration limit (rad/s² or m/s²), ``None`` when unknown.
-    """
-
-    a: float = 0.0
-    alpha: float = 0.0
-    d: float = 0.0
-    theta: float = 0.0
-    kind: JointKind = "revolute"
-    name: str | None = None
-    role: str | None = None
-    lower: float | None = None
-    upper: float | None = None
-    continuous: bool = False
-    mimic: Mimic | None = None
-    velocity: float | None = None
-    acceleration: float | None = None
 
 
 @dataclass(frozen=True)
@@ -102,27 +62,6 @@ DECLARED_FAMILY_CHECKS: list[Callable[[Robot], object]] = []
 """Checks run when a robot declares a closed-form family (``analytic=``). The closed-form
 layer (:mod:`optik.analytic`, which imports this module) adds its own on import, so the
 model never imports it back."""
-_ChainLink = ChainLink  # the DH and URDF readers build these
-
-
-def _tz(d: float) -> FloatArray:
-    return transform(translation=(0.0, 0.0, d))
-
-
-def _tx(a: float) -> FloatArray:
-    return transform(translation=(a, 0.0, 0.0))
-
-
-def _rz(t: float) -> FloatArray:
-    return transform(rot_z(t))
-
-
-def _rx(t: float) -> FloatArray:
-    return transform(rot_x(t))
-
-
-def _motion(kind: str, t: float) -> FloatArray:
-    return _tz(t) if kind == "prismatic" else _rz(t)
 
 
 def _finite_multiplier(name: str, mimic: Mimic) -> float:
@@ -134,114 +73,6 @@ def _finite_multiplier(name: str, mimic: Mimic) -> float:
     if not math.isfinite(number):
         raise ModelError(f"joint {name!r}: mimic multiplier must be a finite number, got {value!r}")
     return number
-
-
-def _row_field(label: str, key: str, check: Any, value: Any) -> Any:
-    """Run one validator on a DH row's field, reporting a failure as a ModelError."""
-    try:
-        return check(key, value)
-    except OptikError as exc:
-        raise ModelError(f"{label}: {exc}") from exc
-
-
-def _optional_str(name: str, value: Any) -> str | None:
-    if value is not None and (not isinstance(value, str) or not value):
-        raise ArgumentError(name, value, "a non-empty string or None")
-    return value
-
-
-def _limit(joint: str, lower: Any, upper: Any) -> tuple[float | None, float | None]:
-    # NaN and infinite limits pass here: resolve_limits rejects them naming the joint.
-    out = []
-    for key, value in (("lower", lower), ("upper", upper)):
-        try:
-            out.append(
-                None if value is None else check_real(key, value, allow_nan=True, allow_inf=True)
-            )
-        except OptikError as exc:
-            raise InvalidLimitsError(joint, lower, upper, str(exc)) from exc
-    return out[0], out[1]
-
-
-def _mimic(label: str, value: Any) -> Mimic | None:
-    if value is None:
-        return None
-    if isinstance(value, Mapping):
-        unknown = sorted(map(str, set(value) - {"joint", "multiplier"}))
-        if unknown or "joint" not in value:
-            raise ModelError(
-                f"{label}: mimic must be {{joint = <name>, multiplier = <x>}}, "
-                f"got keys {sorted(map(str, value))}"
-            )
-        value = Mimic(value["joint"], value.get("multiplier", 1.0))
-    if not isinstance(value, Mimic):
-        raise ModelError(f"{label}: mimic must be a Mimic or a mapping, got {value!r}")
-    joint = _row_field(label, "mimic.joint", _optional_str, value.joint)
-    if joint is None:
-        raise ModelError(f"{label}: mimic.joint must name a joint")
-    multiplier = _row_field(label, "mimic.multiplier", check_real, value.multiplier)
-    return Mimic(joint, multiplier)
-
-
-def _as_dh_joint(row: Any, index: int) -> DHJoint:
-    """Validate one DH row (a :class:`DHJoint` or a mapping of its fields).
-
-    Every field is checked, a :class:`DHJoint` built directly included: ``a`` and ``d``
-    are lengths (finite, at most :data:`~optik._checks.MAX_LENGTH_M`), ``alpha`` and
-    ``theta`` finite angles, ``kind`` a known joint type, ``continuous`` a real bool,
-    limits real numbers (or ``None``), ``name`` and ``role`` strings (or ``None``).
-
-    Raises:
-        ModelError: naming the row, the joint and the field
-            (:class:`~optik.errors.InvalidLimitsError` for a limit).
-    """
-    if isinstance(row, DHJoint):
-        data = dict(row.__dict__)
-    elif isinstance(row, Mapping):
-        allowed = set(DHJoint.__dataclass_fields__) | {"type"}
-        unknown = sorted(map(str, set(row) - allowed))
-        if unknown:
-            raise ModelError(f"DH row {index}: unknown keys {unknown}")
-        data = dict(row)
-        if "type" in data:
-            if "kind" in data:
-                raise ModelError(f"DH row {index}: give either 'type' or 'kind', not both")
-            data["kind"] = data.pop("type")
-    else:
-        raise ModelError(f"DH row {index}: expected a mapping or DHJoint, got {type(row).__name__}")
-    out: dict[str, Any] = {}
-    out["name"] = _row_field(f"DH row {index}", "name", _optional_str, data.get("name"))
-    joint = out["name"] or f"j{index + 1}"
-    label = f"DH row {index} (joint {joint!r})"
-    kind = data.get("kind", "revolute")
-    if not isinstance(kind, str) or kind not in _KINDS:
-        raise ModelError(f"{label}: unknown joint type {kind!r} (expected {_KINDS})")
-    out["kind"] = kind
-    for key in ("a", "d"):
-        out[key] = _row_field(label, key, check_length, data.get(key, 0.0))
-    for key in ("alpha", "theta"):
-        out[key] = _row_field(label, key, check_real, data.get(key, 0.0))
-    out["role"] = _row_field(label, "role", _optional_str, data.get("role"))
-    out["lower"], out["upper"] = _limit(joint, data.get("lower"), data.get("upper"))
-    out["continuous"] = _row_field(label, "continuous", check_bool, data.get("continuous", False))
-    out["mimic"] = _mimic(label, data.get("mimic"))
-    for key in ("velocity", "acceleration"):
-        value = data.get(key)
-        out[key] = None if value is None else _row_field(label, key, _positive, value)
-    return DHJoint(**out)
-
-
-def _positive(key: str, value: Any) -> float:
-    return check_real(key, value, positive=True)
-
-
-def _check_rows(rows: Any) -> list[Any]:
-    """The DH rows as a list; anything but a sequence of rows is a ModelError."""
-    if isinstance(rows, str | bytes | Mapping | DHJoint) or not isinstance(rows, Sequence):
-        raise ModelError(
-            f"rows: expected a sequence of DH rows (DHJoint or mappings), got {rows!r:.80}"
-        )
-    return list(rows)
 
 
 def _check_frame(name: str, value: Any) -> FloatArray:
@@ -259,51 +90,6 @@ def _check_names(name: Any, analytic: Any) -> None:
         raise ModelError(f"name: expected a non-empty string, got {name!r}")
     if analytic is not None and not isinstance(analytic, str):
         raise ModelError(f"analytic: expected a family name or None, got {analytic!r}")
-
-
-def _check_kind(name: str, kind: str) -> None:
-    if kind not in _KINDS:
-        raise ModelError(f"joint {name!r}: unknown joint type {kind!r} (expected {_KINDS})")
-
-
-def _dh_links(rows: Sequence[Any], modified: bool) -> list[_ChainLink]:
-    links = []
-    for i, raw in enumerate(rows):
-        row = _as_dh_joint(raw, i)
-        name = row.name or f"j{i + 1}"
-        _check_kind(name, row.kind)
-        offset = row.d if row.kind == "prismatic" else row.theta
-        if modified:
-            # Craig: A_i = Rx(alpha_{i-1}) Tx(a_{i-1}) Rz(theta_i) Tz(d_i); the motion is
-            # about z_i after the fixed twist and length, so it comes last.
-            if row.kind == "prismatic":
-                before = _rx(row.alpha) @ _tx(row.a) @ _rz(row.theta)
-            else:
-                before = _rx(row.alpha) @ _tx(row.a) @ _tz(row.d)
-            after = np.eye(4)
-        else:
-            # Standard: A_i = Rz(theta_i) Tz(d_i) Tx(a_i) Rx(alpha_i); Rz and Tz commute,
-            # so the motion goes first and the rest is a constant link transform.
-            fixed = _tz(row.d) if row.kind == "revolute" else _rz(row.theta)
-            before = np.eye(4)
-            after = fixed @ _tx(row.a) @ _rx(row.alpha)
-        links.append(
-            _ChainLink(
-                name=name,
-                kind=row.kind,
-                before=before,
-                after=after,
-                offset=offset,
-                mimic=row.mimic,
-                role=row.role,
-                lower=row.lower,
-                upper=row.upper,
-                continuous=row.continuous,
-                velocity=row.velocity,
-                acceleration=row.acceleration,
-            )
-        )
-    return links
 
 
 class Robot:
@@ -324,7 +110,7 @@ class Robot:
 
     def __init__(
         self,
-        links: Sequence[_ChainLink],
+        links: Sequence[ChainLink],
         *,
         name: str = "robot",
         base: Any = None,
@@ -378,10 +164,10 @@ class Robot:
         n = len(links)
         K = np.empty((n + 1, 4, 4))
         E = np.empty((n, 4, 4))
-        K[0] = T_base @ links[0].before @ _motion(links[0].kind, links[0].offset)
+        K[0] = T_base @ links[0].before @ joint_motion(links[0].kind, links[0].offset)
         for i, link in enumerate(links):
             nxt = (
-                links[i + 1].before @ _motion(links[i + 1].kind, links[i + 1].offset)
+                links[i + 1].before @ joint_motion(links[i + 1].kind, links[i + 1].offset)
                 if i + 1 < n
                 else T_tool
             )
@@ -481,7 +267,7 @@ class Robot:
         analytic: str | None,
     ) -> Robot:
         _check_names(name, analytic)
-        dh_rows = [_as_dh_joint(row, i) for i, row in enumerate(_check_rows(rows))]
+        dh_rows = [dh_row(row, i) for i, row in enumerate(checked_dh_rows(rows))]
         base = None if base is None else _check_frame("base", base)
         tool = None if tool is None else _check_frame("tool", tool)
         if limits is not None:
@@ -492,7 +278,7 @@ class Robot:
                 dh_rows[i] = DHJoint(
                     **{**row.__dict__, "lower": float(lim[k, 0]), "upper": float(lim[k, 1])}
                 )
-        links = _dh_links(dh_rows, modified)
+        links = dh_links(dh_rows, modified)
         return cls(
             links,
             name=name,

@@ -208,7 +208,7 @@ def pack_params(robot: Robot, family: int) -> FloatArray:
     params[AT_SENSES:AT_WRIST] = senses
     params[AT_WRIST:AT_TOLS] = np.nan
     if family == SPHERICAL_WRIST:
-        params[AT_WRIST:AT_TOLS] = wrist_centre(joint_axes(robot))
+        params[AT_WRIST:AT_TOLS] = axes_wrist_centre(robot)
     params[AT_TOLS:] = tolerance_block()
     params[AT_TOLS + TOL_VERIFY_POSITION] = verify_position_tolerance(robot)
     return params
