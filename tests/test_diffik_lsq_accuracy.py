@@ -15,8 +15,8 @@ import pytest
 from scipy.optimize import lsq_linear
 
 import optik
-from optik.diffik import diff_ik
-from optik.programs.diff_qp import DEFAULT_DAMPING
+from optik.diffik import diff_ik, verify_step
+from optik.programs.diff_qp import DEFAULT_DAMPING, QPSolution, build_program
 from optik.solvers import available_solvers
 
 DT = 0.05  # s
@@ -59,12 +59,12 @@ SOLVERS = [
 ]
 
 
-def _reference(robot: optik.Robot, q: np.ndarray, twist: np.ndarray) -> np.ndarray:
+def _reference(robot: optik.Robot, q: np.ndarray, twist: np.ndarray, dt: float = DT) -> np.ndarray:
     """BVLS on ``[J; lambda I]``, checked to be a KKT point with an active bound."""
     J = robot.jacobian(q)
     lam = DEFAULT_DAMPING
     A = np.vstack([J, lam * np.eye(robot.dof)])
-    b = np.concatenate([twist * DT, np.zeros(robot.dof)])
+    b = np.concatenate([twist * dt, np.zeros(robot.dof)])
     lower, upper = robot.lower - q, robot.upper - q
     ref = np.asarray(lsq_linear(A, b, bounds=(lower, upper), method="bvls", tol=1e-15).x)
     g = A.T @ (A @ ref - b)
@@ -108,3 +108,93 @@ def test_an_unbounded_step_is_the_damped_closed_form(solver: str) -> None:
         expected = np.linalg.solve(J.T @ J + lam**2 * np.eye(ur5.dof), J.T @ twist)
         dq = diff_ik(ur5, q, twist, dt=1.0, objective="least_squares", solver=solver, limits=False)
         assert np.allclose(dq, expected, rtol=1e-9, atol=1e-12), (solver, q, dq - expected)
+
+
+# A Panda step (dt = 1 s) where Clarabel stopped 2e-5 (4e-6 of the KKT scale) from
+# stationary: the point was refused ("not optimal") although the program has a minimiser.
+OFF_STATIONARY_Q = [-0.14181415069294756, 1.4766542362984598, 0.13192342504187504,
+                    -2.087376074671621, -0.45866469206648475, 1.692055213484364,
+                    0.45475678796761443]  # fmt: skip
+OFF_STATIONARY_TWIST = [-0.0753449059467109, -0.6481748467516018, -0.016553984689091875,
+                        0.9776829420248081, 1.3476104278195014, -0.14505830071075107]  # fmt: skip
+
+
+@pytest.mark.parametrize("solver", SOLVERS)
+def test_a_step_every_backend_leaves_near_stationary_is_the_bvls_minimiser(solver: str) -> None:
+    panda = optik.load_problem("panda").robot
+    q, twist = np.array(OFF_STATIONARY_Q), np.array(OFF_STATIONARY_TWIST)
+    ref = _reference(panda, q, twist, dt=1.0)
+    dq = diff_ik(panda, q, twist, dt=1.0, objective="least_squares", solver=solver)
+    assert np.max(np.abs(dq - ref)) <= 1e-8 * np.max(np.abs(ref)), (solver, dq - ref)
+
+
+def _off_stationary_answer(shift: float) -> tuple[np.ndarray, tuple[np.ndarray | None, str]]:
+    """The BVLS minimiser, and :func:`verify_step` of it moved by ``shift`` along a free joint."""
+    panda = optik.load_problem("panda").robot
+    q, twist = np.array(OFF_STATIONARY_Q), np.array(OFF_STATIONARY_TWIST)
+    program = build_program(panda, q, twist, objective="least_squares")
+    ref = _reference(panda, q, twist, dt=1.0)
+    free = int(np.argmax(np.minimum(ref - program.lower, program.upper - ref)))
+    point = ref.copy()
+    point[free] += shift
+    return ref, verify_step(program, QPSolution(point, True, "test point", "test"))
+
+
+def test_a_least_squares_point_a_little_off_stationary_is_solved_again() -> None:
+    ref, (dq, reason) = _off_stationary_answer(1e-5)
+    assert reason == "" and dq is not None
+    assert np.max(np.abs(dq - ref)) <= 1e-9 * np.max(np.abs(ref))
+
+
+def test_a_least_squares_point_far_from_stationary_is_refused() -> None:
+    # Re-solving any feasible point would hide a broken backend: only a near one is.
+    _, (dq, reason) = _off_stationary_answer(0.2)
+    assert dq is None
+    assert reason.startswith("not optimal: KKT stationarity residual")
+
+
+# A Panda step with two joints at speed 0 (a zero-width box): quadprog, which takes each
+# bound as an inequality, returned no point ("no point returned") on it.
+ZERO_SPEED_Q = [0.0025932972742159777, -0.2510029224115682, 1.7078691403868618,
+                -3.048792921549545, 2.1788336530817247, 0.7249433587663224,
+                -2.2902956989297065]  # fmt: skip
+ZERO_SPEED_TWIST = [-0.07225345490329442, -0.0846080520711566, 0.0003661039443088937,
+                    0.01252726527947324, -0.020333410093396828, 0.019450767858593832]  # fmt: skip
+ZERO_SPEED_VMAX = [0.0, 1.9621540699364257, 0.7341961103106678, 1.9498483113054421,
+                   0.8686833925950458, 1.342679979911842, 0.0]  # fmt: skip
+
+
+@pytest.mark.parametrize("solver", SOLVERS)
+def test_joints_at_speed_zero_stay_and_the_others_take_the_bvls_step(solver: str) -> None:
+    panda = optik.load_problem("panda").robot
+    q, twist, vmax = (np.array(a) for a in (ZERO_SPEED_Q, ZERO_SPEED_TWIST, ZERO_SPEED_VMAX))
+    dt = 0.1
+    free = vmax > 0.0
+    J = panda.jacobian(q)[:, free]
+    lam = DEFAULT_DAMPING
+    A = np.vstack([J, lam * np.eye(J.shape[1])])
+    b = np.concatenate([twist * dt, np.zeros(J.shape[1])])
+    box = vmax[free] * dt
+    ref = lsq_linear(A, b, bounds=(-box, box), method="bvls", tol=1e-15).x
+    dq = diff_ik(
+        panda, q, twist, dt=dt, objective="least_squares", solver=solver,
+        velocity_limits=vmax, limits=False,
+    )  # fmt: skip
+    assert np.all(dq[~free] == 0.0)
+    assert np.max(np.abs(dq[free] - ref)) <= 1e-8 * np.max(np.abs(ref)), (solver, dq[free] - ref)
+
+
+@pytest.mark.parametrize("solver", SOLVERS)
+def test_a_least_norm_step_with_joints_at_speed_zero_is_the_others_pseudoinverse(
+    solver: str,
+) -> None:
+    # One joint at speed 0 (with two, J dq = v has no solution: five joints, six rows).
+    panda = optik.load_problem("panda").robot
+    q, vmax = np.array(ZERO_SPEED_Q), np.array(ZERO_SPEED_VMAX)
+    vmax[0] = 1.0
+    twist = 0.01 * np.array(ZERO_SPEED_TWIST)  # small: no speed bound of the free joints acts
+    free = vmax > 0.0
+    expected = np.linalg.pinv(panda.jacobian(q)[:, free]) @ twist
+    dq = diff_ik(panda, q, twist, dt=1.0, solver=solver, velocity_limits=vmax, limits=False)
+    assert np.all(dq[~free] == 0.0)
+    assert np.allclose(dq[free], expected, rtol=1e-8, atol=1e-13), (solver, dq[free] - expected)

@@ -145,6 +145,9 @@ class DirectBackend:
         A program without constraints or bounds is solved here (:func:`_unconstrained`).
         """
         P, c, A, b, lb, ub = qp.P, qp.c, qp.A, qp.b, qp.lb, qp.ub
+        fixed = np.isfinite(lb) & (lb == ub)
+        if np.any(fixed):
+            return self._solve_fixed(qp, fixed)
         Pm: Any = P
         Am: Any = A if self.m else None
         if self.backend in qpsolvers.sparse_solvers and self.backend not in qpsolvers.dense_solvers:
@@ -183,6 +186,36 @@ class DirectBackend:
         return x, bool(solution.found and x is not None), status, backend_iterations(solution)
 
     _last: FloatArray | None = None
+
+    def _solve_fixed(self, qp: ScaledProgram, fixed: np.ndarray) -> DirectAnswer:
+        """The program with the variables of ``fixed`` (``lb == ub``) substituted out.
+
+        quadprog turns each bound into an inequality, and a zero-width box into two
+        opposite ones, which its dual active set may take for inconsistent (a Panda step
+        with two joints at speed 0: "no point returned"); substituted, the backend sees
+        only the free variables. The answer is the full point (n,), checked as any other.
+        """
+        free = ~fixed
+        x = np.where(fixed, qp.lb, 0.0)
+        nf = int(np.count_nonzero(free))
+        if nf == 0:
+            self._last = x
+            return x, True, "every variable fixed by its bounds", 0
+        xf = x[fixed]
+        P_free = qp.P[np.ix_(free, free)]
+        c_free = qp.c[free] + qp.P[np.ix_(free, fixed)] @ xf
+        A_free = qp.A[:, free] if self.m else np.zeros((0, nf))
+        b_free = qp.b - qp.A[:, fixed] @ xf if self.m else qp.b
+        reduced = ScaledProgram(
+            P_free, c_free, A_free, b_free, qp.lb[free], qp.ub[free], None, None
+        )
+        answer, found, status, iterations = DirectBackend(self.backend, nf, self.m)._solve(
+            reduced, warm=False
+        )
+        if answer is not None:
+            x[free] = answer
+        self._last = None if answer is None else x
+        return (None if answer is None else x), found, status, iterations
 
 
 def _unconstrained(P: FloatArray, c: FloatArray) -> FloatArray | None:
