@@ -10,6 +10,7 @@ from __future__ import annotations
 import difflib
 import math
 import os
+import re
 import sys
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
@@ -246,6 +247,14 @@ def _joint(
             bounds.append(bound)
         else:
             bounds.append(None)
+    lower, upper = bounds
+    if (lower is None) != (upper is None):
+        given, missing = ("lower", "upper") if upper is None else ("upper", "lower")
+        raise reader.fail(table, missing, f"missing: {given} is given, so give both or neither")
+    if lower is not None and upper is not None and lower > upper:
+        raise reader.fail(
+            table, "upper", f"{data['upper']!r:.40} is below lower {data['lower']!r:.40}"
+        )
     continuous = data.get("continuous", False)
     if not isinstance(continuous, bool):
         raise reader.fail(table, "continuous", f"expected true or false, got {continuous!r}")
@@ -285,6 +294,38 @@ def _joint(
     )
 
 
+def _check_names(reader: _Reader, rows: list[DHJoint]) -> None:
+    """Each joint's name once, and each mimic naming another joint of the table."""
+    index = {}
+    for i, row in enumerate(rows):
+        if row.name in index:
+            raise reader.fail(
+                f"robot.joints[{i}]", "name", f"{row.name!r} is joint {index[row.name]}'s name too"
+            )
+        index[row.name] = i
+    for i, row in enumerate(rows):
+        if row.mimic is not None and (row.mimic.joint not in index or row.mimic.joint == row.name):
+            others = [name for name in index if name != row.name]
+            raise reader.fail(
+                f"robot.joints[{i}].mimic",
+                "joint",
+                f"{row.mimic.joint!r} is not another joint of this table (joints: {others})",
+            )
+
+
+_JOINT_PREFIX = re.compile(r"joint '([^']*)': ")
+
+
+def _joint_error(reader: _Reader, rows: list[DHJoint], exc: OptikError) -> ProblemFileError:
+    """The model's error at the row it names (``joint 'NAME': ...``), else at the table."""
+    found = _JOINT_PREFIX.match(str(exc))
+    if found is not None:
+        for i, row in enumerate(rows):
+            if row.name == found.group(1):
+                return reader.fail(f"robot.joints[{i}]", "", str(exc)[found.end() :])
+    return reader.fail("robot", "joints", str(exc))
+
+
 def _robot(
     reader: _Reader, data: Mapping[str, Any], base_dir: Path, default_source: str | None = None
 ) -> tuple[Robot, str]:
@@ -306,6 +347,7 @@ def _robot(
         raise reader.fail("robot", "analytic", f"expected a family name, got {analytic!r}")
     base = _frame(reader, robot["base"], "robot.base", length, angle) if "base" in robot else None
     tool = _frame(reader, robot["tool"], "robot.tool", length, angle) if "tool" in robot else None
+    rows: list[DHJoint] = []
     try:
         if convention == "urdf":
             if "joints" in robot:
@@ -337,6 +379,7 @@ def _robot(
         rows = [
             _joint(reader, j, i, length, angle, convention == "mdh") for i, j in enumerate(joints)
         ]
+        _check_names(reader, rows)
         build = Robot.from_mdh if convention == "mdh" else Robot.from_dh
         return build(rows, name=name, base=base, tool=tool, analytic=analytic), source
     except ProblemFileError:
@@ -344,7 +387,7 @@ def _robot(
     except AnalyticIKError as exc:  # the declared family does not fit
         raise reader.fail("robot", "analytic", str(exc)) from exc
     except OptikError as exc:
-        raise reader.fail("robot", "joints", str(exc)) from exc
+        raise _joint_error(reader, rows, exc) from exc
 
 
 def _pose_from(

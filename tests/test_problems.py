@@ -14,8 +14,9 @@ import numpy as np
 import pytest
 from conftest import PROBLEM_FILES, assert_close, load, random_q
 
-from optik.errors import ProblemFileError
-from optik.problems import PROBLEMS_DIR, builtin_problems, load_problem
+from optik.errors import OptikError, ProblemFileError
+from optik.model import DHJoint
+from optik.problems import PROBLEMS_DIR, _joint_error, _Reader, builtin_problems, load_problem
 
 DEG = math.pi / 180.0
 
@@ -440,15 +441,47 @@ def test_bad_mimic(tmp_path: Path) -> None:
     _expect_error(tmp_path, text, "robot.joints[0].mimic", "gain", "unknown field")
 
 
-def test_model_error_is_reported_with_file(tmp_path: Path) -> None:
+def test_inverted_limits_are_reported_at_their_row(tmp_path: Path) -> None:
     text = GOOD + "lower = 1.0\nupper = -1.0\n"
-    err = _expect_error(tmp_path, text, "robot", "joints", "lower > upper")
-    assert "'j1'" in str(err)
+    _expect_error(tmp_path, text, "robot.joints[0]", "upper", "-1.0 is below lower 1.0")
 
 
-def test_prismatic_without_range_in_file(tmp_path: Path) -> None:
-    text = GOOD + 'type = "prismatic"\n'
-    _expect_error(tmp_path, text, "robot", "joints", "must state its range")
+@pytest.mark.parametrize(("given", "missing"), [("lower", "upper"), ("upper", "lower")])
+def test_one_limit_alone_is_reported_at_the_missing_one(
+    tmp_path: Path, given: str, missing: str
+) -> None:
+    text = GOOD + f"{given} = 0.5\n"
+    _expect_error(tmp_path, text, "robot.joints[0]", missing, f"missing: {given} is given")
+
+
+def test_a_joint_name_used_twice_is_reported_at_the_second(tmp_path: Path) -> None:
+    text = GOOD + "[[robot.joints]]\n" + GOOD.split("[[robot.joints]]\n")[1]
+    _expect_error(tmp_path, text, "robot.joints[1]", "name", "'j1' is joint 0's name too")
+
+
+@pytest.mark.parametrize("mimicked", ["nowhere", "j2"])
+def test_a_mimic_of_no_other_joint_is_reported_at_its_field(tmp_path: Path, mimicked: str) -> None:
+    # "j2" is the row's own name: a joint cannot mimic itself.
+    second = f'[[robot.joints]]\nname = "j2"\na = 1.0\nmimic = {{ joint = "{mimicked}" }}\n'
+    detail = f"{mimicked!r} is not another joint of this table (joints: ['j1'])"
+    _expect_error(tmp_path, GOOD + second, "robot.joints[1].mimic", "joint", detail)
+
+
+def test_a_models_error_naming_a_joint_is_reported_at_its_row(tmp_path: Path) -> None:
+    # The model's own rules (here: a prismatic joint states its range) point at the row.
+    second = '[[robot.joints]]\nname = "slide"\ntype = "prismatic"\n'
+    err = _expect_error(tmp_path, GOOD + second, "robot.joints[1]", "", "must state its range")
+    assert "'slide'" not in str(err)  # the row is named by its place, not twice
+
+
+def test_a_models_error_naming_no_row_is_reported_at_the_table() -> None:
+    # The file's own checks leave no such error reachable from a file; the mapping alone.
+    rows = [DHJoint(a=1.0, name="j1", role="arm")]
+    for message in ("robot 'x': some rule of the whole chain", "joint 'j9': not a row"):
+        err = _joint_error(_Reader("f.toml"), rows, OptikError(message))
+        assert (err.table, err.field, err.detail) == ("robot", "joints", message)
+    err = _joint_error(_Reader("f.toml"), rows, OptikError("joint 'j1': a rule of the row"))
+    assert (err.table, err.field, err.detail) == ("robot.joints[0]", "", "a rule of the row")
 
 
 def test_bad_target(tmp_path: Path) -> None:
