@@ -11,6 +11,8 @@ y green, z blue), and, for a URDF robot whose visual meshes load offline, the me
 
 from __future__ import annotations
 
+import logging
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -27,6 +29,7 @@ from optik.spatial import invert_transform
 
 __all__ = [
     "ArmGeometry",
+    "MeshWarning",
     "arm_geometry",
     "draw_robot",
     "extent_points",
@@ -380,7 +383,11 @@ def visual_meshes(
 
     Raises:
         OptikError: yourdfpy or trimesh missing, the file or a mesh not loadable, no
-            visual mesh, or link poses that disagree with the robot (another chain).
+            visual mesh (with the meshes not found), or link poses that disagree with the
+            robot (another chain).
+
+    Warns:
+        MeshWarning: a mesh the file names was not found (the others are returned).
     """
     try:
         import trimesh  # noqa: F401  (checked here, with yourdfpy; used when placing)
@@ -389,22 +396,65 @@ def visual_meshes(
         raise OptikError("meshes need yourdfpy and trimesh: pip install 'optik[urdf]'") from exc
     path = Path(urdf)
     q = robot.check_q(q, "q")
-    try:
-        model = yourdfpy.URDF.load(
-            str(path),
-            filename_handler=_package_handler(path),
-            load_meshes=True,
-            build_scene_graph=True,
-            load_collision_meshes=False,
-        )
-    except Exception as exc:  # yourdfpy raises many kinds; a bad file is bad input
-        raise OptikError(f"{path}: the URDF's meshes do not load ({exc})") from exc
-    try:
-        return _placed_meshes(model, robot, q, base_link, path)
-    except OptikError:
-        raise
-    except Exception as exc:  # yourdfpy and trimesh, on a file optik's reader accepted
-        raise OptikError(f"{path}: the URDF's meshes cannot be placed ({exc})") from exc
+    with _LoaderNotes() as notes:
+        try:
+            model = yourdfpy.URDF.load(
+                str(path),
+                filename_handler=_package_handler(path),
+                load_meshes=True,
+                build_scene_graph=True,
+                load_collision_meshes=False,
+            )
+            meshes = _placed_meshes(model, robot, q, base_link, path)
+        except OptikError as exc:
+            raise OptikError(f"{exc}{notes.missing_text()}") from exc
+        except Exception as exc:  # yourdfpy and trimesh raise many kinds: a bad file
+            raise OptikError(f"{path}: the URDF's meshes do not load ({exc})") from exc
+    for missing in notes.missing:
+        warnings.warn(f"{path}: mesh not drawn: {missing}", MeshWarning, stacklevel=2)
+    return meshes
+
+
+class MeshWarning(UserWarning):
+    """A URDF's visual mesh that :func:`visual_meshes` could not find (the rest are drawn)."""
+
+
+class _LoaderNotes(logging.Handler):
+    """yourdfpy's log records while a URDF's meshes load, kept instead of printed.
+
+    yourdfpy logs through the ``logging`` module; with no handler configured, Python
+    prints its warnings to stderr ("Using different parsing approach.", "Can't find
+    http:/...") beside optik's own messages. The meshes it could not find are kept
+    (:attr:`missing`) for optik's message; the rest (how it parsed) are dropped.
+    """
+
+    _LOGGER = "yourdfpy"
+
+    def __init__(self) -> None:
+        super().__init__(logging.DEBUG)
+        self.missing: list[str] = []
+        self._propagate = True
+
+    def emit(self, record: logging.LogRecord) -> None:
+        text = record.getMessage()
+        if text.startswith("Can't find "):
+            self.missing.append(text[len("Can't find ") :])
+
+    def missing_text(self) -> str:
+        """`` (not found: a, b)`` naming the meshes yourdfpy could not find, or ``""``."""
+        return f" (not found: {', '.join(self.missing)})" if self.missing else ""
+
+    def __enter__(self) -> _LoaderNotes:
+        logger = logging.getLogger(self._LOGGER)
+        self._propagate = logger.propagate
+        logger.addHandler(self)
+        logger.propagate = False
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        logger = logging.getLogger(self._LOGGER)
+        logger.removeHandler(self)
+        logger.propagate = self._propagate
 
 
 def _placed_meshes(

@@ -296,7 +296,7 @@ def _joint(
 
 def _check_names(reader: _Reader, rows: list[DHJoint]) -> None:
     """Each joint's name once, and each mimic naming another joint of the table."""
-    index = {}
+    index: dict[str, int] = {}
     for i, row in enumerate(rows):
         if row.name in index:
             raise reader.fail(

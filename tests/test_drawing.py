@@ -20,6 +20,7 @@ import pytest
 from mpl_toolkits.mplot3d import proj3d
 
 from optik.drawing import (
+    MeshWarning,
     arm_geometry,
     robot_figure,
     save_figure,
@@ -171,6 +172,47 @@ def test_urdf_meshes_load_offline_and_sit_on_the_links(tmp_path: Path) -> None:
     other = load_problem("puma560").robot
     with pytest.raises(OptikError, match="not in the file"):
         visual_meshes(urdf, other, other.mid_limits, "base_link")
+
+
+def test_a_mesh_not_found_is_a_warning_and_the_loader_prints_nothing(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # The UR5's file with its base mesh renamed to one that does not exist; the package
+    # folder is reached through a link beside the copy, as package:// names resolve.
+    urdf = _ur5_urdf()
+    package = next(p for p in urdf.parents if p.name == "example-robot-data")
+    (tmp_path / "example-robot-data").symlink_to(package)
+    text = urdf.read_text()
+    assert text.count("ur5/visual/base.dae") == 1
+    copy = tmp_path / "ur5_missing_base.urdf"
+    copy.write_text(text.replace("ur5/visual/base.dae", "ur5/visual/nothing.dae"))
+    robot = Robot.from_urdf(copy, "base_link", "tool0")
+    with pytest.warns(MeshWarning, match=r"mesh not drawn: .*nothing\.dae") as caught:
+        meshes = visual_meshes(copy, robot, robot.mid_limits, "base_link")
+    assert len(caught) == 1
+    every = visual_meshes(urdf, robot, robot.mid_limits, "base_link")
+    assert 0 < len(meshes) < len(every)  # the base's meshes (one file, two parts) left out
+    assert capsys.readouterr().err == ""  # yourdfpy's "Can't find ..." is not printed
+    from optik.cli import main
+
+    assert main(["show", "--urdf", str(copy), "--base", "base_link", "--tip", "tool0",
+                 "--out", str(tmp_path / "ur5.png")]) == 0  # fmt: skip
+    out, err = capsys.readouterr()
+    assert "mesh not drawn" in out and "nothing.dae" in out and err == ""
+
+
+def test_no_mesh_found_names_the_missing_files(tmp_path: Path) -> None:
+    text = (
+        '<robot name="r"><link name="a"><visual><geometry><mesh filename="missing.stl"/>'
+        '</geometry></visual></link><link name="b"/><joint name="j1" type="revolute">'
+        '<parent link="a"/><child link="b"/><axis xyz="0 0 1"/><limit lower="-1" upper="1"/>'
+        "</joint></robot>"
+    )
+    urdf = tmp_path / "r.urdf"
+    urdf.write_text(text)
+    robot = Robot.from_urdf(urdf, "a", "b")
+    with pytest.raises(OptikError, match=r"no visual mesh below 'a' \(not found: .*missing\.stl\)"):
+        visual_meshes(urdf, robot, robot.mid_limits, "a")
 
 
 # ----------------------------------------------------------------------- plans

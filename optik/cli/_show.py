@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import warnings
 from typing import Any
 
 from optik._files import check_folder
@@ -24,7 +25,7 @@ _FORMATS = (".png", ".svg", ".pdf")
 def _cmd_show(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from optik.drawing import show_robot, visual_meshes
+    from optik.drawing import MeshWarning, show_robot, visual_meshes
 
     if args.view is not None:
         if args.view_deg is not None:
@@ -50,8 +51,12 @@ def _cmd_show(args: argparse.Namespace) -> int:
     meshes: list[Any] = []
     if args.urdf is not None and not args.no_meshes:
         try:
-            meshes = visual_meshes(args.urdf, robot, q, args.base)
+            with warnings.catch_warnings(record=True) as missing:
+                warnings.simplefilter("always", MeshWarning)
+                meshes = visual_meshes(args.urdf, robot, q, args.base)
             print(f"  {len(meshes)} visual meshes from {args.urdf}")
+            for note in missing:
+                print(f"  {note.message}")
         except OptikError as exc:  # a picture without meshes is still a picture
             print(f"  no meshes drawn: {' '.join(str(exc).split())}")
     view = (args.view_deg[0], args.view_deg[1]) if args.view_deg else (22.0, -58.0)
