@@ -296,16 +296,17 @@ def _joint(
 
 def _check_names(reader: _Reader, rows: list[DHJoint]) -> None:
     """Each joint's name once, and each mimic naming another joint of the table."""
+    names = [row.name or f"j{i + 1}" for i, row in enumerate(rows)]  # as _joint names them
     index: dict[str, int] = {}
-    for i, row in enumerate(rows):
-        if row.name in index:
+    for i, name in enumerate(names):
+        if name in index:
             raise reader.fail(
-                f"robot.joints[{i}]", "name", f"{row.name!r} is joint {index[row.name]}'s name too"
+                f"robot.joints[{i}]", "name", f"{name!r} is joint {index[name]}'s name too"
             )
-        index[row.name] = i
+        index[name] = i
     for i, row in enumerate(rows):
-        if row.mimic is not None and (row.mimic.joint not in index or row.mimic.joint == row.name):
-            others = [name for name in index if name != row.name]
+        if row.mimic is not None and (row.mimic.joint not in index or row.mimic.joint == names[i]):
+            others = [name for name in names if name != names[i]]
             raise reader.fail(
                 f"robot.joints[{i}].mimic",
                 "joint",
