@@ -107,6 +107,18 @@ def test_subnormal_task_gives_a_tiny_exact_step(panda: optik.Robot) -> None:
     assert np.abs(dq - ref).max() <= 1e-6 * np.abs(ref).max()
 
 
+@pytest.mark.parametrize("dt", [1e-312, 1e-315, 1e-318, 1e-320])
+def test_a_deeper_subnormal_task_is_met_to_the_subnormal_grid(dt: float) -> None:
+    # Below 1e-312 the task's relative tolerance underflowed to 0 and every backend's
+    # step was refused ("|J dq - v| = 1e-317 > 0"); rounding there is absolute.
+    ur5 = optik.load_problem("ur5").robot
+    q = ur5.mid_limits + 0.3
+    twist = np.array([0.01, 0.0, 0.0, 0.0, 0.0, 0.0])
+    dq = diff_ik(ur5, q, twist, dt=dt)
+    ref = np.ldexp(np.linalg.pinv(ur5.jacobian(q)) @ np.ldexp(twist * dt, 1060), -1060)
+    assert np.abs(dq - ref).max() <= 1e-6 * np.abs(ref).max() + 16 * 2.0**-1074
+
+
 @pytest.mark.parametrize("size", [1e-309, 5e-324, 1e-3, 3.0, 1e9])
 def test_equilibration_scale_stays_finite(size: float) -> None:
     """1 / size where that is at most 2**1000; the cap (not inf) below."""

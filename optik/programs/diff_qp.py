@@ -116,6 +116,10 @@ MAX_SCALE_EXPONENT: Final[int] = 1000
 #: sum of a 7-joint row and the solve that produced ``dq``.
 TASK_ROUNDING: Final[float] = 64.0 * 2.0**-53
 
+#: The spacing of float64's subnormal numbers: below ``2**-1022`` rounding is absolute,
+#: so a step of that size (``dt = 1e-315``) meets the task only to a few of these.
+SUBNORMAL_SPACING: Final[float] = 2.0**-1074
+
 #: The six rows of the geometric Jacobian: linear x, y, z then angular x, y, z.
 ALL_ROWS: Final[tuple[int, ...]] = (0, 1, 2, 3, 4, 5)
 
@@ -323,15 +327,20 @@ class DiffIKProgram:
 
         ``rtol ||v||_inf + TASK_ROUNDING max_r sum_i |J_ri dq_i|``: relative to the task
         itself, not to the posture offset (a posture far away must not loosen the task),
-        plus the rounding of the products ``J dq`` (:data:`TASK_ROUNDING`).
+        plus the rounding of the products ``J dq`` (:data:`TASK_ROUNDING`), plus the
+        absolute rounding of subnormal numbers (:data:`SUBNORMAL_SPACING` times
+        ``max_r sum_i |J_ri| + 2 dof + 1``: each ``dq_i``, product and sum rounded on
+        that grid), which matters only for a task below about 1e-300.
 
         Args:
             dq: joint step (dof,), rad or m.
             rtol: relative tolerance on the task (``optik.diffik.FEASIBILITY_RTOL``).
         """
         vabs = float(np.max(np.abs(self.v), initial=0.0))
-        size = float(np.max(np.abs(self.J) @ np.abs(dq), initial=0.0))
-        return rtol * vabs + TASK_ROUNDING * size
+        rows = np.abs(self.J)
+        size = float(np.max(rows @ np.abs(dq), initial=0.0))
+        grid = float(np.max(rows.sum(axis=1), initial=0.0)) + 2 * self.dof + 1
+        return rtol * vabs + TASK_ROUNDING * size + SUBNORMAL_SPACING * grid
 
     def bound_violation(self, dq: FloatArray) -> float:
         """Largest excursion of ``dq`` beyond ``[lower, upper]``, 0 inside.
