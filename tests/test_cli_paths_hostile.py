@@ -74,13 +74,21 @@ def test_an_overflowing_negative_exponent_is_refused_as_a_number(
     assert "'-1e400'" in line and "length" in line
 
 
-@pytest.mark.parametrize("bad", ["-inf", "inf", "nan", "-nan"])
-def test_non_finite_numbers_are_still_refused(bad: str, capsys: pytest.CaptureFixture[str]) -> None:
-    # A guard: the wider negative-number pattern must not let these through.
+@pytest.mark.parametrize("bad", ["-inf", "inf", "nan", "-nan", "-Infinity", "-NaN"])
+def test_non_finite_numbers_are_refused_by_name(
+    bad: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # Refused as numbers, naming the value: "-inf" taken for an option read "--line:
+    # expected 6 arguments", which pointed at the count.
     argv = ["plan", "planar_2r", "--line", "1.5", bad, "0", "1.5", "0.1", "0"]
     code, err = _run(argv, capsys)
     assert code == 2
-    _one_error_line(err)
+    line = _one_error_line(err)
+    assert f"got {bad!r}" in line and "--line" in line, line
+    code, err = _run(["solve", "planar_2r", "--position", bad, "1", "0"], capsys)
+    assert code == 2
+    line = _one_error_line(err)
+    assert f"got {bad!r}" in line and "--position" in line, line
 
 
 # ---------------------------------------------------------------- path files

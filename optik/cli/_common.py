@@ -40,9 +40,10 @@ URDF_SUFFIXES = (".urdf", ".xml")
 
 
 #: A negative number as an argument: argparse's own pattern (``-3``, ``-0.3``) plus an
-#: exponent (``-3e-1``), which it would otherwise take for an unknown option. ``-inf`` and
-#: ``-nan`` stay out, so they are still refused (as options), as before.
-NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$")
+#: exponent (``-3e-1``), which it would otherwise take for an unknown option, and ``-inf``
+#: and ``-nan``, which then reach the number checks and are refused as not finite (taken
+#: for options, they gave "expected 3 arguments").
+NEGATIVE_NUMBER = re.compile(r"^-((\d+\.?\d*|\.\d+)([eE][-+]?\d+)?|inf|infinity|nan)$", re.I)
 
 
 class Parser(argparse.ArgumentParser):
