@@ -43,6 +43,19 @@ while every real arm is far inside it. At 1e9 m a float64 still resolves 1e-7 m.
 _NUMERIC_KINDS = "fiu"
 
 
+def _ragged(name: str, value: Any) -> ShapeError:
+    """The error for nested sequences of different lengths, naming the lengths."""
+    try:
+        lengths = [len(row) if hasattr(row, "__len__") else "a number" for row in value]
+    except TypeError:
+        lengths = []
+    detail = "expected rows of equal length, got a ragged sequence"
+    if len({str(n) for n in lengths}) < 2:  # ragged deeper down: no lengths to show
+        return ShapeError(name, "regular", (), detail)
+    shown = ", ".join(str(n) for n in lengths[:8]) + (", ..." if len(lengths) > 8 else "")
+    return ShapeError(name, "regular", (), f"{detail} (row lengths {shown})")
+
+
 def _is_real_scalar(value: Any) -> bool:
     """A real number that is not a bool (Python or numpy)."""
     return isinstance(value, numbers.Real) and not isinstance(value, bool | np.bool_)
@@ -259,7 +272,7 @@ def as_float_array(name: str, value: Any) -> FloatArray:
     try:
         array = value if isinstance(value, np.ndarray) else np.asarray(value)
     except (TypeError, ValueError) as exc:
-        raise ShapeError(name, "regular (rows of equal length, not ragged)", ()) from exc
+        raise _ragged(name, value) from exc
     kind = array.dtype.kind
     if kind == "c":
         raise ArgumentError(name, value, "a real array (complex values are not accepted)")
@@ -269,7 +282,7 @@ def as_float_array(name: str, value: Any) -> FloatArray:
         items = array.ravel().tolist()
         if not all(_is_real_scalar(item) for item in items):
             if any(isinstance(item, list | tuple | np.ndarray) for item in items):
-                raise ShapeError(name, "regular (rows of equal length, not ragged)", array.shape)
+                raise _ragged(name, value)
             raise ArgumentError(name, value, "an array of real numbers")
     elif kind not in _NUMERIC_KINDS:
         raise ArgumentError(name, value, "a numeric array")

@@ -159,10 +159,15 @@ def test_as_float_array_rejects(bad: Any) -> None:
 
 
 def test_as_float_array_ragged_and_accepted() -> None:
-    with pytest.raises(ShapeError, match="q: expected shape regular"):
+    ragged = r"^q: expected rows of equal length, got a ragged sequence"
+    with pytest.raises(ShapeError, match=ragged + r" \(row lengths 2, 1\)$"):
         as_float_array("q", [[1.0, 2.0], [3.0]])
-    with pytest.raises(ShapeError, match="q: expected shape regular"):
+    with pytest.raises(ShapeError, match=ragged + r" \(row lengths 2, a number\)$"):
+        as_float_array("q", [[1.0, 2.0], 3.0])
+    with pytest.raises(ShapeError, match=ragged + r" \(row lengths 2, 3\)$"):
         as_float_array("q", np.array([np.zeros(2), np.zeros(3)], dtype=object))
+    with pytest.raises(ShapeError, match=ragged + "$"):  # ragged below the first level
+        as_float_array("q", [[[1.0, 2.0], [3.0]]])
     assert as_float_array("q", np.array([1, 2], dtype=object)).dtype == np.float64
     assert as_float_array("q", [np.float32(1), 2]).tolist() == [1.0, 2.0]
     with pytest.raises(ArgumentError, match="complex"):
