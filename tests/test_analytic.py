@@ -9,7 +9,13 @@ import pytest
 from conftest import assert_close
 
 import optik
-from optik.analytic import FAMILIES, analytic_ik, detect_family, wrap_into_limits
+from optik.analytic import (
+    FAMILIES,
+    analytic_ik,
+    analytic_ik_batch,
+    detect_family,
+    wrap_into_limits,
+)
 from optik.errors import AnalyticIKError, NonFiniteError, ShapeError
 from optik.model import Robot
 from optik.problems import load_problem
@@ -311,6 +317,34 @@ def test_bad_targets_raise_optik_errors() -> None:
     skewed[0, 1] = 0.1
     with pytest.raises(optik.errors.InvalidRotationError):
         analytic_ik(puma, skewed)
+
+
+def _one_per_pipeline() -> list[tuple[Robot, dict[str, object]]]:
+    """A robot of each compiled single call: the DH table, the axes, a held joint."""
+    ur5 = load_problem("ur5").robot
+    puma = load_problem("puma560").robot
+    assert puma.dh is not None
+    axes = Robot.from_dh(list(puma.dh), name="puma_axes", base=puma.T_world_base,
+                         tool=puma.T_flange_tool, analytic="spherical_axes")  # fmt: skip
+    panda = load_problem("panda").robot
+    return [(ur5, {}), (axes, {}), (panda, {"free_joint": panda.joint_names[6], "free_value": 0.3})]
+
+
+@pytest.mark.parametrize("size", [1e10, 1e300, np.inf, np.nan])
+def test_a_q_ref_beyond_the_joint_bound_is_refused_by_every_path(size: float) -> None:
+    # The compiled single call checked q_ref for NaN only: 1e300 was used (or raised an
+    # error naming a value nobody passed, q[0] = 1e10 + 1.96), and the batch took it.
+    for robot, free in _one_per_pipeline():
+        q = robot.mid_limits + 0.2
+        if free:
+            q[robot.joint_names.index(str(free["free_joint"]))] = 0.3
+        T = robot.fk(q)
+        for ref in (np.full(robot.dof, size), [size] * robot.dof):
+            with pytest.raises(optik.OptikError, match=r"^q_ref"):
+                analytic_ik(robot, T, q_ref=ref, **free)  # type: ignore[arg-type]
+            with pytest.raises(optik.OptikError, match=r"^q_ref"):
+                analytic_ik_batch(robot, T[None], q_ref=ref, **free)  # type: ignore[arg-type]
+        assert len(analytic_ik(robot, T, q_ref=q, **free)) > 0  # type: ignore[arg-type]
 
 
 def test_python_family_has_no_compiled_table() -> None:

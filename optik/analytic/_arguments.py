@@ -14,7 +14,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from optik._checks import FloatArray, as_float_array, check_bool, check_finite, finite_array
+from optik._checks import FloatArray, as_float_array, check_bool, check_finite
 from optik._math import first_bad_pose
 from optik.analytic import _compiled
 from optik.errors import AnalyticIKError, OptikError, ShapeError
@@ -170,7 +170,7 @@ def batch_refs(robot: Robot, q_ref: Any, N: int) -> FloatArray | None:
     if q_ref is None:
         return None
     dof = robot.dof
-    refs = finite_array("q_ref", q_ref, (dof,), batch=True)
+    refs = robot.check_q(q_ref, "q_ref")  # finite, within MAX_LENGTH_M, as one q_ref is
     refs = refs.reshape(1, dof) if refs.ndim == 1 else refs
     if refs.shape[0] not in (1, N):
         raise ShapeError("q_ref", f"({dof},) or ({N}, {dof})", refs.shape)

@@ -6,10 +6,9 @@ inputs, and the scratch arrays made once per call or batch. Inlined into each pi
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
+from optik._checks import MAX_LENGTH_M
 from optik._math import pose_defect
 from optik._numba import inline as _inline
 from optik.analytic._compiled import MAX_BRANCHES, TOL_BOTTOM_ROW, TOL_ROTATION
@@ -21,14 +20,15 @@ def input_code(params: np.ndarray, tols: int, T1: np.ndarray, ref: np.ndarray) -
     """The inputs of a single call checked: 0 valid, -1 or -2 as a pipeline's ``solve``.
 
     -1 when ``T1[0]`` is not a valid pose (:func:`optik._math.pose_defect`, with the
-    tolerances of the block at offset ``tols`` of ``params``), -2 when ``ref`` (dof,) is
-    not finite. The caller raises the matching optik error.
+    tolerances of the block at offset ``tols`` of ``params``), -2 when an entry of ``ref``
+    (dof,) is not finite or beyond :data:`~optik._checks.MAX_LENGTH_M` (as
+    :meth:`optik.Robot.check_q` refuses it). The caller raises the matching optik error.
     """
     k = np.int64(0)  # not the literal 0: first_bad_pose's signature serves this call too
     if pose_defect(T1, k, params[tols + TOL_ROTATION], params[tols + TOL_BOTTOM_ROW]) != 0:
         return -1
     for j in range(ref.shape[0]):
-        if not math.isfinite(ref[j]):
+        if not abs(ref[j]) <= MAX_LENGTH_M:  # NaN fails too
             return -2
     return 0
 
