@@ -347,6 +347,60 @@ def test_a_q_ref_beyond_the_joint_bound_is_refused_by_every_path(size: float) ->
         assert len(analytic_ik(robot, T, q_ref=q, **free)) > 0  # type: ignore[arg-type]
 
 
+def _angle_gap(a: np.ndarray, b: np.ndarray) -> float:
+    """Max-abs difference of two configurations, revolute angles wrapped (rad or m)."""
+    return float(np.max(np.abs(np.remainder(a - b + math.pi, 2 * math.pi) - math.pi)))
+
+
+# A joint exactly on its limit next to a singularity: the closed form splits the two
+# nearly parallel joints only to eps / sin(q5) and put this joint 1.5e-9 .. 3e-8 beyond
+# its limit; the branch was dropped (the nearest one returned was 1.9 rad away).
+ON_A_LIMIT_NEAR_SINGULAR = [
+    ("puma560", [-2.1199709690340063, -0.5386266287082703, -1.0213114479966383,
+                 -1.9198621771937625, 1e-06, -3.382203476513454]),
+    ("puma560", [-2.3127504328352764, 2.173228466797553, -3.1638913023821296,
+                 -1.9198621771937625, 1e-08, -2.270774384257755]),
+    ("stanford_arm", [-2.9670597281570106, -2.24109041269382e-09, 0.3048000013784227,
+                      2.9670597283189997, -0.5622718489639161, 2.9670597274556]),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize(("name", "q_list"), ON_A_LIMIT_NEAR_SINGULAR)
+def test_a_branch_on_its_limit_next_to_a_singularity_is_kept(
+    name: str, q_list: list[float]
+) -> None:
+    robot = load_problem(name).robot
+    q = np.array(q_list)
+    assert robot.within_limits(q)
+    T = robot.fk(q)
+    branches = analytic_ik(robot, T, q_ref=q)
+    assert min(_angle_gap(b, q) for b in branches) < 1e-6
+    for b in branches:
+        assert robot.within_limits(b)
+        assert np.max(np.abs(robot.fk(b) - T)) < 1e-10
+    batch = analytic_ik_batch(robot, T[None], q_ref=q)
+    assert int(batch.counts[0]) == len(branches)
+    assert np.array_equal(batch.q[0, : len(branches)], np.array(branches))
+
+
+def test_joints_on_their_limits_next_to_the_wrist_singularity_keep_the_source() -> None:
+    # Random Puma poses with q4 or q6 exactly on a limit and q5 at 1e-10 .. 1e-6: the
+    # source configuration among the branches in every one (29 of 150 lost it: the
+    # nearest branch a turn of q4 and q6 away). Near the singularity the q4 / q6 split
+    # is conditioned as 1 / q5: the source is found to 1e-4, not to rounding.
+    puma = load_problem("puma560").robot
+    rng = np.random.default_rng(11)
+    for _ in range(60):
+        q = rng.uniform(puma.lower, puma.upper)
+        j = int(rng.choice([3, 5]))
+        q[j] = puma.lower[j] if rng.random() < 0.5 else puma.upper[j]
+        q[4] = float(rng.choice([-1.0, 1.0]) * 10 ** rng.uniform(-10, -6))
+        T = puma.fk(q)
+        branches = analytic_ik(puma, T, q_ref=q)
+        assert min(_angle_gap(b, q) for b in branches) < 1e-4, q.tolist()
+        assert all(np.max(np.abs(puma.fk(b) - T)) < 1e-10 for b in branches)
+
+
 def test_python_family_has_no_compiled_table() -> None:
     planar = load_problem("planar_2r").robot
     with pytest.raises(AnalyticIKError, match="no compiled kernel"):

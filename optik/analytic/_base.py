@@ -70,6 +70,15 @@ judges it there; farther, it is dropped. Next to a singularity a closed form's r
 is that large (a Jaco 2 stretched, its wrist on its lower limit: 1e-10), and a
 configuration on its limit would lose its branch."""
 
+LIMIT_STEP = 1e-4
+"""A compiled family's branch beyond a limit by more than :data:`LIMIT_CLIP` and at most
+this (rad or m) is put on the bound too; where the FK check then fails, Newton steps with
+that joint held on its bound move the others back onto the pose
+(:func:`optik.analytic._pipeline.postprocess_rows`). Next to a wrist singularity the
+closed form splits ``q4`` and ``q6`` only to ``eps / sin(q5)``: a Puma with ``q4`` on
+its limit and ``q5 = 1e-8`` had its branch 3e-8 beyond the limit, and lost it, while
+``q6`` turned by the same amount keeps the pose to 1e-15."""
+
 ELBOW_REACH_TOL = 1e-4
 """A wrist centre beyond a DH arm's elbow reach (stretched or folded) by at most this,
 relative to the elbow equation's coefficient ``2 a2 a3``, takes the tangent elbow. The

@@ -50,7 +50,7 @@ from optik._math import _SINCOS_RANGE, _sincos_core, sincos
 from optik._nrt import borrowed
 from optik._numba import inline as _inline
 from optik._numba import jit as _jit
-from optik.analytic._base import LIMIT_CLIP
+from optik.analytic._base import LIMIT_STEP
 from optik.analytic._compiled import (
     AT_BASE_INV,
     AT_CHAIN,
@@ -215,6 +215,9 @@ def _transform_target(params: np.ndarray, T: np.ndarray, k: int, out: np.ndarray
 NOT_MOVED, MOVED, MOVED_UNCHECKED = 0, 1, 2
 """Outcomes of :func:`_newton_move` (see there)."""
 
+DROPPED, KEPT, PUT_ON_LIMIT = 0, 1, 2
+"""Outcomes of :func:`_refine_row` (see there)."""
+
 
 class RowQuery(NamedTuple):
     """What the Newton steps of a near miss read (:func:`_near_miss`).
@@ -279,7 +282,7 @@ def _refine_row(
     verify_tol: float,
     work: np.ndarray,
     max_step: float,
-) -> tuple[int, bool]:
+) -> tuple[int, int]:
     """One Newton step of ``rows[r]`` towards ``T[k]``, its FK in ``pre`` (:mod:`._newton`).
 
     For a row not at rounding (:data:`optik.analytic._newton.REFINE_ROUNDING`), its
@@ -292,8 +295,9 @@ def _refine_row(
     row's pose replaces it in ``pre`` (or the row goes back). A moved row is wrapped again
     where the step took an angle past the half-turn from ``ref[kr]``, and, ``within``,
     checked against the limits. Returns the FK depth valid in ``pre``
-    (:func:`optik.analytic._rows.fk_shared`) and whether the row stays (inside the
-    limits).
+    (:func:`optik.analytic._rows.fk_shared`) and whether the row stays: :data:`DROPPED`,
+    :data:`KEPT`, or :data:`PUT_ON_LIMIT` (it was beyond a limit, by at most
+    :data:`~optik.analytic._base.LIMIT_STEP`, and is now on it).
     """
     outcome = _newton_move(params, layout, dof, held, rows, r, pre, verify_tol, work, max_step)
     if outcome == MOVED_UNCHECKED:
@@ -317,10 +321,10 @@ def _refine_row(
             rows[r, held] = held_value
         inside = _inside(params, layout, dof, rows, r, strict)
     if not within or inside:
-        return depth, True
-    if not _inside(params, layout, dof, rows, r, LIMIT_CLIP):
-        return depth, False
-    return _onto_bounds_fk(params, layout, dof, held, rows, r, pre), True
+        return depth, KEPT
+    if not _inside(params, layout, dof, rows, r, LIMIT_STEP):
+        return depth, DROPPED
+    return _onto_bounds_fk(params, layout, dof, held, rows, r, pre), PUT_ON_LIMIT
 
 
 @_jit
@@ -420,6 +424,7 @@ def _near_miss(query: RowQuery, r: int, depth: int) -> tuple[int, bool]:
     verify_tol, position_tol = query.verify_tol, query.position_tol
     band = NEAR_MISS * max(verify_tol, position_tol)
     residual = pose_residual(pre, dof, T, k, work)
+    verified = False
     for _ in range(NEAR_MISS_STEPS):
         if not residual <= band * band:
             return depth, False
@@ -428,15 +433,91 @@ def _near_miss(query: RowQuery, r: int, depth: int) -> tuple[int, bool]:
             query.kr, query.within, query.rows, r, pre, depth, verify_tol, work,
             NEAR_MISS_MAX_STEP,
         )  # fmt: skip
-        if not keep:
+        if keep == DROPPED:
             return depth, False
-        if _pose_verified(pre, dof, T, k, verify_tol, position_tol):
-            return depth, True
         after = pose_residual(pre, dof, T, k, work)
+        if _pose_verified(pre, dof, T, k, verify_tol, position_tol):
+            # Passed; the steps go on to rounding while they help (one that passed the
+            # check by a margin only, 9e-10 of 1e-9, took the next step to 1e-15).
+            verified = True
+            if after <= REFINE_ROUNDING * REFINE_ROUNDING:
+                return depth, True
         if not after < residual:
-            return depth, False  # the step was refused or did not help
+            return depth, verified  # the step was refused or did not help
         residual = after
+    return depth, verified
+
+
+@_jit
+def _near_miss_or_held(
+    query: RowQuery, r: int, depth: int, saved: np.ndarray, put_on_limit: bool
+) -> tuple[int, bool]:
+    """:func:`_near_miss`, and within the limits the same steps with a joint on a limit held.
+
+    For a row that failed the FK check, or that was beyond a limit and is put on it
+    (``put_on_limit``; ``query.held`` -1): next to a singularity the closed form splits
+    two nearly parallel joints only to ``eps / sin(q5)``, one lands beyond its limit (by up
+    to :data:`LIMIT_STEP`) and is put on it, and the other must turn by as much for the
+    pose to hold; a step free to move the first one does not find it, and the row put on
+    the limit may pass the check by a margin only (5e-10 of 1e-9). Each joint exactly on
+    a limit is held in turn (first for a row put on a limit, after the plain steps
+    otherwise), each try from the row as it came; ``saved`` (dof,), free scratch (the
+    row's output slot), keeps it. A try is taken if it passes the check nearer the pose
+    than the row came; a row put on a limit that passed the check as it came is kept as
+    it came if no try is. Returns as ``_near_miss``.
+    """
+    params, layout, dof, rows, pre = query.params, query.layout, query.dof, query.rows, query.pre
+    T, k, verify_tol, position_tol = query.T, query.k, query.verify_tol, query.position_tol
+    for j in range(dof):
+        saved[j] = rows[r, j]
+    passed = _pose_verified(pre, dof, T, k, verify_tol, position_tol)
+    before = pose_residual(pre, dof, T, k, query.work) if passed else math.inf
+    holding = query.within and query.held < 0
+    if not (put_on_limit and holding):
+        depth, keep = _near_miss(query, r, depth)
+        if keep or not holding:
+            return depth, keep
+    for h in range(dof):
+        v = saved[h]
+        if not (v == params[layout[2] + h] or v == params[layout[3] + h]):
+            continue
+        depth = _restored(params, layout, dof, rows, r, pre, saved)
+        held = RowQuery(
+            params, layout, dof, np.int64(h), v, T, k, query.ref, query.kr,
+            query.within, rows, pre, query.work, verify_tol, position_tol,
+        )  # fmt: skip
+        depth, keep = _near_miss(held, r, depth)
+        if keep:
+            # The row's own FK (a trusted last step leaves the unmoved pose in pre).
+            _row_sines(rows, r, dof)
+            depth = fk_shared(params, layout, rows, r, pre, np.int64(0))
+            if pose_residual(pre, dof, T, k, query.work) < before and _pose_verified(
+                pre, dof, T, k, verify_tol, position_tol
+            ):
+                return depth, True
+    depth = _restored(params, layout, dof, rows, r, pre, saved)
+    if put_on_limit:
+        if passed:
+            return depth, True
+        return _near_miss(query, r, depth)
     return depth, False
+
+
+@_inline
+def _restored(
+    params: np.ndarray,
+    layout: Layout,
+    dof: int,
+    rows: np.ndarray,
+    r: int,
+    pre: np.ndarray,
+    saved: np.ndarray,
+) -> int:
+    """``rows[r]`` set back to ``saved`` (dof,), with its sines and its FK: the FK depth."""
+    for j in range(dof):
+        rows[r, j] = saved[j]
+    _row_sines(rows, r, dof)
+    return fk_shared(params, layout, rows, r, pre, np.int64(0))
 
 
 @_inline
@@ -484,6 +565,7 @@ def postprocess_rows(
     dup_tol = params[tols + TOL_DUPLICATE]
     # 1. Finite rows, wrapped, inside the limits (when asked): compacted to rows[:kept].
     kept = 0
+    put_on_limit = 0  # bit r: row r was beyond a limit and is put on it
     for r in range(n):
         finite = True
         for j in range(dof):
@@ -495,8 +577,11 @@ def postprocess_rows(
         if held >= 0:
             rows[r, held] = held_value
         if within:
-            if not _inside(params, layout, dof, rows, r, max(limit_tol, LIMIT_CLIP)):
-                continue
+            if not _inside(params, layout, dof, rows, r, limit_tol):
+                if not _inside(params, layout, dof, rows, r, max(limit_tol, LIMIT_STEP)):
+                    continue
+                if not refine:
+                    put_on_limit |= 1 << kept
             if not refine:  # a refined row is put on its bounds once moved
                 _onto_bounds(params, layout, dof, held, rows, r)
         if kept != r:
@@ -512,6 +597,7 @@ def postprocess_rows(
     m = 0
     for r in range(kept):
         depth = fk_shared(params, _runtime(layout), rows, r, pre, depth)
+        on_limit = (put_on_limit >> r) & 1 != 0
         if refine:
             # A row already at rounding takes no step (an exact closed form's rows all),
             # but it passed the limits with the step's slack: the strict test here.
@@ -523,21 +609,23 @@ def postprocess_rows(
                     params, _runtime(layout), np.int64(dof), np.int64(held), held_value, T,
                     k, ref, kr, within, rows, r, pre, depth, verify_tol, work, REFINE_MAX_STEP,
                 )  # fmt: skip
-                if not keep:
+                if keep == DROPPED:
                     continue
+                on_limit = keep == PUT_ON_LIMIT
             elif within and not _inside(params, layout, dof, rows, r, strict_tol):
-                if not _inside(params, layout, dof, rows, r, LIMIT_CLIP):
+                if not _inside(params, layout, dof, rows, r, LIMIT_STEP):
                     continue
                 depth = _onto_bounds_fk(
                     params, _runtime(layout), np.int64(dof), np.int64(held), rows, r, pre
                 )
-        if not _pose_verified(pre, dof, T, k, verify_tol, position_tol):
-            # A near miss: a tangent or free-angle rule rounded at a singular pose.
+        if on_limit or not _pose_verified(pre, dof, T, k, verify_tol, position_tol):
+            # A near miss (a tangent or free-angle rule rounded at a singular pose), or a
+            # row put on a limit.
             query = RowQuery(
                 params, _runtime(layout), np.int64(dof), np.int64(held), held_value, T, k,
                 ref, kr, within, rows, pre, work, verify_tol, position_tol,
             )  # fmt: skip
-            depth, keep = _near_miss(query, r, depth)
+            depth, keep = _near_miss_or_held(query, r, depth, Q[k, m], on_limit)
             if not keep:
                 continue
         duplicate = False
