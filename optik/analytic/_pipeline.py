@@ -50,7 +50,7 @@ from optik._math import _SINCOS_RANGE, _sincos_core, sincos
 from optik._nrt import borrowed
 from optik._numba import inline as _inline
 from optik._numba import jit as _jit
-from optik.analytic._base import LIMIT_STEP
+from optik.analytic._base import LIMIT_CLIP, LIMIT_STEP
 from optik.analytic._compiled import (
     AT_BASE_INV,
     AT_CHAIN,
@@ -215,8 +215,13 @@ def _transform_target(params: np.ndarray, T: np.ndarray, k: int, out: np.ndarray
 NOT_MOVED, MOVED, MOVED_UNCHECKED = 0, 1, 2
 """Outcomes of :func:`_newton_move` (see there)."""
 
-DROPPED, KEPT, PUT_ON_LIMIT = 0, 1, 2
-"""Outcomes of :func:`_refine_row` (see there)."""
+DROPPED, KEPT, PUT_ON_LIMIT, PUT_FROM_BEYOND = 0, 1, 2, 3
+"""Outcomes of :func:`_refine_row` (see there), and how a row came onto its limits."""
+
+RESCUE_RATIO = 1e-3
+"""A row put on a limit from beyond :data:`~optik.analytic._base.LIMIT_CLIP` is kept only
+if Newton steps bring it within this fraction of the FK check's tolerances of its pose
+(1e-12 for the default 1e-9): an exact answer's rounding, not a compromise."""
 
 
 class RowQuery(NamedTuple):
@@ -296,8 +301,9 @@ def _refine_row(
     where the step took an angle past the half-turn from ``ref[kr]``, and, ``within``,
     checked against the limits. Returns the FK depth valid in ``pre``
     (:func:`optik.analytic._rows.fk_shared`) and whether the row stays: :data:`DROPPED`,
-    :data:`KEPT`, or :data:`PUT_ON_LIMIT` (it was beyond a limit, by at most
-    :data:`~optik.analytic._base.LIMIT_STEP`, and is now on it).
+    :data:`KEPT`, or put on its limits from beyond them: by at most
+    :data:`~optik.analytic._base.LIMIT_CLIP` (:data:`PUT_ON_LIMIT`) or farther, up to
+    :data:`~optik.analytic._base.LIMIT_STEP` (:data:`PUT_FROM_BEYOND`).
     """
     outcome = _newton_move(params, layout, dof, held, rows, r, pre, verify_tol, work, max_step)
     if outcome == MOVED_UNCHECKED:
@@ -324,7 +330,8 @@ def _refine_row(
         return depth, KEPT
     if not _inside(params, layout, dof, rows, r, LIMIT_STEP):
         return depth, DROPPED
-    return _onto_bounds_fk(params, layout, dof, held, rows, r, pre), PUT_ON_LIMIT
+    came = PUT_ON_LIMIT if _inside(params, layout, dof, rows, r, LIMIT_CLIP) else PUT_FROM_BEYOND
+    return _onto_bounds_fk(params, layout, dof, held, rows, r, pre), came
 
 
 @_jit
@@ -411,70 +418,87 @@ wrist joints 1.3e-4 rad; a larger step is a search, not a polish."""
 
 
 @_jit
-def _near_miss(query: RowQuery, r: int, depth: int) -> tuple[int, bool]:
+def _near_miss(query: RowQuery, r: int, depth: int) -> tuple[int, bool, bool]:
     """Newton steps of ``rows[r]``, which failed the FK check in ``pre``, towards ``T[k]``.
 
     Only a near miss (residual within :data:`NEAR_MISS` times the larger tolerance) is
     moved, by :func:`_refine_row`'s steps (wrapped and limited as there), at most
     :data:`NEAR_MISS_STEPS`, each lowering the residual. Returns the FK depth valid in
-    ``pre`` and whether the moved row passes the check (then kept as any other). A call
-    of its own: it runs only at singular poses, off the common path.
+    ``pre``, whether the moved row passes the check (then kept as any other), and whether
+    a step put it on a limit from beyond :data:`~optik.analytic._base.LIMIT_CLIP` (the
+    caller then asks more, :func:`_near_miss_or_held`). A call of its own: it runs only
+    at singular poses, off the common path.
     """
     dof, T, k, pre, work = query.dof, query.T, query.k, query.pre, query.work
     verify_tol, position_tol = query.verify_tol, query.position_tol
     band = NEAR_MISS * max(verify_tol, position_tol)
     residual = pose_residual(pre, dof, T, k, work)
     verified = False
+    beyond = False
     for _ in range(NEAR_MISS_STEPS):
         if not residual <= band * band:
-            return depth, False
+            return depth, False, beyond
         depth, keep = _refine_row(
             query.params, query.layout, dof, query.held, query.held_value, T, k, query.ref,
             query.kr, query.within, query.rows, r, pre, depth, verify_tol, work,
             NEAR_MISS_MAX_STEP,
         )  # fmt: skip
         if keep == DROPPED:
-            return depth, False
+            return depth, False, beyond
+        beyond = beyond or keep == PUT_FROM_BEYOND
         after = pose_residual(pre, dof, T, k, work)
         if _pose_verified(pre, dof, T, k, verify_tol, position_tol):
             # Passed; the steps go on to rounding while they help (one that passed the
             # check by a margin only, 9e-10 of 1e-9, took the next step to 1e-15).
             verified = True
             if after <= REFINE_ROUNDING * REFINE_ROUNDING:
-                return depth, True
+                return depth, True, beyond
         if not after < residual:
-            return depth, verified  # the step was refused or did not help
+            return depth, verified, beyond  # the step was refused or did not help
         residual = after
-    return depth, verified
+    return depth, verified, beyond
 
 
 @_jit
 def _near_miss_or_held(
-    query: RowQuery, r: int, depth: int, saved: np.ndarray, put_on_limit: bool
+    query: RowQuery, r: int, depth: int, saved: np.ndarray, clipped: int
 ) -> tuple[int, bool]:
     """:func:`_near_miss`, and within the limits the same steps with a joint on a limit held.
 
-    For a row that failed the FK check, or that was beyond a limit and is put on it
-    (``put_on_limit``; ``query.held`` -1): next to a singularity the closed form splits
-    two nearly parallel joints only to ``eps / sin(q5)``, one lands beyond its limit (by up
-    to :data:`LIMIT_STEP`) and is put on it, and the other must turn by as much for the
-    pose to hold; a step free to move the first one does not find it, and the row put on
-    the limit may pass the check by a margin only (5e-10 of 1e-9). Each joint exactly on
-    a limit is held in turn (first for a row put on a limit, after the plain steps
-    otherwise), each try from the row as it came; ``saved`` (dof,), free scratch (the
-    row's output slot), keeps it. A try is taken if it passes the check nearer the pose
-    than the row came; a row put on a limit that passed the check as it came is kept as
-    it came if no try is. Returns as ``_near_miss``.
+    For a row that failed the FK check (``clipped`` :data:`KEPT`), or that was beyond a
+    limit and is put on it: by at most :data:`~optik.analytic._base.LIMIT_CLIP`
+    (:data:`PUT_ON_LIMIT`, the closed form's rounding) or farther, up to
+    :data:`LIMIT_STEP` (:data:`PUT_FROM_BEYOND`); ``query.held`` -1. Next to a singularity
+    the closed form splits two nearly parallel joints only to ``eps / sin(q5)``: one lands
+    beyond its limit and is put on it, and the other must turn by as much for the pose to
+    hold, which a step free to move the first one does not find. Each joint exactly on a
+    limit is held in turn, each try from the row as it came (``saved`` (dof,), free
+    scratch: the row's output slot); a try is taken if it passes the check nearer the
+    pose than the row came.
+
+    A row from beyond a limit (put there before the steps, or by one of them) is kept
+    only where it reaches the pose to rounding (:data:`RESCUE_RATIO` of the check's
+    tolerances): its own branch lies outside the
+    limits, and an answer inside them must be that branch's twin on a singular set, not
+    a compromise that the check's tolerance lets pass (a Puma branch 1e-8 below its limit
+    came back on it, 8e-10 m off the pose). A row put on a limit by rounding that passed
+    the check as it came is kept as it came if no try is better. Returns as
+    ``_near_miss``.
     """
     params, layout, dof, rows, pre = query.params, query.layout, query.dof, query.rows, query.pre
     T, k, verify_tol, position_tol = query.T, query.k, query.verify_tol, query.position_tol
+    work = query.work
     for j in range(dof):
         saved[j] = rows[r, j]
     passed = _pose_verified(pre, dof, T, k, verify_tol, position_tol)
-    before = pose_residual(pre, dof, T, k, query.work) if passed else math.inf
+    before = pose_residual(pre, dof, T, k, work) if passed else math.inf
+    exact = RESCUE_RATIO * min(verify_tol, position_tol)
     holding = query.within and query.held < 0
-    if not (put_on_limit and holding):
-        depth, keep = _near_miss(query, r, depth)
+    if clipped == KEPT or not holding or (clipped == PUT_ON_LIMIT and not passed):
+        depth, keep, beyond = _near_miss(query, r, depth)
+        if keep and (beyond or clipped == PUT_FROM_BEYOND):
+            depth = _fk_again(params, layout, dof, rows, r, pre)
+            keep = pose_residual(pre, dof, T, k, work) <= exact * exact
         if keep or not holding:
             return depth, keep
     for h in range(dof):
@@ -484,23 +508,28 @@ def _near_miss_or_held(
         depth = _restored(params, layout, dof, rows, r, pre, saved)
         held = RowQuery(
             params, layout, dof, np.int64(h), v, T, k, query.ref, query.kr,
-            query.within, rows, pre, query.work, verify_tol, position_tol,
+            query.within, rows, pre, work, verify_tol, position_tol,
         )  # fmt: skip
-        depth, keep = _near_miss(held, r, depth)
+        depth, keep, beyond = _near_miss(held, r, depth)
         if keep:
             # The row's own FK (a trusted last step leaves the unmoved pose in pre).
-            _row_sines(rows, r, dof)
-            depth = fk_shared(params, layout, rows, r, pre, np.int64(0))
-            if pose_residual(pre, dof, T, k, query.work) < before and _pose_verified(
-                pre, dof, T, k, verify_tol, position_tol
-            ):
+            depth = _fk_again(params, layout, dof, rows, r, pre)
+            after = pose_residual(pre, dof, T, k, work)
+            if beyond or clipped == PUT_FROM_BEYOND:
+                keep = after <= exact * exact
+            if keep and after < before and _pose_verified(pre, dof, T, k, verify_tol, position_tol):
                 return depth, True
     depth = _restored(params, layout, dof, rows, r, pre, saved)
-    if put_on_limit:
-        if passed:
-            return depth, True
-        return _near_miss(query, r, depth)
-    return depth, False
+    return depth, clipped == PUT_ON_LIMIT and passed
+
+
+@_inline
+def _fk_again(
+    params: np.ndarray, layout: Layout, dof: int, rows: np.ndarray, r: int, pre: np.ndarray
+) -> int:
+    """The sines and the FK of ``rows[r]`` anew into ``pre``: the FK depth."""
+    _row_sines(rows, r, dof)
+    return fk_shared(params, layout, rows, r, pre, np.int64(0))
 
 
 @_inline
@@ -516,8 +545,7 @@ def _restored(
     """``rows[r]`` set back to ``saved`` (dof,), with its sines and its FK: the FK depth."""
     for j in range(dof):
         rows[r, j] = saved[j]
-    _row_sines(rows, r, dof)
-    return fk_shared(params, layout, rows, r, pre, np.int64(0))
+    return _fk_again(params, layout, dof, rows, r, pre)
 
 
 @_inline
@@ -565,7 +593,10 @@ def postprocess_rows(
     dup_tol = params[tols + TOL_DUPLICATE]
     # 1. Finite rows, wrapped, inside the limits (when asked): compacted to rows[:kept].
     kept = 0
-    put_on_limit = 0  # bit r: row r was beyond a limit and is put on it
+    # Bit r: row r was beyond a limit and is put on it, by rounding (LIMIT_CLIP) or from
+    # farther (LIMIT_STEP).
+    on_limit_bits = 0
+    from_beyond_bits = 0
     for r in range(n):
         finite = True
         for j in range(dof):
@@ -581,7 +612,10 @@ def postprocess_rows(
                 if not _inside(params, layout, dof, rows, r, max(limit_tol, LIMIT_STEP)):
                     continue
                 if not refine:
-                    put_on_limit |= 1 << kept
+                    if _inside(params, layout, dof, rows, r, LIMIT_CLIP):
+                        on_limit_bits |= 1 << kept
+                    else:
+                        from_beyond_bits |= 1 << kept
             if not refine:  # a refined row is put on its bounds once moved
                 _onto_bounds(params, layout, dof, held, rows, r)
         if kept != r:
@@ -597,7 +631,11 @@ def postprocess_rows(
     m = 0
     for r in range(kept):
         depth = fk_shared(params, _runtime(layout), rows, r, pre, depth)
-        on_limit = (put_on_limit >> r) & 1 != 0
+        clipped = KEPT
+        if (on_limit_bits >> r) & 1:
+            clipped = PUT_ON_LIMIT
+        elif (from_beyond_bits >> r) & 1:
+            clipped = PUT_FROM_BEYOND
         if refine:
             # A row already at rounding takes no step (an exact closed form's rows all),
             # but it passed the limits with the step's slack: the strict test here.
@@ -611,21 +649,21 @@ def postprocess_rows(
                 )  # fmt: skip
                 if keep == DROPPED:
                     continue
-                on_limit = keep == PUT_ON_LIMIT
+                clipped = keep
             elif within and not _inside(params, layout, dof, rows, r, strict_tol):
                 if not _inside(params, layout, dof, rows, r, LIMIT_STEP):
                     continue
                 depth = _onto_bounds_fk(
                     params, _runtime(layout), np.int64(dof), np.int64(held), rows, r, pre
                 )
-        if on_limit or not _pose_verified(pre, dof, T, k, verify_tol, position_tol):
+        if clipped != KEPT or not _pose_verified(pre, dof, T, k, verify_tol, position_tol):
             # A near miss (a tangent or free-angle rule rounded at a singular pose), or a
             # row put on a limit.
             query = RowQuery(
                 params, _runtime(layout), np.int64(dof), np.int64(held), held_value, T, k,
                 ref, kr, within, rows, pre, work, verify_tol, position_tol,
             )  # fmt: skip
-            depth, keep = _near_miss_or_held(query, r, depth, Q[k, m], on_limit)
+            depth, keep = _near_miss_or_held(query, r, depth, Q[k, m], clipped)
             if not keep:
                 continue
         duplicate = False
