@@ -436,7 +436,7 @@ def solve_ik_all(
         solver_name = "analytic"
     else:
         numeric = plan.numeric or get_solver(AUTO_NUMERIC_SOLVER)
-        found, _, _ = _collect(plan, numeric, want=count, min_separation=separation)
+        found, _, _ = _collect(plan, numeric, want=count, min_separation=separation, turns=True)
         solver_name = numeric.name
     found.sort(key=lambda f: float(np.linalg.norm(f[0] - plan.q_start)))
     results = [_answer(plan, q, solver_name, its, used) for q, its, used in found[:count]]
@@ -692,9 +692,19 @@ def _distinct(
 
 
 def _collect(
-    plan: _Plan, numeric: IKSolver, want: int | None, min_separation: float
+    plan: _Plan,
+    numeric: IKSolver,
+    want: int | None,
+    min_separation: float,
+    turns: bool = False,
 ) -> tuple[list[tuple[FloatArray, int, int]], RunOutput, tuple[int, int]]:
     """Verified answers from successive runs over the start sequence (see the callers).
+
+    With ``turns``, each answer is first shifted by whole turns of its revolute joints to
+    the representative nearest the start inside the query's box (as a closed form
+    reports one representative per branch), so that answers a turn apart are one: a
+    Laikago leg's three continuous joints gave 8 answers that were one configuration.
+    Not for coupled joints, where a turn of one moves another by its multiplier.
 
     Returns the distinct answers ``(q, iterations so far, restarts so far)``, the last
     run's output, and the whole search's ``(iterations, restarts)``.
@@ -713,7 +723,11 @@ def _collect(
         # iteration cap on an answer optik verifies): the next run goes on from there.
         if not verify_one(plan.query.robot, run.q, plan.query.target, plan.query.spec)[3]:
             break  # every start left was tried, or the deadline passed
-        found = _distinct([*found, (run.q, iterations, first - 1)], min_separation)
+        q = run.q
+        if turns and plan.query.robot.chain.identity:
+            box = (plan.query.lower, plan.query.upper)
+            q = wrap_into_limits(q, plan.query.robot, plan.q_start, bounds=box)
+        found = _distinct([*found, (q, iterations, first - 1)], min_separation)
         if want is not None and len(found) >= want:
             break
         if budget_now() > plan.deadline:
