@@ -163,6 +163,18 @@ def _closed_form_proof(
     return verified_result(query, start_time, "analytic", outcome, None)
 
 
+def _every_joint_frozen(query: IKQuery, start_time: float) -> IKResult:
+    """The result of a query whose every joint is frozen: its one configuration, judged.
+
+    Nothing is left to search (a search ran restart after restart to its budget): the
+    frozen configuration meets the target (``converged``) or the target is out of the
+    query's reach (``unreachable``, a proof: it is the only configuration in the box).
+    """
+    q = query.lower.copy()
+    reason = "every joint is frozen, and the frozen configuration does not reach the target"
+    return verified_result(query, start_time, "frozen", without_run(q, "unreachable", reason), None)
+
+
 def _reach_proof(query: IKQuery, q_start: FloatArray, start_time: float) -> IKResult | None:
     """``"unreachable"`` for a target beyond the reach sphere, else ``None``.
 
@@ -554,6 +566,9 @@ def _plan(
             query, q_start, numeric, branches, starts_given, int(seed), per_attempt, last,
             deadline, start_time, early, samples or [], q_ref, norm,
         )  # fmt: skip
+
+    if bounds is not None and bool(np.all(bounds[0] == bounds[1])):
+        return plan([], [], _every_joint_frozen(query, start_time))
 
     def closed_form(mode: str, provable: bool, held: tuple[str, float] | None = None) -> _Plan:
         """The closed form's branches inside the box (nearest ``q0`` first) as the answers.

@@ -349,6 +349,12 @@ def solve_ik_batch(
     used = np.zeros(N, dtype=np.int64)
     # Beyond the reach sphere: a freed position axis leaves a line (or plane) to miss it.
     reachable = ~beyond_reach_task(robot, poses, task)
+    every_frozen = bounds is not None and bool(np.all(bounds[0] == bounds[1]))
+    if every_frozen:
+        # One configuration in the box: judged, not searched ("unreachable" where it
+        # misses: a proof), as solve_ik does.
+        Q[:] = bounds[0]
+        reachable[:] = False
     rows = np.flatnonzero(reachable)
     table = seed_table(robot)
     given = _given_starts(robot, q0, N, bounds)
@@ -373,7 +379,7 @@ def solve_ik_batch(
             Q[part], iterations[part], used[part] = Qp, it, u
 
     own = given[rows] if given.shape[0] == N else given  # per row, or shared
-    family = _batch_family(robot, task)
+    family = None if every_frozen else _batch_family(robot, task)
     if family is not None and compiled_batch(robot, task.mode):
         # As solve_ik: the branch nearest q0 answers; the search runs where there is none,
         # and from the branch first where it misses a tol tighter than the closed form's.

@@ -38,7 +38,8 @@ class IKResult:
         time_s: wall time of the call (``time.perf_counter``).
         solver: the method that produced ``q``: ``"analytic"`` for a closed-form branch
             (or its proof), ``"reach"`` for the reach sphere's proof (``q`` is the start,
-            no search ran), else the numeric solver's name.
+            no search ran), ``"frozen"`` when every joint is frozen (``q`` is that
+            configuration, judged), else the numeric solver's name.
         message: backend text or the reason for the status.
         backend_converged: the backend's own convergence claim for ``q`` (``None`` for the
             closed form).

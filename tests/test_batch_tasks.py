@@ -116,3 +116,30 @@ def test_batch_bad_keywords(kwargs: dict[str, object], error: type, field: str) 
     _, T = _poses(PANDA, 5, 4)
     with pytest.raises(error, match=field):
         optik.solve_ik_batch(PANDA, T, **kwargs)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("name", ["panda", "ur5"])
+def test_every_joint_frozen_is_judged_not_searched(name: str) -> None:
+    # One configuration in the box: the target it reaches converges, another is a proof
+    # of "unreachable" at once (a search ran restart after restart to its budget: 86,574
+    # in a 0.5 s timeout, then "timeout"), in solve_ik, solve_ik_all and the batch alike.
+    robot = optik.load_problem(name).robot
+    q = robot.mid_limits + 0.2
+    frozen = dict(zip(robot.joint_names, q.tolist(), strict=True))
+    reached, missed = robot.fk(q), robot.fk(robot.mid_limits)
+    for kw in ({}, {"timeout_s": 0.5}, {"weights": [1, 1, 1, 1, 1, 0.5]}):
+        hit = optik.solve_ik(robot, reached, frozen=frozen, **kw)
+        assert hit.success and hit.status == "converged" and np.array_equal(hit.q, q)
+        miss = optik.solve_ik(robot, missed, frozen=frozen, **kw)
+        assert not miss.success and miss.status == "unreachable"
+        assert (
+            miss.restarts == 0 and miss.iterations == 0 and "every joint is frozen" in miss.message
+        )
+        assert np.array_equal(miss.q, q)
+        batch_kw = {key: value for key, value in kw.items() if key != "timeout_s"}
+        batch = optik.solve_ik_batch(robot, np.stack([reached, missed]), frozen=frozen, **batch_kw)
+        assert batch.success.tolist() == [True, False]
+        assert batch.status.tolist() == ["converged", "unreachable"]
+        assert np.array_equal(batch.q, np.stack([q, q]))
+    assert [a.q.tolist() for a in optik.solve_ik_all(robot, reached, frozen=frozen)] == [q.tolist()]
+    assert optik.solve_ik_all(robot, missed, frozen=frozen) == []
