@@ -350,7 +350,7 @@ def solve_ik_batch(
     # Beyond the reach sphere: a freed position axis leaves a line (or plane) to miss it.
     reachable = ~beyond_reach_task(robot, poses, task)
     every_frozen = bounds is not None and bool(np.all(bounds[0] == bounds[1]))
-    if every_frozen:
+    if bounds is not None and every_frozen:
         # One configuration in the box: judged, not searched ("unreachable" where it
         # misses: a proof), as solve_ik does.
         Q[:] = bounds[0]
