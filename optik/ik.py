@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -327,13 +327,29 @@ def _polished_branches(plan: _Plan, answer: IKResult) -> IKResult:
     A branch is verified to the closed form's own tolerance (1e-9, relative on large
     arms); a tighter ``tol``, or a tiny arm whose closed form rounds coarser, asks for
     more: ``dls`` from the branches (nearest ``q0`` first). Its verified answer, else
-    ``answer`` as it was.
+    ``answer`` with the polish's status and counts, and a message that says so.
     """
     numeric = get_solver(AUTO_NUMERIC_SOLVER)
     last = len(plan.branches) - 1
     run = numeric.run(plan.query, plan.starts, plan.max_iter, last, plan.deadline)
     polished = from_run(plan.query, plan.start_time, numeric.name, run)
-    return polished if polished.success else answer
+    if polished.success:
+        return polished
+    task = plan.query.spec
+    message = (
+        f"the closed-form branch reaches the target to {answer.position_error:.3g} m, "
+        f"{answer.orientation_error:.3g} rad, outside tol ({task.position_tol:.3g} m, "
+        f"{task.orientation_tol:.3g} rad); a {numeric.name} polish from every branch "
+        f"found no answer within it ({polished.status})"
+    )
+    return replace(
+        answer,
+        status=polished.status,
+        message=message,
+        iterations=polished.iterations,
+        restarts=polished.restarts,
+        time_s=polished.time_s,
+    )
 
 
 def _posture_answer(plan: _Plan, q_ref: FloatArray, weights: FloatArray) -> IKResult:

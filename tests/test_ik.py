@@ -304,3 +304,16 @@ def test_the_batch_verification_refuses_a_configuration_outside_the_limits() -> 
     assert verdict.success.tolist() == [True, False]
     assert verdict.position_error.max() <= 1e-12 and verdict.orientation_error.max() <= 1e-12
     assert verdict.limit_violation == pytest.approx([0.0, 1e-3], abs=1e-12)
+
+
+def test_a_branch_that_misses_a_tol_below_rounding_says_so() -> None:
+    # tol = 1e-300: the branch (4e-16 m off) and the dls polish from every branch miss
+    # it; the result said "max_iter" with an empty message and 0 iterations.
+    ur5 = load_problem("ur5").robot
+    T = ur5.fk(ur5.mid_limits + 0.2)
+    result = optik.solve_ik(ur5, T, tol=1e-300, timeout_s=5.0)
+    assert not result.success and result.solver == "analytic"
+    assert result.status in ("max_iter", "timeout") and result.iterations > 0
+    assert result.message.startswith("the closed-form branch reaches the target to ")
+    assert "outside tol (1e-300 m, 1e-300 rad)" in result.message
+    assert f"{result.position_error:.3g} m" in result.message
