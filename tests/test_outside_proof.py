@@ -320,3 +320,30 @@ def test_the_python_families_still_polish_a_target_without_candidates():
     branches = analytic.analytic_ik(dobot, target, mode="position")
     assert branches
     assert all(np.linalg.norm(dobot.fk(b)[:3, 3] - target) <= 1e-9 for b in branches)
+
+
+@pytest.mark.parametrize("gap", [1e-8, 1e-6])
+def test_a_refined_branch_just_beyond_a_limit_is_no_answer(gap: float) -> None:
+    # The Kinova's table is the ideal arm's: each branch takes a Newton step on the
+    # robot's chain. Its own branch 1e-8 or 1e-6 below a narrowed limit of joint 2 is put
+    # on the limit, and no Newton step brings it to its pose: a compromise within the FK
+    # check's tolerance is not an answer, and the set stays empty (a proof).
+    import importlib.metadata
+    from pathlib import Path
+
+    robots = importlib.metadata.distribution("example-robot-data").locate_file(
+        "cmeel.prefix/share/example-robot-data/robots"
+    )
+    kinova = optik.Robot.from_urdf(
+        Path(str(robots)) / "kinova_description" / "robots" / "kinova.urdf",
+        "j2s6s200_link_base",
+        "j2s6s200_end_effector",
+    )
+    q = np.array([0.3, 2.9, 1.5, 0.4, 2.0, -0.5])
+    target = kinova.fk(q)
+    robot = _boxed_around(kinova, q.copy(), 1, q[1] + gap, q[1] + 1.0)
+    assert any(
+        np.max(np.abs(b - q)) < 1e-9
+        for b in analytic.analytic_ik(robot, target, q_ref=q, within_limits=False)
+    )
+    assert analytic.analytic_ik(robot, target, q_ref=q) == []

@@ -478,12 +478,11 @@ def _near_miss_or_held(
 
     A row from beyond a limit (put there before the steps, or by one of them) is kept
     only where it reaches the pose to rounding (:data:`RESCUE_RATIO` of the check's
-    tolerances): its own branch lies outside the
-    limits, and an answer inside them must be that branch's twin on a singular set, not
-    a compromise that the check's tolerance lets pass (a Puma branch 1e-8 below its limit
-    came back on it, 8e-10 m off the pose). A row put on a limit by rounding that passed
-    the check as it came is kept as it came if no try is better. Returns as
-    ``_near_miss``.
+    tolerances): its own branch lies outside the limits, and an answer inside them must
+    be that branch's twin on a singular set, not a compromise that the check's tolerance
+    lets pass (a Puma branch 1e-8 below its limit came back on it, 8e-10 m off the pose).
+    A row put on a limit by rounding that passed the check as it came is kept as it came
+    if no try is better. Returns as ``_near_miss``.
     """
     params, layout, dof, rows, pre = query.params, query.layout, query.dof, query.rows, query.pre
     T, k, verify_tol, position_tol = query.T, query.k, query.verify_tol, query.position_tol
@@ -653,6 +652,8 @@ def postprocess_rows(
             elif within and not _inside(params, layout, dof, rows, r, strict_tol):
                 if not _inside(params, layout, dof, rows, r, LIMIT_STEP):
                     continue
+                near = _inside(params, layout, dof, rows, r, LIMIT_CLIP)
+                clipped = PUT_ON_LIMIT if near else PUT_FROM_BEYOND
                 depth = _onto_bounds_fk(
                     params, _runtime(layout), np.int64(dof), np.int64(held), rows, r, pre
                 )
