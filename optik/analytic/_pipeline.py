@@ -418,7 +418,7 @@ wrist joints 1.3e-4 rad; a larger step is a search, not a polish."""
 
 
 @_jit
-def _near_miss(query: RowQuery, r: int, depth: int) -> tuple[int, bool, bool]:
+def _near_miss(query: RowQuery, r: int, depth: int, polish: bool) -> tuple[int, bool, bool]:
     """Newton steps of ``rows[r]``, which failed the FK check in ``pre``, towards ``T[k]``.
 
     Only a near miss (residual within :data:`NEAR_MISS` times the larger tolerance) is
@@ -426,8 +426,10 @@ def _near_miss(query: RowQuery, r: int, depth: int) -> tuple[int, bool, bool]:
     :data:`NEAR_MISS_STEPS`, each lowering the residual. Returns the FK depth valid in
     ``pre``, whether the moved row passes the check (then kept as any other), and whether
     a step put it on a limit from beyond :data:`~optik.analytic._base.LIMIT_CLIP` (the
-    caller then asks more, :func:`_near_miss_or_held`). A call of its own: it runs only
-    at singular poses, off the common path.
+    caller then asks more, :func:`_near_miss_or_held`). With ``polish`` the steps go on
+    after the row passes, to rounding while they help (the caller asks for it); without,
+    the first row that passes is kept. A call of its own: it runs only at singular
+    poses, off the common path.
     """
     dof, T, k, pre, work = query.dof, query.T, query.k, query.pre, query.work
     verify_tol, position_tol = query.verify_tol, query.position_tol
@@ -448,10 +450,11 @@ def _near_miss(query: RowQuery, r: int, depth: int) -> tuple[int, bool, bool]:
         beyond = beyond or keep == PUT_FROM_BEYOND
         after = pose_residual(pre, dof, T, k, work)
         if _pose_verified(pre, dof, T, k, verify_tol, position_tol):
-            # Passed; the steps go on to rounding while they help (one that passed the
-            # check by a margin only, 9e-10 of 1e-9, took the next step to 1e-15).
+            # Passed; polished, the steps go on to rounding while they help (a row put
+            # on a limit passed by a margin only, 9e-10 of 1e-9, and the next step
+            # took it to 1e-15).
             verified = True
-            if after <= REFINE_ROUNDING * REFINE_ROUNDING:
+            if not polish or after <= REFINE_ROUNDING * REFINE_ROUNDING:
                 return depth, True, beyond
         if not after < residual:
             return depth, verified, beyond  # the step was refused or did not help
@@ -494,7 +497,7 @@ def _near_miss_or_held(
     exact = RESCUE_RATIO * min(verify_tol, position_tol)
     holding = query.within and query.held < 0
     if clipped == KEPT or not holding or (clipped == PUT_ON_LIMIT and not passed):
-        depth, keep, beyond = _near_miss(query, r, depth)
+        depth, keep, beyond = _near_miss(query, r, depth, clipped == PUT_FROM_BEYOND)
         if keep and (beyond or clipped == PUT_FROM_BEYOND):
             depth = _fk_again(params, layout, dof, rows, r, pre)
             keep = pose_residual(pre, dof, T, k, work) <= exact * exact
@@ -509,7 +512,7 @@ def _near_miss_or_held(
             params, layout, dof, np.int64(h), v, T, k, query.ref, query.kr,
             query.within, rows, pre, work, verify_tol, position_tol,
         )  # fmt: skip
-        depth, keep, beyond = _near_miss(held, r, depth)
+        depth, keep, beyond = _near_miss(held, r, depth, True)
         if keep:
             # The row's own FK (a trusted last step leaves the unmoved pose in pre).
             depth = _fk_again(params, layout, dof, rows, r, pre)
