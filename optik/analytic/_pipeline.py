@@ -512,7 +512,8 @@ def _near_miss_or_held(
             params, layout, dof, np.int64(h), v, T, k, query.ref, query.kr,
             query.within, rows, pre, work, verify_tol, position_tol,
         )  # fmt: skip
-        depth, keep, beyond = _near_miss(held, r, depth, True)
+        # `holding` (True here), not the literal: one signature of _near_miss.
+        depth, keep, beyond = _near_miss(held, r, depth, holding)
         if keep:
             # The row's own FK (a trusted last step leaves the unmoved pose in pre).
             depth = _fk_again(params, layout, dof, rows, r, pre)
@@ -525,11 +526,15 @@ def _near_miss_or_held(
     return depth, clipped == PUT_ON_LIMIT and passed
 
 
-@_inline
+@_jit
 def _fk_again(
     params: np.ndarray, layout: Layout, dof: int, rows: np.ndarray, r: int, pre: np.ndarray
 ) -> int:
-    """The sines and the FK of ``rows[r]`` anew into ``pre``: the FK depth."""
+    """The sines and the FK of ``rows[r]`` anew into ``pre``: the FK depth.
+
+    A call, not inlined: the rare path of :func:`_near_miss_or_held` reaches it from four
+    places, and inlined each copy of the sines was compiled again.
+    """
     _row_sines(rows, r, dof)
     return fk_shared(params, layout, rows, r, pre, np.int64(0))
 
