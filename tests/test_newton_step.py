@@ -22,6 +22,7 @@ from optik.analytic import (
     _compiled,
     _newton,
     _pipeline,
+    _row_steps,
     _rows,
     analytic_ik,
     analytic_ik_batch,
@@ -227,7 +228,7 @@ def test_a_branch_at_rounding_takes_no_step_and_one_off_by_1e_10_is_restored(
                 assert squared <= _newton.REFINE_ROUNDING**2  # the pipeline calls no step
                 continue
             args = (params, LAYOUT, 6, -1, 0.0, target[None], 0, ref, 0, True, rows, 0, pre)
-            _, keep = _pipeline._refine_row(*args, depth, verify, work, _newton.REFINE_MAX_STEP)
+            _, keep = _row_steps._refine_row(*args, depth, verify, work, _newton.REFINE_MAX_STEP)
             assert keep
             assert not np.array_equal(rows[0], q)
             assert np.linalg.norm(pose_residual_reference(robot, rows[0], target)) < 1e-14

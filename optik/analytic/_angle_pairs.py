@@ -38,7 +38,7 @@ most this times the products it sums (they cancel to rounding)."""
 PAIR_RESIDUAL_TOL = 1e-5
 """With both matrices singular, a quartic's pair solves the system when it does so to
 this, relative to the coefficients (the FK check's Newton steps mend the rest:
-:data:`optik.analytic._pipeline.NEAR_MISS`)."""
+:data:`optik.analytic._row_steps.NEAR_MISS`)."""
 PAIR_LOOSE_TOL = 1e-3
 """...and nearly solves it to this (kept after those that solve it)."""
 _TINY = 1e-300

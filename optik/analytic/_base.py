@@ -89,7 +89,7 @@ that, relative; next to the wrist's, the angle ``q6`` that places the wrist cent
 comes from two entries of order ``sin q5``; a URDF's angles fit the ideal arm only to its
 own digits. A stretched arm's target would fall just out of exact reach, with no branch
 at all; the FK check judges the tangent row (after the Newton steps of a near miss,
-:func:`optik.analytic._pipeline._near_miss`)."""
+:func:`optik.analytic._row_steps._near_miss`)."""
 
 WRIST_SINGULAR = 1e-10
 """``|sin q5|`` below which a six-joint arm's wrist axes 4 and 6 count as aligned: only

@@ -26,7 +26,7 @@ only when every component is at most :data:`REFINE_MAX_STEP`
 
 The wrist step, taken by nearly every row, is inlined into the step (3 % of the Kinova's
 batch); the Jacobian and the damped solve, off that path, are compiled calls of their
-own. The step's one caller, :func:`optik.analytic._pipeline._newton_move`, is compiled
+own. The step's one caller, :func:`optik.analytic._row_steps._newton_move`, is compiled
 once for every pipeline (run-time arguments), so inlining costs no install time. A call
 costs little when its arrays are borrowed views (:func:`optik._nrt.borrowed`, as the
 batch loops pass them): a counted array passed to a call costs an atomic increment and
@@ -47,7 +47,7 @@ angle keeps its reference."""
 REFINE_MAX_STEP = 1e-4
 """Largest correction (rad or m) the refinement's :func:`newton_step` applies: a larger
 one means an ill-posed system, and the closed form's values are kept (a near miss's
-steps take :data:`optik.analytic._pipeline.NEAR_MISS_MAX_STEP`)."""
+steps take :data:`optik.analytic._row_steps.NEAR_MISS_MAX_STEP`)."""
 REFINE_TRUSTED_STEP = 1e-8
 """A correction up to this (rad or m) from a branch within half the FK check's tolerance
 is kept without a second FK (:func:`optik.analytic._pipeline.postprocess_rows`): the
