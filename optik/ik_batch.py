@@ -4,7 +4,8 @@ Where the robot has a closed form with a compiled pipeline, each target's branch
 its ``q0`` is its answer, as in :func:`optik.solve_ik`; the other targets run the compiled
 damped least squares (:mod:`optik.solvers._lm_kernel`) in worker threads
 (:mod:`optik.solvers._batch_threads`), each with its own random stream, and a closed form
-run in Python answers the targets that search missed. The batch is verified in one
+run in Python (or, for a tool-axis task, a compiled one over a grid of rolls) answers the
+targets that search missed. The batch is verified in one
 compiled call (:func:`optik.verify.verify`). Importable from :mod:`optik.ik` and
 :mod:`optik` too.
 """
@@ -36,6 +37,7 @@ from optik.analytic import (
     family_solves,
     wrap_into_limits,
 )
+from optik.analytic.roll import ROLL_GRID, rolled_poses, solves_axis_task
 from optik.diffik import clip_into_limits
 from optik.errors import ArgumentError, OptikError, ShapeError
 from optik.limits import LIMIT_TOLERANCE, into_box, limit_violation
@@ -201,6 +203,58 @@ def _batch_family(robot: Robot, task: Task) -> AnalyticFamily | None:
     return family if family_solves(family, robot, task) else None
 
 
+def _roll_family(robot: Robot, task: Task) -> AnalyticFamily | None:
+    """The compiled full-pose family that answers the axis ``task`` over its roll, else ``None``.
+
+    The rule of :func:`optik.solve_ik` (:func:`optik.analytic.roll.solves_axis_task`),
+    for a family whose batch runs compiled (a grid of rolls is many poses per target).
+    """
+    family = family_of(robot)
+    if family is None or not family.fast or not solves_axis_task(family, task):
+        return None
+    return family if compiled_batch(robot, "pose") else None
+
+
+def _roll_grid_rows(
+    robot: Robot,
+    family: AnalyticFamily,
+    poses: FloatArray,
+    axis: int,
+    refs: FloatArray,
+    bounds: tuple[FloatArray, FloatArray] | None,
+    threads: int = 1,
+) -> FloatArray:
+    """Each axis target's closed-form answer on the roll grid nearest its reference (M, dof).
+
+    The grid of :func:`optik.analytic.roll.grid_branches` (:data:`ROLL_GRID` rolls about
+    the tool axis, index ``axis``): every rolled pose's branch nearest the target's
+    reference inside the query's box (:func:`_branches`), then the nearest over the rolls.
+    Each row is a full-pose branch of a rolled pose, so exact in the axis task. NaN rows
+    where no roll has a branch in the box: no proof (an answer can lie between two rolls).
+    ``poses`` (M, 4, 4), ``refs`` (M, dof).
+    """
+    M, dof = len(poses), robot.dof
+    out = np.full((M, dof), math.nan)
+    turns = rolled_poses(
+        np.eye(4), axis, -math.pi + (2.0 * math.pi / ROLL_GRID) * np.arange(ROLL_GRID)
+    )
+    per_call = max(1, BATCH_SLICE // ROLL_GRID)
+    for lo in range(0, M, per_call):
+        hi = min(lo + per_call, M)
+        rolled = np.repeat(poses[lo:hi], ROLL_GRID, axis=0).reshape(hi - lo, ROLL_GRID, 4, 4)
+        rolled[:, :, :3, :3] = poses[lo:hi, None, :3, :3] @ turns[None, :, :3, :3]
+        ref = np.repeat(refs[lo:hi], ROLL_GRID, axis=0)
+        rows = _branches(robot, family, "pose", rolled.reshape(-1, 4, 4), ref, bounds, threads)
+        rows = rows.reshape(hi - lo, ROLL_GRID, dof)
+        distance = np.linalg.norm(rows - refs[lo:hi, None, :], axis=2)
+        distance = np.where(np.isfinite(distance), distance, math.inf)
+        nearest = np.argmin(distance, axis=1)
+        index = np.arange(hi - lo)
+        found = np.isfinite(distance[index, nearest])
+        out[lo:hi][found] = rows[index, nearest][found]
+    return out
+
+
 def _branches(
     robot: Robot,
     family: AnalyticFamily,
@@ -302,8 +356,10 @@ def solve_ik_batch(
     do not depend on the thread count or the slicing); a branch that misses a ``tol``
     tighter than the closed form's own starts its target's search. A closed form run in
     Python (the small textbook families, position mode) answers the targets that search
-    missed. Targets outside the robot's reach sphere are not solved: their status is
-    ``"unreachable"``. No other status is a proof: ``"max_iter"`` means not found.
+    missed; in ``mode="axis"``, a compiled full-pose closed form over a grid of rolls
+    about the tool axis (:func:`optik.analytic.roll.grid_branches`' grid) does. Targets
+    outside the robot's reach sphere are not solved: their status is ``"unreachable"``.
+    No other status is a proof: ``"max_iter"`` means not found.
 
     Args:
         robot: the robot.
@@ -380,6 +436,7 @@ def solve_ik_batch(
 
     own = given[rows] if given.shape[0] == N else given  # per row, or shared
     family = None if every_frozen else _batch_family(robot, task)
+    roll_family = None if every_frozen or family is not None else _roll_family(robot, task)
     if family is not None and compiled_batch(robot, task.mode):
         # As solve_ik: the branch nearest q0 answers; the search runs where there is none,
         # and from the branch first where it misses a tol tighter than the closed form's.
@@ -407,6 +464,17 @@ def solve_ik_batch(
             has = np.flatnonzero(np.all(np.isfinite(branch), axis=1))
             exact = verify(robot, branch[has], poses[rows[missed[has]]], task).success
             Q[rows[missed[has[exact]]]] = branch[has[exact]]
+        elif roll_family is not None:
+            # The axis task: the closed form over a grid of rolls, as solve_ik answers it,
+            # for the targets the search missed (a narrow stretch of roll defeats restarts).
+            missed = rows[~verify(robot, Q[rows], poses[rows], task).success]
+            refs = _row_starts(robot, given, missed, bounds)
+            branch = _roll_grid_rows(
+                robot, roll_family, poses[missed], task.axis, refs, bounds, threads
+            )
+            has = np.flatnonzero(np.all(np.isfinite(branch), axis=1))
+            exact = verify(robot, branch[has], poses[missed[has]], task).success
+            Q[missed[has[exact]]] = branch[has[exact]]
     verdict = _verdict(robot, Q, poses, task, bounds)
     if search is not task:
         # Beyond the reach sphere too (no search ran): from the row's q0, as solve_ik.

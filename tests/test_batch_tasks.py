@@ -143,3 +143,42 @@ def test_every_joint_frozen_is_judged_not_searched(name: str) -> None:
         assert np.array_equal(batch.q, np.stack([q, q]))
     assert [a.q.tolist() for a in optik.solve_ik_all(robot, reached, frozen=frozen)] == [q.tolist()]
     assert optik.solve_ik_all(robot, missed, frozen=frozen) == []
+
+
+# Tool-axis targets of the UR5 (tool point, tool z axis) that an axis-mode capability map
+# sampled: reachable over a narrow stretch of roll only, which three restarts of the
+# search miss.
+NARROW_ROLL_TARGETS = [
+    ((-0.75, -0.5, -0.160541), (0.08104581592239497, -0.923475270768781, 0.375)),
+    ((-0.75, -0.5, -0.160541), (-0.22313565385811268, -0.4296341233855995, -0.875)),
+    ((-0.25, -0.5, -0.660541), (0.782182092608331, -0.4975602214836433, -0.375)),
+]
+
+
+def _axis_target(point: tuple[float, ...], axis: tuple[float, ...]) -> np.ndarray:
+    """A pose whose translation is ``point`` and whose z column is ``axis``."""
+    z = np.array(axis) / np.linalg.norm(axis)
+    x = np.cross([0.0, 0.0, 1.0] if abs(z[2]) < 0.9 else [1.0, 0.0, 0.0], z)
+    x /= np.linalg.norm(x)
+    T = np.eye(4)
+    T[:3, :3] = np.column_stack([x, np.cross(z, x), z])
+    T[:3, 3] = point
+    return T
+
+
+def test_axis_targets_on_a_narrow_roll_are_answered_by_the_rolled_closed_form() -> None:
+    """As solve_ik does, the batch answers a tool-axis task from the closed form over a grid
+    of rolls where its search misses: every target here is solved, exactly."""
+    T = np.array([_axis_target(p, a) for p, a in NARROW_ROLL_TARGETS])
+    for threads in (1, 2):
+        batch = optik.solve_ik_batch(UR5, T, mode="axis", restarts=3, seed=0, threads=threads)
+        assert list(batch.status) == ["converged"] * len(T)
+        for k in range(len(T)):
+            F = UR5.fk(batch.q[k])
+            assert np.linalg.norm(F[:3, 3] - T[k, :3, 3]) <= 1e-9
+            assert np.linalg.norm(np.cross(F[:3, 2], T[k, :3, 2])) <= 1e-9
+            assert F[:3, 2] @ T[k, :3, 2] > 0.0
+            assert np.all(batch.q[k] >= UR5.lower) and np.all(batch.q[k] <= UR5.upper)
+        assert np.all(batch.position_error <= 1e-9)
+    single = [optik.solve_ik(UR5, t, mode="axis", restarts=3, seed=0) for t in T]
+    assert all(r.success and r.solver == "analytic" for r in single)
