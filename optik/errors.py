@@ -7,6 +7,7 @@ without parsing the message.
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Sequence
 from typing import Any
 
@@ -195,8 +196,12 @@ class ArgumentError(OptikError):
 
 
 def _show(value: Any, limit: int = 80) -> str:
-    """``repr`` of ``value`` with its type, cut to ``limit`` characters (arrays can be huge)."""
-    text = repr(value)
+    """``repr`` of ``value`` with its type, on one line, cut to ``limit`` characters.
+
+    An array's repr can be huge, and spans lines: each line break and the indent after it
+    become one space, so that a message stays one line.
+    """
+    text = re.sub(r"\n\s*", " ", repr(value))
     if len(text) > limit:
         text = text[: limit - 3] + "..."
     return f"{text} ({type(value).__name__})"

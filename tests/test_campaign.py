@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 import os
 import signal
+import warnings
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -193,6 +194,7 @@ def test_batch_interrupted_then_resumed_writes_every_chunk_once(
     assert len(before) == len(written)
     # A temporary file left by a killed write is not a part.
     (out / ".part-000004.parquet.0123456789ab.tmp").write_bytes(b"half a file")
+    (out / "..optik-run.0123456789ab.tmp").write_bytes(b"")  # and of the run's token
     with pytest.raises(OutputFileError, match="exists"):
         solve_batch(robot, T, restarts=RESTARTS, chunk=10, out=out)
     with pytest.raises(OptikError, match="other settings"):
@@ -209,6 +211,7 @@ def test_batch_interrupted_then_resumed_writes_every_chunk_once(
     )
     assert calls == list(range(len(written), 10))  # the unfinished chunks, each once
     assert PartStore(out).finished() == set(range(9))
+    assert not list(out.glob(".*.tmp"))  # the resume removed the killed write's leftover
     after = _files(out, "part-*.parquet")
     assert {name: after[name] for name in before} == before  # finished parts not rewritten
     _same_tables(table, reference)
@@ -229,6 +232,28 @@ def test_engine_options_are_checked() -> None:
         assert not engine.distributed and engine.threads_for(10**6) == 1
         assert engine.threads_for(1) is None  # one chunk: numba's threads inside it
         assert sorted(engine.map_unordered(abs, [-3, 1, -2])) == [(0, 3), (1, 1), (2, 2)]
+
+
+def test_a_local_cluster_starts_quietly_when_dasks_default_port_is_taken() -> None:
+    """The scheduler's HTTP server takes a free port of 127.0.0.1, not 8787: another
+    cluster on 8787 gave a warning on stderr before every message of the run."""
+    import socket
+
+    holder = socket.socket()
+    try:
+        holder.bind(("127.0.0.1", 8787))
+        holder.listen()
+    except OSError:
+        pass  # taken already: the case under test
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            with open_engine(workers=1) as engine:
+                http = engine.client.cluster.scheduler.http_server
+                assert http.address == "127.0.0.1" and http.port != 8787
+    finally:
+        holder.close()
+    assert not [w for w in caught if "in use" in str(w.message)]
 
 
 def test_unreachable_scheduler_is_a_clear_error_within_seconds(

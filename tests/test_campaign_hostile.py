@@ -68,6 +68,32 @@ def test_a_bad_engine_option_leaves_no_output_folder(tmp_path: Path) -> None:
     assert not out.exists()
 
 
+def test_an_output_in_a_missing_folder_is_refused_by_batches_as_by_maps(tmp_path: Path) -> None:
+    # A batch created every missing folder of a mistyped path; a map refused it.
+    robot, T = _targets()
+    out = tmp_path / "typo" / "deeper" / "res.parquet"
+    with pytest.raises(OutputFileError, match="typo/deeper does not exist"):
+        solve_batch(robot, T, out=out, progress=False)
+    with pytest.raises(OutputFileError, match="typo does not exist"):
+        capability_map(robot, voxel=0.5, out=tmp_path / "typo" / "m.zarr", progress=False)
+    assert not (tmp_path / "typo").exists()
+
+
+def test_an_axis_a_mode_does_not_read_is_not_a_setting(tmp_path: Path) -> None:
+    # It was stored as given, so a resume that left it out was refused over "other
+    # settings" that change nothing.
+    robot, T = _targets()
+    out = tmp_path / "res.parquet"
+    first = solve_batch(robot, T, out=out, mode="pose", axis="x", restarts=0, progress=False)
+    assert json.loads((out / SETTINGS_FILE).read_text(encoding="utf-8"))["axis"] == "z"
+    again = solve_batch(robot, T, out=out, mode="pose", resume=True, restarts=0, progress=False)
+    assert again.equals(first)
+    with pytest.raises(OptikError, match="other settings"):
+        solve_batch(robot, T, out=out, mode="axis", axis="x", resume=True, restarts=0)
+    ds = capability_map(robot, voxel=0.4, mode="position", axis="x", progress=False)
+    assert ds.attrs["settings"]["axis"] == "z"
+
+
 def test_a_failed_settings_write_leaves_no_output_folder(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:

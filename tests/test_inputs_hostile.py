@@ -257,3 +257,20 @@ def test_options_in_degrees_or_ms_name_their_unit() -> None:
     assert unnamed == []
     help_text = subs.choices["show"].format_help()
     assert "--view-deg ELEV AZIM" in help_text and "--view " not in help_text
+
+
+def test_an_argument_error_shows_an_array_on_one_line() -> None:
+    """An array's repr spans lines, and the API's messages carried them (the CLI flattens
+    its own): the value is shown on one line, cut, with its type."""
+    from optik import load_problem
+    from optik.campaign import solve_batch
+
+    robot = load_problem("puma560").robot
+    with pytest.raises(ArgumentError) as caught:
+        solve_batch(robot, np.full((2, 3), "a"), mode="position", progress=False)
+    message = str(caught.value)
+    assert "\n" not in message
+    assert message.startswith("targets: expected a numeric array, got array([['a', 'a', 'a'], [")
+    assert message.endswith("(ndarray)")
+    spaced = ArgumentError("name", "two  spaces", "a number")  # a string's spaces are kept
+    assert str(spaced) == "name: expected a number, got 'two  spaces' (str)"

@@ -131,5 +131,12 @@ def test_a_stray_part_file_in_a_batch_folder_is_an_error(tmp_path: Path) -> None
     # A part of this very run under another name: its rows are counted twice.
     own = (tmp_path / "a" / "part-000000.parquet").read_bytes()
     (tmp_path / "a" / "part-000007.parquet").write_bytes(own)
-    with pytest.raises(OptikError, match="12 rows for 6 targets"):
+    with pytest.raises(OptikError, match=r"part-000007\.parquet: holds rows 0 to 5, but the run"):
         solve_batch(robot, targets, out=tmp_path / "a", resume=True, **options)
+    # Copied over another chunk's part: the counts agree, the file is named all the same.
+    (tmp_path / "a" / "part-000007.parquet").unlink()
+    (tmp_path / "b" / "part-000000.parquet").write_bytes(stray)
+    with pytest.raises(
+        OptikError, match=r"part-000000\.parquet: holds rows 3 to 3, not chunk 0's targets 0 to 0"
+    ):
+        solve_batch(robot, targets, out=tmp_path / "b", chunk=1, resume=True, **options)

@@ -348,6 +348,8 @@ class PartStore:
     def for_run(cls, folder: Path | None, digest: str | None = None) -> PartStore:
         """The store of a run about to write ``folder``, stamped with a new run token.
 
+        Temporary files that killed writes left in the folder are removed.
+
         Args:
             folder: the output folder (``None``: in memory).
             digest: the digest of the run's settings that its parts carry.
@@ -356,6 +358,11 @@ class PartStore:
             return cls(None)
         run = uuid.uuid4().hex
         write_atomic(folder / RUN_FILE, run)
+        # The folder is this run's now: a temporary file of a write that was killed (a
+        # process killed mid-part) is nobody's, and would stay there for good.
+        for pattern in (".part-*.tmp", f".{RUN_FILE}.*.tmp"):
+            for leftover in folder.glob(pattern):
+                leftover.unlink(missing_ok=True)
         return cls(folder, run, digest)
 
     part_name = staticmethod(part_name)
@@ -472,7 +479,8 @@ def solve_batch(
             file of them (:func:`read_targets`).
         mode: ``"pose"``, ``"position"``, ``"orientation"`` or ``"axis"``
             (:func:`optik.solve_ik_batch`).
-        axis: the tool axis of ``mode="axis"``.
+        axis: the tool axis of ``mode="axis"`` (in other modes it is not read, and stored
+            as ``"z"``).
         tol: one tolerance, or ``(position_tol_m, orientation_tol_rad)``.
         restarts: attempts after the first per target.
         max_iter: iterations per attempt.
@@ -518,7 +526,8 @@ def solve_batch(
         raise OptikError("resume: finishes a stored run; give its folder as out=")
     # The validated values, as plain Python numbers: a numpy scalar would not go into the
     # settings file, and every check must pass before anything is written.
-    axis = str(axis)
+    # Read in axis mode only: the stored settings must not differ over it on a resume.
+    axis = str(axis) if task.mode == "axis" else "z"
     tol = (
         (task.position_tol, task.orientation_tol)
         if isinstance(tol, tuple | list)
@@ -565,19 +574,49 @@ def solve_batch(
     pa = require("pyarrow", "a batch")
     if table is None:
         table = pa.table(solve_chunk(spec, (0, np.empty((0, 4, 4)))))
-    _check_rows(table, len(poses), folder)
+    _check_rows(table, len(poses), folder, chunk)
     resumed = sum(len(items[i][1]) for i in done if i < len(items))
     return table.replace_schema_metadata({RESUMED_KEY: str(resumed).encode()})
 
 
-def _check_rows(table: Any, n: int, folder: Path | None) -> None:
-    """Every target's row once, in order: a stray part file in the folder is an error."""
+def _check_rows(table: Any, n: int, folder: Path | None, chunk: int) -> None:
+    """Every target's row once, in order: a stray part file in the folder is an error.
+
+    The message names the first part file that does not hold its chunk's rows (chunk
+    ``c`` of ``chunk`` targets holds the targets ``c chunk`` onwards), if one does not.
+    """
     index = np.asarray(table.column("index").to_numpy(zero_copy_only=False))
-    if len(index) != n or not np.array_equal(index, np.arange(n)):
-        raise OptikError(
-            f"{folder}: its part files hold {len(index)} rows for {n} targets (a part "
-            "file of another run, or copied in?); remove the folder and run again"
-        )
+    if len(index) == n and np.array_equal(index, np.arange(n)):
+        return
+    stray = None if folder is None else _stray_part(folder, n, chunk)
+    if stray is not None:
+        raise OptikError(f"{stray}; delete it and resume to compute its chunk")
+    raise OptikError(
+        f"{folder}: its part files hold {len(index)} rows for {n} targets (a part "
+        "file of another run, or copied in?); remove the folder and run again"
+    )
+
+
+def _stray_part(folder: Path, n: int, chunk: int) -> str | None:
+    """The first part file whose rows are not its chunk's, in words; ``None`` if none."""
+    pq = require("pyarrow.parquet", "a batch")
+    for file in sorted(folder.glob("part-*.parquet")):
+        stem = file.stem.removeprefix("part-")
+        if not stem.isdigit():
+            continue
+        number = int(stem)
+        column = pq.read_table(file, columns=["index"]).column("index")
+        rows = np.asarray(column.to_numpy(zero_copy_only=False))
+        expected = np.arange(number * chunk, min((number + 1) * chunk, n))
+        if not np.array_equal(rows, expected):
+            held = f"rows {rows[0]} to {rows[-1]}" if len(rows) else "no rows"
+            if len(expected) == 0:
+                return f"{file}: holds {held}, but the run has no chunk {number}"
+            return (
+                f"{file}: holds {held}, not chunk {number}'s targets "
+                f"{expected[0]} to {expected[-1]} (copied in?)"
+            )
+    return None
 
 
 def _as_poses(targets: Any, mode: str) -> FloatArray:
@@ -608,6 +647,8 @@ def _check_out(folder: Path | None, settings: dict[str, Any], resume: bool) -> b
         return False
     marker = folder / SETTINGS_FILE
     if not folder.exists():
+        if not folder.parent.is_dir():  # a typo is not a path to create (as a map)
+            raise OutputFileError(str(folder), f"its folder {folder.parent} does not exist")
         return True
     if not resume:
         raise OutputFileError(str(folder), "it exists (resume=True, or --resume, finishes it)")

@@ -415,7 +415,8 @@ def capability_map(
             ``orientations * rolls`` samples (1 in position mode).
         mode: ``"pose"`` (full orientation), ``"axis"`` (the tool axis ``axis`` along the
             direction, the rotation about it free) or ``"position"`` (the point alone).
-        axis: the tool axis, ``"x"``, ``"y"`` or ``"z"``.
+        axis: the tool axis, ``"x"``, ``"y"`` or ``"z"`` (pose and axis modes; in
+            position mode it is not read, and stored as ``"z"``).
         tol: IK tolerance of every sample (m, rad).
         restarts: attempts after the first per sample (:func:`optik.solve_ik_batch`); a
             sample not found within them counts as not reached (no proof).
@@ -458,6 +459,8 @@ def capability_map(
     require_zarr("a capability map")
     check_choice("mode", mode, MAP_MODES)
     check_choice("axis", axis, AXES)
+    if mode == "position":
+        axis = "z"  # not read: the stored settings must not differ over it on a resume
     tol = check_real("tol", tol, positive=True)
     restarts = check_int("restarts", restarts, minimum=0, maximum=MAX_BATCH_RESTARTS)
     max_iter = check_int("max_iter", max_iter, minimum=1, maximum=MAX_ITERATIONS)

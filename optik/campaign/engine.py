@@ -243,6 +243,10 @@ def open_engine(
                 processes=True,
                 host="127.0.0.1",
                 dashboard_address=None,
+                # The scheduler's HTTP server (/health, /metrics) still starts: on a free
+                # port of 127.0.0.1, not Dask's default 8787, whose being taken (another
+                # cluster) printed a warning.
+                scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
                 silence_logs=40,  # logging.ERROR: a worker restart is not the user's problem
                 config=settings,
                 preload=[WORKER_PRELOAD],  # workers ignore Ctrl-C: the client stops the run
