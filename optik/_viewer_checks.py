@@ -61,9 +61,16 @@ def check_bindable(host: str, port: int) -> None:
             probe.bind((address[0], 0))
         except OSError as exc:
             raise OptikError(f"cannot listen on host {host!r}: {exc.strerror}") from None
-    if port == 65535:  # viser moves to the next port when one is taken: none after this
+    # viser moves to the next port while one is taken, and past 65535 its thread fails:
+    # one of port..65535 must be free.
+    reason = ""
+    for candidate in range(port, 65536):
         with socket.socket(family, kind, proto) as probe:
             try:
-                probe.bind((address[0], port))
+                probe.bind((address[0], candidate))
             except OSError as exc:
-                raise OptikError(f"port {port} on {host!r} is taken: {exc.strerror}") from None
+                reason = exc.strerror or str(exc)
+                continue
+        return
+    where = f"port {port}" if port == 65535 else f"ports {port} to 65535"
+    raise OptikError(f"{where} on {host!r}: every one is taken ({reason})")

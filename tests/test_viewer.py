@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from conftest import ROOT, assert_close, reference_fk, robot_of
+from conftest import ROOT, assert_close, reference_fk, robot_of, time_limit
 
 from optik.analytic import analytic_ik
 from optik.errors import OptikError
@@ -623,3 +623,26 @@ def test_optik_view_rejects_a_bad_port_as_a_usage_error() -> None:
     with pytest.raises(SystemExit) as exit_info:
         main(["view", "planar_2r", "--port", "70000"])
     assert exit_info.value.code == 2
+
+
+def test_a_port_with_every_higher_port_taken_is_refused_not_a_hang() -> None:
+    """viser moves on from a taken port; past 65535 its server thread failed and the
+    process waited forever. Only 65535 itself was checked."""
+    import socket
+
+    held = []
+    try:
+        for port in (65534, 65535):
+            s = socket.socket()
+            try:
+                s.bind(("127.0.0.1", port))
+            except OSError:  # taken already: the case under test
+                s.close()
+                continue
+            s.listen()
+            held.append(s)
+        with time_limit(20.0), pytest.raises(OptikError, match="ports 65534 to 65535"):
+            Viewer(robot_of("planar_2r"), port=65534).close()
+    finally:
+        for s in held:
+            s.close()
