@@ -63,8 +63,9 @@ def plan_figure(plan: PathPlan, robot: Robot | None = None, arms: int = 5) -> Pl
 
     Args:
         plan: the plan.
-        robot: the robot the plan was made for: adds limit bands and the 3-D panel (default:
-            joint panels only).
+        robot: the robot the plan was made for: adds limit bands and the 3-D panel, and
+            plots revolute joints in degrees (default: joint panels only, each joint's
+            values as they are, rad or m).
         arms: most solved waypoints at which the arm is drawn; no unit.
     """
     plt = pyplot()
@@ -89,9 +90,12 @@ def plan_figure(plan: PathPlan, robot: Robot | None = None, arms: int = 5) -> Pl
         if j >= dof:
             ax.axis("off")
             continue
-        prismatic = robot is not None and robot.joints[j].kind == "prismatic"
-        scale = 1.0 if prismatic else 180.0 / math.pi
-        unit = "m" if prismatic else "deg"
+        if robot is None:  # the joint's kind is not known: its values as they are
+            scale, unit = 1.0, "rad or m"
+        elif robot.joints[j].kind == "prismatic":
+            scale, unit = 1.0, "m"
+        else:
+            scale, unit = 180.0 / math.pi, "deg"
         ax.plot(index, plan.q[:, j] * scale, color="tab:blue", lw=1.4, label="planned")
         if robot is not None:
             lo, hi = robot.lower[j] * scale, robot.upper[j] * scale
@@ -131,6 +135,9 @@ def plan_figure(plan: PathPlan, robot: Robot | None = None, arms: int = 5) -> Pl
                 )
         ax.set_ylabel(f"{names[j]} ({unit})")
         ax.grid(True, alpha=0.3)
+    # Every waypoint, solved or not, on the shared axis: the unsolved ones' marks (in axes
+    # coordinates along the foot) do not widen the data limits themselves.
+    axes[0][0].set_xlim(-0.5, max(len(index) - 0.5, 0.5))
     for c in range(cols):
         # Each column's lowest panel (above an empty slot when dof is odd) has the axis.
         last = max(r for r in range(rows) if r * cols + c < dof)

@@ -29,7 +29,7 @@ from optik.drawing import (
 from optik.errors import OptikError
 from optik.model import Robot
 from optik.paths import line
-from optik.planning import plan_path
+from optik.planning import PathPlan, plan_path
 from optik.plots import plan_figure
 from optik.problems import load_problem
 from optik.reachability import reachability_figure
@@ -249,6 +249,51 @@ def test_plan_plot_writes_a_png_with_and_without_a_robot(tmp_path: Path) -> None
     without = plan.plot(tmp_path / "without.png")
     wide, narrow = mpimg.imread(with_robot), mpimg.imread(without)
     assert wide.shape[1] > narrow.shape[1]  # the 3-D panel is there
+
+
+def _plan(robot: Robot, q: np.ndarray, status: list[str]) -> PathPlan:
+    """A plan of these configurations and statuses (NaN rows unsolved), poses from FK."""
+    n = len(q)
+    poses = np.array([robot.fk(np.nan_to_num(row, nan=0.0)) for row in q])
+    return PathPlan(
+        poses=poses, mode="pose", q=q, status=status, limit_margin=np.zeros_like(q),
+        manipulability=np.zeros(n), step=np.zeros(n), candidates=np.zeros(n, dtype=int),
+        max_joint_step=0.1, joint_names=robot.joint_names,
+    )  # fmt: skip
+
+
+def test_unsolved_waypoints_are_marked_inside_their_own_panel() -> None:
+    """The shared x axis spanned the solved waypoints only, so the marks of unsolved ones
+    (drawn unclipped along the panel's foot) landed on the neighbouring panels."""
+    robot = load_problem("ur5").robot
+    n = 21
+    q = np.full((n, robot.dof), np.nan)
+    q[9:18] = robot.mid_limits + np.linspace(0.0, 0.5, 9)[:, None]
+    status = ["unreachable"] * 9 + ["ok"] * 9 + ["unreachable"] * 3
+    parts = plan_figure(_plan(robot, q, status), robot)
+    parts.figure.canvas.draw()
+    for ax in parts.joint_axes:
+        assert ax.get_xlim() == (-0.5, n - 0.5)
+        box = ax.get_window_extent()
+        marks = [c for c in ax.collections if len(c.get_offsets()) == 12]  # the unsolved
+        assert len(marks) == 1
+        x = marks[0].get_offset_transform().transform(marks[0].get_offsets())[:, 0]
+        assert np.all((x > box.x0) & (x < box.x1))
+
+
+def test_without_a_robot_joint_values_are_plotted_as_they_are() -> None:
+    """Without the robot a joint's kind is unknown: a prismatic stroke was labelled and
+    scaled as degrees (0.5 m shown as 28.6 deg)."""
+    robot = load_problem("stanford_arm").robot
+    q = np.tile(robot.mid_limits, (3, 1))
+    q[:, 2] = [0.5, 0.7, 0.9]
+    plan = _plan(robot, q, ["ok"] * 3)
+    bare = plan_figure(plan).joint_axes
+    assert bare[2].get_ylabel().endswith("(rad or m)")
+    assert np.allclose(bare[2].lines[0].get_ydata(), [0.5, 0.7, 0.9])
+    known = plan_figure(plan, robot).joint_axes
+    assert known[2].get_ylabel().endswith("(m)") and known[0].get_ylabel().endswith("(deg)")
+    assert np.allclose(known[0].lines[0].get_ydata(), np.degrees(q[:, 0]))
 
 
 # ----------------------------------------------------------------------- reachability
