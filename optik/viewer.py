@@ -256,10 +256,14 @@ class Viewer(Closing):
         scene = self._server.scene
         size = self._size
         centre = self.robot.frames(self._q)[0, :3, 3]
+        # Aimed at the middle of the arm as it starts, not above its base: a tall arm (the
+        # Puma at mid-limits) had its tool, and the target on it, above the page.
+        points = stick_points(self.robot, self._q)
+        middle = 0.5 * (points.min(axis=0) + points.max(axis=0))
         with _quiet():
             camera = self._server.initial_camera
-            camera.look_at = tuple(centre + np.array([0.0, 0.0, 0.25 * size]))
-            camera.position = tuple(centre + size * np.array([1.2, -1.45, 1.0]))
+            camera.look_at = tuple(middle)
+            camera.position = tuple(middle + size * np.array([1.2, -1.45, 1.0]))
             camera.up = (0.0, 0.0, 1.0)
         # Plain lights instead of viser's default environment map: prefiltering the map
         # stalls a software-rendered page (no GPU: a VM, a remote desktop, headless

@@ -330,6 +330,28 @@ def puma_viewer() -> Iterator[Viewer]:
         yield viewer
 
 
+def test_the_opening_view_holds_the_whole_arm_and_its_target(chromium: Chromium) -> None:
+    """The camera aimed above the base: the Puma at mid-limits stands tall, and its tool
+    (with the target gizmo the user grabs) was above the page."""
+    robot = robot_of("puma560")
+    with Viewer(robot, port=0) as viewer:
+        chromium.call("Page.navigate", url=viewer.url)
+        wait_for(lambda: page_q(chromium), 30, "the page's joint values")
+        aim = np.array(viewer._server.initial_camera.look_at)
+
+        def aimed() -> Any:
+            # The page reports its camera a moment after it applies the opening view.
+            camera = next(iter(viewer._server.get_clients().values())).camera
+            return camera if np.allclose(camera.look_at, aim, atol=1e-6) else None
+
+        camera = wait_for(aimed, 30, "the page's camera to take the opening view")
+        points = np.vstack([stick_points(robot, viewer.q), viewer.target[:3, 3]])
+        u, v = project(camera, points).T
+        margin = 0.05 * camera.image_height
+        assert np.all((u > margin) & (u < camera.image_width - margin)), u
+        assert np.all((v > margin) & (v < camera.image_height - margin)), v
+
+
 def test_the_page_is_served_on_localhost_and_close_frees_the_port() -> None:
     viewer = Viewer(robot_of("planar_2r"), port=0)
     port = viewer.port
