@@ -256,6 +256,29 @@ def test_a_local_cluster_starts_quietly_when_dasks_default_port_is_taken() -> No
     assert not [w for w in caught if "in use" in str(w.message)]
 
 
+def test_a_script_starting_a_cluster_without_the_main_guard_is_told_so(tmp_path: Path) -> None:
+    """Dask's workers import the script again: unguarded, each started a cluster in turn,
+    and the run ended in a dozen tracebacks and "Nanny failed to start"."""
+    import subprocess
+    import sys
+
+    script = tmp_path / "unguarded.py"
+    script.write_text(
+        "from optik.campaign import open_engine\n"
+        "with open_engine(workers=1) as engine:\n"
+        "    print('started')\n"
+    )
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONSTARTUP"}
+    done = subprocess.run(
+        [sys.executable, str(script)], capture_output=True, text=True, timeout=120, env=env,
+        cwd=tmp_path,
+    )  # fmt: skip
+    assert done.returncode == 1 and "started" not in done.stdout
+    guard = 'under `if __name__ == "__main__":`'
+    assert guard in done.stderr.splitlines()[-1]  # the last line says what to do
+    assert "a local cluster was started while a worker process imports this script" in (done.stderr)
+
+
 def test_unreachable_scheduler_is_a_clear_error_within_seconds(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:

@@ -45,6 +45,25 @@ def test_problems_lists_every_builtin(capsys: pytest.CaptureFixture[str]) -> Non
     assert out.count("limits:") == len(PROBLEM_NAMES)
 
 
+def test_python_dash_m_optik_is_the_command(tmp_path: Path) -> None:
+    """Where the environment's scripts are not on PATH, ``python -m optik`` runs the CLI
+    (there was no ``__main__``: "optik is a package and cannot be directly executed")."""
+    import subprocess
+    import sys
+
+    done = subprocess.run(
+        [sys.executable, "-m", "optik", "problems"], capture_output=True, text=True,
+        timeout=120, cwd=tmp_path,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    assert all(name in done.stdout for name in PROBLEM_NAMES)
+    bad = subprocess.run(
+        [sys.executable, "-m", "optik", "solve", "nope"], capture_output=True, text=True,
+        timeout=120, cwd=tmp_path,
+    )  # fmt: skip
+    assert bad.returncode == 2 and bad.stderr.startswith("optik: error:")
+
+
 def test_problems_table_values(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["problems"]) == 0
     out = capsys.readouterr().out

@@ -47,6 +47,7 @@ from optik.campaign.engine import (
     check_chunk_count,
     chunk_count,
     open_engine,
+    refuse_reimported_script,
     run_chunks_with_progress,
 )
 from optik.campaign.provenance import (
@@ -511,6 +512,7 @@ def solve_batch(
     """
     if not isinstance(robot, Robot):
         raise OptikError(f"robot: expected an optik.Robot, got {type(robot).__name__}")
+    refuse_reimported_script(workers)  # before its output is checked or created
     require("pyarrow", "a batch")
     check_choice("mode", mode, MODES)
     task = make_task(mode, axis=axis, tol=tol)

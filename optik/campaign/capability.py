@@ -64,6 +64,7 @@ from optik.campaign.engine import (
     ProgressOption,
     check_chunk_count,
     open_engine,
+    refuse_reimported_script,
     run_chunks_with_progress,
 )
 from optik.campaign.provenance import robot_fingerprint, versions
@@ -455,6 +456,7 @@ def capability_map(
     """
     if not isinstance(robot, Robot):
         raise OptikError(f"robot: expected an optik.Robot, got {type(robot).__name__}")
+    refuse_reimported_script(workers)  # before its output is checked or created
     require("xarray", "a capability map")
     require_zarr("a capability map")
     check_choice("mode", mode, MAP_MODES)

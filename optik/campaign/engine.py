@@ -33,6 +33,7 @@ import contextlib
 import copy
 import functools
 import math
+import multiprocessing
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ThreadPoolExecutor, wait
 from dataclasses import dataclass, field
@@ -197,6 +198,28 @@ class Engine(Closing):
                 thing.close()
 
 
+def refuse_reimported_script(workers: Any) -> None:
+    """Refuse a local cluster started by a script that a worker process is importing again.
+
+    Dask starts a local cluster's workers with Python's ``spawn``, which imports the
+    caller's script again in each (as ``__mp_main__``): unguarded top-level code would
+    start a cluster there too, and the run failed with "Nanny failed to start" (the cause
+    buried among a dozen tracebacks) or "it exists" of its own output.
+
+    Raises:
+        OptikError: ``workers`` given while ``__main__`` is being imported again by a
+            spawned process.
+    """
+    # Python's own test in multiprocessing.spawn: a spawned process still bootstrapping.
+    bootstrapping = getattr(multiprocessing.current_process(), "_inheriting", False)
+    if workers is not None and bootstrapping:
+        raise OptikError(
+            "workers: a local cluster was started while a worker process imports this "
+            'script again; call it under `if __name__ == "__main__":` (Dask starts its '
+            "worker processes by importing the script)"
+        )
+
+
 def open_engine(
     *,
     client: Any = None,
@@ -232,25 +255,33 @@ def open_engine(
         return Engine(client, f"client {client.scheduler.address}")
     if workers is not None:
         n = check_int("workers", workers, minimum=1, maximum=MAX_WORKERS)
+        refuse_reimported_script(workers)
         dask = require("dask", "a Dask run")
         with dask.config.set(QUIET_CLUSTER):  # read by the scheduler and nannies as they start
             # A nanny hands its settings on to every worker it starts, a replacement too; its
             # own copy, since leaving this block restores the global settings in place.
             settings = {"distributed": copy.deepcopy(dask.config.get("distributed"))}
-            cluster = distributed.LocalCluster(
-                n_workers=n,
-                threads_per_worker=1,
-                processes=True,
-                host="127.0.0.1",
-                dashboard_address=None,
-                # The scheduler's HTTP server (/health, /metrics) still starts: on a free
-                # port of 127.0.0.1, not Dask's default 8787, whose being taken (another
-                # cluster) printed a warning.
-                scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
-                silence_logs=40,  # logging.ERROR: a worker restart is not the user's problem
-                config=settings,
-                preload=[WORKER_PRELOAD],  # workers ignore Ctrl-C: the client stops the run
-            )
+            try:
+                cluster = distributed.LocalCluster(
+                    n_workers=n,
+                    threads_per_worker=1,
+                    processes=True,
+                    host="127.0.0.1",
+                    dashboard_address=None,
+                    # The scheduler's HTTP server (/health, /metrics) still starts: on a
+                    # free port of 127.0.0.1, not Dask's default 8787, whose being taken
+                    # (another cluster) printed a warning.
+                    scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
+                    silence_logs=40,  # logging.ERROR: a worker's restart is no news to the user
+                    config=settings,
+                    preload=[WORKER_PRELOAD],  # workers ignore Ctrl-C: the client stops it
+                )
+            except RuntimeError as exc:  # distributed's "Nanny failed to start."
+                raise OptikError(
+                    f"workers: the local cluster's worker processes did not start ({exc}); "
+                    'a script must start it under `if __name__ == "__main__":` (its '
+                    "workers import the script again)"
+                ) from exc
         local = distributed.Client(cluster)
         plural = "es" if n != 1 else ""
         return Engine(local, f"{n} local worker process{plural}", [cluster, local], local=True)
