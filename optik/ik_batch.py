@@ -5,9 +5,8 @@ its ``q0`` is its answer, as in :func:`optik.solve_ik`; the other targets run th
 damped least squares (:mod:`optik.solvers._lm_kernel`) in worker threads
 (:mod:`optik.solvers._batch_threads`), each with its own random stream, and a closed form
 run in Python (or, for a tool-axis task, a compiled one over a grid of rolls) answers the
-targets that search missed. The batch is verified in one
-compiled call (:func:`optik.verify.verify`). Importable from :mod:`optik.ik` and
-:mod:`optik` too.
+targets that search missed. The batch is verified in one compiled call
+(:func:`optik.verify.verify`). Importable from :mod:`optik.ik` and :mod:`optik` too.
 """
 
 from __future__ import annotations
