@@ -234,9 +234,8 @@ def _roll_grid_rows(
     """
     M, dof = len(poses), robot.dof
     out = np.full((M, dof), math.nan)
-    turns = rolled_poses(
-        np.eye(4), axis, -math.pi + (2.0 * math.pi / ROLL_GRID) * np.arange(ROLL_GRID)
-    )
+    rolls = -math.pi + (2.0 * math.pi / ROLL_GRID) * np.arange(ROLL_GRID, dtype=np.float64)
+    turns = rolled_poses(np.eye(4), axis, rolls)
     per_call = max(1, BATCH_SLICE // ROLL_GRID)
     for lo in range(0, M, per_call):
         hi = min(lo + per_call, M)
