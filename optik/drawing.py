@@ -153,8 +153,8 @@ def draw_robot(
         q: (dof,) joint values, rad or m.
         colour: colour of the links.
         alpha: opacity of everything drawn.
-        joint_axes: draw each joint's axis as an arrow (black: revolute; orange:
-            prismatic).
+        joint_axes: draw each joint's axis as an arrow (black: revolute; purple:
+            prismatic, as in the viewer).
         frames: draw the base and tool frames as RGB triads.
         meshes: ``(vertices (V, 3), faces (F, 3))`` world-frame triangle meshes to draw
             under the links (see :func:`visual_meshes`).
@@ -195,7 +195,7 @@ def draw_robot(
             ax.quiver(
                 *start,
                 *(length * direction),
-                color="tab:orange" if slides else "black",
+                color="tab:purple" if slides else "black",
                 lw=1.3,
                 alpha=alpha,
                 arrow_length_ratio=0.3,

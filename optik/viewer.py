@@ -3,14 +3,14 @@
 :class:`Viewer` serves a local page with `viser <https://viser.studio>`_ (the optional
 ``viewer`` extra) that shows the robot as a stick figure drawn from
 :meth:`optik.Robot.frames`: links between consecutive joint origins, a cylinder on every
-joint axis (orange: revolute, blue: prismatic) and the base, link and tool frames
-(x red, y green, z blue). A transform gizmo is the IK target: while it is dragged,
-:func:`optik.solve_ik` follows it live from the current configuration (warm start), in
-the task mode of the GUI's dropdown (``pose``, ``axis``: the tool's z axis along the
-target's, ``position``). The panel reports the joint values, the result's status and
-errors, steps through every closed-form branch of the current target
-(:func:`optik.analytic_ik`) and plays a plan (:func:`optik.plan_path`) back along its
-path, its flagged waypoints coloured.
+joint axis (orange: revolute, purple: prismatic, as in :mod:`optik.drawing`) and the
+base, link and tool frames (x red, y green, z blue). A transform gizmo is the IK target:
+while it is dragged, :func:`optik.solve_ik` follows it live from the current
+configuration (warm start), in the task mode of the GUI's dropdown (``pose``, ``axis``:
+the tool's z axis along the target's, ``position``). The panel reports the joint values,
+the result's status and errors, steps through every closed-form branch of the current
+target (:func:`optik.analytic_ik`) and plays a plan (:func:`optik.plan_path`) back along
+its path, its flagged waypoints coloured.
 
 Everything the page does is also a method, so the viewer can be driven from Python (and
 tests): :meth:`Viewer.set_q`, :meth:`Viewer.set_target` (the same code path as a drag),
@@ -63,7 +63,7 @@ STATUS_COLORS: dict[str, tuple[int, int, int]] = {
 
 _LINK_COLOR = (90, 95, 110)
 _REVOLUTE_COLOR = (240, 150, 40)
-_PRISMATIC_COLOR = (60, 120, 220)
+_PRISMATIC_COLOR = (148, 103, 189)  # matplotlib's tab:purple, as optik.drawing
 _PLAY_PERIOD_S = 0.1  # playback: one waypoint per 0.1 s
 
 

@@ -273,6 +273,24 @@ def test_a_damaged_marker_file_is_named_on_open_and_on_resume(tmp_path: Path) ->
         capability_map(two_link_robot(), out=out, resume=True, **options)
 
 
+def test_a_damaged_marker_is_one_line_on_the_command_line(tmp_path: Path) -> None:
+    """zarr reads the markers' chunks as tasks and leaves the others running when one
+    fails: at exit each still pending printed a traceback (487 lines after the error)."""
+    import subprocess
+
+    args = ["map", "planar_2r", "--voxel", "0.2", "--mode", "position", "--chunk", "2",
+            "--restarts", "1", "--out", str(tmp_path / "m.zarr")]  # fmt: skip
+    run = [sys.executable, "-m", "optik", *args]
+    subprocess.run(run, capture_output=True, check=True, timeout=300, cwd=tmp_path)
+    (tmp_path / "m.zarr" / "chunk_done" / "c" / "0" / "0").write_bytes(b"xx")  # the first read
+    done = subprocess.run(
+        [*run, "--resume"], capture_output=True, text=True, timeout=300, cwd=tmp_path
+    )
+    assert done.returncode == 2
+    assert done.stderr.startswith("optik: error: ") and "damaged capability map" in done.stderr
+    assert done.stderr.count("\n") == 1, done.stderr[:2000]
+
+
 def test_missing_markers_or_a_damaged_data_chunk_are_named(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

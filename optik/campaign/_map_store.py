@@ -10,6 +10,8 @@ token (see :class:`MapWriter` and :meth:`MapStore.write`).
 
 from __future__ import annotations
 
+import asyncio
+import contextlib
 import math
 import uuid
 from collections.abc import Mapping
@@ -323,10 +325,38 @@ def read_markers(marker: Any, where: str) -> np.ndarray:
     try:
         return np.asarray(marker[...]).ravel()
     except Exception as exc:  # zarr's codecs raise what they raise (Zstd: RuntimeError)
+        _settle_zarr_reads()
         raise OptikError(
             f"{where}: damaged capability map, a chunk marker cannot be read ({exc}); "
             "delete the map and compute it again"
         ) from None
+
+
+def _settle_zarr_reads(timeout_s: float = 5.0) -> None:
+    """Let the other chunk reads of a failed zarr call finish before the error is raised.
+
+    zarr reads a selection's chunks as tasks on its own event loop and gathers them: when
+    one fails, the others keep running, and those still pending when the interpreter
+    exits print a traceback each ("Task was destroyed but it is pending"), hundreds after
+    the one-line error of a damaged map. They are waited for here (at most ``timeout_s``),
+    never cancelled, and their outcomes read.
+    """
+    try:
+        from zarr.core.sync import sync
+    except ImportError:  # another zarr: nothing known to wait for
+        return
+
+    async def settle() -> None:
+        current = asyncio.current_task()
+        others = [task for task in asyncio.all_tasks() if task is not current]
+        if others:
+            await asyncio.wait(others, timeout=timeout_s)
+        for task in others:
+            if task.done() and not task.cancelled():
+                task.exception()  # read: no "exception was never retrieved" either
+
+    with contextlib.suppress(Exception):
+        sync(settle())
 
 
 __all__ = ["MapStore", "MapWriter", "MemoryMapStore"]
