@@ -47,6 +47,23 @@ def test_plan_avoids_the_branch_jump_of_the_greedy_choice() -> None:
     assert plan.summary()["solved"] == len(poses)
 
 
+def test_a_step_that_must_be_flagged_is_no_licence_to_switch_branch() -> None:
+    """A UR5 joint path with one 0.25 rad step on joint 1, near the limits: that step
+    must be flagged whatever the choice, and the plan took it as a 3.13 rad switch into
+    the comfort box (the margin it saved outweighed the motion)."""
+    robot = load_problem("ur5").robot
+    q0 = np.array([-5.1923, 0.6836, 0.7168, -5.3733, 4.464, 5.4107])
+    dq = np.array([-0.01126, -0.03115, -0.03667, 0.02772, 0.00072, 0.01396])
+    Q = q0 + np.arange(20)[:, None] * dq
+    Q[10:, 0] += 0.25
+    assert np.all((Q >= robot.lower) & (Q <= robot.upper))  # the source path is a choice
+    plan = plan_path(robot, robot.fk(Q), max_joint_step=0.2, q_start=Q[0])
+    assert plan.summary()["discontinuity"] == 1 and plan.status[10] == "discontinuity"
+    steps = np.max(np.abs(np.diff(plan.q, axis=0)), axis=1)
+    assert steps[9] <= 0.25 + 1e-6  # the source's own step (0.239 rad), not a switch
+    assert np.all(np.delete(steps, 9) <= 0.2)
+
+
 def test_unreachable_stretch_is_flagged_and_nothing_is_dropped() -> None:
     robot = load_problem("puma560").robot
     poses = out_of_reach_and_back(robot)
