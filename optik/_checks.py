@@ -43,6 +43,20 @@ while every real arm is far inside it. At 1e9 m a float64 still resolves 1e-7 m.
 _NUMERIC_KINDS = "fiu"
 
 
+def read_number(text: str, kind: type = float) -> Any:
+    """``float(text)`` (or ``int``) of a file's or command line's number, Python's own syntax out.
+
+    Python reads ``"1_0"`` as 10 (digit grouping in code); in a path file, a URDF or an
+    option it is a typo, not a number ten times larger.
+
+    Raises:
+        ValueError: an underscore in ``text``, or what ``kind(text)`` raises.
+    """
+    if "_" in text:
+        raise ValueError(f"an underscore in the number {text!r}")
+    return kind(text)
+
+
 def _ragged(name: str, value: Any) -> ShapeError:
     """The error for nested sequences of different lengths, naming the lengths."""
     try:

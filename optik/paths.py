@@ -40,6 +40,7 @@ from optik._checks import (
     check_real,
     finite_array,
     not_a_file,
+    read_number,
 )
 from optik.errors import OptikError, ShapeError
 from optik.spatial import as_pose, exp_so3, log_so3, rpy_to_matrix, transform
@@ -295,7 +296,7 @@ def _read_csv(file: Path) -> tuple[FloatArray, str]:
         if len(row) != width:
             raise PathFileError(f"{file}: line {line}: expected {width} values, got {len(row)}")
         try:
-            values[k] = [float(v) for v in row]
+            values[k] = [read_number(v) for v in row]
         except ValueError as exc:
             raise PathFileError(f"{file}: line {line}: {exc}") from exc
         if not np.all(np.isfinite(values[k])):

@@ -35,11 +35,13 @@ with ``path_tolerance``, enforced. The sampled arrays hold at most
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import importlib.util
 import json
+import logging
 import math
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, TYPE_CHECKING, Any
@@ -519,6 +521,25 @@ def require_toppra() -> None:
         raise OptikError(TOPPRA_MISSING)
 
 
+@contextlib.contextmanager
+def _quiet_toppra() -> Iterator[None]:
+    """Hold back the log of toppra below ERROR for the duration, then restore its level.
+
+    Its warnings are its own retries ("A numerical error occurs ... slightly reduced"),
+    hundreds of lines on a short segment, while the outcome is checked here from its
+    return code. (``toppra.setup_logging``, called before, also added one more console
+    handler to its logger at every call, so that each line came out once per earlier
+    trajectory.)
+    """
+    logger = logging.getLogger("toppra")
+    level = logger.level
+    logger.setLevel(logging.ERROR)
+    try:
+        yield
+    finally:
+        logger.setLevel(level)
+
+
 def _toppra_speed(path: Any, grid: FloatArray, vlim: FloatArray, alim: FloatArray) -> FloatArray:
     """TOPP-RA's fastest path speed ``ds/dt`` at the grid points, at rest at both ends.
 
@@ -549,13 +570,13 @@ def _toppra_speed(path: Any, grid: FloatArray, vlim: FloatArray, alim: FloatArra
         def path_interval(self) -> FloatArray:
             return np.array([0.0, 1.0])
 
-    toppra.setup_logging("WARNING")
     constraints = [
         toppra.constraint.JointVelocityConstraint(np.column_stack([-vlim, vlim]) * scale),
         toppra.constraint.JointAccelerationConstraint(np.column_stack([-alim, alim]) * scale**2),
     ]
     instance = toppra.algorithm.TOPPRA(constraints, _Path(), gridpoints=grid / length)
-    instance.compute_parameterization(0.0, 0.0)
+    with _quiet_toppra():
+        instance.compute_parameterization(0.0, 0.0)
     code = instance.problem_data.return_code
     sd = instance.problem_data.sd_vec
     if sd is None or code != toppra.algorithm.ParameterizationReturnCode.Ok:

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from optik._checks import MAX_LENGTH_M, FloatArray, not_a_file
+from optik._checks import MAX_LENGTH_M, FloatArray, not_a_file, read_number
 from optik.chain import ChainLink
 from optik.errors import URDFError
 from optik.spatial import rpy_to_matrix, transform
@@ -28,10 +28,8 @@ def _floats(text: str | None, count: int, what: str, default: tuple[float, ...])
     if text is None:
         return np.array(default, dtype=float)
     try:
-        # Python's float() also reads "1_0" as 10; XML's (and urdfdom's) doubles do not.
-        if "_" in text:
-            raise ValueError("an underscore in a number")
-        values = [float(v) for v in text.split()]
+        # XML's (and urdfdom's) doubles have no digit grouping ("1_0").
+        values = [read_number(v) for v in text.split()]
     except ValueError as exc:
         raise URDFError(f"{what}: cannot read numbers from {text!r}") from exc
     if len(values) != count or not all(math.isfinite(v) for v in values):

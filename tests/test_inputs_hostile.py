@@ -274,3 +274,25 @@ def test_an_argument_error_shows_an_array_on_one_line() -> None:
     assert message.endswith("(ndarray)")
     spaced = ArgumentError("name", "two  spaces", "a number")  # a string's spaces are kept
     assert str(spaced) == "name: expected a number, got 'two  spaces' (str)"
+
+
+def test_digit_grouping_is_no_number_in_files_or_options(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Python reads "1_0" as 10: a typo in a path file was a waypoint ten times farther,
+    and in an option ten times the value meant."""
+    csv = tmp_path / "path.csv"
+    csv.write_text("x,y,z\n0.5,0.1,0.3\n1_0,0.1,0.5\n", encoding="utf-8")
+    with pytest.raises(PathFileError, match=r"line 3: an underscore in the number '1_0'"):
+        read_path(csv)
+    code, err = run_cli(["plan", "puma560", "--path", str(csv), "--out", str(tmp_path / "p")])
+    assert code == 2 and "an underscore" in err
+    for argv, expected in [
+        (["map", "puma560", "--voxel", "0_3"], "--voxel: expected a finite number > 0, got '0_3'"),
+        (["batch", "ur5", "t.npy", "--chunk", "1_0"], "--chunk: expected an integer >= 1"),
+        (["batch", "ur5", "t.npy", "--workers", "-1"], "--workers: expected an integer >= 1"),
+    ]:  # fmt: skip
+        with pytest.raises(SystemExit) as exited:
+            main([*argv, "--out", str(tmp_path / "out")])
+        assert exited.value.code == 2
+        assert expected in capsys.readouterr().err

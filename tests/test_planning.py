@@ -56,7 +56,7 @@ def test_a_step_that_must_be_flagged_is_no_licence_to_switch_branch() -> None:
     dq = np.array([-0.01126, -0.03115, -0.03667, 0.02772, 0.00072, 0.01396])
     Q = q0 + np.arange(20)[:, None] * dq
     Q[10:, 0] += 0.25
-    assert np.all((Q >= robot.lower) & (Q <= robot.upper))  # the source path is a choice
+    assert np.all((robot.lower <= Q) & (robot.upper >= Q))  # the source path is a choice
     plan = plan_path(robot, robot.fk(Q), max_joint_step=0.2, q_start=Q[0])
     assert plan.summary()["discontinuity"] == 1 and plan.status[10] == "discontinuity"
     steps = np.max(np.abs(np.diff(plan.q, axis=0)), axis=1)

@@ -355,3 +355,25 @@ def test_a_file_name_too_long_for_the_system_is_an_error_naming_it(
     with pytest.raises(OutputFileError, match="a" * 300):
         plan.save(target)
     assert list(tmp_path.iterdir()) == []
+
+
+def test_toppra_retries_print_nothing_and_leave_its_logger_as_it_was(
+    puma: Robot, capfd: pytest.CaptureFixture[str]
+) -> None:
+    """A segment 1e-8 rad long: TOPP-RA's retry warnings filled stderr (198 lines), and
+    each call added one more console handler to toppra's logger."""
+    import logging
+
+    import toppra  # its import adds its own (null) handler
+
+    from optik.planning import plan_path
+
+    logger = logging.getLogger(toppra.__name__)
+    handlers, level = list(logger.handlers), logger.level
+    q = np.array([-0.333, 3.713, -1.5713, 0.1582, 0.4196, 4.597])
+    plan = plan_path(puma, np.array([puma.fk(q), puma.fk(q + 1e-8)]), q_start=q)
+    for _ in range(2):
+        trajectory = plan.to_trajectory(1.0, 1.0, robot=puma)
+        assert trajectory.duration > 0.0
+    assert capfd.readouterr().err == ""
+    assert logger.handlers == handlers and logger.level == level

@@ -17,7 +17,7 @@ from typing import Any, NoReturn
 
 import numpy as np
 
-from optik._checks import MAX_LENGTH_M, FloatArray, not_a_file
+from optik._checks import MAX_LENGTH_M, FloatArray, not_a_file, read_number
 from optik.compare.config import MAX_SEED, MAX_TARGETS
 from optik.diffik import clip_into_limits
 from optik.errors import OptikError
@@ -66,7 +66,7 @@ class Parser(argparse.ArgumentParser):
 # ---------------------------------------------------------------------------- numbers
 def _number(text: str, kind: type, check: Any, what: str) -> Any:
     try:
-        value = kind(text)
+        value = read_number(text, kind)
     except (ValueError, OverflowError):
         raise argparse.ArgumentTypeError(f"expected {what}, got {text!r:.40}") from None
     # An int is always finite (and math.isfinite of a huge int would overflow).
@@ -96,11 +96,8 @@ def non_negative_int(text: str) -> int:
 
 
 def positive_int(text: str) -> int:
-    """An argparse type: an integer >= 1."""
-    value = non_negative_int(text)
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {text!r:.40}")
-    return value
+    """An argparse type: an integer >= 1 (a bad value is told so, -3 and 0 alike)."""
+    return int(_number(text, int, lambda v: v >= 1, "an integer >= 1"))
 
 
 def length_float(text: str) -> float:
