@@ -55,9 +55,19 @@ def read_urdf_tree(source: str | Path) -> UrdfTree:
 
     Raises:
         URDFError: unreadable, non-UTF-8 or malformed file, a link with two parents, a
-            self-loop or a cycle.
+            self-loop or a cycle; the message names the file.
     """
-    root = _read_root(Path(source))
+    try:
+        return _tree(Path(source))
+    except URDFError as exc:
+        if str(source) in str(exc):  # the read errors name it already
+            raise
+        raise URDFError(f"{source}: {exc}") from None
+
+
+def _tree(source: Path) -> UrdfTree:
+    """:func:`read_urdf_tree` of a file, its errors not yet naming it."""
+    root = _read_root(source)
     links = tuple(str(el.get("name")) for el in root.findall("link"))
     by_child = _parent_joints(root)
     parent_of = {child: str(j.find("parent").get("link")) for child, j in by_child.items()}  # type: ignore[union-attr]

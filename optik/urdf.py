@@ -303,6 +303,21 @@ def _chain(
                     f"joint {jname!r}: prismatic range [{lower:g}, {upper:g}] m goes beyond "
                     f"{MAX_LENGTH_M:g} m"
                 )
+            # Checked here rather than by the robot, so that the message names the file
+            # and the element, and says what a URDF can do about it.
+            if lower > upper:
+                free = ' (a joint without limits is type="continuous")'
+                hint = free if jtype == "revolute" else ""
+                raise URDFError(
+                    f"joint {jname!r}: <limit lower={lower:g} upper={upper:g}>: lower is above "
+                    f"upper{hint}"
+                )
+            if jtype == "revolute" and max(abs(lower), abs(upper)) > MAX_LENGTH_M:
+                raise URDFError(
+                    f"joint {jname!r}: <limit lower={lower:g} upper={upper:g}>: a revolute "
+                    f'range must lie within +-{MAX_LENGTH_M:g} rad (type="continuous" for '
+                    "a joint without limits)"
+                )
         before = pending @ origin @ align
         limit = joint.find("limit")
         velocity = None if limit is None else _velocity(limit.get("velocity"), jname)

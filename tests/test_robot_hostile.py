@@ -18,7 +18,7 @@ from scipy.spatial.transform import Rotation
 import optik
 from optik import Mimic, OptikError
 from optik.chain import ChainLink
-from optik.errors import ModelError
+from optik.errors import ModelError, URDFError
 from optik.robot_text import read_urdf_tree
 
 TWO_LINK = """<robot name="r"><link name="a"/><link name="b"/><link name="c"/>
@@ -198,3 +198,25 @@ def test_listing_the_chains_of_a_comb_is_linear(tmp_path: Path) -> None:
     large_tree = read_urdf_tree(large)
     assert len(large_tree.chains) == 4801
     assert max(chain.joints for chain in large_tree.chains) == 4800
+
+
+def test_the_tree_reader_names_the_file_of_a_bad_tree(tmp_path: Path) -> None:
+    """`optik robot FILE` read the tree without the file in its errors (loading a chain of
+    the same file named it)."""
+    joint = (
+        "<joint name='{0}' type='revolute'><parent link='{1}'/><child link='{2}'/>"
+        "<axis xyz='0 0 1'/><limit lower='-2' upper='2'/></joint>"
+    )
+    two_parents = tmp_path / "two_parents.urdf"
+    two_parents.write_text(
+        "<robot name='r'><link name='base'/><link name='l1'/><link name='l2'/>"
+        + joint.format("a", "base", "l1")
+        + joint.format("b", "l1", "l2")
+        + joint.format("c", "base", "l2")
+        + "</robot>",
+        encoding="utf-8",
+    )
+    with pytest.raises(URDFError, match=rf"^{two_parents}: link 'l2' has two parent joints"):
+        read_urdf_tree(two_parents)
+    code, err = run_cli(["robot", str(two_parents)])
+    assert code == 2 and err.startswith(f"optik: error: {two_parents}: link 'l2'")

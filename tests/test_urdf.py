@@ -281,10 +281,33 @@ def test_bad_numbers_rejected() -> None:
         Robot.from_urdf(source, "a", "c")
 
 
-def test_lower_above_upper_in_urdf() -> None:
+def test_lower_above_upper_in_urdf(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Checked by the robot, the error named neither the file nor <limit>, suggested
+    infinite limits (a URDF's reader refuses them), and `optik robot FILE` failed
+    instead of listing the chain with the reason."""
     source = _urdf("revolute", limit='lower="1" upper="-1"')
-    with pytest.raises(ModelError, match=r"'second'.*lower > upper"):
+    with pytest.raises(
+        URDFError,
+        match=r"'second': <limit lower=1 upper=-1>: lower is above upper "
+        r"\(a joint without limits is type=\"continuous\"\)",
+    ):
         Robot.from_urdf(source, "a", "c")
+    path = tmp_path / "arm.urdf"
+    path.write_text(_urdf("prismatic", limit='lower="1" upper="-1"'), encoding="utf-8")
+    with pytest.raises(
+        URDFError,
+        match=rf"^{path}: joint 'second': <limit lower=1 upper=-1>: lower is above upper$",
+    ):
+        Robot.from_urdf(path, "a", "c")
+    path.write_text(_urdf("revolute", limit='lower="-1e16" upper="1e16"'), encoding="utf-8")
+    with pytest.raises(
+        URDFError, match=rf"^{path}: .*a revolute range must lie within \+-1e\+09 rad"
+    ):
+        Robot.from_urdf(path, "a", "c")
+    from optik.cli import main
+
+    assert main(["robot", str(path)]) == 0
+    assert "cannot be loaded" in capsys.readouterr().out
 
 
 def test_not_xml_and_wrong_root(tmp_path: Path) -> None:
