@@ -46,14 +46,18 @@ _NUMERIC_KINDS = "fiu"
 def read_number(text: str, kind: type = float) -> Any:
     """``float(text)`` (or ``int``) of a file's or command line's number, Python's own syntax out.
 
-    Python reads ``"1_0"`` as 10 (digit grouping in code); in a path file, a URDF or an
-    option it is a typo, not a number ten times larger.
+    Python reads ``"1_0"`` as 10 (digit grouping in code), and the digits of every script
+    (``"٠.٥"``, ``"０.２"``); in a path file, a URDF (urdfdom reads neither) or an option
+    they are typos or a locale's digits, not plain decimal numbers.
 
     Raises:
-        ValueError: an underscore in ``text``, or what ``kind(text)`` raises.
+        ValueError: an underscore or a character beyond ASCII in ``text``, or what
+            ``kind(text)`` raises.
     """
     if "_" in text:
         raise ValueError(f"an underscore in the number {text!r}")
+    if not text.isascii():
+        raise ValueError(f"not a plain decimal number: {text!r}")
     return kind(text)
 
 

@@ -287,6 +287,9 @@ def test_digit_grouping_is_no_number_in_files_or_options(
         read_path(csv)
     code, err = run_cli(["plan", "puma560", "--path", str(csv), "--out", str(tmp_path / "p")])
     assert code == 2 and "an underscore" in err
+    csv.write_text("x,y,z\n0.5,0.1,0.3\n\uff10.2,0.1,0.5\n", encoding="utf-8")
+    with pytest.raises(PathFileError, match=r"line 3: not a plain decimal number"):
+        read_path(csv)  # a full-width digit: float() reads it
     for argv, expected in [
         (["map", "puma560", "--voxel", "0_3"], "--voxel: expected a finite number > 0, got '0_3'"),
         (["batch", "ur5", "t.npy", "--chunk", "1_0"], "--chunk: expected an integer >= 1"),
