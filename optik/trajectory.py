@@ -627,11 +627,12 @@ def plan_trajectory(
         A :class:`Trajectory`; a plan without a solved waypoint gives one without segments.
 
     Raises:
-        OptikError: no limits given or known, limits of the wrong length or not finite
-            and positive, ``dt``, ``grid`` or ``path_tolerance`` out of range, a robot
-            whose joints do not match the plan, a departure beyond ``path_tolerance``
-            (plan with a finer path step, or loosen it), or more than
-            :data:`MAX_TRAJECTORY_SAMPLES` samples (raise ``dt`` or the limits).
+        OptikError: an infinite joint value in ``plan.q``; no limits given or known,
+            limits of the wrong length or not finite and positive, ``dt``, ``grid`` or
+            ``path_tolerance`` out of range, a robot whose joints do not match the plan,
+            a departure beyond ``path_tolerance`` (plan with a finer path step, or loosen
+            it), or more than :data:`MAX_TRAJECTORY_SAMPLES` samples (raise ``dt`` or the
+            limits).
     """
     # What is read of a plan (optik.planning imports this module: no isinstance here).
     if not all(hasattr(plan, name) for name in ("q", "status", "joint_names", "poses", "mode")):
@@ -641,6 +642,11 @@ def plan_trajectory(
     dt = check_real("dt", dt, positive=True)
     grid = check_int("grid", grid, minimum=1, maximum=MAX_GRID)
     dof = plan.q.shape[1]
+    with np.errstate(invalid="ignore"):
+        infinite = np.argwhere(np.isinf(plan.q))
+    if len(infinite):  # NaN rows are unsolved waypoints; an infinity is no joint value
+        k, j = infinite[0]
+        raise OptikError(f"plan: q[{k}, {j}] is {plan.q[k, j]} (a solved waypoint's joint value)")
     names = plan.joint_names or tuple(f"q{i + 1}" for i in range(dof))
     if robot is not None:
         from optik.model import Robot

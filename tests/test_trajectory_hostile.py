@@ -377,3 +377,20 @@ def test_toppra_retries_print_nothing_and_leave_its_logger_as_it_was(
         assert trajectory.duration > 0.0
     assert capfd.readouterr().err == ""
     assert logger.handlers == handlers and logger.level == level
+
+
+def test_an_infinite_joint_value_in_a_plan_is_an_error(puma: Robot) -> None:
+    """NaN marks an unsolved waypoint; an infinity (a hand-edited plan) merged every
+    waypoint into the first: a 0 s "hold" trajectory, without a word."""
+    from optik.paths import line
+    from optik.planning import plan_path
+
+    q = np.array([-0.333, 3.713, -1.5713, 0.1582, 0.4196, 4.597])
+    target = puma.fk(np.array([-0.7299, 3.927, -1.5419, 1.3596, 0.5327, 4.2171]))
+    plan = plan_path(puma, line(puma.fk(q), target, 0.01), max_joint_step=0.2, q_start=q)
+    plan.q[5, 2] = np.inf
+    with pytest.raises(OptikError, match=r"plan: q\[5, 2\] is inf"):
+        plan.to_trajectory(1.0, 1.0)
+    plan.q[5, 2] = np.nan  # unsolved: the trajectory splits there
+    segments = plan.to_trajectory(1.0, 1.0).segments
+    assert [(s.first, s.last) for s in segments] == [(0, 4), (6, len(plan.q) - 1)]
