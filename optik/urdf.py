@@ -262,6 +262,11 @@ def _chain(
     for joint in path:
         jname = str(joint.get("name"))
         jtype = str(joint.get("type"))
+        for end in ("parent", "child"):
+            # As urdfdom: a joint's links are declared (the base and tip are, above).
+            named = joint.find(end).get("link")  # type: ignore[union-attr]
+            if named not in links:
+                raise URDFError(f"joint {jname!r}: {end} link {named!r} is not declared")
         if jtype in _REJECTED:
             raise URDFError(f"joint {jname!r}: {jtype} joints are not supported in a chain")
         if joint.find("mimic") is not None:

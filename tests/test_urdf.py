@@ -220,6 +220,15 @@ def test_mimic_joint_rejected() -> None:
         Robot.from_urdf(source, "a", "c")
 
 
+def test_an_undeclared_link_in_the_chain_is_refused() -> None:
+    """urdfdom refuses a joint whose link has no <link> element; such a link was taken
+    in the middle of a chain (and refused as base or tip only)."""
+    source = _urdf("revolute").replace('<link name="b"/>', "")
+    with pytest.raises(URDFError, match=r"joint 'first': child link 'b' is not declared"):
+        Robot.from_urdf(source, "a", "c")
+    assert Robot.from_urdf(_urdf("revolute"), "a", "c").dof == 2
+
+
 def test_floating_joint_rejected() -> None:
     with pytest.raises(URDFError, match=r"'second'.*floating"):
         Robot.from_urdf(_urdf("floating", limit=None), "a", "c")
