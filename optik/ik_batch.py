@@ -36,7 +36,7 @@ from optik.analytic import (
     family_solves,
     wrap_into_limits,
 )
-from optik.analytic.roll import ROLL_GRID, rolled_poses, solves_axis_task
+from optik.analytic.roll import ROLL_GRID, roll_grid, rolled_poses, solves_axis_task
 from optik.diffik import clip_into_limits
 from optik.errors import ArgumentError, OptikError, ShapeError
 from optik.limits import LIMIT_TOLERANCE, into_box, limit_violation
@@ -234,8 +234,7 @@ def _roll_grid_rows(
     """
     M, dof = len(poses), robot.dof
     out = np.full((M, dof), math.nan)
-    rolls = -math.pi + (2.0 * math.pi / ROLL_GRID) * np.arange(ROLL_GRID, dtype=np.float64)
-    turns = rolled_poses(np.eye(4), axis, rolls)
+    turns = rolled_poses(np.eye(4), axis, roll_grid())
     per_call = max(1, BATCH_SLICE // ROLL_GRID)
     for lo in range(0, M, per_call):
         hi = min(lo + per_call, M)

@@ -642,8 +642,7 @@ def plan_trajectory(
     dt = check_real("dt", dt, positive=True)
     grid = check_int("grid", grid, minimum=1, maximum=MAX_GRID)
     dof = plan.q.shape[1]
-    with np.errstate(invalid="ignore"):
-        infinite = np.argwhere(np.isinf(plan.q))
+    infinite = np.argwhere(np.isinf(plan.q))
     if len(infinite):  # NaN rows are unsolved waypoints; an infinity is no joint value
         k, j = infinite[0]
         raise OptikError(f"plan: q[{k}, {j}] is {plan.q[k, j]} (a solved waypoint's joint value)")

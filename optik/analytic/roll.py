@@ -92,6 +92,11 @@ def solves_axis_task(family: AnalyticFamily, task: Task) -> bool:
     return task.mode == "axis" and task.constrains_position and "pose" in family.modes
 
 
+def roll_grid(grid: int = ROLL_GRID) -> FloatArray:
+    """(grid,) the rolls sampled over [-π, π): ``-π + 2π k / grid`` (rad)."""
+    return -math.pi + (2.0 * math.pi / grid) * np.arange(grid, dtype=np.float64)
+
+
 def rolled_poses(T_target: FloatArray, axis: int, rolls: FloatArray) -> FloatArray:
     """(N, 4, 4) the poses ``T_target · Rot_axis(θ)`` for the rolls θ (N,) (rad).
 
@@ -353,7 +358,7 @@ def axis_branches(
     roll = _Roll(robot, T_target, axis, lower, upper)
     dof = robot.dof
     h = 2.0 * math.pi / grid
-    rolls = -math.pi + h * np.arange(grid, dtype=np.float64)
+    rolls = roll_grid(grid)
     refs = np.asarray(q_refs, dtype=float).reshape(-1, dof)
     S = len(refs)
     # With one reference, a joint left free at a singular roll (an aligned wrist's turn)
@@ -430,7 +435,7 @@ def grid_branches(
         AnalyticIKError: the robot has no closed-form family that solves full poses.
     """
     dof = robot.dof
-    rolls = -math.pi + (2.0 * math.pi / grid) * np.arange(grid, dtype=np.float64)
+    rolls = roll_grid(grid)
     poses = rolled_poses(T_target, axis, rolls)
     ref = np.broadcast_to(np.asarray(q_ref, dtype=float).reshape(dof), (grid, dof))
     # The compiled pipeline wraps every branch into the limits nearest the reference.
