@@ -9,8 +9,10 @@ CPU, Python and numba release only, so such a wheel is tagged for this Python an
 platform; elsewhere numba ignores them and compiles on first use, as without them.
 
 Skipped for editable installs (the kernels are then compiled on first use and cached in
-the source tree) and when ``OPTIK_WARMUP=0``; a warm-up that fails leaves a working wheel
-without compiled kernels, and says so.
+the source tree) and when ``OPTIK_WARMUP`` is ``0`` (or ``false``, ``no``, ``off``). A
+warm-up that refuses its settings (``OPTIK_WARMUP_GROUPS`` naming no group) stops the
+build with its message; one that fails otherwise leaves a working wheel without compiled
+kernels, and says so in pip's verbose output (``pip install -v``).
 """
 
 from __future__ import annotations
@@ -36,6 +38,10 @@ def _sources_digest(package: Path) -> str:
     return digest.hexdigest()
 
 
+_OFF = ("0", "false", "no", "off")
+"""Values of ``OPTIK_WARMUP`` that build a wheel without compiled kernels."""
+
+
 class WarmKernelsHook(BuildHookInterface):  # type: ignore[misc]
     """Fill numba's cache for the wheel (``optik._warmup``), then ship it."""
 
@@ -45,8 +51,8 @@ class WarmKernelsHook(BuildHookInterface):  # type: ignore[misc]
         """Warm the kernels into a staging folder and add its files to the wheel."""
         if self.target_name != "wheel" or version == "editable":
             return
-        if os.environ.get("OPTIK_WARMUP", "1") == "0":
-            self.app.display_info("OPTIK_WARMUP=0: the wheel ships no compiled kernels")
+        if os.environ.get("OPTIK_WARMUP", "1").strip().lower() in _OFF:
+            self.app.display_info("OPTIK_WARMUP is off: the wheel ships no compiled kernels")
             return
         self._staging = Path(tempfile.mkdtemp(prefix="optik-wheel-kernels-"))
         env = dict(os.environ)
@@ -62,6 +68,11 @@ class WarmKernelsHook(BuildHookInterface):  # type: ignore[misc]
                 "the wheel ships none (they will compile on first use)"
             )
             return
+        if done.returncode == 2:
+            # A setting to correct ($OPTIK_WARMUP_GROUPS, an unwritable folder): the build
+            # stops and says so (pip shows a hook's warnings only with -v).
+            refusal = done.stderr.strip()
+            raise RuntimeError(f"optik's kernel warm-up refused its settings: {refusal}")
         if done.returncode != 0:
             self.app.display_warning(
                 "optik's kernels were not compiled into the wheel (they will compile on "

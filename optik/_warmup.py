@@ -24,18 +24,23 @@ import argparse
 import os
 import pickle
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
+import threading
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from numba.core import caching
+from numba.misc.appdirs import AppDirs
 
 from optik._files import write_atomic
+from optik.errors import OptikError
 
 PACKAGE = Path(__file__).resolve().parent
 
@@ -47,7 +52,9 @@ __all__ = [
     "OPTIONAL",
     "WarmReport",
     "axes_arm_robot",
+    "groups_from_environment",
     "merge_caches",
+    "parse_groups",
     "plan_stages",
     "rrp_wrist_robot",
     "run_groups",
@@ -293,6 +300,10 @@ FIRST: tuple[tuple[str, ...], ...] = (
 LAST: tuple[tuple[str, ...], ...] = (("report",), ("closed_form_batches",))
 
 
+#: Environment variable naming the groups to warm (comma-separated; default: all).
+GROUPS_ENV = "OPTIK_WARMUP_GROUPS"
+
+
 def _check_groups(names: Sequence[str]) -> Sequence[str]:
     """``names``, if every one names a group (:data:`GROUPS`, :data:`OPTIONAL`).
 
@@ -304,6 +315,38 @@ def _check_groups(names: Sequence[str]) -> Sequence[str]:
     if unknown:
         raise ValueError(f"unknown warm-up groups {unknown}; known: {sorted(known)}")
     return names
+
+
+def parse_groups(text: str, source: str) -> list[str]:
+    """The group names of a comma-separated ``text`` (spaces around a name ignored).
+
+    Args:
+        text: e.g. ``"closed_forms, held_joint"``.
+        source: where ``text`` came from, for the message (``"--groups"``).
+
+    Raises:
+        OptikError: no name, or a name that is no group (the known ones listed).
+    """
+    names = [name.strip() for name in text.split(",")]
+    names = [name for name in names if name]
+    if not names:
+        # Not the default (every group): an empty list would compile nothing and succeed.
+        raise OptikError(f"{source}: no group named in {text!r}")
+    known = sorted({*GROUPS, *OPTIONAL})
+    unknown = [name for name in names if name not in known]
+    if unknown:
+        raise OptikError(f"{source}: unknown warm-up groups {unknown}; known: {known}")
+    return names
+
+
+def groups_from_environment() -> list[str] | None:
+    """The groups named in ``$OPTIK_WARMUP_GROUPS``; None when it is unset or blank.
+
+    Raises:
+        OptikError: it names no group or an unknown one (:func:`parse_groups`).
+    """
+    text = os.environ.get(GROUPS_ENV, "")
+    return parse_groups(text, f"${GROUPS_ENV}") if text.strip() else None
 
 
 def run_groups(names: Sequence[str]) -> None:
@@ -421,10 +464,6 @@ def _count_entries(cache: Path) -> int:
     return sum(len(_read_index(index)[2]) for index in cache.rglob("*.nbi"))
 
 
-#: Environment variable naming the groups to warm (comma-separated; default: all).
-GROUPS_ENV = "OPTIK_WARMUP_GROUPS"
-
-
 def plan_stages(processes: int, groups: Sequence[str] | None = None) -> list[list[tuple[str, ...]]]:
     """The workers' groups, stage by stage, for ``processes`` workers side by side.
 
@@ -468,28 +507,115 @@ def _run_stage(
     env: dict[str, str],
     log: Callable[[str], None] | None,
     start: float,
+    scratch: Path,
 ) -> None:
-    """Run each worker of ``stage`` in a process of its own, side by side, and wait."""
+    """Run each worker of ``stage`` in a process of its own, side by side, and wait.
+
+    Each worker's output goes to a file in ``scratch`` (a pipe read only at the end
+    could fill and stall it) and each is logged when it ends. Workers still running when
+    this returns (an error, an interrupt, a termination) are stopped: none compiles on
+    into a scratch folder that is gone.
+    """
     workers = []
-    for cache, names in zip(caches, stage, strict=True):
-        command = [sys.executable, "-m", "optik._warmup", "--run", ",".join(names)]
-        workers.append(
-            subprocess.Popen(
-                command,
-                env={**env, "NUMBA_CACHE_DIR": str(cache)},
-                stdout=subprocess.PIPE,
-                stderr=subprocess.STDOUT,
+    try:
+        for k, (cache, names) in enumerate(zip(caches, stage, strict=True)):
+            command = [sys.executable, "-m", "optik._warmup", "--run", ",".join(names)]
+            with tempfile.NamedTemporaryFile(
+                dir=scratch, prefix=f"worker{k}-", suffix=".log", delete=False
+            ) as handle:
+                process = subprocess.Popen(
+                    command,
+                    env={**env, "NUMBA_CACHE_DIR": str(cache)},
+                    stdout=handle,
+                    stderr=subprocess.STDOUT,
+                )
+            workers.append((process, names, Path(handle.name)))
+        failures = []
+        running = list(workers)
+        while running:
+            time.sleep(_POLL_S)
+            for worker in [w for w in running if w[0].poll() is not None]:
+                running.remove(worker)
+                process, names, output = worker
+                if process.returncode != 0:
+                    text = output.read_text(errors="replace")[-2000:]
+                    failures.append(f"{','.join(names)}: {text}")
+                elif log is not None:
+                    log(f"compiled {', '.join(names)} ({time.perf_counter() - start:.0f} s)")
+        if failures:
+            raise RuntimeError("kernel warm-up failed:\n" + "\n".join(failures))
+    finally:
+        for process, _, _ in workers:
+            if process.poll() is None:
+                process.terminate()
+        for process, _, _ in workers:
+            try:
+                process.wait(timeout=_STOP_S)
+            except subprocess.TimeoutExpired:
+                process.kill()
+                process.wait()
+
+
+_POLL_S = 0.1
+"""How often (s) :func:`_run_stage` looks for workers that ended."""
+_STOP_S = 5.0
+"""How long (s) a terminated worker may take to end before it is killed."""
+
+
+@contextmanager
+def _termination_as_exit() -> Iterator[None]:
+    """Inside: SIGTERM raises ``SystemExit(143)`` (in the main thread).
+
+    The ``finally`` clauses then stop the workers and remove the scratch folder; Python's
+    own handling ends the process at once, leaving both behind.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def _exit(signum: int, frame: Any) -> None:
+        raise SystemExit(128 + signum)
+
+    previous = signal.signal(signal.SIGTERM, _exit)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+def _writable(package: Path) -> bool:
+    """Whether numba can keep kernels beside ``package``'s sources (its ``__pycache__``)."""
+    cache = package / "__pycache__"
+    try:
+        cache.mkdir(exist_ok=True)
+        with tempfile.NamedTemporaryFile(dir=cache, prefix=".optik-probe-"):
+            return True
+    except OSError:
+        return False
+
+
+def _check_destination(folders: Sequence[Path], user_cache: bool) -> None:
+    """Refuse, before compiling, a destination whose ``folders`` cannot be written.
+
+    Raises:
+        OptikError: a folder that cannot be made or written (with the reason).
+    """
+    for folder in folders:
+        try:
+            folder.mkdir(parents=True, exist_ok=True)
+            with tempfile.NamedTemporaryFile(dir=folder, prefix=".optik-probe-"):
+                pass
+        except OSError as exc:
+            remedy = (
+                "set NUMBA_CACHE_DIR to a folder you can write"
+                if user_cache
+                else "set NUMBA_CACHE_DIR to a folder you can write (numba then reads the "
+                "kernels from there)"
             )
-        )
-    failures = []
-    for worker, names in zip(workers, stage, strict=True):
-        output, _ = worker.communicate()
-        if worker.returncode != 0:
-            failures.append(f"{','.join(names)}: {output.decode(errors='replace')[-2000:]}")
-        elif log is not None:
-            log(f"compiled {', '.join(names)} ({time.perf_counter() - start:.0f} s)")
-    if failures:
-        raise RuntimeError("kernel warm-up failed:\n" + "\n".join(failures))
+            in_the_way = isinstance(exc, FileExistsError | NotADirectoryError)
+            reason = "a file is in the way" if in_the_way else exc.strerror or str(exc)
+            message = f"cannot write the kernels into {folder}: {reason}; {remedy}"
+            raise OptikError(message) from None
 
 
 def warm(
@@ -511,7 +637,8 @@ def warm(
         destination: the folder that holds the ``optik`` package whose ``__pycache__``
             folders receive the kernels (default: where the processes of this
             environment look: ``NUMBA_CACHE_DIR`` when it is set, else the package's own
-            ``__pycache__`` folders).
+            ``__pycache__`` folders, or numba's cache of this user, ``~/.cache/numba``,
+            when those cannot be written, since numba then reads and writes there).
         processes: worker processes side by side (default 2).
         groups: the groups of :data:`GROUPS` and :data:`OPTIONAL` to run (default:
             those named in ``$OPTIK_WARMUP_GROUPS``, comma-separated, else every one of
@@ -523,18 +650,32 @@ def warm(
         A :class:`WarmReport`.
 
     Raises:
+        OptikError: ``$OPTIK_WARMUP_GROUPS`` names no group or an unknown one; the
+            destination cannot be written (checked before anything compiles).
         RuntimeError: a worker failed (its output is in the message).
     """
     if groups is None:
-        groups = [name for name in os.environ.get(GROUPS_ENV, "").split(",") if name] or None
+        groups = groups_from_environment()
     stages = plan_stages(int(processes), groups)
     user_cache = os.environ.get("NUMBA_CACHE_DIR") if destination is None else None
+    if destination is None and not user_cache and not _writable(package):
+        # Where numba keeps this user's kernels of a package it cannot write beside.
+        user_cache = AppDirs(appname="numba", appauthor=False).user_cache_dir
     if destination is None:
         destination = Path(user_cache) if user_cache else package.parent
+    if user_cache:
+        _check_destination([destination], True)
+    else:
+        folders = _package_folders(package)
+        _check_destination(
+            [destination / f.relative_to(package.parent) / "__pycache__" for f in folders], False
+        )
     start = time.perf_counter()
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(package.parent), env.get("PYTHONPATH")]))
-    with tempfile.TemporaryDirectory(prefix="optik-warmup-") as scratch:
+    with _termination_as_exit(), tempfile.TemporaryDirectory(prefix="optik-warmup-") as scratch:
+        logs = Path(scratch) / "logs"
+        logs.mkdir()
         combined = Path(scratch) / "combined"
         for k, stage in enumerate(stages):
             if len(stage) == 1:  # a lone worker writes the combined cache itself
@@ -544,7 +685,7 @@ def warm(
                 for cache in caches:
                     if combined.exists():
                         shutil.copytree(combined, cache)
-            _run_stage(stage, caches, env, log, start)
+            _run_stage(stage, caches, env, log, start, logs)
             separate = [cache for cache in caches if cache != combined]
             if separate:
                 merge_caches(separate, package, combined, cache_dir=True)
@@ -563,7 +704,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.run:
         run_groups(args.run.split(","))
         return 0
-    report = warm(args.destination, processes=args.processes, log=print)
+    try:
+        report = warm(args.destination, processes=args.processes, log=print)
+    except OptikError as exc:
+        # A setting to correct (exit 2), told apart from a failed compilation.
+        print(f"python -m optik._warmup: error: {exc}", file=sys.stderr)
+        return 2
     print(f"{report.compiled} kernels compiled, {report.kernels} merged, in {report.seconds:.0f} s")
     return 0
 

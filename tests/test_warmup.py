@@ -15,22 +15,29 @@ import subprocess
 import sys
 import textwrap
 from pathlib import Path
+from typing import Any
 
 import pytest
 
 from optik._warmup import (
     FIRST,
     GROUPS,
+    GROUPS_ENV,
     LAST,
     OPTIONAL,
     WarmReport,
     _count_entries,
+    groups_from_environment,
     merge_caches,
+    parse_groups,
     plan_stages,
     run_groups,
 )
 from optik.cli import main
+from optik.errors import OptikError
 from optik.problems import load_problem
+
+CHECKOUT = Path(__file__).resolve().parent.parent
 
 TOY = textwrap.dedent(
     """
@@ -291,3 +298,178 @@ def test_the_command_refuses_groups_that_name_none(
     # "--groups ," compiled nothing and reported success.
     assert main(["warmup", "--groups", given]) == 2
     assert "--groups: no group named" in capsys.readouterr().err
+
+
+def test_group_names_may_have_spaces_and_must_name_known_groups() -> None:
+    assert parse_groups(" kinematics , rrp_wrist,", "--groups") == ["kinematics", "rrp_wrist"]
+    with pytest.raises(OptikError, match=r"^--groups: no group named in ' , '$"):
+        parse_groups(" , ", "--groups")
+    with pytest.raises(OptikError, match=r"^\$X: unknown warm-up groups \['junk'\]; known: \["):
+        parse_groups("kinematics,junk", "$X")
+
+
+@pytest.mark.parametrize(
+    ("value", "message"), [("junk", "unknown warm-up groups"), (",", "no group named")]
+)
+def test_a_bad_groups_variable_is_one_line_before_anything_compiles(
+    value: str,
+    message: str,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    # It was a 17-line traceback called an internal error (exit 3); "," compiled every group.
+    import optik._warmup
+
+    def no_stage(*args: object) -> None:
+        raise AssertionError("a worker started")
+
+    monkeypatch.setattr(optik._warmup, "_run_stage", no_stage)
+    monkeypatch.setenv(GROUPS_ENV, value)
+    assert main(["warmup"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"optik: error: ${GROUPS_ENV}: {message}") and err.count("\n") == 1
+    monkeypatch.setenv(GROUPS_ENV, "  ")  # blank: unset
+    assert groups_from_environment() is None
+
+
+def test_an_unwritable_cache_folder_is_refused_before_anything_compiles(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # It compiled every kernel first, then failed in the merge as an internal error.
+    import optik._warmup
+
+    def no_stage(*args: object) -> None:
+        raise AssertionError("a worker started")
+
+    monkeypatch.setattr(optik._warmup, "_run_stage", no_stage)
+    a_file = tmp_path / "cache"
+    a_file.write_text("x")
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(a_file))
+    assert main(["warmup", "--groups", "kinematics"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"optik: error: cannot write the kernels into {a_file}: ")
+    assert "NUMBA_CACHE_DIR" in err.splitlines()[0]
+
+
+def test_a_package_numba_cannot_write_beside_is_warmed_into_the_users_cache(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # numba reads a package's __pycache__ only where it can write it; elsewhere it keeps
+    # the user's kernels in ~/.cache/numba (XDG_CACHE_HOME): the warm-up fills that one.
+    import optik._warmup
+
+    merged: list[tuple[Path, bool]] = []
+
+    def merge(caches: object, package: Path, destination: Path, *, cache_dir: bool) -> int:
+        merged.append((destination, cache_dir))
+        return 0
+
+    monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    monkeypatch.setattr(optik._warmup, "_writable", lambda package: False)
+    monkeypatch.setattr(optik._warmup, "_run_stage", lambda *args: None)
+    monkeypatch.setattr(optik._warmup, "_count_entries", lambda cache: 0)
+    monkeypatch.setattr(optik._warmup, "merge_caches", merge)
+    optik._warmup.warm(processes=1, groups=["kinematics"])
+    assert merged[-1] == (tmp_path / "xdg" / "numba", True)
+    assert (tmp_path / "xdg" / "numba").is_dir()
+
+
+def _children(pid: int) -> list[int]:
+    """Processes whose parent is ``pid`` (Linux /proc)."""
+    found = []
+    for stat_file in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat_file.read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        if int(fields[1]) == pid:
+            found.append(int(stat_file.parent.name))
+    return found
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs Linux /proc")
+def test_a_terminated_warm_up_stops_its_workers_and_leaves_no_scratch(tmp_path: Path) -> None:
+    # SIGTERM to the command alone ended it at once; its workers compiled on for a minute
+    # and re-created the scratch folder that it had removed.
+    import signal
+    import time
+
+    env = {**os.environ, "TMPDIR": str(tmp_path), "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
+    command = [sys.executable, "-m", "optik", "warmup", "--groups", "kinematics,rrp_wrist"]
+    parent = subprocess.Popen(command, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    try:
+        deadline = time.monotonic() + 60.0
+        while len(workers := _children(parent.pid)) < 2:
+            assert parent.poll() is None and time.monotonic() < deadline
+            time.sleep(0.05)
+        parent.send_signal(signal.SIGTERM)
+        assert parent.wait(timeout=30.0) == 128 + signal.SIGTERM
+    finally:
+        if parent.poll() is None:
+            parent.kill()
+    for worker in workers:
+        assert (
+            not Path(f"/proc/{worker}").exists()
+            or "Z" in Path(f"/proc/{worker}/stat").read_text().rsplit(")", 1)[1].split()[0]
+        )
+    assert not list(tmp_path.glob("optik-warmup-*"))
+
+
+def test_without_a_writable_cache_place_kernels_compile_in_memory_with_a_warning(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # numba raised "no locator available" at the first kernel's definition: import optik
+    # failed for a service user without a home folder on a read-only install.
+    from numba.core import caching
+
+    from optik import _numba
+
+    assert _numba._can_cache()
+    monkeypatch.setattr(caching.CacheImpl, "_locator_classes", [])
+    with pytest.warns(_numba.KernelCacheWarning, match="Set NUMBA_CACHE_DIR"):
+        assert not _numba._can_cache()
+
+
+class _App:
+    """hatchling's Application, as the hook uses it."""
+
+    def __init__(self) -> None:
+        self.lines: list[str] = []
+
+    def display_info(self, text: str) -> None:
+        self.lines.append(text)
+
+    display_warning = display_info
+
+
+def _hook(tmp_path: Path, app: _App) -> Any:
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("hatch_build", CHECKOUT / "hatch_build.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module.WarmKernelsHook(str(CHECKOUT), {}, None, None, str(tmp_path), "wheel", app=app)
+
+
+@pytest.mark.parametrize("value", ["0", "false", "No", " off "])
+def test_the_build_ships_no_kernels_when_the_warm_up_is_off(
+    value: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("OPTIK_WARMUP", value)
+    app = _App()
+    build_data: dict[str, Any] = {"force_include": {}}
+    _hook(tmp_path, app).initialize("standard", build_data)
+    assert build_data == {"force_include": {}}
+    assert app.lines == ["OPTIK_WARMUP is off: the wheel ships no compiled kernels"]
+
+
+def test_the_build_stops_on_a_bad_groups_variable(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # The wheel was built without kernels and the warning showed only with pip -v.
+    monkeypatch.delenv("OPTIK_WARMUP", raising=False)
+    monkeypatch.setenv(GROUPS_ENV, "junk")
+    with pytest.raises(RuntimeError, match=r"refused its settings: .*unknown warm-up groups"):
+        _hook(tmp_path, _App()).initialize("standard", {"force_include": {}})

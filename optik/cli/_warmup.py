@@ -10,26 +10,14 @@ from optik.cli._common import EXIT_OK, command
 
 
 def _cmd_warmup(args: argparse.Namespace) -> int:
-    from optik._warmup import GROUPS, OPTIONAL, warm
+    from optik._warmup import parse_groups, warm
 
     processes = args.processes
     if processes < 1:
         from optik.errors import OptikError
 
         raise OptikError(f"--processes must be at least 1, got {processes}")
-    groups = [name for name in args.groups.split(",") if name] if args.groups else None
-    if args.groups is not None and not groups:
-        from optik.errors import OptikError
-
-        # Not the default (every group): an empty list would compile nothing and succeed.
-        raise OptikError(f"--groups: no group named in {args.groups!r}")
-    if groups is not None:
-        known = sorted({*GROUPS, *OPTIONAL})
-        unknown = [name for name in groups if name not in known]
-        if unknown:
-            from optik.errors import OptikError
-
-            raise OptikError(f"--groups: unknown warm-up groups {unknown}; known: {known}")
+    groups = parse_groups(args.groups, "--groups") if args.groups is not None else None
     report = warm(processes=processes, groups=groups, log=lambda line: print(line, file=sys.stderr))
     print(
         f"{report.compiled} kernels compiled in {report.seconds:.1f} s, "
