@@ -260,9 +260,12 @@ def solve_ik(
         max_iter: iterations per attempt, 1 to :data:`MAX_ITERATIONS` (default: the
             solver's own).
         timeout_s: wall-time budget (s) for all attempts; ``inf`` means no time limit
-            (the restart budget then stays :data:`DEFAULT_RESTARTS`). Time spent compiling
-            numba kernels (a first call in a fresh environment) is not counted;
-            ``IKResult.time_s`` is the wall time, compilation included.
+            (the restart budget then stays :data:`DEFAULT_RESTARTS`). One-time work is
+            not counted (:mod:`optik._clock`): compiling numba kernels (a first call in a
+            fresh environment), a robot's seed table, and a ``casadi:*`` solver's C code,
+            compiled once per robot and task shape and cached on disk (seconds for an
+            arm, about 15-60 s for a chain of 60 joints); ``IKResult.time_s`` is the wall
+            time, all of it included.
         restarts: attempts after the first (default: :data:`DEFAULT_RESTARTS`, or
             :data:`~optik._ik_options.FROZEN_RESTARTS` with frozen joints, without a
             finite timeout, unlimited within one).

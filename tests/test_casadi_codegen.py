@@ -103,6 +103,60 @@ def test_a_failing_compiler_falls_back(tmp_path: Path, monkeypatch: pytest.Monke
     assert not list((tmp_path / "casadi").glob("*"))
 
 
+def test_a_compile_that_overruns_is_stopped_with_the_processes_it_started(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # The timeout stopped the driver (cc) alone: its cc1 compiled on as an orphan.
+    import subprocess
+    import time
+
+    from optik.programs import nlp_codegen
+
+    pid_file = tmp_path / "child.pid"
+    compiler = tmp_path / "slow-cc"
+    compiler.write_text(f"#!/bin/sh\nsleep 60 &\necho $! > {pid_file}\nwait\n")
+    compiler.chmod(0o755)
+    monkeypatch.setattr(nlp_codegen, "COMPILE_TIMEOUT_S", 1.0)
+    source = tmp_path / "x.c"
+    source.write_text("int x;\n")
+    target = tmp_path / "lib" / "x.so"
+    with pytest.raises(subprocess.TimeoutExpired):
+        nlp_codegen._compile(source, target, str(compiler), ())
+    child = Path(f"/proc/{int(pid_file.read_text())}/stat")
+
+    def running() -> bool:  # a zombie waits for a reaper; it runs no more
+        try:
+            return child.read_text().rsplit(")", 1)[1].split()[0] != "Z"
+        except OSError:
+            return False
+
+    deadline = time.monotonic() + 5.0
+    while running():  # SIGKILL is delivered at once, the state follows
+        assert time.monotonic() < deadline, "the compiler's child still runs"
+        time.sleep(0.05)
+    assert not list((tmp_path / "lib").glob("*"))  # no temporary library left
+
+
+def test_a_program_too_large_to_compile_runs_on_the_sx_functions(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # A 200-joint chain's C code took its compiler past 10 minutes on the first call.
+    from optik.programs import nlp_codegen
+
+    monkeypatch.setenv("OPTIK_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(nlp_codegen, "MAX_CODE_BYTES", 10_000)  # the Puma's is ~0.1 MB
+    program = nlp_backend(_fresh_robot(), "pose", plugin="sqpmethod")
+    assert not program.compile_report.compiled
+    assert re.search(
+        r"C code \(0\.\d MB\) is larger than optik compiles", program.compile_report.detail
+    )
+    assert not list((tmp_path / "casadi").glob("*.so"))
+    robot = _fresh_robot()
+    q_true = robot.mid_limits + 0.2
+    result = program.solve(robot.fk(q_true), robot.mid_limits + 0.15)
+    assert np.linalg.norm(robot.fk(result.q)[:3, 3] - robot.fk(q_true)[:3, 3]) < 1e-8
+
+
 def test_solve_ik_casadi_runs_compiled(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv("OPTIK_CACHE_DIR", str(tmp_path))
     robot = _fresh_robot()
