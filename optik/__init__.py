@@ -6,6 +6,9 @@ against closed forms, with analytic IK as the warm start.
 
 # First: kernels defined by the imports below get a cache stamp of all kernel sources.
 from optik import _kernel_cache  # noqa: F401  isort: skip
+
+# Then: a user who cannot write beside the sources still loads the kernels shipped there.
+from optik import _shipped_kernels  # noqa: F401  isort: skip
 from optik._version import __version__
 from optik.analytic import AnalyticBatch, analytic_ik, analytic_ik_batch
 from optik.campaign import base_placement, capability_map
