@@ -10,7 +10,8 @@ reference-counted at a call. Both:
   does). numba refuses ``cache=True`` when it has no place to write: the package's
   ``__pycache__``, ``NUMBA_CACHE_DIR`` and the user's cache folder all unwritable (a
   service account without a home folder running a read-only install). The kernels are
-  then compiled in memory, in each process, with a :class:`KernelCacheWarning`;
+  then compiled in memory, in each process, with a
+  :class:`~optik.errors.KernelCacheWarning`;
 - release the GIL (``nogil=True``), so that batch worker threads run side by side;
 - use numpy's error model (``error_model="numpy"``): a division by zero gives an
   infinity or a NaN, which the kernels test, instead of raising (and the divisions are
@@ -25,9 +26,7 @@ from typing import Any
 import numba as nb
 from numba.core import caching
 
-
-class KernelCacheWarning(UserWarning):
-    """numba has nowhere to keep optik's compiled kernels: each process compiles them."""
+from optik.errors import KernelCacheWarning
 
 
 def _can_cache() -> bool:

@@ -304,16 +304,17 @@ LAST: tuple[tuple[str, ...], ...] = (("report",), ("closed_form_batches",))
 GROUPS_ENV = "OPTIK_WARMUP_GROUPS"
 
 
-def _check_groups(names: Sequence[str]) -> Sequence[str]:
+def _check_groups(names: Sequence[str], source: str = "") -> Sequence[str]:
     """``names``, if every one names a group (:data:`GROUPS`, :data:`OPTIONAL`).
 
     Raises:
-        ValueError: an unknown name (the known ones listed).
+        OptikError: an unknown name (the known ones listed; after ``source``, if given).
     """
-    known = {**GROUPS, **OPTIONAL}
+    known = sorted({*GROUPS, *OPTIONAL})
     unknown = [name for name in names if name not in known]
     if unknown:
-        raise ValueError(f"unknown warm-up groups {unknown}; known: {sorted(known)}")
+        where = f"{source}: " if source else ""
+        raise OptikError(f"{where}unknown warm-up groups {unknown}; known: {known}")
     return names
 
 
@@ -332,11 +333,7 @@ def parse_groups(text: str, source: str) -> list[str]:
     if not names:
         # Not the default (every group): an empty list would compile nothing and succeed.
         raise OptikError(f"{source}: no group named in {text!r}")
-    known = sorted({*GROUPS, *OPTIONAL})
-    unknown = [name for name in names if name not in known]
-    if unknown:
-        raise OptikError(f"{source}: unknown warm-up groups {unknown}; known: {known}")
-    return names
+    return list(_check_groups(names, source))
 
 
 def groups_from_environment() -> list[str] | None:
@@ -583,18 +580,27 @@ def _termination_as_exit() -> Iterator[None]:
         signal.signal(signal.SIGTERM, previous)
 
 
+def _write_probe(folder: Path) -> None:
+    """Make ``folder`` (and its parents) and write a temporary file in it, as numba does.
+
+    Raises:
+        OSError: it cannot be made or written.
+    """
+    folder.mkdir(parents=True, exist_ok=True)
+    with tempfile.NamedTemporaryFile(dir=folder, prefix=".optik-probe-"):
+        pass
+
+
 def _writable(package: Path) -> bool:
     """Whether numba can keep kernels beside ``package``'s sources (its ``__pycache__``)."""
-    cache = package / "__pycache__"
     try:
-        cache.mkdir(exist_ok=True)
-        with tempfile.NamedTemporaryFile(dir=cache, prefix=".optik-probe-"):
-            return True
+        _write_probe(package / "__pycache__")
     except OSError:
         return False
+    return True
 
 
-def _check_destination(folders: Sequence[Path], user_cache: bool) -> None:
+def _check_destination(folders: Sequence[Path]) -> None:
     """Refuse, before compiling, a destination whose ``folders`` cannot be written.
 
     Raises:
@@ -602,20 +608,14 @@ def _check_destination(folders: Sequence[Path], user_cache: bool) -> None:
     """
     for folder in folders:
         try:
-            folder.mkdir(parents=True, exist_ok=True)
-            with tempfile.NamedTemporaryFile(dir=folder, prefix=".optik-probe-"):
-                pass
+            _write_probe(folder)
         except OSError as exc:
-            remedy = (
-                "set NUMBA_CACHE_DIR to a folder you can write"
-                if user_cache
-                else "set NUMBA_CACHE_DIR to a folder you can write (numba then reads the "
-                "kernels from there)"
-            )
             in_the_way = isinstance(exc, FileExistsError | NotADirectoryError)
             reason = "a file is in the way" if in_the_way else exc.strerror or str(exc)
-            message = f"cannot write the kernels into {folder}: {reason}; {remedy}"
-            raise OptikError(message) from None
+            raise OptikError(
+                f"cannot write the kernels into {folder}: {reason}; set NUMBA_CACHE_DIR "
+                "to a folder you can write (numba then keeps them there)"
+            ) from None
 
 
 def warm(
@@ -664,11 +664,11 @@ def warm(
     if destination is None:
         destination = Path(user_cache) if user_cache else package.parent
     if user_cache:
-        _check_destination([destination], True)
+        _check_destination([destination])
     else:
         folders = _package_folders(package)
         _check_destination(
-            [destination / f.relative_to(package.parent) / "__pycache__" for f in folders], False
+            [destination / f.relative_to(package.parent) / "__pycache__" for f in folders]
         )
     start = time.perf_counter()
     env = dict(os.environ)

@@ -195,6 +195,15 @@ class ArgumentError(OptikError):
         super().__init__(f"{name}: expected {expected}, got {_show(value)}")
 
 
+class KernelCacheWarning(UserWarning):
+    """numba has nowhere to keep optik's compiled kernels: each process compiles them.
+
+    Given once, at import, when optik's ``__pycache__`` folders, ``NUMBA_CACHE_DIR`` and
+    the user's cache folder all cannot be written; set ``NUMBA_CACHE_DIR`` to a folder
+    the user can write.
+    """
+
+
 def _show(value: Any, limit: int = 80) -> str:
     """``repr`` of ``value`` with its type, on one line, cut to ``limit`` characters.
 

@@ -274,24 +274,24 @@ def test_wrap_into_limits_picks_representative_nearest_reference() -> None:
     assert_close(wrapped[0, 1], math.radians(200), atol=1e-12)
 
 
-def test_an_angle_not_shifted_is_returned_to_the_bit() -> None:
+def test_a_joint_in_a_box_of_no_width_is_returned_to_the_bit() -> None:
     # The remainder's round trip moved 2 % of angles by an ulp: solve_ik_all returned
     # frozen joints 4.4e-16 off their value.
     robot = load_problem("puma560").robot
     values = np.random.default_rng(0).uniform(-2.5, 2.5, (10_000, robot.dof))
     ref = np.random.default_rng(1).uniform(-2.5, 2.5, (10_000, robot.dof))
-    wrapped = wrap_into_limits(values, robot, ref)
-    moved = wrapped != values
-    assert np.all(np.abs(np.abs(wrapped - values)[moved] - 2 * math.pi) < 1e-12)  # shifts only
-    frozen = (values[:, :1], values[:, :1])  # lower == upper == the value
-    box = (np.hstack([frozen[0], np.full((10_000, 5), -4.0)]),
-           np.hstack([frozen[1], np.full((10_000, 5), 4.0)]))  # fmt: skip
-    assert np.array_equal(wrap_into_limits(values, robot, ref, box)[:, 0], values[:, 0])
-    q = np.radians([20.0, 60.0, -120.0, 30.0, 40.0, 10.0])
-    value = 1.7321444701795161  # one the remainder moved
-    q[0] = value
-    for result in optik.solve_ik_all(robot, robot.fk(q), frozen={"j1": value}, solver="dls", k=4):
-        assert result.success and result.q[0] == value
+    ref[:, 0] = values[:, 0]  # the answer's own value: v + pi - pi is not v for 2 % of v
+    lower = np.hstack([values[:, :1], np.full((10_000, 5), -4.0)])
+    upper = np.hstack([values[:, :1], np.full((10_000, 5), 4.0)])
+    wrapped = wrap_into_limits(values, robot, ref, (lower, upper))
+    assert np.array_equal(wrapped[:, 0], values[:, 0])
+    moved = np.abs(wrapped[:, 1:] - values[:, 1:])
+    assert np.all((moved < 1e-12) | (np.abs(moved - 2 * math.pi) < 1e-12))
+    rng = np.random.default_rng(4)
+    q = robot.lower + (robot.upper - robot.lower) * rng.uniform(0.15, 0.85, robot.dof)
+    value = float(q[0])  # 1.7321444701795161: the numeric path returned 4.4e-16 more
+    results = optik.solve_ik_all(robot, robot.fk(q), frozen={"j1": value}, solver="dls", k=4)
+    assert results and all(r.success and r.q[0] == value for r in results)
 
 
 def test_spherical_rrp_pose_uses_corrected_first_angle(rng: np.random.Generator) -> None:

@@ -34,7 +34,7 @@ from optik._warmup import (
     run_groups,
 )
 from optik.cli import main
-from optik.errors import OptikError
+from optik.errors import KernelCacheWarning, OptikError
 from optik.problems import load_problem
 
 CHECKOUT = Path(__file__).resolve().parent.parent
@@ -427,7 +427,7 @@ def test_without_a_writable_cache_place_kernels_compile_in_memory_with_a_warning
 
     assert _numba._can_cache()
     monkeypatch.setattr(caching.CacheImpl, "_locator_classes", [])
-    with pytest.warns(_numba.KernelCacheWarning, match="Set NUMBA_CACHE_DIR"):
+    with pytest.warns(KernelCacheWarning, match="Set NUMBA_CACHE_DIR"):
         assert not _numba._can_cache()
 
 

@@ -35,9 +35,9 @@ def wrap_into_limits(
     ``Q`` is (..., dof), ``q_ref`` broadcasts against it. A joint whose range spans more
     than 2 pi has several representatives: the one nearest ``q_ref`` is kept. An angle
     with no representative inside its limits stays at the representative nearest
-    ``q_ref``. An angle not shifted is returned as given, to the bit. ``bounds``: a
-    query's box ``(lower, upper)`` (frozen joints, a ``limit_margin``) instead of the
-    robot's limits.
+    ``q_ref``. ``bounds``: a query's box ``(lower, upper)`` (frozen joints, a
+    ``limit_margin``) instead of the robot's limits; a joint whose box has no width is
+    returned as given, to the bit.
     """
     two_pi = 2.0 * math.pi
     revolute, lower, upper = robot.cached(_wrap_bounds)
@@ -53,17 +53,9 @@ def wrap_into_limits(
     k = np.where(np.isfinite(k_max), np.minimum(k, k_max), k)
     k = np.where(k_min > k_max, 0.0, k)
     k = np.where(np.isfinite(k), k, 0.0)
-    shifted = base + two_pi * k
-    # An angle kept where it is keeps its value to the bit (a frozen joint's exactly):
-    # the round trip through the remainder moves it by an ulp or two.
-    with np.errstate(invalid="ignore"):
-        kept = np.abs(shifted - Q) <= _SAME_ANGLE
-    return np.where(revolute & ~kept, shifted, Q)
-
-
-_SAME_ANGLE = 1e-9
-"""Largest difference (rad) of :func:`wrap_into_limits`'s representative from the angle
-given for which the angle itself is returned (a shift is a multiple of 2 pi)."""
+    # A frozen joint (a box of zero width) keeps its value to the bit: the round trip
+    # through the remainder moves 2 % of angles by an ulp.
+    return np.where(revolute & (lower != upper), base + two_pi * k, Q)
 
 
 def _wrap_bounds(robot: Robot) -> tuple[NDArray[np.bool_], FloatArray, FloatArray]:
