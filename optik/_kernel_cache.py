@@ -15,11 +15,14 @@ imports this module first.
 from __future__ import annotations
 
 import hashlib
+import pickle
 import re
+import sys
 from functools import cache
 from pathlib import Path
 from typing import Any
 
+import numba
 from numba.core import caching
 
 PACKAGE = Path(__file__).resolve().parent
@@ -112,6 +115,66 @@ def fingerprint(package: Path) -> str:
 def sources_fingerprint() -> str:
     """:func:`fingerprint` of the installed optik package (computed once per process)."""
     return fingerprint(PACKAGE)
+
+
+def read_index(path: Path) -> tuple[str, Any, dict[Any, str]]:
+    """Read numba's cache index: (numba release, source stamp, {key: data file name})."""
+    with open(path, "rb") as f:
+        version = pickle.load(f)
+        stamp, overloads = pickle.loads(f.read())
+    return version, stamp, dict(overloads)
+
+
+class _Placeholder:
+    """Whatever an index's signatures name, when only its stamp is read."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        pass
+
+    def __setstate__(self, state: Any) -> None:
+        pass
+
+
+class _StampReader(pickle.Unpickler):
+    """Unpickles an index without importing anything.
+
+    A class of a module not imported yet (or not defined in it yet, during optik's own
+    import) is a placeholder.
+    """
+
+    def find_class(self, module: str, name: str) -> Any:
+        loaded = sys.modules.get(module)
+        found = getattr(loaded, name, None) if loaded is not None else None
+        return found if found is not None else _Placeholder
+
+
+def read_stamp(path: Path) -> tuple[str, Any]:
+    """``(numba release, source stamp)`` of numba's cache index ``path``.
+
+    Safe while optik is being imported: :func:`read_index` would import the modules
+    that the signatures name.
+    """
+    with open(path, "rb") as f:
+        version = pickle.load(f)
+        stamp, _ = _StampReader(f).load()
+    return version, stamp
+
+
+class _SourceStamp(caching._SourceFileBackedLocatorMixin):
+    """numba's stamp of a source file, as its cache locators compute it."""
+
+    def __init__(self, source: Path) -> None:
+        self._py_file = str(source)
+
+
+def current_stamp(source: Path) -> tuple[str, Any]:
+    """``(numba release, stamp)`` of a fresh index of the kernels of ``source``.
+
+    The stamp is numba's (the source's content hash) with :func:`sources_fingerprint`
+    (:func:`install`); an index whose release or stamp differs is stale, and numba
+    reads it as empty.
+    """
+    return numba.__version__, (_SourceStamp(source).get_source_stamp(), sources_fingerprint())
 
 
 def _is_optik(py_func: Any) -> bool:

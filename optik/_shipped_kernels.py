@@ -12,20 +12,24 @@ a first forward kinematics, about 75 s before a first ``solve_ik``).
 ``__pycache__`` holds kernels and cannot be written, it takes the place numba would take
 next (``NUMBA_CACHE_DIR``, else the user's cache folder), copies there the kernels it
 lacks (each index after its data files, each file whole through a temporary name), once
-per folder and process, and lets numba read and write there as it would. numba checks
-each entry's source stamp as usual: kernels of other sources are never loaded.
+per folder and process, and lets numba read and write there as it would. Only fresh
+kernels are copied, and they replace stale ones (:func:`_seed`): an index that numba
+would read as empty (another numba release, other sources) is worth nothing.
 """
 
 from __future__ import annotations
 
 import functools
 import os
+import pickle
 import shutil
 import tempfile
 from pathlib import Path
 from typing import Any
 
 from numba.core import caching
+
+from optik._kernel_cache import current_stamp, read_stamp
 
 PACKAGE = Path(__file__).resolve().parent
 
@@ -39,23 +43,38 @@ def _read_only_kernels(folder: str) -> bool:
 
 @functools.cache
 def _seed(shipped: str, cache: str) -> int:
-    """Copy the kernels of ``shipped`` that ``cache`` lacks; the number of indexes copied.
+    """Copy the fresh kernels of ``shipped`` that ``cache`` lacks; the indexes copied.
 
-    Best effort: a file that cannot be copied is left to numba, which compiles its kernel.
+    An index is fresh when numba would read it here (:func:`_fresh`): a stale shipped
+    one (another numba release, edited sources) is not copied, and a stale one of the
+    user's (an earlier release of optik) is replaced. Best effort: a file that cannot be
+    read or copied is left to numba, which compiles its kernel.
     """
     copied = 0
+    sources = Path(shipped).parent
     for index in sorted(Path(shipped).glob("*.nbi")):
         target = Path(cache) / index.name
-        if target.exists():
-            continue  # this user's own kernels of that function: numba keeps adding to them
         try:
+            if not _fresh(index, sources) or (target.exists() and _fresh(target, sources)):
+                continue  # nothing to give, or the user's own kernels of that function
             for data in sorted(index.parent.glob(f"{index.stem}.*.nbc")):
                 _copy_whole(data, Path(cache) / data.name)
             _copy_whole(index, target)
-        except OSError:
+        except (OSError, EOFError, pickle.UnpicklingError, ValueError):
             continue
         copied += 1
     return copied
+
+
+def _fresh(index: Path, sources: Path) -> bool:
+    """Whether numba would read the index ``index`` of a kernel defined in ``sources``.
+
+    The index's name starts with its module's (``_kernels.fk_into-101.py311.nbi``).
+    """
+    source = sources / f"{index.name.split('.', 1)[0]}.py"
+    if not source.is_file():
+        return False
+    return read_stamp(index) == current_stamp(source)
 
 
 def _copy_whole(source: Path, target: Path) -> None:
@@ -81,7 +100,7 @@ class ShippedKernelsLocator:
     @classmethod
     def from_function(cls, py_func: Any, py_file: str) -> Any:
         """The locator of ``py_func`` (defined in ``py_file``) with the kernels copied."""
-        source = Path(py_file)
+        source = Path(py_file).resolve()  # as PACKAGE is: a symlinked install too
         if PACKAGE not in source.parents:
             return None
         shipped = str(source.parent / "__pycache__")

@@ -40,6 +40,7 @@ from numba.core import caching
 from numba.misc.appdirs import AppDirs
 
 from optik._files import write_atomic
+from optik._kernel_cache import read_index
 from optik.errors import OptikError
 
 PACKAGE = Path(__file__).resolve().parent
@@ -366,26 +367,18 @@ def _cache_subfolder(folder: Path) -> str:
     return str(locator.get_suitable_cache_subpath(str(folder / "__init__.py")))
 
 
-def _read_index(path: Path) -> tuple[str, Any, dict[Any, str]]:
-    """Read numba's cache index: (numba release, source stamp, {key: data file name})."""
-    with open(path, "rb") as f:
-        version = pickle.load(f)
-        stamp, overloads = pickle.loads(f.read())
-    return version, stamp, dict(overloads)
-
-
 def _merge_index(source: Path, target_folder: Path) -> int:
     """Add the entries of index ``source`` to the same index in ``target_folder``.
 
     Returns the number of entries added. A target index of another numba release or
     source stamp is stale and replaced.
     """
-    version, stamp, overloads = _read_index(source)
+    version, stamp, overloads = read_index(source)
     target = target_folder / source.name
     merged: dict[Any, str] = {}
     if target.exists():
         try:
-            old_version, old_stamp, old = _read_index(target)
+            old_version, old_stamp, old = read_index(target)
         except (OSError, EOFError, pickle.UnpicklingError):
             old_version, old_stamp, old = "", None, {}
         if (old_version, old_stamp) == (version, stamp):
@@ -458,7 +451,7 @@ class WarmReport:
 
 def _count_entries(cache: Path) -> int:
     """Signatures held by the numba cache folder ``cache`` (all its indexes)."""
-    return sum(len(_read_index(index)[2]) for index in cache.rglob("*.nbi"))
+    return sum(len(read_index(index)[2]) for index in cache.rglob("*.nbi"))
 
 
 def plan_stages(processes: int, groups: Sequence[str] | None = None) -> list[list[tuple[str, ...]]]:

@@ -285,6 +285,9 @@ def test_a_joint_in_a_box_of_no_width_is_returned_to_the_bit() -> None:
     upper = np.hstack([values[:, :1], np.full((10_000, 5), 4.0)])
     wrapped = wrap_into_limits(values, robot, ref, (lower, upper))
     assert np.array_equal(wrapped[:, 0], values[:, 0])
+    twins = values.copy()
+    twins[:, 0] -= 2 * math.pi  # a 2 pi twin of the box's value is put on it, exactly
+    assert np.array_equal(wrap_into_limits(twins, robot, ref, (lower, upper))[:, 0], lower[:, 0])
     moved = np.abs(wrapped[:, 1:] - values[:, 1:])
     assert np.all((moved < 1e-12) | (np.abs(moved - 2 * math.pi) < 1e-12))
     rng = np.random.default_rng(4)

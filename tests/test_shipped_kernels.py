@@ -4,11 +4,13 @@ from __future__ import annotations
 
 import json
 import os
+import pickle
 import subprocess
 import sys
 import textwrap
 from pathlib import Path
 
+from optik._kernel_cache import current_stamp, read_index
 from optik._shipped_kernels import _seed
 
 CHECKOUT = Path(__file__).resolve().parent.parent
@@ -19,6 +21,7 @@ FIRST_CALLS = textwrap.dedent(
     import json, os, sys
     from numba.core import caching, event
 
+    sys.path.insert(0, sys.argv[2])  # the checkout, or a symlink to it
     if sys.argv[1] == "read-only":
         # What a user who cannot write optik's __pycache__ folders sees (the tests run
         # as their owner): numba's probe fails, and so does os.access.
@@ -26,7 +29,8 @@ FIRST_CALLS = textwrap.dedent(
         access = os.access
 
         def no_write(path, mode, *args, **kwargs):
-            inside = str(path).startswith(package) and str(path).endswith("__pycache__")
+            real = os.path.realpath(path)
+            inside = real.startswith(package) and real.endswith("__pycache__")
             return False if inside and mode & os.W_OK else access(path, mode, *args, **kwargs)
 
         os.access = no_write
@@ -41,6 +45,7 @@ FIRST_CALLS = textwrap.dedent(
 
     event.register("numba:compile", Count())
     import optik
+    assert optik.__file__.startswith(sys.argv[2]), optik.__file__
     robot = optik.load_problem("panda").robot
     T, J = robot.fk_jacobian(robot.mid_limits)
     print(json.dumps({"compiles": Count.n, "x": float(T[0, 3])}))
@@ -48,12 +53,12 @@ FIRST_CALLS = textwrap.dedent(
 )
 
 
-def _first_calls(mode: str, home: Path) -> dict[str, float]:
+def _first_calls(mode: str, home: Path, root: Path = CHECKOUT) -> dict[str, float]:
     home.mkdir(exist_ok=True)
     env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
     env.update(XDG_CACHE_HOME=str(home), OPTIK_CHECKOUT=str(CHECKOUT))
     done = subprocess.run(
-        [sys.executable, "-c", FIRST_CALLS, mode],
+        [sys.executable, "-c", FIRST_CALLS, mode, str(root)],
         env=env,
         capture_output=True,
         text=True,
@@ -73,27 +78,42 @@ def test_a_user_who_cannot_write_the_package_loads_its_kernels(tmp_path: Path) -
     assert list((tmp_path / "other" / "numba").rglob("*.nbi"))  # numba's folder of that user
     again = _first_calls("read-only", tmp_path / "other")
     assert again["compiles"] == 0
+    # Imported through a symlink to the package's folder: numba is given that path.
+    link = tmp_path / "link"
+    link.symlink_to(CHECKOUT, target_is_directory=True)
+    through_link = _first_calls("read-only", tmp_path / "linked", link)
+    assert through_link["compiles"] == 0
 
 
-def test_seeding_copies_what_the_cache_lacks_and_leaves_its_own_indexes(tmp_path: Path) -> None:
-    shipped, cache = tmp_path / "shipped", tmp_path / "cache"
-    shipped.mkdir()
+def _index(path: Path, version: str, stamp: object, data: list[str]) -> None:
+    """Write a numba cache index naming ``data`` files, as numba writes it."""
+    overloads = {(f"signature {k}", "target"): name for k, name in enumerate(data)}
+    path.write_bytes(pickle.dumps(version, protocol=-1) + pickle.dumps((stamp, overloads)))
+
+
+def test_seeding_copies_fresh_kernels_over_missing_or_stale_ones(tmp_path: Path) -> None:
+    # A user's stale index (an earlier release) was kept: that user compiled every kernel
+    # again after an upgrade. A stale shipped index (another numba) is worth nothing.
+    sources = tmp_path / "package"
+    shipped, cache = sources / "__pycache__", tmp_path / "cache"
+    shipped.mkdir(parents=True)
     cache.mkdir()
-    for name, text in [
-        ("k-a.py10.nbi", "index a"),
-        ("k-a.py10.1.nbc", "data a1"),
-        ("k-a.py10.2.nbc", "data a2"),
-        ("k-b.py20.nbi", "index b"),
-        ("k-b.py20.1.nbc", "data b1"),
-    ]:
-        (shipped / name).write_text(text)
-    (cache / "k-b.py20.nbi").write_text("the user's own index b")
-    assert _seed.__wrapped__(str(shipped), str(cache)) == 1
-    assert sorted(p.name for p in cache.iterdir()) == [
-        "k-a.py10.1.nbc",
-        "k-a.py10.2.nbc",
-        "k-a.py10.nbi",
-        "k-b.py20.nbi",
-    ]
-    assert (cache / "k-a.py10.2.nbc").read_text() == "data a2"
-    assert (cache / "k-b.py20.nbi").read_text() == "the user's own index b"
+    (sources / "kern.py").write_text("# kernels\n")
+    fresh = current_stamp(sources / "kern.py")
+    stale = (fresh[0], ("another source", "another fingerprint"))
+    for name, (version, stamp) in {"a": fresh, "b": fresh, "c": fresh, "d": stale}.items():
+        _index(shipped / f"kern.{name}-1.py311.nbi", version, stamp, [f"kern.{name}-1.py311.1.nbc"])
+        (shipped / f"kern.{name}-1.py311.1.nbc").write_text(f"shipped {name}")
+    _index(cache / "kern.b-1.py311.nbi", *fresh, ["kern.b-1.py311.7.nbc"])  # the user's own
+    _index(cache / "kern.c-1.py311.nbi", *stale, ["kern.c-1.py311.1.nbc"])  # an old release's
+    (cache / "kern.c-1.py311.1.nbc").write_text("old c")
+    assert _seed.__wrapped__(str(shipped), str(cache)) == 2  # a and c
+    assert read_index(cache / "kern.a-1.py311.nbi")[:2] == fresh
+    assert (cache / "kern.a-1.py311.1.nbc").read_text() == "shipped a"
+    assert read_index(cache / "kern.b-1.py311.nbi")[2] == {
+        ("signature 0", "target"): "kern.b-1.py311.7.nbc"
+    }
+    assert read_index(cache / "kern.c-1.py311.nbi")[:2] == fresh
+    assert (cache / "kern.c-1.py311.1.nbc").read_text() == "shipped c"
+    assert not (cache / "kern.d-1.py311.nbi").exists()
+    assert not list(cache.glob(".*"))  # no temporary file left

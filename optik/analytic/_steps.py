@@ -36,8 +36,8 @@ def wrap_into_limits(
     than 2 pi has several representatives: the one nearest ``q_ref`` is kept. An angle
     with no representative inside its limits stays at the representative nearest
     ``q_ref``. ``bounds``: a query's box ``(lower, upper)`` (frozen joints, a
-    ``limit_margin``) instead of the robot's limits; a joint whose box has no width is
-    returned as given, to the bit.
+    ``limit_margin``) instead of the robot's limits; a joint whose box has no width gets
+    the box's value, to the bit, when a representative lies within 1e-9 rad of it.
     """
     two_pi = 2.0 * math.pi
     revolute, lower, upper = robot.cached(_wrap_bounds)
@@ -53,9 +53,17 @@ def wrap_into_limits(
     k = np.where(np.isfinite(k_max), np.minimum(k, k_max), k)
     k = np.where(k_min > k_max, 0.0, k)
     k = np.where(np.isfinite(k), k, 0.0)
-    # A frozen joint (a box of zero width) keeps its value to the bit: the round trip
-    # through the remainder moves 2 % of angles by an ulp.
-    return np.where(revolute & (lower != upper), base + two_pi * k, Q)
+    wrapped = np.where(revolute, base + two_pi * k, Q)
+    # A frozen joint (a box of zero width) gets the box's value to the bit, from the
+    # angle or a 2 pi twin of it: the round trip through the remainder moves 2 % of
+    # angles by an ulp.
+    with np.errstate(invalid="ignore"):
+        onto_box = revolute & (lower == upper) & (np.abs(wrapped - lower) <= _ON_BOX)
+    return np.where(onto_box, lower, wrapped)
+
+
+_ON_BOX = 1e-9
+"""Largest distance (rad) of a representative from a zero-width box that is put on it."""
 
 
 def _wrap_bounds(robot: Robot) -> tuple[NDArray[np.bool_], FloatArray, FloatArray]:

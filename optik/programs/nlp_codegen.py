@@ -134,8 +134,9 @@ def find_compiler() -> str | None:
 MAX_CODE_BYTES = 2_000_000
 """Largest C code (bytes) compiled; larger programs run on CasADi's SX functions.
 Measured: the ``sqpmethod`` solver of a pose is 0.13 MB of C for the Panda, 0.7-0.8 MB
-for a chain of 20 joints (compiled in 5-12 s), 4.1-4.5 MB for 60 joints (15-56 s) and
-13 MB for 120 joints; a 200-joint chain's compile ran past 10 minutes."""
+for a chain of 20 joints (compiled in 5-12 s), 2 MB at about 35 joints (``ipopt``'s
+functions at about 40), 4.1-4.5 MB for 60 joints (15-56 s) and 13 MB for 120 joints; a
+200-joint chain's compile ran past 10 minutes."""
 
 COMPILE_TIMEOUT_S = 600.0
 """Longest compile (s) before it is stopped (and the solver runs on the SX functions)."""
@@ -147,10 +148,11 @@ def _compile(
     """Compile ``source`` into ``target`` atomically (a temporary file, then a rename).
 
     ``libs`` (linker arguments) follow the source, where a linker that drops libraries
-    not yet needed (``--as-needed``) still links them. The compiler runs in a process
-    group of its own, stopped whole when it overruns :data:`COMPILE_TIMEOUT_S` or the
-    caller is interrupted: stopping the driver alone (``cc``) left its compiler proper
-    (``cc1``) running.
+    not yet needed (``--as-needed``) still links them. A compile that overruns
+    :data:`COMPILE_TIMEOUT_S`, or whose caller is interrupted, is stopped with the
+    processes it started (:func:`_stop_tree`): stopping the driver alone (``cc``) left its
+    compiler proper (``cc1``) running. It stays in the caller's process group, so that a
+    signal to that group (a terminal's Ctrl-C, ``timeout``) reaches it too.
     """
     target.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{target.stem}.", suffix=".so", dir=target.parent)
@@ -158,17 +160,12 @@ def _compile(
     command = [compiler, *flags, str(source), "-o", tmp, "-lm", *libs]
     try:
         process = subprocess.Popen(
-            command,
-            stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE,
-            text=True,
-            start_new_session=True,
+            command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
         )
         try:
             out, err = process.communicate(timeout=COMPILE_TIMEOUT_S)
         except BaseException:
-            with contextlib.suppress(ProcessLookupError):
-                os.killpg(process.pid, signal.SIGKILL)
+            _stop_tree(process.pid)
             process.wait()
             raise
         if process.returncode != 0:
@@ -177,6 +174,33 @@ def _compile(
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
+
+
+def _stop_tree(pid: int) -> None:
+    """Kill process ``pid`` and its descendants (found in ``/proc``; elsewhere ``pid`` alone).
+
+    ``pid`` is stopped first, so that it starts no other process while its tree is read.
+    """
+    with contextlib.suppress(ProcessLookupError):
+        os.kill(pid, signal.SIGSTOP)
+    for child in [*_descendants(pid), pid]:
+        with contextlib.suppress(ProcessLookupError):
+            os.kill(child, signal.SIGKILL)
+
+
+def _descendants(pid: int) -> list[int]:
+    """The processes below ``pid`` (Linux ``/proc``; empty where there is none)."""
+    parents: dict[int, int] = {}
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        with contextlib.suppress(OSError, IndexError, ValueError):
+            # The command name, in parentheses, may hold spaces: the fields follow it.
+            parents[int(stat.parent.name)] = int(stat.read_text().rsplit(")", 1)[1].split()[1])
+    found, frontier = [], [pid]
+    while frontier:
+        below = [child for child, parent in parents.items() if parent in frontier]
+        found += below
+        frontier = below
+    return found
 
 
 def compiled_nlpsol(
