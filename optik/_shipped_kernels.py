@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import functools
 import os
-import pickle
 import shutil
 import tempfile
 from pathlib import Path
@@ -47,8 +46,9 @@ def _seed(shipped: str, cache: str) -> int:
 
     An index is fresh when numba would read it here (:func:`_fresh`): a stale shipped
     one (another numba release, edited sources) is not copied, and a stale one of the
-    user's (an earlier release of optik) is replaced. Best effort: a file that cannot be
-    read or copied is left to numba, which compiles its kernel.
+    user's (an earlier release of optik) is replaced. Best effort, since it runs inside
+    ``import optik``: an index that cannot be read (whatever the error) or copied is
+    left to numba, which compiles its kernel.
     """
     copied = 0
     sources = Path(shipped).parent
@@ -60,7 +60,7 @@ def _seed(shipped: str, cache: str) -> int:
             for data in sorted(index.parent.glob(f"{index.stem}.*.nbc")):
                 _copy_whole(data, Path(cache) / data.name)
             _copy_whole(index, target)
-        except (OSError, EOFError, pickle.UnpicklingError, ValueError):
+        except Exception:  # best effort: this runs inside `import optik`
             continue
         copied += 1
     return copied

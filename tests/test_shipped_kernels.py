@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import operator
 import os
 import pickle
 import subprocess
@@ -85,6 +86,13 @@ def test_a_user_who_cannot_write_the_package_loads_its_kernels(tmp_path: Path) -
     assert through_link["compiles"] == 0
 
 
+class _Unreadable:
+    """Unpickles into a division by zero."""
+
+    def __reduce__(self) -> tuple[object, tuple[int, int]]:
+        return operator.truediv, (1, 0)
+
+
 def _index(path: Path, version: str, stamp: object, data: list[str]) -> None:
     """Write a numba cache index naming ``data`` files, as numba writes it."""
     overloads = {(f"signature {k}", "target"): name for k, name in enumerate(data)}
@@ -104,6 +112,10 @@ def test_seeding_copies_fresh_kernels_over_missing_or_stale_ones(tmp_path: Path)
     for name, (version, stamp) in {"a": fresh, "b": fresh, "c": fresh, "d": stale}.items():
         _index(shipped / f"kern.{name}-1.py311.nbi", version, stamp, [f"kern.{name}-1.py311.1.nbc"])
         (shipped / f"kern.{name}-1.py311.1.nbc").write_text(f"shipped {name}")
+    # An index whose signatures cannot be rebuilt here: skipped, not an error in import.
+    (shipped / "kern.e-1.py311.nbi").write_bytes(
+        pickle.dumps(fresh[0]) + pickle.dumps((fresh[1], {_Unreadable(): "kern.e-1.1.nbc"}))
+    )
     _index(cache / "kern.b-1.py311.nbi", *fresh, ["kern.b-1.py311.7.nbc"])  # the user's own
     _index(cache / "kern.c-1.py311.nbi", *stale, ["kern.c-1.py311.1.nbc"])  # an old release's
     (cache / "kern.c-1.py311.1.nbc").write_text("old c")
@@ -116,4 +128,5 @@ def test_seeding_copies_fresh_kernels_over_missing_or_stale_ones(tmp_path: Path)
     assert read_index(cache / "kern.c-1.py311.nbi")[:2] == fresh
     assert (cache / "kern.c-1.py311.1.nbc").read_text() == "shipped c"
     assert not (cache / "kern.d-1.py311.nbi").exists()
+    assert not (cache / "kern.e-1.py311.nbi").exists()
     assert not list(cache.glob(".*"))  # no temporary file left
