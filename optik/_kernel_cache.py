@@ -117,11 +117,17 @@ def sources_fingerprint() -> str:
     return fingerprint(PACKAGE)
 
 
-def read_index(path: Path) -> tuple[str, Any, dict[Any, str]]:
-    """Read numba's cache index: (numba release, source stamp, {key: data file name})."""
+def _load_index(path: Path, unpickler: type[pickle.Unpickler]) -> tuple[str, Any, Any]:
+    """Read numba's cache index: its release, then ``(stamp, overloads)`` by ``unpickler``."""
     with open(path, "rb") as f:
         version = pickle.load(f)
-        stamp, overloads = pickle.loads(f.read())
+        stamp, overloads = unpickler(f).load()
+    return version, stamp, overloads
+
+
+def read_index(path: Path) -> tuple[str, Any, dict[Any, str]]:
+    """Read numba's cache index: (numba release, source stamp, {key: data file name})."""
+    version, stamp, overloads = _load_index(path, pickle.Unpickler)
     return version, stamp, dict(overloads)
 
 
@@ -154,9 +160,7 @@ def read_stamp(path: Path) -> tuple[str, Any]:
     Safe while optik is being imported: :func:`read_index` would import the modules
     that the signatures name.
     """
-    with open(path, "rb") as f:
-        version = pickle.load(f)
-        stamp, _ = _StampReader(f).load()
+    version, stamp, _ = _load_index(path, _StampReader)
     return version, stamp
 
 
