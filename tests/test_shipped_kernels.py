@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import operator
 import os
@@ -11,8 +12,11 @@ import sys
 import textwrap
 from pathlib import Path
 
+import pytest
+
+import optik._shipped_kernels
 from optik._kernel_cache import current_stamp, read_index
-from optik._shipped_kernels import _seed
+from optik._shipped_kernels import _copy_in_tree_index, _seed
 
 CHECKOUT = Path(__file__).resolve().parent.parent
 
@@ -129,4 +133,40 @@ def test_seeding_copies_fresh_kernels_over_missing_or_stale_ones(tmp_path: Path)
     assert (cache / "kern.c-1.py311.1.nbc").read_text() == "shipped c"
     assert not (cache / "kern.d-1.py311.nbi").exists()
     assert not (cache / "kern.e-1.py311.nbi").exists()
+    assert not list(cache.glob(".*"))  # no temporary file left
+
+
+def test_a_kernels_in_tree_index_is_copied_only_when_fresh_and_missing(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # The warm-up's workers copy a kernel's index from beside its source into their own
+    # cache before numba looks there (reuse_in_tree_kernels).
+    package = tmp_path / "package"
+    in_tree, cache = package / "__pycache__", tmp_path / "cache"
+    in_tree.mkdir(parents=True)
+    (package / "kern.py").write_text("def f():\n    return 1\n")
+    spec = importlib.util.spec_from_file_location("kern", package / "kern.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    monkeypatch.setattr(optik._shipped_kernels, "PACKAGE", package.resolve())
+    fresh = current_stamp(package / "kern.py")
+    stale = (fresh[0], ("another source", "another fingerprint"))
+    _index(in_tree / "kern.f-1.py311.nbi", *stale, ["kern.f-1.py311.1.nbc"])
+    (in_tree / "kern.f-1.py311.1.nbc").write_text("compiled f")
+    assert _copy_in_tree_index(module.f, cache, "kern.f-1.py311") is None
+    assert not cache.exists()  # a stale index is worth nothing
+    _index(in_tree / "kern.f-1.py311.nbi", *fresh, ["kern.f-1.py311.1.nbc"])
+    assert _copy_in_tree_index(module.f, in_tree, "kern.f-1.py311") is None  # its own
+    copied = _copy_in_tree_index(module.f, cache, "kern.f-1.py311")
+    assert copied == in_tree / "kern.f-1.py311.nbi"
+    assert read_index(cache / "kern.f-1.py311.nbi")[:2] == fresh
+    assert (cache / "kern.f-1.py311.1.nbc").read_text() == "compiled f"
+    (in_tree / "kern.f-1.py311.1.nbc").write_text("compiled again")
+    assert _copy_in_tree_index(module.f, cache, "kern.f-1.py311") is None  # it has its own
+    assert (cache / "kern.f-1.py311.1.nbc").read_text() == "compiled f"
+    monkeypatch.setattr(optik._shipped_kernels, "PACKAGE", (tmp_path / "elsewhere").resolve())
+    other = tmp_path / "other-cache"
+    assert _copy_in_tree_index(module.f, other, "kern.f-1.py311") is None  # not optik's
+    assert not other.exists()
     assert not list(cache.glob(".*"))  # no temporary file left
