@@ -46,6 +46,16 @@ settings.register_profile("optik-long", parent=settings.get_profile("optik"), ma
 settings.load_profile(os.environ.get("OPTIK_HYPOTHESIS_PROFILE", "optik"))
 
 
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """Tests marked ``last`` run after the others, in their order otherwise.
+
+    A wheel's build runs the kernel warm-up, which copies the kernels the checkout holds
+    compiled rather than compiling them again (``optik._warmup``): late in a first run,
+    the suite has compiled most of them (in CI, a cold run, about 100 s less).
+    """
+    items.sort(key=lambda item: item.get_closest_marker("last") is not None)
+
+
 # ---------------------------------------------------------------------- tolerances
 def assert_close(
     actual: Any,
