@@ -127,22 +127,26 @@ def _closed_form_proof(
     Before ``unreachable`` or ``outside_limits`` is reported, a short ``dls`` run
     (:data:`CROSS_CHECK_RESTARTS`, from the out-of-limit branches clipped into the query's
     box, then the seed table) looks for an answer the closed form missed at a degenerate
-    pose; if it finds a verified one, that answer is returned. A target with no branch at
-    all (not even outside the limits) beyond the reach sphere needs no cross-check: the
-    sphere's proof (:func:`_reach_proof`) answers. ``held``: the frozen joint
+    pose; if it finds a verified one, that answer is returned. A target beyond the reach
+    sphere needs neither: the sphere's proof (:func:`_reach_proof`) answers (a graded
+    task's run still goes, for its compromise). ``held``: the frozen joint
     ``(name, value)`` of a seven-joint arm's closed form (:func:`_held_joint`).
     """
     name, value = (None, None) if held is None else held
-    outside = analytic_ik(
+    # Beyond the reach sphere first, as solve_ik_batch judges: the sphere holds every
+    # tool position inside the limits, so no branch of a slide stretched beyond its
+    # stroke (by 1 m, or by a kilometre) makes such a target "outside_limits". A graded
+    # task's compromise starts from the run's best answer, so its run still goes (from
+    # no branch: one stretched beyond a stroke is no start).
+    graded = query.spec.is_graded
+    far = None if graded else _reach_proof(query, q_start, start_time)
+    if far is not None:
+        return far
+    beyond = graded and bool(beyond_reach_task(robot, query.target, query.spec))
+    outside = [] if beyond else analytic_ik(
         robot, query.target, query.mode, q_ref=q_start, within_limits=False,
         free_joint=name, free_value=value,
     )  # fmt: skip
-    if not outside and not query.spec.is_graded:
-        # No branch at all: beyond the reach sphere that needs no cross-check (a graded
-        # task's compromise starts from the run's best answer, so it still runs).
-        far = _reach_proof(query, q_start, start_time)
-        if far is not None:
-            return far
     given = [np.clip(q, query.lower, query.upper) for q in outside] or [q_start]
     numeric = get_solver(AUTO_NUMERIC_SOLVER)
     sequence = start_sequence(robot, query.target, query.spec, given, seed)

@@ -22,7 +22,9 @@ class IKResult:
     """The outcome of one IK query, verified by optik.
 
     Attributes:
-        q: joint vector (dof,), rad / m (the best attempt when unsuccessful).
+        q: joint vector (dof,), rad / m (the best attempt when unsuccessful; for
+            ``outside_limits`` with unit weights, the closed-form branch that reaches
+            the target beyond the limits, by ``limit_violation``).
         success: both errors within the task's tolerances and every joint inside its
             limits.
         status: one of :data:`STATUSES`.

@@ -280,9 +280,11 @@ def _quaternion_matrix(name: str, value: Any, scalar_first: bool) -> FloatArray:
     bad = np.abs(norm - 1.0) > QUAT_NORM_TOLERANCE
     if np.any(bad):
         k = int(np.argmax(bad)) if q.ndim == 2 else None
-        raise InvalidQuaternionError(
-            name, float(norm if k is None else norm[k]), QUAT_NORM_TOLERANCE, k
-        )
+        row = q if k is None else q[k]
+        # The norm of the entries scaled by the largest: 1e200 is no inf, 1e-300 no zero.
+        peak = float(np.max(np.abs(row)))
+        true_norm = peak * float(np.linalg.norm(row / peak)) if peak > 0.0 else 0.0
+        raise InvalidQuaternionError(name, true_norm, QUAT_NORM_TOLERANCE, k)
     q = q / norm[..., None]
     xyzw = np.roll(q, -1, axis=-1) if scalar_first else q
     return np.asarray(Rotation.from_quat(xyzw).as_matrix(), dtype=np.float64)
@@ -489,11 +491,19 @@ def as_target_pose(
         names.update(position=f"{name}[0]", rotation=f"{name}[1]")
         T = _build({"position": value[0], "rotation": value[1]}, names)
         T = _position_only(T) if mode == "position" else T
+    elif _is_problem_target(value):
+        raise PoseArgumentError(
+            name,
+            "an optik.Target (a problem file's named target) is not a pose; pass "
+            "target.pose with mode=target.mode and tol=(target.tolerance, "
+            "target.angle_tolerance)",
+        )
     else:
+        pair = isinstance(value, (tuple, list)) and len(value) == 2
         try:
-            array = as_float_array(name, value)
+            T = _from_array(name, as_float_array(name, value), mode, batch)
         except ShapeError:
-            if isinstance(value, (tuple, list)) and len(value) == 2:
+            if pair:  # (p, rpy), (p, quat): a pair that is no (p, R)
                 raise PoseArgumentError(
                     name,
                     "a pair is read as (p, R) only when its second item is a 3x3 "
@@ -501,11 +511,17 @@ def as_target_pose(
                     '{"position": p, "quat_wxyz": q}',
                 ) from None
             raise
-        T = _from_array(name, array, mode, batch)
     if batch != (T.ndim == 3):
         expected = "(N, 4, 4) (a batch)" if batch else "a single pose (4, 4)"
         raise ShapeError(name, expected, T.shape)
     return T
+
+
+def _is_problem_target(value: Any) -> bool:
+    """Whether ``value`` is an :class:`optik.problems.Target` (a named target, no pose)."""
+    from optik.problems import Target
+
+    return isinstance(value, Target)
 
 
 def _from_array(name: str, array: FloatArray, mode: str, batch: bool) -> FloatArray:

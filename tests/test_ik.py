@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -92,10 +93,42 @@ def test_unreachable_and_outside_limits_statuses() -> None:
     result = optik.solve_ik(puma, far)
     assert not result.success and result.status == "unreachable"
     arm = load_problem("jumbo_spherical_arm").robot
-    p = arm.fk(np.array([0.2, 0.4, 7.0]))[:3, 3]  # needs a 7 m stroke; the boom stops at 6 m
+    p = arm.fk(np.array([0.2, 0.4, 1.5]))[:3, 3]  # needs a 1.5 m stroke; the boom's is 2-6 m
     result = optik.solve_ik(arm, p, mode="position")
     assert result.status == "outside_limits" and not result.success
-    assert result.limit_violation == pytest.approx(1.0, abs=1e-9)
+    assert result.limit_violation == pytest.approx(0.5, abs=1e-9)
+    # q is the branch beyond the limits that reaches the target (conventions.md).
+    assert arm.limit_violation(result.q) == pytest.approx(0.5, abs=1e-9)
+    assert np.linalg.norm(arm.fk(result.q)[:3, 3] - p) < 1e-9
+
+
+def test_a_target_beyond_the_reach_sphere_is_unreachable_for_an_arm_with_a_slide() -> None:
+    # The closed form's branch with the slide stretched beyond its stroke made such a
+    # target "outside_limits" (solve_ik_batch said "unreachable"), with q up to 1.4 km
+    # outside the limits; from 1e9 m out its check raised about that q.
+    for name, modes in (
+        ("jumbo_spherical_arm", ("pose", "position", "axis")),
+        ("stanford_arm", ("pose", "position", "axis")),
+        ("jumbo_drill_6dof", ("pose", "position", "axis")),
+    ):
+        robot = load_problem(name).robot
+        centre, radius = robot.reach_sphere
+        for factor in (1.1, 3.0, 1e3, 1e150, 1e300):
+            T = np.eye(4)
+            T[:3, 3] = centre + factor * radius * np.array([0.6, 0.0, 0.8])
+            for mode in modes:
+                with warnings.catch_warnings():
+                    warnings.simplefilter("error")  # no overflow on the way
+                    result = optik.solve_ik(robot, T, mode=mode)
+                    batch = optik.solve_ik_batch(robot, T[None], mode=mode)
+                    if factor >= 1e150 and mode == "pose":
+                        # A branch beyond the length range (1e9 m) is no configuration.
+                        assert optik.analytic_ik(robot, T, within_limits=False) == []
+                assert (result.status, result.solver) == ("unreachable", "reach"), (name, mode)
+                assert robot.within_limits(result.q)
+                assert batch.status[0] == "unreachable"
+            graded = optik.solve_ik(robot, T, weights=[1.0, 1.0, 1.0, 0.5, 0.5, 0.5])
+            assert graded.status == "unreachable" and robot.within_limits(graded.q)
 
 
 def test_numeric_failure_statuses(fake_clock: FakeClock) -> None:

@@ -597,3 +597,29 @@ def test_a_missing_problem_file_says_so_without_a_location() -> None:
     with pytest.raises(optik.errors.ProblemFileError) as info:
         optik.load_problem("nowhere-at-all.toml")
     assert str(info.value).startswith("nowhere-at-all.toml: file not found")
+
+
+def test_a_problem_files_target_or_a_pair_that_is_no_p_r_is_told_how_to_pass() -> None:
+    from optik.problems import Target
+
+    robot = optik.load_problem("puma560").robot
+    target = Target("t", "pose", robot.fk(robot.mid_limits))
+    with pytest.raises(PoseArgumentError, match=r"target\.pose with mode=target\.mode"):
+        optik.solve_ik(robot, target)
+    # (p, rpy) and (p, quat): a bare shape error before for the first, a hint for the second.
+    for pair in (((0.1, 0.2, 0.3), (0.1, 0.2, 0.3)), ((0.1, 0.2, 0.3), (1.0, 0, 0, 0))):
+        with pytest.raises(PoseArgumentError, match="name other forms"):
+            as_target_pose(pair, "pose")
+    # Two positions stay a batch of positions.
+    batch = as_target_pose([(0.1, 0.2, 0.3), (0.4, 0.5, 0.6)], "position", batch=True)
+    assert batch.shape == (2, 4, 4)
+
+
+def test_a_refused_quaternions_norm_is_reported_without_overflow() -> None:
+    # Its norm was printed as inf (1e200) or the quaternion called zero (1e-300).
+    with pytest.raises(InvalidQuaternionError, match=r"norm 1e\+200 differs"):
+        pose(quat_wxyz=(1e200, 0.0, 0.0, 0.0))
+    with pytest.raises(InvalidQuaternionError, match=r"norm 9\.89949e-301 differs"):
+        pose(quat_wxyz=(7e-301, 0.0, 0.0, 7e-301))
+    with pytest.raises(InvalidQuaternionError, match="zero quaternion at row 1"):
+        pose(quat_wxyz=[(1.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 0.0)])

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from optik._checks import FloatArray
+from optik._checks import MAX_LENGTH_M, FloatArray
 from optik.model import Robot
 from optik.spatial import rotation_angle
 from optik.task import make_task, task_error, task_rows
@@ -82,8 +82,8 @@ def polish(
     M = np.empty((3, 4))
     for start in starts:
         q = np.array(start, dtype=np.float64)
-        if not np.all(np.isfinite(q)):
-            continue
+        if not np.all(np.abs(q) <= MAX_LENGTH_M):
+            continue  # not finite, or beyond the length range that FK takes
         if bounds is not None:
             q = np.clip(q, bounds[0], bounds[1])
         errors: list[float] = []
@@ -108,7 +108,8 @@ def polish(
                 if pushed.any():
                     rows[:m, pushed] = 0.0
                     dq = _step(rows[:m], e[:m])
-            norm = float(np.linalg.norm(dq))
+            with np.errstate(over="ignore"):  # a target 1e300 m away: an infinite norm
+                norm = float(np.linalg.norm(dq))
             if not np.isfinite(norm):
                 break
             if norm > MAX_STEP:

@@ -12,7 +12,7 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from optik._checks import FloatArray
+from optik._checks import MAX_LENGTH_M, FloatArray
 from optik.analytic._base import (
     DUPLICATE_TOLERANCE,
     LIMIT_CLIP,
@@ -142,7 +142,9 @@ def finish_batch(
         return finished
     Q = np.array([q for raw in raws for q in raw], dtype=float)
     owner = np.repeat(np.arange(len(raws)), counts)
-    keep = np.all(np.isfinite(Q), axis=1)
+    # Finite rows inside the length range: a slide's branch 1e150 m out (a target as far
+    # away) is no configuration that FK can judge.
+    keep = np.all(np.abs(Q) <= MAX_LENGTH_M, axis=1)
     Q, owner = Q[keep], owner[keep]
     # One target (every single call): its reference and pose broadcast, not gathered.
     single = len(raws) == 1
@@ -180,7 +182,8 @@ def _verified(robot: Robot, Q: FloatArray, T_target: FloatArray, mode: str) -> N
     """
     T = robot.fk(Q)
     position_tol = robot.cached(verify_position_tolerance)
-    good = np.linalg.norm(T[:, :3, 3] - T_target[..., :3, 3], axis=1) <= position_tol
+    with np.errstate(over="ignore"):  # a target 1e300 m away: an infinite miss
+        good = np.linalg.norm(T[:, :3, 3] - T_target[..., :3, 3], axis=1) <= position_tol
     if mode == "pose":
         R_rel = np.swapaxes(T[:, :3, :3], 1, 2) @ T_target[..., :3, :3]
         angle = np.asarray(rotation_angle(R_rel), dtype=float).reshape(-1)
