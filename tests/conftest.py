@@ -34,6 +34,20 @@ PROBLEM_FILES: tuple[Path, ...] = tuple(sorted(PROBLEMS_DIR.glob("*.toml")))
 PROBLEM_NAMES: tuple[str, ...] = tuple(p.stem for p in PROBLEM_FILES)
 SEED = 20240611
 
+COMPILE_COUNTER = """
+from numba.core import event
+
+class Count(event.Listener):
+    n = 0
+    def on_start(self, e):
+        Count.n += 1
+    def on_end(self, e):
+        pass
+
+event.register("numba:compile", Count())
+"""
+"""Lines of a subprocess script that count numba's compilations from there on (``Count.n``)."""
+
 settings.register_profile(
     "optik",
     derandomize=True,

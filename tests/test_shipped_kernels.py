@@ -13,6 +13,7 @@ import textwrap
 from pathlib import Path
 
 import pytest
+from conftest import COMPILE_COUNTER
 
 import optik._shipped_kernels
 from optik._kernel_cache import current_stamp, read_index
@@ -21,10 +22,11 @@ from optik._shipped_kernels import _copy_in_tree_index, _seed
 CHECKOUT = Path(__file__).resolve().parent.parent
 
 # First calls of the kinematics, counting numba's compilations.
-FIRST_CALLS = textwrap.dedent(
-    """
+FIRST_CALLS = (
+    textwrap.dedent(
+        """
     import json, os, sys
-    from numba.core import caching, event
+    from numba.core import caching
 
     sys.path.insert(0, sys.argv[2])  # the checkout, or a symlink to it
     if sys.argv[1] == "read-only":
@@ -40,21 +42,18 @@ FIRST_CALLS = textwrap.dedent(
 
         os.access = no_write
         caching.InTreeCacheLocator.from_function = classmethod(lambda cls, f, p: None)
-
-    class Count(event.Listener):
-        n = 0
-        def on_start(self, e):
-            Count.n += 1
-        def on_end(self, e):
-            pass
-
-    event.register("numba:compile", Count())
+    """
+    )
+    + COMPILE_COUNTER
+    + textwrap.dedent(
+        """
     import optik
     assert optik.__file__.startswith(sys.argv[2]), optik.__file__
     robot = optik.load_problem("panda").robot
     T, J = robot.fk_jacobian(robot.mid_limits)
     print(json.dumps({"compiles": Count.n, "x": float(T[0, 3])}))
     """
+    )
 )
 
 

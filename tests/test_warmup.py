@@ -19,6 +19,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from conftest import COMPILE_COUNTER
 
 from optik._warmup import (
     FIRST,
@@ -484,19 +485,9 @@ def test_the_build_stops_on_a_bad_groups_variable(
 
 
 # The kinematics group's calls in a fresh process, counting numba's compilations.
-COUNTED_KINEMATICS = textwrap.dedent(
+COUNTED_KINEMATICS = COMPILE_COUNTER + textwrap.dedent(
     """
     import json
-    from numba.core import event
-
-    class Count(event.Listener):
-        n = 0
-        def on_start(self, e):
-            Count.n += 1
-        def on_end(self, e):
-            pass
-
-    event.register("numba:compile", Count())
     from optik._warmup import run_groups
     run_groups(["kinematics"])
     print(json.dumps({"compiles": Count.n}))
