@@ -146,10 +146,10 @@ def reuse_in_tree_kernels() -> dict[str, int]:
 
     def load_overload(self: Any, sig: Any, target_context: Any) -> Any:
         try:
-            base = self._impl.filename_base
-            index = _copy_in_tree_index(self._py_func, Path(self._cache_path), base)
-            if index is not None:
-                copied[str(index)] = len(read_index(index)[2])
+            base, cache = self._impl.filename_base, Path(self._cache_path)
+            index = _copy_in_tree_index(self._py_func, cache, base)
+            if index is not None:  # the signatures of the copy (the index may change since)
+                copied[str(index)] = len(read_index(cache / index.name)[2])
         except Exception:  # best effort: numba compiles the kernel instead
             pass
         return original(self, sig, target_context)
