@@ -15,18 +15,11 @@ lacks (each index after its data files, each file whole through a temporary name
 per folder and process, and lets numba read and write there as it would. Only fresh
 kernels are copied, and they replace stale ones (:func:`_seed`): an index that numba
 would read as empty (another numba release, other sources) is worth nothing.
-
-:func:`reuse_in_tree_kernels` serves the warm-up's workers (:mod:`optik._warmup`), which
-compile into a ``NUMBA_CACHE_DIR`` of their own: each optik kernel they use whose fresh
-kernels the package's ``__pycache__`` already holds (an earlier warm-up, the first calls
-in an editable checkout, a wheel's shipped kernels) is copied from there on its first use
-instead of being compiled again. Kernel by kernel: only those of the groups run.
 """
 
 from __future__ import annotations
 
 import functools
-import inspect
 import os
 import shutil
 import tempfile
@@ -35,8 +28,7 @@ from typing import Any
 
 from numba.core import caching
 
-from optik._files import write_atomic
-from optik._kernel_cache import current_stamp, read_index, read_stamp
+from optik._kernel_cache import current_stamp, read_stamp
 
 PACKAGE = Path(__file__).resolve().parent
 
@@ -52,7 +44,7 @@ def _read_only_kernels(folder: str) -> bool:
 def _seed(shipped: str, cache: str) -> int:
     """Copy the fresh kernels of ``shipped`` that ``cache`` lacks; the indexes copied.
 
-    An index is fresh when numba would read it here (:func:`is_fresh`): a stale shipped
+    An index is fresh when numba would read it here (:func:`_fresh`): a stale shipped
     one (another numba release, edited sources) is not copied, and a stale one of the
     user's (an earlier release of optik) is replaced. Best effort, since it runs inside
     ``import optik``: an index that cannot be read (whatever the error) or copied is
@@ -63,7 +55,7 @@ def _seed(shipped: str, cache: str) -> int:
     for index in sorted(Path(shipped).glob("*.nbi")):
         target = Path(cache) / index.name
         try:
-            if not is_fresh(index, sources) or (target.exists() and is_fresh(target, sources)):
+            if not _fresh(index, sources) or (target.exists() and _fresh(target, sources)):
                 continue  # nothing to give, or the user's own kernels of that function
             for data in sorted(index.parent.glob(f"{index.stem}.*.nbc")):
                 _copy_whole(data, Path(cache) / data.name)
@@ -74,7 +66,7 @@ def _seed(shipped: str, cache: str) -> int:
     return copied
 
 
-def is_fresh(index: Path, sources: Path) -> bool:
+def _fresh(index: Path, sources: Path) -> bool:
     """Whether numba would read the index ``index`` of a kernel defined in ``sources``.
 
     The index's name starts with its module's (``_kernels.fk_into-101.py311.nbi``).
@@ -120,68 +112,6 @@ class ShippedKernelsLocator:
                 _seed(shipped, str(locator.get_cache_path()))
                 return locator
         return None
-
-
-def reuse_in_tree_kernels() -> dict[str, int]:
-    """From now on, copy each optik kernel's fresh in-tree kernels into its cache first.
-
-    Wraps numba's ``Cache.load_overload`` (the kernels' caches exist from ``import
-    optik`` on, so their construction is too early to wrap): before numba looks for a
-    signature in a kernel's cache, a cache that is not the kernel source's
-    ``__pycache__`` and holds no index for the kernel yet gets that ``__pycache__``'s
-    index and data files, when they are fresh there (:func:`is_fresh`). numba then
-    loads instead of compiling. Best effort: a kernel whose index cannot be read or
-    copied is compiled, as without this.
-
-    Returns:
-        The indexes copied so far, growing as kernels are used: the in-tree index's path
-        and the number of signatures it held. Idempotent: a second call returns the
-        same dictionary.
-    """
-    original = caching.Cache.load_overload
-    copied: dict[str, int] | None = getattr(original, "_optik_copied", None)
-    if copied is not None:
-        return copied
-    copied = {}
-
-    def load_overload(self: Any, sig: Any, target_context: Any) -> Any:
-        try:
-            base, cache = self._impl.filename_base, Path(self._cache_path)
-            index = _copy_in_tree_index(self._py_func, cache, base)
-            if index is not None:  # the signatures of the copy (the index may change since)
-                copied[str(index)] = len(read_index(cache / index.name)[2])
-        except Exception:  # best effort: numba compiles the kernel instead
-            pass
-        return original(self, sig, target_context)
-
-    load_overload._optik_copied = copied  # type: ignore[attr-defined]
-    caching.Cache.load_overload = load_overload  # type: ignore[method-assign]
-    return copied
-
-
-def _copy_in_tree_index(py_func: Any, cache: Path, base: str) -> Path | None:
-    """Copy ``py_func``'s fresh index ``base.nbi`` and data from its source's ``__pycache__``.
-
-    Nothing when ``cache`` is that ``__pycache__``, already holds the index, or the kernel
-    is not optik's. The index is read first and written last, so that every data file
-    it names is copied (numba writes a kernel's data file before the index naming it).
-
-    Returns:
-        The in-tree index copied, or None.
-    """
-    source = Path(inspect.getfile(py_func)).resolve()
-    in_tree = source.parent / "__pycache__"
-    if PACKAGE not in source.parents or cache.resolve() == in_tree.resolve():
-        return None
-    index, target = in_tree / f"{base}.nbi", cache / f"{base}.nbi"
-    if target.exists() or not index.is_file() or not is_fresh(index, source.parent):
-        return None
-    snapshot = index.read_bytes()
-    cache.mkdir(parents=True, exist_ok=True)
-    for data in sorted(in_tree.glob(f"{base}.*.nbc")):
-        _copy_whole(data, cache / data.name)
-    write_atomic(target, snapshot)
-    return index
 
 
 def install() -> None:

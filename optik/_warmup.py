@@ -10,11 +10,6 @@ groups of :data:`OPTIONAL` (closed forms that compile too long for every install
 only when named. ``optik warmup`` runs it; the wheel's build hook (``hatch_build.py``)
 runs it with a staging folder and ships the merged cache in the wheel.
 
-A worker copies the kernels that the package's own ``__pycache__`` already holds for these
-sources (:func:`optik._shipped_kernels.reuse_in_tree_kernels`) rather than compiling them
-again: a second warm-up, or a wheel built from a checkout whose kernels are compiled,
-takes seconds.
-
 Each worker compiles into a cache folder of its own (``NUMBA_CACHE_DIR``): numba's cache
 is safe for one writer, but two processes that compile different signatures of one
 kernel at once can each number their file ``.1.nbc`` and leave an index that names the
@@ -26,7 +21,6 @@ and the CPU; one compiled for another CPU or release is not used (numba compiles
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import pickle
 import shutil
@@ -47,7 +41,6 @@ from numba.misc.appdirs import AppDirs
 
 from optik._files import write_atomic
 from optik._kernel_cache import read_index
-from optik._shipped_kernels import reuse_in_tree_kernels
 from optik.errors import OptikError
 
 PACKAGE = Path(__file__).resolve().parent
@@ -447,15 +440,13 @@ class WarmReport:
 
     ``kernels``: signatures added to the destination (those it held already are not
     counted); ``seconds``; ``stages``: the groups of each worker by stage; ``compiled``:
-    signatures the workers compiled in all; ``reused``: signatures they copied from the
-    package's own ``__pycache__``, where they were compiled already.
+    signatures the workers compiled in all.
     """
 
     kernels: int
     seconds: float
     stages: list[list[tuple[str, ...]]] = field(default_factory=list)
     compiled: int = 0
-    reused: int = 0
 
 
 def _count_entries(cache: Path) -> int:
@@ -511,18 +502,14 @@ def _run_stage(
     """Run each worker of ``stage`` in a process of its own, side by side, and wait.
 
     Each worker's output goes to a file in ``scratch`` (a pipe read only at the end
-    could fill and stall it), with its report of the kernels it copied rather than
-    compiled (:func:`_reused`), and each is logged when it ends. Workers still running when
+    could fill and stall it) and each is logged when it ends. Workers still running when
     this returns (an error, an interrupt, a termination) are stopped: none compiles on
     into a scratch folder that is gone.
     """
     workers = []
     try:
         for k, (cache, names) in enumerate(zip(caches, stage, strict=True)):
-            fd, report = tempfile.mkstemp(dir=scratch, prefix=f"worker{k}-", suffix=".json")
-            os.close(fd)
             command = [sys.executable, "-m", "optik._warmup", "--run", ",".join(names)]
-            command += ["--report", report]
             with tempfile.NamedTemporaryFile(
                 dir=scratch, prefix=f"worker{k}-", suffix=".log", delete=False
             ) as handle:
@@ -544,7 +531,7 @@ def _run_stage(
                     text = output.read_text(errors="replace")[-2000:]
                     failures.append(f"{','.join(names)}: {text}")
                 elif log is not None:
-                    log(f"ran {', '.join(names)} ({time.perf_counter() - start:.0f} s)")
+                    log(f"compiled {', '.join(names)} ({time.perf_counter() - start:.0f} s)")
         if failures:
             raise RuntimeError("kernel warm-up failed:\n" + "\n".join(failures))
     finally:
@@ -557,23 +544,6 @@ def _run_stage(
             except subprocess.TimeoutExpired:
                 process.kill()
                 process.wait()
-
-
-def _reused(scratch: Path) -> int:
-    """Signatures the workers copied from the package's ``__pycache__``, by their reports.
-
-    Each worker's report (a JSON file in ``scratch``) maps the in-tree indexes it copied
-    to their signature counts; two workers that copied one index count it once.
-    """
-    copied: dict[str, int] = {}
-    for report in scratch.glob("*.json"):
-        try:
-            entries = json.loads(report.read_text() or "{}")
-        except (OSError, ValueError):
-            continue  # a worker that ended before its report: its kernels count as compiled
-        for index, count in entries.items():
-            copied[index] = max(copied.get(index, 0), int(count))
-    return sum(copied.values())
 
 
 _POLL_S = 0.1
@@ -712,10 +682,9 @@ def warm(
             separate = [cache for cache in caches if cache != combined]
             if separate:
                 merge_caches(separate, package, combined, cache_dir=True)
-        reused = _reused(logs)
-        compiled = _count_entries(combined) - reused
+        compiled = _count_entries(combined)
         kernels = merge_caches([combined], package, destination, cache_dir=bool(user_cache))
-    return WarmReport(kernels, time.perf_counter() - start, stages, compiled, reused)
+    return WarmReport(kernels, time.perf_counter() - start, stages, compiled)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -724,13 +693,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--run", help="comma-separated groups to run in this process")
     parser.add_argument("--destination", type=Path, help="folder holding the optik package")
     parser.add_argument("--processes", type=int, default=2, help="worker processes")
-    parser.add_argument("--report", type=Path, help="with --run: write the kernels copied here")
     args = parser.parse_args(argv)
     if args.run:
-        copied = reuse_in_tree_kernels()
         run_groups(args.run.split(","))
-        if args.report is not None:
-            write_atomic(args.report, json.dumps(copied))
         return 0
     try:
         report = warm(args.destination, processes=args.processes, log=print)
@@ -738,10 +703,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         # A setting to correct (exit 2), told apart from a failed compilation.
         print(f"python -m optik._warmup: error: {exc}", file=sys.stderr)
         return 2
-    print(
-        f"{report.compiled} kernels compiled, {report.reused} found compiled already, "
-        f"{report.kernels} merged, in {report.seconds:.0f} s"
-    )
+    print(f"{report.compiled} kernels compiled, {report.kernels} merged, in {report.seconds:.0f} s")
     return 0
 
 

@@ -155,16 +155,17 @@ def _closed_form_proof(
         return from_run(query, start_time, numeric.name, run)
     status = "outside_limits" if outside else "unreachable"
     form = "closed form" if held is None else f"closed form with {held[0]!r} at {held[1]:g}"
-    reason = (
-        f"{form}: every branch lies outside the joint limits"
-        if outside
-        else f"{form}: no branch reaches the target"
-    )
+    if beyond:
+        reason = "the target lies beyond the reach sphere"
+    elif outside:
+        reason = f"{form}: every branch lies outside the joint limits"
+    else:
+        reason = f"{form}: no branch reaches the target"
     reason += f" (a {numeric.name} cross-check found no answer either)"
     # Graded weights ask for a compromise where the target cannot be met: the run's.
     q = run.q if query.spec.is_graded else (outside[0] if outside else q_start)
     outcome = without_run(q, status, reason, run.iterations, run.restarts)
-    return verified_result(query, start_time, "analytic", outcome, None)
+    return verified_result(query, start_time, "reach" if beyond else "analytic", outcome, None)
 
 
 def _every_joint_frozen(query: IKQuery, start_time: float) -> IKResult:

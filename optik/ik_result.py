@@ -24,7 +24,7 @@ class IKResult:
     Attributes:
         q: joint vector (dof,), rad / m (the best attempt when unsuccessful; for
             ``outside_limits`` with unit weights, the closed-form branch that reaches
-            the target beyond the limits, by ``limit_violation``).
+            the target beyond the limits; ``limit_violation`` says by how much).
         success: both errors within the task's tolerances and every joint inside its
             limits.
         status: one of :data:`STATUSES`.
@@ -40,8 +40,9 @@ class IKResult:
         time_s: wall time of the call (``time.perf_counter``).
         solver: the method that produced ``q``: ``"analytic"`` for a closed-form branch
             (or its proof), ``"reach"`` for the reach sphere's proof (``q`` is the start,
-            no search ran), ``"frozen"`` when every joint is frozen (``q`` is that
-            configuration, judged), else the numeric solver's name.
+            no search ran; with graded weights, the compromise), ``"frozen"`` when every
+            joint is frozen (``q`` is that configuration, judged), else the numeric
+            solver's name.
         message: backend text or the reason for the status.
         backend_converged: the backend's own convergence claim for ``q`` (``None`` for the
             closed form).

@@ -501,20 +501,30 @@ def as_target_pose(
     else:
         pair = isinstance(value, (tuple, list)) and len(value) == 2
         try:
-            T = _from_array(name, as_float_array(name, value), mode, batch)
+            array = as_float_array(name, value)
         except ShapeError:
-            if pair:  # (p, rpy), (p, quat): a pair that is no (p, R)
-                raise PoseArgumentError(
-                    name,
-                    "a pair is read as (p, R) only when its second item is a 3x3 "
-                    "rotation matrix or a scipy Rotation; name other forms, e.g. "
-                    '{"position": p, "quat_wxyz": q}',
-                ) from None
+            if pair:  # (p, quat): a ragged pair
+                raise _not_a_p_r_pair(name) from None
+            raise
+        try:
+            T = _from_array(name, array, mode, batch)
+        except ShapeError:
+            if pair and mode == "pose" and array.shape == (2, 3):  # (p, rpy)
+                raise _not_a_p_r_pair(name) from None
             raise
     if batch != (T.ndim == 3):
         expected = "(N, 4, 4) (a batch)" if batch else "a single pose (4, 4)"
         raise ShapeError(name, expected, T.shape)
     return T
+
+
+def _not_a_p_r_pair(name: str) -> PoseArgumentError:
+    """The error of a pair given as a target whose second item is no rotation matrix."""
+    return PoseArgumentError(
+        name,
+        "a pair is read as (p, R) only when its second item is a 3x3 rotation matrix or "
+        'a scipy Rotation; name other forms, e.g. {"position": p, "quat_wxyz": q}',
+    )
 
 
 def _is_problem_target(value: Any) -> bool:

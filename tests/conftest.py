@@ -34,20 +34,6 @@ PROBLEM_FILES: tuple[Path, ...] = tuple(sorted(PROBLEMS_DIR.glob("*.toml")))
 PROBLEM_NAMES: tuple[str, ...] = tuple(p.stem for p in PROBLEM_FILES)
 SEED = 20240611
 
-COMPILE_COUNTER = """
-from numba.core import event
-
-class Count(event.Listener):
-    n = 0
-    def on_start(self, e):
-        Count.n += 1
-    def on_end(self, e):
-        pass
-
-event.register("numba:compile", Count())
-"""
-"""Lines of a subprocess script that count numba's compilations from there on (``Count.n``)."""
-
 settings.register_profile(
     "optik",
     derandomize=True,
@@ -58,16 +44,6 @@ settings.register_profile(
 )
 settings.register_profile("optik-long", parent=settings.get_profile("optik"), max_examples=1000)
 settings.load_profile(os.environ.get("OPTIK_HYPOTHESIS_PROFILE", "optik"))
-
-
-def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
-    """Tests marked ``last`` run after the others, in their order otherwise.
-
-    A wheel's build runs the kernel warm-up, which copies the kernels the checkout holds
-    compiled rather than compiling them again (``optik._warmup``): late in a first run,
-    the suite has compiled most of them (in CI, a cold run, about 100 s less).
-    """
-    items.sort(key=lambda item: item.get_closest_marker("last") is not None)
 
 
 # ---------------------------------------------------------------------- tolerances

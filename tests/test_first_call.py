@@ -74,7 +74,6 @@ def _pose_errors(robot: optik.Robot, q: np.ndarray, T: np.ndarray) -> tuple[floa
 
 
 @pytest.mark.slow
-@pytest.mark.last
 def test_a_wheel_built_from_the_checkout_ships_every_kernel_of_the_first_calls(
     tmp_path: Path,
 ) -> None:

@@ -610,9 +610,12 @@ def test_a_problem_files_target_or_a_pair_that_is_no_p_r_is_told_how_to_pass() -
     for pair in (((0.1, 0.2, 0.3), (0.1, 0.2, 0.3)), ((0.1, 0.2, 0.3), (1.0, 0, 0, 0))):
         with pytest.raises(PoseArgumentError, match="name other forms"):
             as_target_pose(pair, "pose")
-    # Two positions stay a batch of positions.
-    batch = as_target_pose([(0.1, 0.2, 0.3), (0.4, 0.5, 0.6)], "position", batch=True)
-    assert batch.shape == (2, 4, 4)
+    # Two positions stay a batch of positions, and a shape error where one is expected.
+    two = [(0.1, 0.2, 0.3), (0.4, 0.5, 0.6)]
+    assert as_target_pose(two, "position", batch=True).shape == (2, 4, 4)
+    for value, mode in ((two, "position"), ([0.1, 0.2], "position"), ([np.eye(4)] * 2, "pose")):
+        with pytest.raises(ShapeError):
+            as_target_pose(value, mode)
 
 
 def test_a_refused_quaternions_norm_is_reported_without_overflow() -> None:

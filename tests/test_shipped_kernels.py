@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import operator
 import os
@@ -12,21 +11,16 @@ import sys
 import textwrap
 from pathlib import Path
 
-import pytest
-from conftest import COMPILE_COUNTER
-
-import optik._shipped_kernels
 from optik._kernel_cache import current_stamp, read_index
-from optik._shipped_kernels import _copy_in_tree_index, _seed
+from optik._shipped_kernels import _seed
 
 CHECKOUT = Path(__file__).resolve().parent.parent
 
 # First calls of the kinematics, counting numba's compilations.
-FIRST_CALLS = (
-    textwrap.dedent(
-        """
+FIRST_CALLS = textwrap.dedent(
+    """
     import json, os, sys
-    from numba.core import caching
+    from numba.core import caching, event
 
     sys.path.insert(0, sys.argv[2])  # the checkout, or a symlink to it
     if sys.argv[1] == "read-only":
@@ -42,18 +36,21 @@ FIRST_CALLS = (
 
         os.access = no_write
         caching.InTreeCacheLocator.from_function = classmethod(lambda cls, f, p: None)
-    """
-    )
-    + COMPILE_COUNTER
-    + textwrap.dedent(
-        """
+
+    class Count(event.Listener):
+        n = 0
+        def on_start(self, e):
+            Count.n += 1
+        def on_end(self, e):
+            pass
+
+    event.register("numba:compile", Count())
     import optik
     assert optik.__file__.startswith(sys.argv[2]), optik.__file__
     robot = optik.load_problem("panda").robot
     T, J = robot.fk_jacobian(robot.mid_limits)
     print(json.dumps({"compiles": Count.n, "x": float(T[0, 3])}))
     """
-    )
 )
 
 
@@ -132,40 +129,4 @@ def test_seeding_copies_fresh_kernels_over_missing_or_stale_ones(tmp_path: Path)
     assert (cache / "kern.c-1.py311.1.nbc").read_text() == "shipped c"
     assert not (cache / "kern.d-1.py311.nbi").exists()
     assert not (cache / "kern.e-1.py311.nbi").exists()
-    assert not list(cache.glob(".*"))  # no temporary file left
-
-
-def test_a_kernels_in_tree_index_is_copied_only_when_fresh_and_missing(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
-) -> None:
-    # The warm-up's workers copy a kernel's index from beside its source into their own
-    # cache before numba looks there (reuse_in_tree_kernels).
-    package = tmp_path / "package"
-    in_tree, cache = package / "__pycache__", tmp_path / "cache"
-    in_tree.mkdir(parents=True)
-    (package / "kern.py").write_text("def f():\n    return 1\n")
-    spec = importlib.util.spec_from_file_location("kern", package / "kern.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    monkeypatch.setattr(optik._shipped_kernels, "PACKAGE", package.resolve())
-    fresh = current_stamp(package / "kern.py")
-    stale = (fresh[0], ("another source", "another fingerprint"))
-    _index(in_tree / "kern.f-1.py311.nbi", *stale, ["kern.f-1.py311.1.nbc"])
-    (in_tree / "kern.f-1.py311.1.nbc").write_text("compiled f")
-    assert _copy_in_tree_index(module.f, cache, "kern.f-1.py311") is None
-    assert not cache.exists()  # a stale index is worth nothing
-    _index(in_tree / "kern.f-1.py311.nbi", *fresh, ["kern.f-1.py311.1.nbc"])
-    assert _copy_in_tree_index(module.f, in_tree, "kern.f-1.py311") is None  # its own
-    copied = _copy_in_tree_index(module.f, cache, "kern.f-1.py311")
-    assert copied == in_tree / "kern.f-1.py311.nbi"
-    assert read_index(cache / "kern.f-1.py311.nbi")[:2] == fresh
-    assert (cache / "kern.f-1.py311.1.nbc").read_text() == "compiled f"
-    (in_tree / "kern.f-1.py311.1.nbc").write_text("compiled again")
-    assert _copy_in_tree_index(module.f, cache, "kern.f-1.py311") is None  # it has its own
-    assert (cache / "kern.f-1.py311.1.nbc").read_text() == "compiled f"
-    monkeypatch.setattr(optik._shipped_kernels, "PACKAGE", (tmp_path / "elsewhere").resolve())
-    other = tmp_path / "other-cache"
-    assert _copy_in_tree_index(module.f, other, "kern.f-1.py311") is None  # not optik's
-    assert not other.exists()
     assert not list(cache.glob(".*"))  # no temporary file left

@@ -21,7 +21,7 @@ def _cmd_warmup(args: argparse.Namespace) -> int:
     report = warm(processes=processes, groups=groups, log=lambda line: print(line, file=sys.stderr))
     print(
         f"{report.compiled} kernels compiled in {report.seconds:.1f} s, "
-        f"{report.reused} found compiled already; {report.kernels} new to the cache"
+        f"{report.kernels} of them new to the cache"
     )
     return EXIT_OK
 
@@ -34,8 +34,7 @@ def add_warmup_command(sub: Any) -> None:
         "numba compiles each kernel on its first call in an environment (about a minute "
         "of CPU before a first solve_ik, solve_ik_batch or report) and caches it. This "
         "compiles the kernels of the common calls now, in worker processes side by side, "
-        "into the installed package's cache (or NUMBA_CACHE_DIR when set); kernels the "
-        "package's own cache holds already are copied, not compiled again. A wheel built "
+        "into the installed package's cache (or NUMBA_CACHE_DIR when set). A wheel built "
         "with pip from the sources already carries them; run this after an install from "
         "a wheel built elsewhere, or in an editable checkout. --groups names the groups "
         "(default: the install's); held_joint (seven-joint arms with a joint held, about "
