@@ -509,7 +509,7 @@ def as_target_pose(
         try:
             T = _from_array(name, array, mode, batch)
         except ShapeError:
-            if pair and mode == "pose" and array.shape == (2, 3):  # (p, rpy)
+            if pair and mode == "pose" and not batch and array.shape == (2, 3):  # (p, rpy)
                 raise _not_a_p_r_pair(name) from None
             raise
     if batch != (T.ndim == 3):

@@ -616,6 +616,8 @@ def test_a_problem_files_target_or_a_pair_that_is_no_p_r_is_told_how_to_pass() -
     for value, mode in ((two, "position"), ([0.1, 0.2], "position"), ([np.eye(4)] * 2, "pose")):
         with pytest.raises(ShapeError):
             as_target_pose(value, mode)
+    with pytest.raises(PositionOnlyTargetError):  # its hint: mode="position"
+        as_target_pose(two, "pose", batch=True)
 
 
 def test_a_refused_quaternions_norm_is_reported_without_overflow() -> None:
