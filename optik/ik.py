@@ -142,8 +142,8 @@ def _closed_form_proof(
     far = None if graded else _reach_proof(query, q_start, start_time)
     if far is not None:
         return far
-    beyond = graded and bool(beyond_reach_task(robot, query.target, query.spec))
-    outside = [] if beyond else analytic_ik(
+    beyond = _beyond_reach_reason(query) if graded else None
+    outside = [] if beyond is not None else analytic_ik(
         robot, query.target, query.mode, q_ref=q_start, within_limits=False,
         free_joint=name, free_value=value,
     )  # fmt: skip
@@ -155,17 +155,18 @@ def _closed_form_proof(
         return from_run(query, start_time, numeric.name, run)
     status = "outside_limits" if outside else "unreachable"
     form = "closed form" if held is None else f"closed form with {held[0]!r} at {held[1]:g}"
-    if beyond:
-        reason = "the target lies beyond the reach sphere"
+    if beyond is not None:
+        reason = beyond
     elif outside:
         reason = f"{form}: every branch lies outside the joint limits"
     else:
         reason = f"{form}: no branch reaches the target"
     reason += f" (a {numeric.name} cross-check found no answer either)"
     # Graded weights ask for a compromise where the target cannot be met: the run's.
-    q = run.q if query.spec.is_graded else (outside[0] if outside else q_start)
+    q = run.q if graded else (outside[0] if outside else q_start)
     outcome = without_run(q, status, reason, run.iterations, run.restarts)
-    return verified_result(query, start_time, "reach" if beyond else "analytic", outcome, None)
+    solver = "analytic" if beyond is None else "reach"
+    return verified_result(query, start_time, solver, outcome, None)
 
 
 def _every_joint_frozen(query: IKQuery, start_time: float) -> IKResult:
@@ -190,6 +191,19 @@ def _reach_proof(query: IKQuery, q_start: FloatArray, start_time: float) -> IKRe
     :func:`optik.verify.beyond_reach_task`). Graded weights still get their compromise,
     the weighted minimum from ``q_start``.
     """
+    reason = _beyond_reach_reason(query)
+    if reason is None:
+        return None
+    q_end, used = q_start, 0
+    if query.spec.is_graded:
+        q_end, used, _ = compromise(query, q_start)
+    return verified_result(
+        query, start_time, "reach", without_run(q_end, "unreachable", reason, used), None
+    )
+
+
+def _beyond_reach_reason(query: IKQuery) -> str | None:
+    """Why the target is beyond the reach sphere (distance and radius, m), else ``None``."""
     robot, T_target, task = query.robot, query.target, query.spec
     if not beyond_reach_task(robot, T_target, task):
         return None
@@ -205,14 +219,8 @@ def _reach_proof(query: IKQuery, q_start: FloatArray, start_time: float) -> IKRe
         else f"the target's {'line' if len(free) == 1 else 'plane'} along its free "
         f"{' and '.join(free)} passes"
     )
-    reason = (
+    return (
         f"{where} {distance:.6g} m from the reach sphere's centre, beyond its radius {radius:.6g} m"
-    )
-    q_end, used = q_start, 0
-    if task.is_graded:
-        q_end, used, _ = compromise(query, q_start)
-    return verified_result(
-        query, start_time, "reach", without_run(q_end, "unreachable", reason, used), None
     )
 
 

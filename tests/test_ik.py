@@ -129,7 +129,7 @@ def test_a_target_beyond_the_reach_sphere_is_unreachable_for_an_arm_with_a_slide
                 assert batch.status[0] == "unreachable"
             graded = optik.solve_ik(robot, T, weights=[1.0, 1.0, 1.0, 0.5, 0.5, 0.5])
             assert graded.status == "unreachable" and robot.within_limits(graded.q)
-            assert "beyond the reach sphere" in graded.message and graded.solver == "reach"
+            assert "beyond its radius" in graded.message and graded.solver == "reach"
 
 
 def test_numeric_failure_statuses(fake_clock: FakeClock) -> None:
