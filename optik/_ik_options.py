@@ -21,6 +21,12 @@ from optik.model import Robot
 DEFAULT_RESTARTS = 100
 """Restarts after the first attempt when neither ``restarts`` nor ``timeout_s`` is given."""
 
+CROSS_CHECK_RESTARTS = 20
+"""Restarts of the numeric attempt that checks a closed form's "no branch" before it is
+reported as a proof (:func:`optik.solve_ik` and :func:`optik.solve_ik_batch`): at
+singular poses (a wrist or elbow aligned, a joint free) a closed form can miss the
+one-parameter family of solutions that passes through them."""
+
 FROZEN_RESTARTS = 300
 """Default ``restarts`` of a query with frozen joints: the narrowed arm's answers are
 rarer and the seed table's entries, clipped onto the frozen values, start farther from

@@ -44,6 +44,7 @@ from optik._checks import (
     check_real,
 )
 from optik._ik_options import (
+    CROSS_CHECK_RESTARTS,
     DEFAULT_RESTARTS,
     FROZEN_RESTARTS,
     MAX_ITERATIONS,
@@ -101,12 +102,6 @@ def _answer(
     outcome = without_run(q, "max_iter", "", iterations, restarts)
     claim = None if solver == "analytic" else True
     return verified_result(plan.query, plan.start_time, solver, outcome, claim)
-
-
-CROSS_CHECK_RESTARTS = 20
-"""Restarts of the numeric attempt that checks a closed form's "no branch" before it is
-reported as a proof: at singular poses (a wrist or elbow aligned, a joint free) a closed
-form can miss the one-parameter family of solutions that passes through them."""
 
 
 ROLL_STARTS = 8

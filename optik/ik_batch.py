@@ -15,13 +15,14 @@ import math
 from collections.abc import Mapping
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, cast
 
 import numba
 import numpy as np
 
-from optik._checks import FloatArray, as_float_array, check_int, finite_array
+from optik._checks import FloatArray, as_float_array, check_bool, check_int, finite_array
 from optik._ik_options import (
+    CROSS_CHECK_RESTARTS,
     DEFAULT_RESTARTS,
     MAX_SEED,
     check_options,
@@ -98,9 +99,12 @@ def _given_starts(
     return np.ascontiguousarray(rows)
 
 
-BATCH_STATUSES = ("converged", "unreachable", "max_iter")
-"""Per-target statuses of :func:`solve_ik_batch`: ``unreachable`` is proved (the target
-lies outside the robot's reach sphere, :attr:`optik.Robot.reach_sphere`)."""
+BATCH_STATUSES = ("converged", "unreachable", "outside_limits", "max_iter")
+"""Per-target statuses of :func:`solve_ik_batch`. ``unreachable`` and ``outside_limits``
+are proofs, as :func:`optik.solve_ik` makes them: the target lies outside the robot's
+reach sphere (:attr:`optik.Robot.reach_sphere`), or the closed form has no branch at all
+(``unreachable``) or only branches outside the limits (``outside_limits``), and a
+cross-check search found no answer either. ``max_iter`` proves nothing."""
 
 
 @dataclass
@@ -109,8 +113,11 @@ class IKBatchResult:
 
     Attributes:
         q: (N, dof) joint vectors (the best attempt where unsuccessful; NaN where the
-            target was proved unreachable and not solved, except with graded weights,
-            which take their compromise there too, from the row's ``q0``).
+            target lies beyond the reach sphere and was not solved, except with graded
+            weights, which take their compromise there too, from the row's ``q0``). An
+            ``outside_limits`` row holds, as :func:`optik.solve_ik` does, the closed
+            form's branch nearest the row's ``q0`` (beyond the limits, reaching the
+            target), or with graded weights the compromise inside the limits.
         success: (N,) verified success (FK errors within ``tol``, limits respected).
         status: (N,) strings from :data:`BATCH_STATUSES`.
         position_error: (N,) m (inf where not solved).
@@ -301,6 +308,20 @@ def _branches(
     return out
 
 
+def _unlimited_branches(
+    robot: Robot, family: AnalyticFamily, mode: str, poses: FloatArray, refs: FloatArray
+) -> tuple[FloatArray, np.ndarray]:
+    """Each pose's closed-form branches with the limits ignored, nearest its reference first.
+
+    ``poses`` (M, 4, 4), ``refs`` (M, dof). What :func:`optik.solve_ik`'s proof takes
+    (``analytic_ik(..., within_limits=False)``, polish of a degenerate pose included), for
+    every pose at once: ``(branches (M, B, dof) NaN-padded, counts (M,))``.
+    """
+    refs = np.ascontiguousarray(refs)
+    batch = checked_batch(robot, family, poses, mode, refs, False, polish=True)
+    return batch.q, batch.counts
+
+
 def _verdict(
     robot: Robot,
     Q: FloatArray,
@@ -340,6 +361,7 @@ def solve_ik_batch(
     threads: int | None = None,
     frozen: Mapping[str, float] | None = None,
     limit_margin: float = 0.0,
+    proofs: bool = True,
 ) -> IKBatchResult:
     """Solve many targets: the closed form where there is one, else the compiled search.
 
@@ -356,7 +378,12 @@ def solve_ik_batch(
     missed; in ``mode="axis"``, a compiled full-pose closed form over a grid of rolls
     about the tool axis (:func:`optik.analytic.roll.grid_branches`' grid) does. Targets
     outside the robot's reach sphere are not solved: their status is ``"unreachable"``.
-    No other status is a proof: ``"max_iter"`` means not found.
+    Where a closed form that proves (with the plain limits: no ``frozen``, no
+    ``limit_margin``) has no branch inside the limits and the search missed too, a
+    cross-check search runs from its branches clipped into the limits, as in
+    :func:`solve_ik`; failing that the target is ``"unreachable"`` (no branch at all) or
+    ``"outside_limits"`` (branches only beyond the limits), the statuses :func:`solve_ik`
+    gives it. ``"max_iter"`` proves nothing: not found.
 
     Args:
         robot: the robot.
@@ -381,12 +408,18 @@ def solve_ik_batch(
             target, as in :func:`solve_ik`.
         limit_margin: distance (rad or m) kept free inside every finite limit (hard), as
             in :func:`solve_ik`.
+        proofs: run the closed form's proofs of the targets the search missed inside the
+            reach sphere (default). ``False`` leaves them ``"max_iter"``, without the
+            cross-check search and the closed form's polish of a degenerate pose that
+            each costs (about 1 ms a target): for a caller that counts only successes,
+            such as a capability map.
     """
     start_time = now()
     if not isinstance(robot, Robot):
         raise OptikError(f"robot must be an optik.Robot, got {type(robot).__name__}")
     check_options("q0", None, restarts, max_iter, seed)
     check_int("restarts", restarts, minimum=0, maximum=MAX_BATCH_RESTARTS)
+    proofs = check_bool("proofs", proofs)
     task = make_task(mode, axis=axis, weights=weights, tol=tol)
     mode = "position" if task.mode == "position" else "pose"  # the targets' form
     if seed > MAX_SEED - 2**40:  # target k uses seed + k, and k may reach 2**40
@@ -418,8 +451,15 @@ def solve_ik_batch(
     # at 1, the units balanced for the arm's size.
     search = balanced_search(task, search_length(robot))
 
-    def run(targets_rows: np.ndarray, starts: FloatArray) -> None:
-        """The search of ``targets_rows``; ``starts`` (1 or rows, G, dof) their given starts."""
+    def run(
+        targets_rows: np.ndarray, starts: FloatArray, budget: tuple[int, float, int] = settings
+    ) -> None:
+        """The search of ``targets_rows``; ``starts`` (1 or rows, G, dof) their given starts.
+
+        ``budget``: ``(iterations per attempt, bias weight, restarts)``. A row searched
+        again (the cross-check of a proof) adds its iterations and attempts.
+        """
+        again = iterations[targets_rows] > 0
         for lo in range(0, len(targets_rows), BATCH_SLICE):
             part = targets_rows[lo : lo + BATCH_SLICE]
             workers = threads if len(part) >= PARALLEL_BATCH else 1
@@ -427,12 +467,19 @@ def solve_ik_batch(
             targets_part = np.ascontiguousarray(poses[part])
             seeds = part.astype(np.int64) + int(seed)
             own = starts[lo : lo + BATCH_SLICE] if starts.shape[0] > 1 else starts
-            job = (targets_part, search.packed, own, table.kernel_args(), settings, seeds)
+            job = (targets_part, search.packed, own, table.kernel_args(), budget, seeds)
             Qp, it, u, _ = solve_batch(chain, job, workers)
-            Q[part], iterations[part], used[part] = Qp, it, u
+            Q[part] = Qp
+            iterations[part] += it
+            used[part] += u + again[lo : lo + BATCH_SLICE]  # its first attempt counts too
 
     own = given[rows] if given.shape[0] == N else given  # per row, or shared
     family = None if every_frozen else _batch_family(robot, task)
+    # Rows whose closed form has no branch inside the limits: with the plain limits (a
+    # narrowed box proves nothing) they are proved unreachable or outside the limits
+    # where the search missed them too, as solve_ik proves them.
+    provable = proofs and family is not None and bounds is None and family.proves_unreachable
+    no_branch = np.zeros(N, dtype=bool)
     roll_family = None if every_frozen or family is not None else _roll_family(robot, task)
     if family is not None and compiled_batch(robot, task.mode):
         # As solve_ik: the branch nearest q0 answers; the search runs where there is none,
@@ -441,6 +488,7 @@ def solve_ik_batch(
         branch = _branches(robot, family, task.mode, poses[rows], refs, bounds, threads)
         has = np.all(np.isfinite(branch), axis=1)
         Q[rows[has]] = branch[has]
+        no_branch[rows[~has]] = True
         exact = np.zeros(len(rows), dtype=bool)
         exact[has] = verify(robot, branch[has], poses[rows[has]], task).success
         run(rows[~has], own[~has] if own.shape[0] > 1 else own)
@@ -461,6 +509,8 @@ def solve_ik_batch(
             has = np.flatnonzero(np.all(np.isfinite(branch), axis=1))
             exact = verify(robot, branch[has], poses[rows[missed[has]]], task).success
             Q[rows[missed[has[exact]]]] = branch[has[exact]]
+            no_branch[rows[missed]] = True
+            no_branch[rows[missed[has]]] = False
         elif roll_family is not None:
             # The axis task: the closed form over a grid of rolls, as solve_ik answers it,
             # for the targets the search missed (a narrow stretch of roll defeats restarts).
@@ -472,19 +522,46 @@ def solve_ik_batch(
             has = np.flatnonzero(np.all(np.isfinite(branch), axis=1))
             exact = verify(robot, branch[has], poses[missed[has]], task).success
             Q[missed[has[exact]]] = branch[has[exact]]
+    outside = np.zeros(N, dtype=bool)
+    proved = np.zeros(N, dtype=bool)
+    missed = np.flatnonzero(no_branch & reachable) if provable else np.zeros(0, dtype=np.int64)
+    missed = missed[~verify(robot, Q[missed], poses[missed], task).success]
+    if missed.size:
+        # solve_ik's cross-check: a short search from the branches clipped into the limits
+        # (from q0 where there is none), one group per branch count.
+        refs = _row_starts(robot, given, missed, bounds)
+        branches, counts = _unlimited_branches(
+            robot, cast(AnalyticFamily, family), task.mode, poses[missed], refs
+        )
+        clipped = np.clip(branches, robot.lower, robot.upper)
+        cross_check = (DLSSolver.default_max_iter, DLSSolver.w_bias, CROSS_CHECK_RESTARTS)
+        for count in np.unique(counts).tolist():
+            group = counts == count
+            starts = clipped[group, :count] if count else refs[group, None]
+            run(missed[group], np.ascontiguousarray(starts), cross_check)
+        found = verify(robot, Q[missed], poses[missed], task).success
+        beyond = ~found & (counts > 0)
+        outside[missed[beyond]] = True
+        proved[missed[~found]] = True
+        if not task.is_graded:  # the branch nearest q0, beyond the limits (solve_ik's q)
+            Q[missed[beyond]] = branches[beyond, 0]
     verdict = _verdict(robot, Q, poses, task, bounds)
     if search is not task:
         # Beyond the reach sphere too (no search ran): from the row's q0, as solve_ik.
         far = np.flatnonzero(~reachable)
         Q[far] = _row_starts(robot, given, far, bounds)
-        failed = np.flatnonzero(~verdict.success)
+        # An outside_limits row keeps its branch (unit weights: solve_ik's q).
+        failed = np.flatnonzero(~verdict.success & ~(outside & ~task.is_graded))
         _compromise(robot, (task, poses, bounds), Q, iterations, failed)
         verdict = _verdict(robot, Q, poses, task, bounds)
     status = np.where(verdict.success, "converged", np.where(reachable, "max_iter", "unreachable"))
+    status = status.astype(object)  # a fixed-width string array would cut "outside_limits"
+    status[proved & ~verdict.success] = "unreachable"
+    status[outside & ~verdict.success] = "outside_limits"
     return IKBatchResult(
         Q,
         verdict.success,
-        status.astype(object),
+        status,
         verdict.position_error,
         verdict.orientation_error,
         verdict.limit_violation,

@@ -106,7 +106,13 @@ def reachability(
     if candidates.size:
         if orientation is None:
             result = solve_ik_batch(
-                robot, P[candidates], mode="position", tol=tol, restarts=restarts, seed=seed
+                robot,
+                P[candidates],
+                mode="position",
+                tol=tol,
+                restarts=restarts,
+                seed=seed,
+                proofs=False,
             )
         else:
             R = as_float_array("orientation", orientation)
@@ -116,7 +122,7 @@ def reachability(
             poses[:, :3, :3] = R
             poses[:, :3, 3] = P[candidates]
             result = solve_ik_batch(
-                robot, poses, mode="pose", tol=tol, restarts=restarts, seed=seed
+                robot, poses, mode="pose", tol=tol, restarts=restarts, seed=seed, proofs=False
             )
         reachable[candidates] = result.success
         Q[candidates[result.success]] = result.q[result.success]

@@ -92,16 +92,21 @@ def test_a_python_closed_form_answers_the_rows_the_search_missed() -> None:
 
 
 def test_targets_without_a_branch_in_the_limits_are_still_searched() -> None:
-    # A narrowed box: the branches of the plain limits lie outside it; the search runs
-    # and, not finding an answer, says max_iter (no proof is claimed).
+    # Narrow limits: the branches of the second target lie outside them. The search runs
+    # first; not finding an answer, the row is proved outside the limits, as solve_ik
+    # proves it. Without the proofs it says max_iter, which claims nothing.
     centre = UR5.mid_limits
     narrow = UR5.with_limits(centre - 0.2, centre + 0.2)
     far = np.clip(centre + 1.0, UR5.lower, UR5.upper)
     T = UR5.fk(np.stack([centre + 0.05, far]))
     batch = optik.solve_ik_batch(narrow, T, restarts=2)
     assert batch.success.tolist() == [True, False]
-    assert batch.status.tolist() == ["converged", "max_iter"]
+    assert batch.status.tolist() == ["converged", "outside_limits"]
+    assert optik.solve_ik(narrow, T[1]).status == "outside_limits"
     assert batch.iterations[1] > 0
+    unproved = optik.solve_ik_batch(narrow, T, restarts=2, proofs=False)
+    assert unproved.status.tolist() == ["converged", "max_iter"]
+    assert unproved.iterations[1] > 0
 
 
 def test_the_closed_form_s_slices_on_threads_give_the_rows_of_one_thread() -> None:
