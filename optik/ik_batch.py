@@ -546,12 +546,13 @@ def solve_ik_batch(
         if not task.is_graded:  # the branch nearest q0, beyond the limits (solve_ik's q)
             Q[missed[beyond]] = branches[beyond, 0]
     verdict = _verdict(robot, Q, poses, task, bounds)
-    if search is not task:
-        # Beyond the reach sphere too (no search ran): from the row's q0, as solve_ik.
+    if task.is_graded:
+        # Beyond the reach sphere too (no search ran): from the row's q0, as solve_ik. A
+        # plain task searched in the arm's units (a balanced twin) has no compromise: its
+        # best attempt is the answer, as in solve_ik.
         far = np.flatnonzero(~reachable)
         Q[far] = _row_starts(robot, given, far, bounds)
-        # An outside_limits row keeps its branch (unit weights: solve_ik's q).
-        failed = np.flatnonzero(~verdict.success & ~(outside & ~task.is_graded))
+        failed = np.flatnonzero(~verdict.success)
         _compromise(robot, (task, poses, bounds), Q, iterations, failed)
         verdict = _verdict(robot, Q, poses, task, bounds)
     status = np.where(verdict.success, "converged", np.where(reachable, "max_iter", "unreachable"))

@@ -182,3 +182,23 @@ def test_axis_targets_on_a_narrow_roll_are_answered_by_the_rolled_closed_form() 
         assert np.all(batch.position_error <= 1e-9)
     single = [optik.solve_ik(UR5, t, mode="axis", restarts=3, seed=0) for t in T]
     assert all(r.success and r.solver == "analytic" for r in single)
+
+
+def test_a_plain_task_on_a_large_arm_takes_no_compromise() -> None:
+    """On an arm of several metres the search runs in the arm's units (a balanced twin
+    of the task), which is no graded task: a row beyond the reach sphere stays NaN and a
+    missed row keeps its best attempt, as on an arm of a metre and as in solve_ik. The
+    rows took the weighted compromise instead (the slide driven to its end)."""
+    arm = optik.load_problem("jumbo_spherical_arm").robot
+    centre, radius = arm.reach_sphere
+    far = np.eye(4)
+    far[:3, 3] = centre + 2.0 * radius * np.array([0.6, 0.0, 0.8])
+    _, T = _poses(arm, 2, 5)
+    miss = T[0].copy()
+    miss[:3, :3] = T[1][:3, :3] @ np.diag([1.0, -1.0, -1.0])  # a turned orientation
+    batch = optik.solve_ik_batch(arm, np.stack([far, miss]), restarts=0, max_iter=1, proofs=False)
+    assert batch.status[0] == "unreachable" and np.all(np.isnan(batch.q[0]))
+    assert batch.status[1] == "max_iter" and batch.iterations[1] == 1
+    single = optik.solve_ik(arm, miss, restarts=0, max_iter=1, warm_start="q0")
+    assert not single.success
+    np.testing.assert_allclose(batch.q[1], single.q, atol=1e-12)
