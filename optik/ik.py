@@ -81,7 +81,15 @@ from optik.model import Robot
 from optik.poses import PositionOnlyTargetError, as_target_pose
 from optik.posture import check_posture, nearest_turns, posture_answers, refine_posture
 from optik.solvers import get_solver
-from optik.solvers._base import IKQuery, IKSolver, RunOutput, budget_now, compromise, now
+from optik.solvers._base import (
+    IKQuery,
+    IKSolver,
+    RunOutput,
+    budget_now,
+    compromise,
+    now,
+    within_reach_of_tolerance,
+)
 from optik.solvers._seeds import start_sequence
 from optik.solvers._starts import StartSequence
 from optik.task import Task, make_task
@@ -148,6 +156,17 @@ def _closed_form_proof(
     run = numeric.run(query, sequence, numeric.default_max_iter, CROSS_CHECK_RESTARTS, math.inf)
     if verify_one(robot, run.q, query.target, query.spec)[3]:
         return from_run(query, start_time, numeric.name, run)
+    # The sphere's proof counts tol already; the closed form's proves no exact answer.
+    near, q_min, used = (False, run.q, 0) if beyond else within_reach_of_tolerance(query, run.q)
+    if near:
+        # An answer within tol may lie by the task's minimum: the branch set proves nothing.
+        position, orientation, _, _ = verify_one(robot, q_min, query.target, query.spec)
+        reason = (
+            "closed form: no branch reaches the target exactly, and the task's minimum found "
+            f"misses it by {position:.3g} m and {orientation:.3g} rad, close to tol: no proof"
+        )
+        outcome = without_run(q_min, "max_iter", reason, run.iterations + used, run.restarts)
+        return verified_result(query, start_time, numeric.name, outcome, None)
     status = "outside_limits" if outside else "unreachable"
     form = "closed form" if held is None else f"closed form with {held[0]!r} at {held[1]:g}"
     if beyond is not None:

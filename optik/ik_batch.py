@@ -42,7 +42,13 @@ from optik.diffik import clip_into_limits
 from optik.errors import ArgumentError, OptikError, ShapeError
 from optik.limits import LIMIT_TOLERANCE, into_box, limit_violation
 from optik.model import Robot
-from optik.solvers._base import IKQuery, compromise, now, search_length
+from optik.solvers._base import (
+    IKQuery,
+    compromise,
+    now,
+    search_length,
+    within_reach_of_tolerance,
+)
 from optik.solvers._batch_threads import solve_batch
 from optik.solvers._seeds import seed_table
 from optik.solvers.iterative import DLSSolver
@@ -540,6 +546,16 @@ def solve_ik_batch(
             starts = clipped[group, :count] if count else refs[group, None]
             run(missed[group], np.ascontiguousarray(starts), cross_check)
         found = verify(robot, Q[missed], poses[missed], task).success
+        # An answer within tol may lie by the task's minimum: no proof there (solve_ik's
+        # rule); the minimum is the row's best attempt, a success where it meets tol.
+        for i in np.flatnonzero(~found).tolist():
+            k = int(missed[i])
+            query = IKQuery(robot, poses[k], task.mode, task.position_tol, task, bounds)
+            near, q_min, used_iterations = within_reach_of_tolerance(query, Q[k])
+            iterations[k] += used_iterations
+            if near:
+                Q[k] = q_min
+                found[i] = True  # no proof
         beyond = ~found & (counts > 0)
         outside[missed[beyond]] = True
         proved[missed[~found]] = True

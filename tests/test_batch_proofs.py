@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 
 import optik
 from optik.errors import ArgumentError
@@ -123,3 +124,56 @@ def test_proofs_must_be_a_boolean(value: object) -> None:
     puma = load_problem("puma560").robot
     with pytest.raises(ArgumentError, match="proofs"):
         optik.solve_ik_batch(puma, puma.fk(puma.mid_limits)[None], proofs=value)
+
+
+# Targets a closed form reaches by no branch, which an in-limit configuration meets within
+# a loose tol (both errors below it): the search's least-squares minimum trades position
+# for rotation and misses them. Witnesses found by a minimax search.
+LOOSE_TOL_CASES = [
+    (
+        "ur5",
+        0.05,
+        [
+            [1.0, 0.0, 0.0, 0.04735666780866799],
+            [0.0, 6.123233995736766e-17, -1.0, -0.11685300269685252],
+            [0.0, 1.0, 6.123233995736766e-17, 0.15456189556764965],
+            [0.0, 0.0, 0.0, 1.0],
+        ],
+        [0.9763633989588054, -2.7463191729295335, -3.526929632454513,
+         -0.009936249924747918, 1.0236542315196513, 2.0316352141017653e-06],
+    ),
+    (
+        "puma560",
+        0.1,
+        [
+            [0.8660254037844386, -0.5, 0.0, 0.22250243943872],
+            [0.5, 0.8660254037844386, 0.0, -0.6152378885730886],
+            [0.0, 0.0, 1.0, 0.18568346733299357],
+            [0.0, 0.0, 0.0, 1.0],
+        ],
+        [-1.017329666346613, -0.7853981633974483, -1.0513212971525594,
+         -6.763549674591244e-05, 1.7453292519943295, 1.540848783332782],
+    ),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize(("name", "tol", "target", "witness"), LOOSE_TOL_CASES, ids=["ur5", "puma"])
+def test_a_loose_tol_met_near_the_target_is_no_proof(
+    name: str, tol: float, target: list[list[float]], witness: list[float]
+) -> None:
+    robot = load_problem(name).robot
+    T, q = np.array(target), np.array(witness)
+    # The witness meets tol inside the limits (scipy's rotation angle, not optik's).
+    F = robot.fk(q)
+    assert robot.within_limits(q)
+    assert np.linalg.norm(F[:3, 3] - T[:3, 3]) < tol
+    assert Rotation.from_matrix(F[:3, :3].T @ T[:3, :3]).magnitude() < tol
+    single = optik.solve_ik(robot, T, tol=tol)
+    batch = optik.solve_ik_batch(robot, T[None], tol=tol)
+    # Either found, or not found: never "unreachable" or "outside_limits" (they were).
+    assert single.status in ("converged", "max_iter"), single.message
+    assert batch.status[0] in ("converged", "max_iter")
+    assert single.status == batch.status[0]
+    # At the default tol the closed form's proof stands.
+    assert optik.solve_ik(robot, T).status in ("unreachable", "outside_limits")
+    assert optik.solve_ik_batch(robot, T[None]).status[0] in ("unreachable", "outside_limits")

@@ -73,6 +73,41 @@ def compromise(query: IKQuery, q0: FloatArray) -> tuple[FloatArray, int, bool]:
     )
 
 
+def within_reach_of_tolerance(query: IKQuery, q0: FloatArray) -> tuple[bool, FloatArray, int]:
+    """Whether an answer within the query's ``tol`` may lie near the task's minimum from ``q0``.
+
+    A closed form's "no branch" proves that no configuration meets the target *exactly*;
+    a tolerance admits configurations near it, which a search aimed at the target can miss:
+    its least-squares minimum trades the position error against the rotation's, while a
+    success bounds each (the UR5 at ``tol=0.05``: a configuration 0.047 m and 0.047 rad
+    away, and no search of 200 restarts found it). The task's weighted minimum from ``q0``
+    (:func:`compromise`, the cross-check's best attempt) measures the miss ``J = sum_i
+    w_i e_i^2``; every success has ``J <= max(w_p) tol_p^2 + max(w_r) tol_r^2``, so a
+    minimum above that (with the smallest weights) leaves no success near it, and the proof
+    stands. Returns ``(near, q_min, iterations)``: ``near`` when the minimum is a success or
+    within that bound (then nothing is proved), ``q_min`` (dof,) the minimum found.
+    """
+    q_min, iterations, _ = compromise(query, q0)
+    position, orientation, _, success = verify_one(query.robot, q_min, query.target, query.spec)
+    weights = query.spec.weights
+    w_position, w_rotation = weights[:3], weights[3:]
+    smallest = (  # products, not powers: a miss of 1e300 m is an infinite one, no error
+        _least_positive(w_position) * position * position
+        + _least_positive(w_rotation) * orientation * orientation
+    )
+    bound = (
+        float(np.max(w_position)) * query.spec.position_tol**2
+        + float(np.max(w_rotation)) * query.spec.orientation_tol**2
+    )
+    return success or not smallest > bound, q_min, iterations
+
+
+def _least_positive(weights: FloatArray) -> float:
+    """The smallest positive weight, 0 when there is none (the axes are free)."""
+    positive = weights[weights > 0.0]
+    return float(np.min(positive)) if positive.size else 0.0
+
+
 COMPROMISE_BIAS = 1e-9
 """The damping's bias of :func:`compromise` (``dls``'s ``w_bias`` is 1e-3). A
 compromise's residual does not vanish, so the damping's own term (half the squared
