@@ -49,7 +49,7 @@ from optik._checks import (
     check_real,
 )
 from optik._files import output_path, write_atomic_with
-from optik._ik_options import query_bounds
+from optik._ik_options import CROSS_CHECK_RESTARTS, query_bounds
 from optik.analytic import analytic_ik, family_of, wrap_into_limits
 from optik.analytic.roll import axis_branches, solves_axis_task
 from optik.diffik import clip_into_limits
@@ -58,6 +58,7 @@ from optik.ik import solve_ik
 from optik.model import Robot
 from optik.plan_choice import Comfort, choose
 from optik.posture import check_posture
+from optik.solvers._base import IKQuery, within_reach_of_tolerance
 from optik.spatial import as_pose
 from optik.task import AXES, MODES, Task, make_task, task_rows
 from optik.verify import beyond_reach_task
@@ -486,6 +487,24 @@ class _CandidateFinder:
             rows += per_seed[0].nearest
         return _dedupe(np.array(rows), self.limit) if rows else []
 
+    def _near_within_tol(self, T: FloatArray, branches: list[FloatArray]) -> bool:
+        """Whether an answer within the task's ``tol`` may lie near ``T`` (no proof then).
+
+        The closed form proves no *exact* answer. As :func:`solve_ik`'s proofs: a short
+        search (:data:`~optik.ik.CROSS_CHECK_RESTARTS`) from the first branch clipped into
+        the limits, or from mid-limits, and the task's minimum from its best attempt must
+        miss the target by more than any answer within ``tol`` could
+        (:func:`optik.solvers._base.within_reach_of_tolerance`).
+        """
+        robot, task = self.robot, self.path_task.task
+        start = np.clip(branches[0], robot.lower, robot.upper) if branches else robot.mid_limits
+        run = self._solve(robot, T, False, q0=start, restarts=CROSS_CHECK_RESTARTS)
+        if run.success:
+            return True
+        pose = np.ascontiguousarray(T, dtype=np.float64)
+        query = IKQuery(robot, pose, task.mode, task.position_tol, task, None)
+        return within_reach_of_tolerance(query, run.q)[0]
+
     def why_unsolved(self, T: FloatArray) -> str:
         """Why a waypoint has no candidate: a proved status, or ``"not_found"``.
 
@@ -502,6 +521,8 @@ class _CandidateFinder:
             return "unreachable"
         if self.proves:
             loose = analytic_ik(self.robot, target, self.mode, within_limits=False)
+            if self._near_within_tol(T, loose):
+                return "not_found"  # an answer within tol may lie near the target
             return "outside_limits" if loose else "unreachable"
         if self.narrowed:
             inside = self._solve(self.robot, T, False, restarts=20)

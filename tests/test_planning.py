@@ -393,3 +393,25 @@ def test_a_path_through_an_aligned_wrist_is_not_broken_at_it(name: str, q_mid: l
     assert "discontinuity" not in plan.status
     assert plan.largest_step <= 0.1
     _verify_plan(robot, plan)
+
+
+def test_a_loose_tol_met_near_a_waypoint_is_no_proof() -> None:
+    """The closed form has no branch for this pose, but an in-limit configuration meets it
+    within tol=0.05 (0.047 m and 0.047 rad): not found, never proved unreachable (it was).
+    At the default tol the proof stands."""
+    ur5 = load_problem("ur5").robot
+    T = np.array([
+        [1.0, 0.0, 0.0, 0.04735666780866799],
+        [0.0, 6.123233995736766e-17, -1.0, -0.11685300269685252],
+        [0.0, 1.0, 6.123233995736766e-17, 0.15456189556764965],
+        [0.0, 0.0, 0.0, 1.0],
+    ])  # fmt: skip
+    witness = np.array([
+        0.9763633989588054, -2.7463191729295335, -3.526929632454513,
+        -0.009936249924747918, 1.0236542315196513, 2.0316352141017653e-06,
+    ])  # fmt: skip
+    F = ur5.fk(witness)
+    assert ur5.within_limits(witness) and np.linalg.norm(F[:3, 3] - T[:3, 3]) < 0.05
+    assert np.arccos(np.clip((np.trace(F[:3, :3].T @ T[:3, :3]) - 1.0) / 2.0, -1.0, 1.0)) < 0.05
+    assert plan_path(ur5, T[None], tol=0.05).status[0] in ("not_found", "ok")
+    assert plan_path(ur5, T[None]).status[0] == "unreachable"
