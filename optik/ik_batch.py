@@ -532,24 +532,26 @@ def solve_ik_batch(
     proved = np.zeros(N, dtype=bool)
     missed = np.flatnonzero(no_branch & reachable) if provable else np.zeros(0, dtype=np.int64)
     missed = missed[~verify(robot, Q[missed], poses[missed], task).success]
-    if missed.size:
+    # A slice of rows at a time: their branches (up to 8 a row) stay a slice's worth.
+    for lo in range(0, missed.size, BATCH_SLICE):
+        part = missed[lo : lo + BATCH_SLICE]
         # solve_ik's cross-check: a short search from the branches clipped into the limits
         # (from q0 where there is none), one group per branch count.
-        refs = _row_starts(robot, given, missed, bounds)
+        refs = _row_starts(robot, given, part, bounds)
         branches, counts = _unlimited_branches(
-            robot, cast(AnalyticFamily, family), task.mode, poses[missed], refs
+            robot, cast(AnalyticFamily, family), task.mode, poses[part], refs
         )
         clipped = np.clip(branches, robot.lower, robot.upper)
         cross_check = (DLSSolver.default_max_iter, DLSSolver.w_bias, CROSS_CHECK_RESTARTS)
         for count in np.unique(counts).tolist():
             group = counts == count
             starts = clipped[group, :count] if count else refs[group, None]
-            run(missed[group], np.ascontiguousarray(starts), cross_check)
-        found = verify(robot, Q[missed], poses[missed], task).success
+            run(part[group], np.ascontiguousarray(starts), cross_check)
+        found = verify(robot, Q[part], poses[part], task).success
         # An answer within tol may lie by the task's minimum: no proof there (solve_ik's
         # rule); the minimum is the row's best attempt, a success where it meets tol.
         for i in np.flatnonzero(~found).tolist():
-            k = int(missed[i])
+            k = int(part[i])
             query = IKQuery(robot, poses[k], task.mode, task.position_tol, task, bounds)
             near, q_min, used_iterations = within_reach_of_tolerance(query, Q[k])
             iterations[k] += used_iterations
@@ -557,10 +559,10 @@ def solve_ik_batch(
                 Q[k] = q_min
                 found[i] = True  # no proof
         beyond = ~found & (counts > 0)
-        outside[missed[beyond]] = True
-        proved[missed[~found]] = True
+        outside[part[beyond]] = True
+        proved[part[~found]] = True
         if not task.is_graded:  # the branch nearest q0, beyond the limits (solve_ik's q)
-            Q[missed[beyond]] = branches[beyond, 0]
+            Q[part[beyond]] = branches[beyond, 0]
     verdict = _verdict(robot, Q, poses, task, bounds)
     if task.is_graded:
         # Beyond the reach sphere too (no search ran): from the row's q0, as solve_ik. A

@@ -177,3 +177,17 @@ def test_a_loose_tol_met_near_the_target_is_no_proof(
     # At the default tol the closed form's proof stands.
     assert optik.solve_ik(robot, T).status in ("unreachable", "outside_limits")
     assert optik.solve_ik_batch(robot, T[None]).status[0] in ("unreachable", "outside_limits")
+
+
+def test_the_proofs_run_slice_by_slice_with_the_rows_of_one_slice(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    puma = load_problem("puma560").robot
+    T = _mixed_targets(puma, "pose", 12, 4)
+    whole = optik.solve_ik_batch(puma, T, restarts=3)
+    monkeypatch.setattr(optik.ik_batch, "BATCH_SLICE", 3)
+    sliced = optik.solve_ik_batch(puma, T, restarts=3)
+    assert np.sum(np.isin(whole.status, ["outside_limits", "unreachable"])) > 3  # several slices
+    assert sliced.status.tolist() == whole.status.tolist()
+    np.testing.assert_array_equal(sliced.q, whole.q)
+    np.testing.assert_array_equal(sliced.iterations, whole.iterations)
