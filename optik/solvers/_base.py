@@ -95,9 +95,10 @@ def within_reach_of_tolerance(query: IKQuery, q0: FloatArray) -> tuple[bool, Flo
         _least_positive(w_position) * position * position
         + _least_positive(w_rotation) * orientation * orientation
     )
+    position_tol, orientation_tol = query.spec.position_tol, query.spec.orientation_tol
     bound = (
-        float(np.max(w_position)) * query.spec.position_tol**2
-        + float(np.max(w_rotation)) * query.spec.orientation_tol**2
+        float(np.max(w_position)) * position_tol * position_tol
+        + float(np.max(w_rotation)) * orientation_tol * orientation_tol
     )
     return success or not smallest > bound, q_min, iterations
 
