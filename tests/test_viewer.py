@@ -254,7 +254,7 @@ def test_browser_draws_the_robot_and_follows_a_dragged_target(chromium: Chromium
 
         changed = wait_for(robot_hidden, 30, "more than 500 pixels to change as the robot hides")
         viewer.set_robot_visible(True)
-        camera = next(iter(viewer._server.get_clients().values())).camera
+        camera = wait_for(lambda: page_client(viewer), 30, "the page's client").camera
         scale = with_robot.shape[0] / camera.image_height  # device pixels per CSS pixel
         joints = stick_points(robot, q_start)
         pixels = project(camera, joints) * scale
@@ -330,6 +330,15 @@ def puma_viewer() -> Iterator[Viewer]:
         yield viewer
 
 
+def page_client(viewer: Viewer) -> Any:
+    """The page's client handle (its ``.camera``), or ``None`` until the server lists it.
+
+    The page can show its joint values a moment before the server registers its client.
+    """
+    clients = list(viewer._server.get_clients().values())
+    return clients[0] if clients else None
+
+
 def test_the_opening_view_holds_the_whole_arm_and_its_target(chromium: Chromium) -> None:
     """The camera aimed above the base: the Puma at mid-limits stands tall, and its tool
     (with the target gizmo the user grabs) was above the page."""
@@ -341,7 +350,10 @@ def test_the_opening_view_holds_the_whole_arm_and_its_target(chromium: Chromium)
 
         def aimed() -> Any:
             # The page reports its camera a moment after it applies the opening view.
-            camera = next(iter(viewer._server.get_clients().values())).camera
+            client = page_client(viewer)
+            if client is None:
+                return None
+            camera = client.camera
             return camera if np.allclose(camera.look_at, aim, atol=1e-6) else None
 
         camera = wait_for(aimed, 30, "the page's camera to take the opening view")
