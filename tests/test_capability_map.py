@@ -291,6 +291,36 @@ def test_a_damaged_marker_is_one_line_on_the_command_line(tmp_path: Path) -> Non
     assert done.stderr.count("\n") == 1, done.stderr[:2000]
 
 
+def test_a_deleted_array_is_named_on_open_and_on_resume(tmp_path: Path) -> None:
+    """A finished map missing one of its arrays (a folder deleted by hand) is refused
+    when it is opened, naming the array, instead of opening and failing at a later read;
+    a resume refuses it too. ``q`` is required only of a map that keeps it."""
+    from optik.campaign._map_store import STORED_ALWAYS, missing_arrays
+
+    box = [[-2.0, 2.0], [-2.0, 2.0], [-0.01, 0.01]]
+    options: dict[str, Any] = {
+        "voxel": 0.5, "bounds": box, "mode": "position", "restarts": 1, "keep_q": True,
+    }  # fmt: skip
+    robot = two_link_robot()
+    out = tmp_path / "map.zarr"
+    capability_map(robot, out=out, **options)
+    stored = {path.name for path in out.iterdir() if path.is_dir()}
+    assert set(STORED_ALWAYS) | {"q", "chunk_done"} <= stored
+    assert missing_arrays(stored, keep_q=True) == []
+    assert set(open_map(out).data_vars) >= {*STORED_ALWAYS, "q"}
+    for name in (*STORED_ALWAYS, "q"):
+        damaged = tmp_path / f"no_{name}.zarr"
+        shutil.copytree(out, damaged)
+        shutil.rmtree(damaged / name)
+        with pytest.raises(OptikError, match=f"damaged capability map, no {name} array"):
+            open_map(damaged)
+        with pytest.raises(OptikError, match=f"not a capability map to resume .*no {name}"):
+            capability_map(robot, out=damaged, resume=True, **options)
+    without_q = tmp_path / "without_q.zarr"
+    capability_map(robot, out=without_q, **{**options, "keep_q": False})
+    assert "q" not in open_map(without_q)
+
+
 def test_missing_markers_or_a_damaged_data_chunk_are_named(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

@@ -14,7 +14,7 @@ import asyncio
 import contextlib
 import math
 import uuid
-from collections.abc import Mapping
+from collections.abc import Container, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -59,6 +59,21 @@ def map_layout(spec: MapSpec) -> dict[str, tuple[_Variable, tuple[int, ...]]]:
         dims = (*voxel, "orientation", "joint")
         table["q"] = (_Variable(dims, "f8", math.nan), (nx, ny, nz, M, dof))
     return table
+
+
+STORED_ALWAYS = ("reachability", "manipulability", "limit_margin", "inside", "reached")
+"""The arrays of :func:`map_layout` that every map stores (``q`` only with ``keep_q``)."""
+
+
+def missing_arrays(present: Container[str], keep_q: bool) -> list[str]:
+    """The arrays (chunk markers first) a map stores that ``present`` lacks.
+
+    Args:
+        present: the names of a stored map's arrays (a Zarr group, an xarray Dataset).
+        keep_q: whether the map's settings say it keeps ``q``.
+    """
+    needed = (DONE_MARKER, *STORED_ALWAYS, *(("q",) if keep_q else ()))
+    return [name for name in needed if name not in present]
 
 
 def _statics(spec: MapSpec) -> dict[str, tuple[tuple[str, ...], np.ndarray]]:
@@ -254,8 +269,7 @@ class MapStore:
         try:
             group = zarr.open_group(store=str(path), mode="r+")
             stored = dict(group.attrs.get("settings", {}))
-            needed = (DONE_MARKER, "reached", "reachability")
-            missing = [name for name in needed if name not in group]
+            missing = missing_arrays(group, bool(stored.get("keep_q")))
         except Exception as exc:  # not a Zarr group, or a damaged one
             raise OptikError(f"{path}: not a capability map to resume ({exc})") from None
         if missing:

@@ -56,6 +56,7 @@ from optik.campaign._map_store import (
     MapWriter,
     MemoryMapStore,
     map_layout,
+    missing_arrays,
     read_markers,
 )
 from optik.campaign.engine import (
@@ -313,10 +314,10 @@ def open_map(path: str | Path) -> Any:
         path: the map's Zarr folder.
 
     Raises:
-        OptikError: ``path`` is not a finished map, its chunk markers are missing or
-            cannot be read (a damaged map), or the cluster extra is missing. The data are
-            read lazily: a damaged data chunk raises when it is read
-            (:func:`read_variable` says which, as an OptikError).
+        OptikError: ``path`` is not a finished map, its chunk markers or one of its
+            arrays are missing, the markers cannot be read (a damaged map), or the
+            cluster extra is missing. The data are read lazily: a damaged data chunk
+            raises when it is read (:func:`read_variable` says which, as an OptikError).
     """
     if not isinstance(path, (str, Path)):
         raise OptikError(
@@ -338,6 +339,13 @@ def open_map(path: str | Path) -> Any:
     marker = zarr.open_array(store=str(path), path=DONE_MARKER, mode="r")
     if not bool(np.all(read_markers(marker, str(path)))):
         raise OptikError(f"{path}: the map is unfinished (resume the run to finish it)")
+    settings = ds.attrs.get("settings", {})
+    missing = missing_arrays(ds, bool(settings.get("keep_q")))
+    if missing:
+        raise OptikError(
+            f"{path}: damaged capability map, no {', '.join(missing)} array; delete the map "
+            "and compute it again"
+        )
     return ds.drop_vars(DONE_MARKER)
 
 
