@@ -19,7 +19,7 @@ from optik.ik_batch import BATCH_STATUSES
 from optik.problems import load_problem
 
 
-def _mixed_targets(robot: optik.Robot, mode: str, n: int, seed: int) -> np.ndarray:
+def _mixed_targets(robot: optik.Robot, n: int, seed: int) -> np.ndarray:
     """Poses of configurations up to 40 % of the range beyond the limits, and points
     drawn inside the reach sphere with the first pose's rotation: (2 n, 4, 4)."""
     rng = np.random.default_rng(seed)
@@ -44,7 +44,7 @@ def _mixed_targets(robot: optik.Robot, mode: str, n: int, seed: int) -> np.ndarr
 )
 def test_each_row_has_solve_ik_s_status_and_outside_limits_q(name: str, mode: str) -> None:
     robot = load_problem(name).robot
-    T = _mixed_targets(robot, mode, 12, 3)
+    T = _mixed_targets(robot, 12, 3)
     batch = optik.solve_ik_batch(robot, T, mode=mode, restarts=10)
     assert set(batch.status) <= set(BATCH_STATUSES)
     single = [optik.solve_ik(robot, t, mode=mode) for t in T]
@@ -183,7 +183,7 @@ def test_the_proofs_run_slice_by_slice_with_the_rows_of_one_slice(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     puma = load_problem("puma560").robot
-    T = _mixed_targets(puma, "pose", 12, 4)
+    T = _mixed_targets(puma, 12, 4)
     whole = optik.solve_ik_batch(puma, T, restarts=3)
     monkeypatch.setattr(optik.ik_batch, "BATCH_SLICE", 3)
     sliced = optik.solve_ik_batch(puma, T, restarts=3)
