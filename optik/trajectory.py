@@ -109,9 +109,10 @@ class TrajectorySegment:
             joint-space chord length, rad or m).
         waypoint_times: (k,) time (s, from ``t_start``) at which each waypoint is passed.
         position_deviation: largest distance (m) of the tool from the Cartesian path
-            between waypoints, measured on 8 points per interval, along the axes the
-            plan's task constrains (in the path's frame; 0 for orientation plans; NaN
-            without a robot).
+            between waypoints (8 samples per interval, then the peak sought between
+            them: :mod:`optik.path_departure`), along the axes the plan's task
+            constrains (in the path's frame; 0 for orientation plans; NaN without a
+            robot).
         orientation_deviation: largest angle (rad) of the tool's rotation from the path's
             (pose and orientation plans), of its tool axis from the path's (axis plans);
             0 for position plans, NaN without a robot.

@@ -239,8 +239,9 @@ def test_departures_measure_what_the_task_constrains(mode: str) -> None:
     trajectory = plan.to_trajectory(1.0, 2.0, robot=robot)
     segment = trajectory.segments[0]
     dense = _rotation_departure(robot, trajectory, path, 2 if mode == "axis" else None)
-    # 8 samples per interval: at most the dense measure, and near it (measured 98.7 %)
-    assert 0.9 * dense <= segment.orientation_deviation <= dense + 1e-12
+    # The peak between samples is sought: at least the dense measure (8 samples alone read
+    # 98.7 % of it), and near it (the dense grid's own shortfall)
+    assert dense - 1e-12 <= segment.orientation_deviation <= 1.001 * dense
     if mode == "orientation":
         assert segment.position_deviation == 0.0
     else:
@@ -249,6 +250,40 @@ def test_departures_measure_what_the_task_constrains(mode: str) -> None:
     plan.to_trajectory(1.0, 2.0, robot=robot, path_tolerance=1.01 * largest)
     with pytest.raises(OptikError, match="path_tolerance"):
         plan.to_trajectory(1.0, 2.0, robot=robot, path_tolerance=0.99 * largest)
+
+
+def _position_departure(trajectory: Any, robot: Robot, path: np.ndarray, per: int) -> float:
+    """Largest distance of the tool from each interval's straight segment, at ``per``
+    times per interval (an independent dense measure of a pose plan's departure)."""
+    segment = trajectory.segments[0]
+    worst = 0.0
+    for i in range(segment.first, segment.last):
+        t0, t1 = segment.waypoint_times[i], segment.waypoint_times[i + 1]
+        q, _, _ = trajectory.at(0, np.linspace(t0, t1, per))
+        p = robot.fk(q)[:, :3, 3]
+        a, b = path[i, :3, 3], path[i + 1, :3, 3]
+        lam = np.clip((p - a) @ (b - a) / ((b - a) @ (b - a)), 0.0, 1.0)
+        worst = max(worst, float(np.max(np.linalg.norm(p - a - lam[:, None] * (b - a), axis=1))))
+    return worst
+
+
+def test_the_position_departure_is_the_peak_between_samples() -> None:
+    """The tool's largest distance from the path: its 8 samples per interval read below
+    the peak (path_tolerance could pass a trajectory beyond it); the peak is sought."""
+    robot = load_problem("puma560").robot
+    q0 = np.array([0.3, 0.6, -0.4, 0.5, 0.7, -0.3])
+    T0 = robot.fk(q0)
+    T1 = T0.copy()
+    T1[:3, 3] += [0.05, -0.04, 0.03]
+    T1[:3, :3] = T1[:3, :3] @ Rotation.from_rotvec([0.2, -0.3, 0.1]).as_matrix()
+    path = line(T0, T1, 0.02)
+    plan = plan_path(robot, path, max_joint_step=0.3, q_start=q0)
+    assert plan.status == ["ok"] * len(path)
+    trajectory = plan.to_trajectory(1.0, 2.0, robot=robot)
+    dense = _position_departure(trajectory, robot, path, 401)
+    assert dense > 1e-5
+    measured = trajectory.segments[0].position_deviation
+    assert dense - 1e-12 <= measured <= (1.0 + 1e-4) * dense
 
 
 def test_joint_names_with_commas_keep_the_csv_columns(tmp_path: Path) -> None:
@@ -307,7 +342,10 @@ def test_a_free_position_axis_does_not_count_in_the_departure() -> None:
             found = minimize_scalar(off, bounds=(grid[max(j - 1, 0)], grid[min(j + 1, 400)]),
                                     method="bounded")  # fmt: skip
             dense = max(dense, min(float(found.fun), off(grid[j])))
-    assert 0.9 * dense <= segment.position_deviation <= dense + 1e-9  # measured 3.19 / 3.24
+    # At least the dense measure (the 8 samples alone read 3.19 for 3.24), and near it:
+    # the nearest point along the constrained axes comes from a fixed point that leaves out
+    # the path frame's turn, whose distance is never below the least (0.12 % above here)
+    assert dense - 1e-12 <= segment.position_deviation <= 1.005 * dense
     plan.to_trajectory(1.0, 2.0, robot=robot, path_tolerance=1.5 * dense)
 
 
