@@ -113,7 +113,9 @@ def test_a_tool_that_bulges_between_waypoints_departs_from_the_path() -> None:
     lam = np.clip((dense - A) @ (B - A) / float((B - A) @ (B - A)), 0.0, 1.0)
     distance = np.linalg.norm(dense - (A + lam[:, None] * (B - A)), axis=1)
     assert distance.max() > 0.03  # the swing moves the tool by centimetres
-    assert 0.8 * distance.max() <= position <= distance.max() + 1e-12
+    # The peak is sought between the 8 samples: at least the dense samples' largest (the
+    # 8 alone read below it), and near it.
+    assert distance.max() - 1e-12 <= position <= (1.0 + 1e-4) * distance.max()
 
 
 def test_a_numeric_arm_s_waypoints_get_fresh_candidates_by_default() -> None:
