@@ -62,16 +62,28 @@ def least_over_geodesic(angle: Any, count: int) -> FloatArray:
     values = np.stack([angle(np.full(count, u)) for u in grid], axis=1)  # (count, M)
     best = np.argmin(values, axis=1)
     lo, hi = grid[np.maximum(best - 1, 0)], grid[np.minimum(best + 1, len(grid) - 1)]
+    least: FloatArray = np.minimum(
+        np.min(values, axis=1), golden_least(angle, lo, hi, _GOLDEN_STEPS)
+    )
+    return least
+
+
+def golden_least(f: Any, lo: FloatArray, hi: FloatArray, steps: int) -> FloatArray:
+    """Per entry, the least value of ``f`` found by a golden-section search in [lo, hi].
+
+    ``f`` maps points (n,) to values (n,); ``lo``, ``hi`` (n,) bracket each entry's
+    minimum, which ``steps`` steps narrow by 0.618 each.
+    """
     ratio = 0.5 * (math.sqrt(5.0) - 1.0)
     a, b = hi - ratio * (hi - lo), lo + ratio * (hi - lo)
-    fa, fb = angle(a), angle(b)
-    for _ in range(_GOLDEN_STEPS):
+    fa, fb = f(a), f(b)
+    for _ in range(steps):
         left = fa <= fb  # the minimum lies in [lo, b]
         hi, lo = np.where(left, b, hi), np.where(left, lo, a)
         b, a = np.where(left, a, lo + ratio * (hi - lo)), np.where(left, hi - ratio * (hi - lo), b)
-        fresh = angle(np.where(left, a, b))
+        fresh = f(np.where(left, a, b))
         fb, fa = np.where(left, fa, fresh), np.where(left, fresh, fb)
-    least: FloatArray = np.minimum(np.min(values, axis=1), np.minimum(fa, fb))
+    least: FloatArray = np.minimum(fa, fb)
     return least
 
 
@@ -186,8 +198,8 @@ def _peak(values: FloatArray, w: FloatArray, at: Any) -> float:
     The samples lie at fractions ``w[1:-1]`` of each interval (``w[0] = 0`` and
     ``w[-1] = 1`` are its waypoints). In each interval whose best sample is at least
     :data:`_PEAK_SHARE` of the largest, a golden-section search for the peak between that
-    sample's neighbours; ``at(rows, u)`` maps those intervals' indices (k,) and fractions
-    (k,) to the measure there (k,). The largest value seen counts.
+    sample's neighbours (:func:`golden_least` of the negated measure); ``at(rows, u)``
+    maps those intervals' indices (k,) and fractions (k,) to the measure there (k,).
     """
     peak = float(np.max(values, initial=0.0))
     if peak == 0.0:  # the task measures nothing here (or the path is met exactly)
@@ -195,21 +207,8 @@ def _peak(values: FloatArray, w: FloatArray, at: Any) -> float:
     rows = np.flatnonzero(np.max(values, axis=1) >= _PEAK_SHARE * peak)
     best = np.argmax(values[rows], axis=1)
     lo, hi = w[best], w[best + 2]  # the best sample is w[best + 1]
-    ratio = 0.5 * (math.sqrt(5.0) - 1.0)
-    a, b = hi - ratio * (hi - lo), lo + ratio * (hi - lo)
-    fa, fb = at(rows, a), at(rows, b)
-    seen = np.maximum(fa, fb)
-    for _ in range(_PEAK_STEPS):
-        right = fb >= fa  # the peak lies in [a, hi]
-        lo, hi = np.where(right, a, lo), np.where(right, hi, b)
-        a, b = (
-            np.where(right, b, hi - ratio * (hi - lo)),
-            np.where(right, lo + ratio * (hi - lo), a),
-        )
-        fresh = at(rows, np.where(right, b, a))
-        fa, fb = np.where(right, fb, fresh), np.where(right, fresh, fa)
-        seen = np.maximum(seen, fresh)
-    return max(peak, float(np.max(seen)))
+    found = -golden_least(lambda u: -at(rows, u), lo, hi, _PEAK_STEPS)
+    return max(peak, float(np.max(found)))
 
 
 def _departures_at(
@@ -270,4 +269,4 @@ def merge_departure(
     return position, orientation
 
 
-__all__ = ["least_over_geodesic", "merge_departure", "segment_departure"]
+__all__ = ["golden_least", "least_over_geodesic", "merge_departure", "segment_departure"]
