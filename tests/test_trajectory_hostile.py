@@ -252,6 +252,17 @@ def test_departures_measure_what_the_task_constrains(mode: str) -> None:
         plan.to_trajectory(1.0, 2.0, robot=robot, path_tolerance=0.99 * largest)
 
 
+def _puma_turning_line() -> tuple[Robot, np.ndarray, np.ndarray]:
+    """The Puma 560 along 7.1 cm that turns its tool 0.37 rad, every 2 cm: robot, path, q0."""
+    robot = load_problem("puma560").robot
+    q0 = np.array([0.3, 0.6, -0.4, 0.5, 0.7, -0.3])
+    T0 = robot.fk(q0)
+    T1 = T0.copy()
+    T1[:3, 3] += [0.05, -0.04, 0.03]
+    T1[:3, :3] = T1[:3, :3] @ Rotation.from_rotvec([0.2, -0.3, 0.1]).as_matrix()
+    return robot, line(T0, T1, 0.02), q0
+
+
 def _position_departure(trajectory: Any, robot: Robot, path: np.ndarray, per: int) -> float:
     """Largest distance of the tool from each interval's straight segment, at ``per``
     times per interval (an independent dense measure of a pose plan's departure)."""
@@ -270,13 +281,7 @@ def _position_departure(trajectory: Any, robot: Robot, path: np.ndarray, per: in
 def test_the_position_departure_is_the_peak_between_samples() -> None:
     """The tool's largest distance from the path: its 8 samples per interval read below
     the peak (path_tolerance could pass a trajectory beyond it); the peak is sought."""
-    robot = load_problem("puma560").robot
-    q0 = np.array([0.3, 0.6, -0.4, 0.5, 0.7, -0.3])
-    T0 = robot.fk(q0)
-    T1 = T0.copy()
-    T1[:3, 3] += [0.05, -0.04, 0.03]
-    T1[:3, :3] = T1[:3, :3] @ Rotation.from_rotvec([0.2, -0.3, 0.1]).as_matrix()
-    path = line(T0, T1, 0.02)
+    robot, path, q0 = _puma_turning_line()
     plan = plan_path(robot, path, max_joint_step=0.3, q_start=q0)
     assert plan.status == ["ok"] * len(path)
     trajectory = plan.to_trajectory(1.0, 2.0, robot=robot)
@@ -306,13 +311,7 @@ def test_a_free_position_axis_does_not_count_in_the_departure() -> None:
     # With weights [1, 1, 0, ...] the waypoints' answers lie up to 7 cm along their free
     # axis; the departure was measured from the path's nearest point in 3-D, then that
     # axis dropped: 1.06e-2 m reported for 3.2e-4 m (a hostile search's case).
-    robot = load_problem("puma560").robot
-    q0 = np.array([0.3, 0.6, -0.4, 0.5, 0.7, -0.3])
-    T0 = robot.fk(q0)
-    T1 = T0.copy()
-    T1[:3, 3] += [0.05, -0.04, 0.03]
-    T1[:3, :3] = T1[:3, :3] @ Rotation.from_rotvec([0.2, -0.3, 0.1]).as_matrix()
-    path = line(T0, T1, 0.02)
+    robot, path, q0 = _puma_turning_line()
     plan = plan_path(robot, path, max_joint_step=0.3, q_start=q0, weights=[1, 1, 0, 1, 1, 1])
     trajectory = plan.to_trajectory(1.0, 2.0, robot=robot)
     segment = trajectory.segments[0]
