@@ -487,23 +487,24 @@ class _CandidateFinder:
             rows += per_seed[0].nearest
         return _dedupe(np.array(rows), self.limit) if rows else []
 
-    def _near_within_tol(self, T: FloatArray, branches: list[FloatArray]) -> bool:
-        """Whether an answer within the task's ``tol`` may lie near ``T`` (no proof then).
+    def _near_within_tol(self, T: FloatArray, branches: list[FloatArray]) -> str:
+        """Whether an answer within the task's ``tol`` lies near ``T`` inside the limits.
 
-        The closed form proves no *exact* answer. As :func:`solve_ik`'s proofs: a short
-        search (:data:`~optik.ik.CROSS_CHECK_RESTARTS`) from the first branch clipped into
-        the limits, or from mid-limits, and the task's minimum from its best attempt must
-        miss the target by more than any answer within ``tol`` could
-        (:func:`optik.solvers._base.within_reach_of_tolerance`).
+        ``"found"``: one was found; ``"maybe"``: one may lie there (no proof then);
+        ``"no"``: none does. The closed form proves no *exact* answer. As
+        :func:`solve_ik`'s proofs: a short search (:data:`~optik.ik.CROSS_CHECK_RESTARTS`)
+        from the first branch clipped into the limits, or from mid-limits, and the task's
+        minimum from its best attempt must miss the target by more than any answer within
+        ``tol`` could (:func:`optik.solvers._base.within_reach_of_tolerance`).
         """
         robot, task = self.robot, self.path_task.task
         start = np.clip(branches[0], robot.lower, robot.upper) if branches else robot.mid_limits
         run = self._solve(robot, T, False, q0=start, restarts=CROSS_CHECK_RESTARTS)
         if run.success:
-            return True
+            return "found"
         pose = np.ascontiguousarray(T, dtype=np.float64)
         query = IKQuery(robot, pose, task.mode, task.position_tol, task, None)
-        return within_reach_of_tolerance(query, run.q)[0]
+        return "maybe" if within_reach_of_tolerance(query, run.q)[0] else "no"
 
     def why_unsolved(self, T: FloatArray) -> str:
         """Why a waypoint has no candidate: a proved status, or ``"not_found"``.
@@ -521,7 +522,10 @@ class _CandidateFinder:
             return "unreachable"
         if self.proves:
             loose = analytic_ik(self.robot, target, self.mode, within_limits=False)
-            if self._near_within_tol(T, loose):
+            near = self._near_within_tol(T, loose)
+            if near == "found" and self.narrowed:
+                return "outside_limits"  # reachable inside the limits, not inside the margin
+            if near != "no":
                 return "not_found"  # an answer within tol may lie near the target
             return "outside_limits" if loose else "unreachable"
         if self.narrowed:

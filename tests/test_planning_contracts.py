@@ -49,6 +49,21 @@ def test_the_hard_margin_holds_at_an_upper_limit() -> None:
     assert plan.limit_margin[solved].min() >= 0.2 - 1e-12
 
 
+def test_a_waypoint_inside_the_limits_but_not_the_margin_is_outside_limits() -> None:
+    # A closed form's arm boxed to 0.3 rad around a configuration whose first joint is
+    # 0.05 rad from its upper limit: with a 0.2 rad margin no branch is inside the
+    # margin, one is inside the limits. plan_path said not_found (its proof step found
+    # that answer and took it for a near miss) where it documents outside_limits.
+    q = np.array([0.3, -0.5, 0.4, 0.2, 0.8, 0.1])
+    boxed = PUMA.with_limits(q - 0.3, q + 0.3)
+    q[0] = boxed.upper[0] - 0.05
+    path = boxed.fk(np.linspace(q, q + np.array([0.02, 0.0, 0.0, 0.0, 0.0, 0.0]), 3))
+    assert optik.plan_path(boxed, path).status == ["ok"] * 3
+    plan = optik.plan_path(boxed, path, limit_margin=0.2)
+    assert plan.status == ["outside_limits"] * 3
+    assert np.isnan(plan.q).all()
+
+
 def test_the_step_after_an_unsolved_waypoint_is_not_measured_across_it() -> None:
     q = np.array([0.3, -0.5, 0.4, 0.2, 0.8, 0.1])
     jump = np.array([1.0, 0.5, 0.0, 0.0, 0.0, 0.0])
