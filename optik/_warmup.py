@@ -53,6 +53,7 @@ __all__ = [
     "OPTIONAL",
     "WarmReport",
     "axes_arm_robot",
+    "cached_already",
     "groups_from_environment",
     "merge_caches",
     "parse_groups",
@@ -440,13 +441,15 @@ class WarmReport:
 
     ``kernels``: signatures added to the destination (those it held already are not
     counted); ``seconds``; ``stages``: the groups of each worker by stage; ``compiled``:
-    signatures the workers compiled in all.
+    signatures the workers compiled in all; ``cached``: every kernel of the groups was
+    in the cache already, so no worker ran (:func:`cached_already`).
     """
 
     kernels: int
     seconds: float
     stages: list[list[tuple[str, ...]]] = field(default_factory=list)
     compiled: int = 0
+    cached: bool = False
 
 
 def _count_entries(cache: Path) -> int:
@@ -611,6 +614,43 @@ def _check_destination(folders: Sequence[Path]) -> None:
             ) from None
 
 
+_PROBE = """
+import os
+import sys
+
+from numba.core import event
+
+
+class FirstCompilation(event.Listener):
+    def on_start(self, ev):
+        os._exit(3)
+
+    def on_end(self, ev):
+        pass
+
+
+event.register("numba:compile", FirstCompilation())
+from optik._warmup import run_groups
+
+run_groups(sys.argv[1].split(","))
+"""
+"""Runs groups' calls and ends (exit 3) at numba's first compilation."""
+
+
+def cached_already(names: Sequence[str], env: dict[str, str]) -> bool:
+    """Whether a process with ``env`` loads every kernel of the groups ``names`` from cache.
+
+    A probe process runs the groups' calls and ends at numba's first compilation (exit
+    3): until then numba only reads its cache, so the probe writes no kernel. About 5 s
+    for every group when all are cached, a few seconds when the first call compiles. A
+    probe that fails otherwise counts as not cached (the warm-up then runs and reports
+    the failure).
+    """
+    command = [sys.executable, "-c", _PROBE, ",".join(names)]
+    done = subprocess.run(command, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    return done.returncode == 0
+
+
 def warm(
     destination: Path | None = None,
     *,
@@ -624,7 +664,9 @@ def warm(
     The groups of :data:`FIRST` run side by side, each worker into a cache folder of its
     own; their caches are merged; then the groups of :data:`LAST` run side by side on
     the merged kernels, compile what is left, and are merged in turn. With one process,
-    every group runs in one worker.
+    every group runs in one worker. Warming this environment's own cache (no
+    ``destination``), a probe first checks whether its processes would compile anything
+    for the groups (:func:`cached_already`); if not, no worker runs.
 
     Args:
         destination: the folder that holds the ``optik`` package whose ``__pycache__``
@@ -650,6 +692,7 @@ def warm(
     if groups is None:
         groups = groups_from_environment()
     stages = plan_stages(int(processes), groups)
+    own_cache = destination is None
     user_cache = os.environ.get("NUMBA_CACHE_DIR") if destination is None else None
     if destination is None and not user_cache and not _writable(package):
         # Where numba keeps this user's kernels of a package it cannot write beside.
@@ -666,6 +709,14 @@ def warm(
     start = time.perf_counter()
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(package.parent), env.get("PYTHONPATH")]))
+    if own_cache:
+        # Where the environment's processes read: the user's cache when the package's
+        # folder cannot be written (numba falls back to it, as the merge below does).
+        probe_env = {**env, "NUMBA_CACHE_DIR": str(destination)} if user_cache else env
+        names = [name for stage in stages for worker in stage for name in worker]
+        with _termination_as_exit():
+            if cached_already(names, probe_env):
+                return WarmReport(0, time.perf_counter() - start, stages, 0, cached=True)
     with _termination_as_exit(), tempfile.TemporaryDirectory(prefix="optik-warmup-") as scratch:
         logs = Path(scratch) / "logs"
         logs.mkdir()

@@ -212,6 +212,28 @@ def test_the_command_says_how_many_kernels_it_compiled_and_how_many_were_new(
     assert capsys.readouterr().out == "71 kernels compiled in 57.1 s, 1 of them new to the cache\n"
 
 
+def test_a_second_warm_up_finds_every_kernel_cached_and_runs_no_worker(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # A second `optik warmup` compiled every kernel again (118 s, as the first): each
+    # worker compiles into a fresh folder of its own. A probe now finds them cached.
+    import optik._warmup
+
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path / "cache"))
+    first = optik._warmup.warm(processes=1, groups=["kinematics"])
+    assert first.compiled > 0 and first.kernels == first.compiled and not first.cached
+    second = optik._warmup.warm(processes=1, groups=["kinematics"])
+    assert second.cached and second.compiled == second.kernels == 0
+    assert main(["warmup", "--processes", "1", "--groups", "kinematics"]) == 0
+    assert capsys.readouterr().out.startswith(
+        "every kernel of the groups is cached already: none compiled ("
+    )
+    # Another cache (empty): the probe meets a compilation at once.
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "empty")}
+    assert not optik._warmup.cached_already(["kinematics"], env)
+    assert optik._warmup.cached_already(["kinematics"], dict(os.environ))
+
+
 def test_a_merge_into_a_numba_cache_dir_serves_processes_that_use_it(
     toy: Path, tmp_path: Path
 ) -> None:

@@ -19,6 +19,11 @@ def _cmd_warmup(args: argparse.Namespace) -> int:
         raise OptikError(f"--processes must be at least 1, got {processes}")
     groups = parse_groups(args.groups, "--groups") if args.groups is not None else None
     report = warm(processes=processes, groups=groups, log=lambda line: print(line, file=sys.stderr))
+    if report.cached:
+        print(
+            f"every kernel of the groups is cached already: none compiled ({report.seconds:.1f} s)"
+        )
+        return EXIT_OK
     print(
         f"{report.compiled} kernels compiled in {report.seconds:.1f} s, "
         f"{report.kernels} of them new to the cache"
@@ -36,7 +41,9 @@ def add_warmup_command(sub: Any) -> None:
         "compiles the kernels of the common calls now, in worker processes side by side, "
         "into the installed package's cache (or NUMBA_CACHE_DIR when set). A wheel built "
         "with pip from the sources already carries them; run this after an install from "
-        "a wheel built elsewhere, or in an editable checkout. --groups names the groups "
+        "a wheel built elsewhere, or in an editable checkout; when every kernel of the groups "
+        "is cached already (a second run), a probe of about 5 s says so and none compiles. "
+        "--groups names the groups "
         "(default: the install's); held_joint (seven-joint arms with a joint held, about "
         "11 s of CPU) and axes_arms (the seven arm kinds of the spherical_axes and "
         "three_parallel families: 11-20 s for the first, 5-15 s for each other, about "
