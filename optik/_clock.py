@@ -25,34 +25,47 @@ import threading
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from dataclasses import dataclass
 from typing import Any
 
 from numba.core import caching, event
 
 
 class _OneTimeTimer(event.Listener):
-    """Sums the wall time of outermost one-time work (nested work is inside it)."""
+    """Sums the wall time of each thread's outermost one-time work (nested work is inside it).
+
+    Work is kept per thread, and the clock a thread reads never counts that thread's own
+    work under way, nor that of a thread that has ended: a thread checking a deadline is
+    not inside one-time work, so such work is a start whose end never came (a listener
+    ahead of this one raised, and numba skipped the rest). It would otherwise stop the
+    clock for good, and a ``timeout_s`` would never end. An end that no start of its
+    thread opened is ignored for the same reason.
+    """
 
     def __init__(self) -> None:
         self._lock = threading.Lock()
-        self._depth = 0
-        self._compiling = 0
-        self._started = 0.0
+        self._open: dict[threading.Thread, _OpenWork] = {}
         self.total = 0.0
 
     def enter(self, compiling: bool) -> None:
         with self._lock:
-            if self._depth == 0:
-                self._started = time.perf_counter()
-            self._depth += 1
-            self._compiling += compiling
+            work = self._open.setdefault(threading.current_thread(), _OpenWork())
+            if work.depth == 0:
+                work.started = time.perf_counter()
+            work.depth += 1
+            work.compiling += compiling
 
     def leave(self, compiling: bool) -> None:
         with self._lock:
-            self._depth -= 1
-            self._compiling -= compiling
-            if self._depth == 0:
-                self.total += time.perf_counter() - self._started
+            thread = threading.current_thread()
+            work = self._open.get(thread)
+            if work is None:
+                return
+            work.depth -= 1
+            work.compiling = max(work.compiling - compiling, 0)
+            if work.depth == 0:
+                self.total += time.perf_counter() - work.started
+                del self._open[thread]
 
     def on_start(self, event: Any) -> None:
         self.enter(True)
@@ -61,15 +74,38 @@ class _OneTimeTimer(event.Listener):
         self.leave(True)
 
     def compiling(self) -> bool:
-        """Whether numba is compiling or using its cache."""
+        """Whether numba is compiling or using its cache, in any thread."""
         with self._lock:
-            return self._compiling > 0
+            return any(work.compiling > 0 for work in self._live().values())
+
+    def idle(self) -> bool:
+        """Whether no thread is inside one-time work."""
+        with self._lock:
+            return not self._live()
 
     def seconds(self) -> float:
-        """One-time work so far (s), including work under way."""
+        """One-time work so far (s), including other threads' work under way."""
         with self._lock:
-            running = time.perf_counter() - self._started if self._depth > 0 else 0.0
+            now, caller = time.perf_counter(), threading.current_thread()
+            running = sum(
+                now - work.started for thread, work in self._live().items() if thread is not caller
+            )
             return self.total + running
+
+    def _live(self) -> dict[threading.Thread, _OpenWork]:
+        """The open work of threads still running (an ended thread's is dropped)."""
+        for thread in [thread for thread in self._open if not thread.is_alive()]:
+            del self._open[thread]
+        return self._open
+
+
+@dataclass
+class _OpenWork:
+    """One thread's one-time work under way: nesting depth, compilations among it, start (s)."""
+
+    depth: int = 0
+    compiling: int = 0
+    started: float = 0.0
 
 
 _TIMER = _OneTimeTimer()
@@ -111,7 +147,10 @@ def one_time_setup() -> Iterator[None]:
 
 
 def excluded_seconds() -> float:
-    """Wall time (s) of one-time work since optik's import: compilation, cache, setup."""
+    """Wall time (s) of one-time work since optik's import: compilation, cache, setup.
+
+    Work under way in the calling thread is not counted until it ends.
+    """
     return _TIMER.seconds()
 
 

@@ -596,7 +596,7 @@ def fake_clock(monkeypatch: pytest.MonkeyPatch) -> FakeClock:
 
     # Swapped only between pieces of one-time work: one begun on the real clock and
     # ended on the fake one would be measured across the two.
-    assert not _clock.compiling() and _clock._TIMER._depth == 0
+    assert _clock._TIMER.idle()
     clock = FakeClock(time.perf_counter())
     # The one-time work timed on the fake clock is forgotten afterwards, so that the
     # budget clock goes on from its value before the test.

@@ -1,4 +1,8 @@
+import subprocess
+import sys
+import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -230,3 +234,105 @@ def test_collecting_answers_stops_at_the_deadline(fake_clock: FakeClock) -> None
         unregister_solver("test:answering")
     assert len(branches) >= 4
     assert len(found) == 2 and len(calls) == 2
+
+
+# A listener registered before optik's raises once in an end event: numba skips the
+# listeners after it, so optik's timer never hears that compilation end. The budget clock
+# stood still from then on, and a solve_ik with timeout_s ran its restarts forever.
+RAISING_LISTENER = """
+import numpy as np
+from numba.core import event
+
+class RaisesOnce(event.Listener):
+    raised = False
+
+    def on_start(self, ev):
+        pass
+
+    def on_end(self, ev):
+        if not self.raised:
+            self.raised = True
+            raise RuntimeError("a listener that fails")
+
+event.register("numba:compile", RaisesOnce())
+import optik
+
+try:
+    with event.trigger_event("numba:compile"):
+        pass
+except RuntimeError:
+    pass
+panda = optik.load_problem("panda").robot
+centre = panda.mid_limits + 0.2
+boxed = panda.with_limits(centre - 0.3, centre + 0.3)
+T = boxed.fk(centre)
+c, s = np.cos(1.2), np.sin(1.2)
+T[:3, :3] = T[:3, :3] @ np.array([[1.0, 0, 0], [0, c, -s], [0, s, c]])
+print(optik.solve_ik(boxed, T, timeout_s=0.2).status)
+"""
+
+
+def test_a_listener_that_raises_cannot_stop_the_budget_clock_for_good() -> None:
+    # The target is out of the boxed Panda's reach by its orientation, with no proof: the
+    # restarts run to the deadline (seconds at most, with kernels to load or compile).
+    try:
+        done = subprocess.run(
+            [sys.executable, "-c", RAISING_LISTENER],
+            capture_output=True,
+            text=True,
+            timeout=600,
+        )
+    except subprocess.TimeoutExpired:
+        pytest.fail("solve_ik(timeout_s=0.2) still ran after 600 s: the budget clock stopped")
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == ["timeout"]
+
+
+def _in_thread(action: Callable[[], object]) -> object:
+    out: list[object] = []
+    worker = threading.Thread(target=lambda: out.append(action()))
+    worker.start()
+    worker.join()
+    return out[0]
+
+
+def test_the_timer_drops_work_whose_end_never_came(fake_clock: FakeClock) -> None:
+    from optik._clock import _OneTimeTimer
+
+    timer = _OneTimeTimer()
+    timer.leave(True)  # an end without its start: ignored
+    assert timer.seconds() == 0.0 and timer.idle()
+
+    # Work under way in another thread stops this thread's clock; that thread's own
+    # reading does not count it (it cannot be reading a deadline inside the work).
+    started = threading.Event()
+    release = threading.Event()
+
+    def compile_in_thread() -> None:
+        timer.enter(True)
+        started.set()
+        release.wait()
+        timer.leave(True)
+
+    worker = threading.Thread(target=compile_in_thread)
+    worker.start()
+    started.wait()
+    fake_clock.advance(2.0)
+    assert timer.seconds() == pytest.approx(2.0) and timer.compiling()
+    release.set()
+    worker.join()
+    assert timer.seconds() == pytest.approx(2.0) and timer.idle()
+
+    # A start left open in this thread is not counted by this thread's clock ...
+    timer.enter(True)
+    fake_clock.advance(3.0)
+    assert timer.seconds() == pytest.approx(2.0)
+    # ... while another thread's clock counts it as work under way.
+    assert _in_thread(timer.seconds) == pytest.approx(5.0)
+
+    # A thread that ended inside its work stops no clock.
+    _in_thread(lambda: timer.enter(True))
+    fake_clock.advance(1.0)
+    assert _in_thread(timer.seconds) == pytest.approx(6.0)
+    timer.leave(True)  # this thread's work ends: counted whole, and no work is open
+    assert timer.seconds() == pytest.approx(6.0) and timer.idle() and not timer.compiling()
