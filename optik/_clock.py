@@ -32,20 +32,21 @@ from numba.core import caching, event
 
 
 class _OneTimeTimer(event.Listener):
-    """Sums the wall time of each thread's outermost one-time work (nested work is inside it).
+    """Sums each thread's wall time of outermost one-time work (nested work is inside it).
 
-    Work is kept per thread, and the clock a thread reads never counts that thread's own
-    work under way, nor that of a thread that has ended: a thread checking a deadline is
-    not inside one-time work, so such work is a start whose end never came (a listener
-    ahead of this one raised, and numba skipped the rest). It would otherwise stop the
-    clock for good, and a ``timeout_s`` would never end. An end that no start of its
-    thread opened is ignored for the same reason.
+    A thread's clock leaves out that thread's own work only. Work in another thread (a
+    second caller's compilation, another robot's setup) does not stop it, or one busy
+    thread could hold off another's deadline for as long as it kept building. Work a
+    thread began and has not ended is not counted: a thread reading a deadline is not
+    inside one-time work, so such work is a start whose end never came (a listener ahead
+    of this one raised, and numba skipped the rest), and counting it would stop the
+    clock for good. An end that no start of its thread opened is ignored.
     """
 
     def __init__(self) -> None:
         self._lock = threading.Lock()
         self._open: dict[threading.Thread, _OpenWork] = {}
-        self.total = 0.0
+        self._done: dict[threading.Thread, float] = {}
 
     def enter(self, compiling: bool) -> None:
         with self._lock:
@@ -64,7 +65,8 @@ class _OneTimeTimer(event.Listener):
             work.depth -= 1
             work.compiling = max(work.compiling - compiling, 0)
             if work.depth == 0:
-                self.total += time.perf_counter() - work.started
+                elapsed = time.perf_counter() - work.started
+                self._done[thread] = self._done.get(thread, 0.0) + elapsed
                 del self._open[thread]
 
     def on_start(self, event: Any) -> None:
@@ -76,27 +78,27 @@ class _OneTimeTimer(event.Listener):
     def compiling(self) -> bool:
         """Whether numba is compiling or using its cache, in any thread."""
         with self._lock:
-            return any(work.compiling > 0 for work in self._live().values())
+            self._forget_ended()
+            return any(work.compiling > 0 for work in self._open.values())
 
     def idle(self) -> bool:
         """Whether no thread is inside one-time work."""
         with self._lock:
-            return not self._live()
+            self._forget_ended()
+            return not self._open
 
     def seconds(self) -> float:
-        """One-time work so far (s), including other threads' work under way."""
+        """The calling thread's finished one-time work so far (s)."""
         with self._lock:
-            now, caller = time.perf_counter(), threading.current_thread()
-            running = sum(
-                now - work.started for thread, work in self._live().items() if thread is not caller
-            )
-            return self.total + running
+            self._forget_ended()
+            return self._done.get(threading.current_thread(), 0.0)
 
-    def _live(self) -> dict[threading.Thread, _OpenWork]:
-        """The open work of threads still running (an ended thread's is dropped)."""
+    def _forget_ended(self) -> None:
+        """Drop the work of threads that have ended (no clock of theirs is read again)."""
         for thread in [thread for thread in self._open if not thread.is_alive()]:
             del self._open[thread]
-        return self._open
+        for thread in [thread for thread in self._done if not thread.is_alive()]:
+            del self._done[thread]
 
 
 @dataclass
@@ -147,9 +149,9 @@ def one_time_setup() -> Iterator[None]:
 
 
 def excluded_seconds() -> float:
-    """Wall time (s) of one-time work since optik's import: compilation, cache, setup.
+    """Wall time (s) of the calling thread's one-time work: compilation, cache, setup.
 
-    Work under way in the calling thread is not counted until it ends.
+    Work under way is not counted until it ends.
     """
     return _TIMER.seconds()
 
