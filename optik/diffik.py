@@ -27,6 +27,7 @@ from optik._checks import (
     finite_array,
     finite_length_array,
 )
+from optik._interrupts import surfaces_interrupts
 from optik.errors import (
     ArgumentError,
     JointLimitError,
@@ -324,6 +325,7 @@ def _no_solution(program: DiffIKProgram, backend: str) -> NoSolutionError | None
     )
 
 
+@surfaces_interrupts
 def diff_ik(
     robot: Robot,
     q: Any,

@@ -55,6 +55,7 @@ from optik._ik_options import (
     check_q0,
     query_bounds,
 )
+from optik._interrupts import surfaces_interrupts
 from optik.analytic import (
     analytic_ik,
     family_of,
@@ -117,6 +118,7 @@ ROLL_STARTS = 8
 when the roll's closed form finds no answer inside them."""
 
 
+@surfaces_interrupts
 def solve_ik(
     robot: Robot,
     target: Any,
@@ -299,6 +301,7 @@ def _posture_answer(plan: _Plan, q_ref: FloatArray, weights: FloatArray) -> IKRe
     return _answer(plan, best, solver_name, iterations, restarts)
 
 
+@surfaces_interrupts
 def solve_ik_all(
     robot: Robot,
     target: Any,

@@ -29,6 +29,7 @@ from optik._ik_options import (
     check_q0,
     query_bounds,
 )
+from optik._interrupts import surfaces_interrupts
 from optik.analytic import (
     AnalyticFamily,
     checked_batch,
@@ -352,6 +353,7 @@ def _bad(array: np.ndarray) -> FloatArray:
     raise ShapeError("targets", "(N, 4, 4) (or (N, 3) in position mode)", array.shape)
 
 
+@surfaces_interrupts
 def solve_ik_batch(
     robot: Robot,
     targets: Any,

@@ -50,6 +50,7 @@ from optik._checks import (
 )
 from optik._files import output_path, write_atomic_with
 from optik._ik_options import CROSS_CHECK_RESTARTS, query_bounds
+from optik._interrupts import surfaces_interrupts
 from optik.analytic import analytic_ik, family_of, wrap_into_limits
 from optik.analytic.roll import axis_branches, solves_axis_task
 from optik.diffik import clip_into_limits
@@ -592,6 +593,7 @@ def _task_jacobian(robot: Robot, q: FloatArray, T: FloatArray, path_task: _PathT
     return rows[:, ~path_task.frozen]
 
 
+@surfaces_interrupts
 def plan_path(
     robot: Robot,
     path: Any,

@@ -24,6 +24,7 @@ from optik._checks import (
     finite_array,
 )
 from optik._files import output_path
+from optik._interrupts import surfaces_interrupts
 from optik.errors import OptikError, ShapeError
 from optik.ik import solve_ik_batch
 from optik.model import Robot
@@ -55,6 +56,7 @@ class Reachability:
         return plot_reachability(self, output_path(path), axis, value)
 
 
+@surfaces_interrupts
 def reachability(
     robot: Robot,
     points: Any,

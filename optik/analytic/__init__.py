@@ -22,6 +22,7 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from optik._checks import FloatArray
+from optik._interrupts import reraise_interrupt, surfaces_interrupts
 from optik.analytic import (  # noqa: F401  (importing a family registers it: this order)
     _compiled,
     dobot,
@@ -210,75 +211,81 @@ def analytic_ik(
         OptikError: malformed target or ``q_ref``; an unknown ``free_joint``, a
             ``free_value`` missing, not finite or outside the joint's limits.
     """
-    if free_joint is not None or free_value is not None:
-        return free_joint_ik(robot, target, mode, q_ref, within_limits, free_joint, free_value)
-    if not isinstance(robot, Robot):
-        check_robot(robot)
-    within_limits = check_within(within_limits)
-    plan = robot.cached_value(_compiled_plan)
-    if plan is not None and type(mode) is str and mode == "pose":
-        # The hot path (a compiled family, already found and checked to fit): a float64
-        # C-contiguous (4, 4) target and (dof,) q_ref go to the kernel as they are; it
-        # validates them (finite; last row and rotation as optik.spatial.as_pose).
-        solve, _, params, mid = plan
-        if (
-            type(target) is not np.ndarray
-            or target.shape != _SHAPE_4x4
-            or target.dtype != _F64
-            or not target.flags.carray
-        ):
-            target = plain(as_target_pose(target, mode))
-        if q_ref is None:
-            ref = mid
-            flags = 0
-        else:
-            flags = _SORT
+    # Ctrl-C that a kernel handed back inside a SystemError (optik._interrupts), caught
+    # here rather than by a decorator: a try costs nothing, a wrapper 0.1-0.4 us per call.
+    try:
+        if free_joint is not None or free_value is not None:
+            return free_joint_ik(robot, target, mode, q_ref, within_limits, free_joint, free_value)
+        if not isinstance(robot, Robot):
+            check_robot(robot)
+        within_limits = check_within(within_limits)
+        plan = robot.cached_value(_compiled_plan)
+        if plan is not None and type(mode) is str and mode == "pose":
+            # The hot path (a compiled family, already found and checked to fit): a float64
+            # C-contiguous (4, 4) target and (dof,) q_ref go to the kernel as they are; it
+            # validates them (finite; last row and rotation as optik.spatial.as_pose).
+            solve, _, params, mid = plan
             if (
-                type(q_ref) is not np.ndarray
-                or q_ref.shape != _SHAPE_DOF
-                or q_ref.dtype != _F64
-                or not q_ref.flags.carray
+                type(target) is not np.ndarray
+                or target.shape != _SHAPE_4x4
+                or target.dtype != _F64
+                or not target.flags.carray
             ):
-                ref = plain(check_ref(robot, q_ref))
+                target = plain(as_target_pose(target, mode))
+            if q_ref is None:
+                ref = mid
+                flags = 0
             else:
-                ref = q_ref
-        if within_limits:
-            flags |= _WITHIN_LIMITS
-        out = np.empty(_SHAPE_OUT)
-        n = solve(params, target, ref, flags, out)
-        if n > 0:
-            return _ROW_VIEWS[n](out)
-        if n < 0:
-            raise_input_error(robot, target, q_ref, n)
-        if _beyond_reach(robot, target, within_limits):
-            return []  # a proof: no branch to recover at a degenerate pose
-        if (
-            within_limits
-            and proven_outside(
-                robot, plan, target[None], ref[None], flags & ~_WITHIN_LIMITS, SINGULAR_GATE
-            )[0]
-        ):
-            return []
-        family = cast(AnalyticFamily, family_of(robot))
-        return _degenerate(robot, family, target, mode, ref, q_ref is not None, within_limits)
-    family = _check_mode(robot, mode)
-    if mode == "pose" and robot.cached(_compiled_plan) is not None:
-        return analytic_ik(robot, target, mode, q_ref, within_limits)
-    T_target = as_target_pose(target, mode)
-    sort = q_ref is not None
-    ref = robot.mid_limits if q_ref is None else check_ref(robot, q_ref)
-    if _beyond_reach(robot, T_target, within_limits):
-        return []  # a proof, before the family's arithmetic could overflow (1e155 m)
-    if mode == "position" and not places_tool_point(family, robot):
-        raise AnalyticIKError(
-            f"robot {robot.name!r}: position-only closed forms need a tool without offset"
-        )
-    inverse_base, inverse_tool = robot.cached(_frame_inverses)
-    raw = family.candidates(robot, inverse_base @ T_target @ inverse_tool, mode, ref)
-    branches = _finish(robot, raw, T_target, mode, ref, sort, within_limits)
-    if branches:
-        return branches
-    return _degenerate(robot, family, T_target, mode, ref, sort, within_limits, raw)
+                flags = _SORT
+                if (
+                    type(q_ref) is not np.ndarray
+                    or q_ref.shape != _SHAPE_DOF
+                    or q_ref.dtype != _F64
+                    or not q_ref.flags.carray
+                ):
+                    ref = plain(check_ref(robot, q_ref))
+                else:
+                    ref = q_ref
+            if within_limits:
+                flags |= _WITHIN_LIMITS
+            out = np.empty(_SHAPE_OUT)
+            n = solve(params, target, ref, flags, out)
+            if n > 0:
+                return _ROW_VIEWS[n](out)
+            if n < 0:
+                raise_input_error(robot, target, q_ref, n)
+            if _beyond_reach(robot, target, within_limits):
+                return []  # a proof: no branch to recover at a degenerate pose
+            if (
+                within_limits
+                and proven_outside(
+                    robot, plan, target[None], ref[None], flags & ~_WITHIN_LIMITS, SINGULAR_GATE
+                )[0]
+            ):
+                return []
+            family = cast(AnalyticFamily, family_of(robot))
+            return _degenerate(robot, family, target, mode, ref, q_ref is not None, within_limits)
+        family = _check_mode(robot, mode)
+        if mode == "pose" and robot.cached(_compiled_plan) is not None:
+            return analytic_ik(robot, target, mode, q_ref, within_limits)
+        T_target = as_target_pose(target, mode)
+        sort = q_ref is not None
+        ref = robot.mid_limits if q_ref is None else check_ref(robot, q_ref)
+        if _beyond_reach(robot, T_target, within_limits):
+            return []  # a proof, before the family's arithmetic could overflow (1e155 m)
+        if mode == "position" and not places_tool_point(family, robot):
+            raise AnalyticIKError(
+                f"robot {robot.name!r}: position-only closed forms need a tool without offset"
+            )
+        inverse_base, inverse_tool = robot.cached(_frame_inverses)
+        raw = family.candidates(robot, inverse_base @ T_target @ inverse_tool, mode, ref)
+        branches = _finish(robot, raw, T_target, mode, ref, sort, within_limits)
+        if branches:
+            return branches
+        return _degenerate(robot, family, T_target, mode, ref, sort, within_limits, raw)
+    except SystemError as exc:
+        reraise_interrupt(exc)
+        raise
 
 
 def _frame_inverses(robot: Robot) -> tuple[FloatArray, FloatArray]:
@@ -469,6 +476,7 @@ def compiled_batch(robot: Robot, mode: str) -> bool:
     )
 
 
+@surfaces_interrupts
 def analytic_ik_batch(
     robot: Robot,
     targets: Any,

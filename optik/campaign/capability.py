@@ -49,6 +49,7 @@ from optik._checks import (
     check_real,
 )
 from optik._files import check_folder, output_path
+from optik._interrupts import surfaces_interrupts
 from optik.campaign._deps import require, require_zarr
 from optik.campaign._map_store import (
     DONE_MARKER,
@@ -391,6 +392,7 @@ def _settings(spec: MapSpec, voxel: float, orientations_n: int, rolls: int) -> d
     }
 
 
+@surfaces_interrupts
 def capability_map(
     robot: Robot,
     *,

@@ -34,6 +34,7 @@ from optik._checks import (
     check_length_array,
     check_real,
 )
+from optik._interrupts import surfaces_interrupts
 from optik.campaign.capability import open_map, read_variable
 from optik.campaign.engine import open_engine
 from optik.campaign.sampling import AXES
@@ -298,6 +299,7 @@ def _verify(spec: _VerifySpec, T_cell_base: FloatArray) -> tuple[FloatArray, lis
     return Q, status
 
 
+@surfaces_interrupts
 def base_placement(
     robot: Robot,
     task_poses: Any,

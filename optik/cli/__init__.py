@@ -25,6 +25,7 @@ from typing import TextIO
 from numba.core import event
 
 from optik import __version__
+from optik._interrupts import wrapped_interrupt
 from optik.cli._batch import add_batch_command
 from optik.cli._common import (
     EXIT_BAD_INPUT,
@@ -142,7 +143,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("optik: interrupted", file=sys.stderr)
         return 130
-    except Exception:  # a bug, not the user's input: keep the traceback for the report
+    except Exception as exc:  # a bug, not the user's input: keep the traceback for the report
+        if wrapped_interrupt(exc) is not None:  # Ctrl-C that a kernel handed back wrapped
+            print("optik: interrupted", file=sys.stderr)
+            return 130
         traceback.print_exc()
         print("optik: internal error (a bug; please report it)", file=sys.stderr)
         return EXIT_INTERNAL

@@ -18,6 +18,7 @@ from typing import Any, Final
 import numpy as np
 
 from optik._checks import FloatArray
+from optik._interrupts import reraise_interrupt
 from optik.compare.results import ResultRow, problem_row, settings_json
 from optik.peers import Peer, PeerUnavailable, get_peer
 from optik.problems import Problem
@@ -94,6 +95,7 @@ def prepare_peer(
     except PeerUnavailable as exc:
         return peer, PeerStatus(**base, version=peer.version, available=False, reason=exc.reason)
     except Exception as exc:  # a peer's own bug is reported, not raised
+        reraise_interrupt(exc)  # Ctrl-C is the caller's, not a failure
         reason = f"prepare failed: {type(exc).__name__}: {exc}"
         return peer, PeerStatus(**base, version=peer.version, available=False, reason=reason)
     return peer, PeerStatus(**base, version=peer.version, available=True, notes=tuple(notes))
@@ -134,6 +136,7 @@ def _peer_row(
     try:
         answer = peer.solve(pose, q0)
     except Exception as exc:  # a crash is a row, not the end of the run
+        reraise_interrupt(exc)  # Ctrl-C is the caller's, not a failure
         elapsed = time.perf_counter() - start
         message = f"{type(exc).__name__}: {exc}"[:300]
         return replace(base, time_s=elapsed, method=method, message=message), None

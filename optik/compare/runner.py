@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 
 from optik._checks import FloatArray, check_progress
+from optik._interrupts import reraise_interrupt
 from optik._progress import Progress
 from optik.compare.backends import solve_step, step_backends
 from optik.compare.config import RunConfig, RunStats, ik_settings
@@ -102,6 +103,7 @@ def _try_step(program: Any, backend: str) -> object:
     try:
         return solve_step(program, backend)
     except Exception as exc:  # the timed call will record it
+        reraise_interrupt(exc)  # Ctrl-C is the caller's, not a failure
         return exc
 
 

@@ -15,6 +15,7 @@ from typing import Any, Final
 import numpy as np
 
 from optik._checks import FloatArray
+from optik._interrupts import reraise_interrupt
 from optik.compare.backends import solve_step
 from optik.compare.results import ResultRow, problem_row, settings_json
 from optik.compare.targets import _stable_id, random_configurations
@@ -205,6 +206,7 @@ def _closed_form_row(
     try:
         solution = solve_step(program, backend)
     except Exception as exc:  # a crash is a row, not the end of the run
+        reraise_interrupt(exc)  # Ctrl-C is the caller's, not a failure
         return replace(base, time_s=now() - start, message=f"{type(exc).__name__}: {exc}")
     elapsed = now() - start
     if solution.x is None or not np.all(np.isfinite(solution.x)):

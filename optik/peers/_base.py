@@ -23,6 +23,7 @@ from typing import Any, ClassVar, Final
 import numpy as np
 
 from optik._checks import FloatArray
+from optik._interrupts import reraise_interrupt
 from optik.errors import OptikError
 from optik.model import Robot
 
@@ -180,6 +181,7 @@ class Peer(ABC):
         except PeerUnavailable:
             raise
         except Exception as exc:  # the peer's own failure to build a model
+            reraise_interrupt(exc)  # Ctrl-C is the caller's, not a failure
             raise PeerUnavailable(
                 self.name, f"model construction failed: {type(exc).__name__}: {exc}"
             ) from exc

@@ -18,6 +18,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from optik._checks import FloatArray
+from optik._interrupts import reraise_interrupt
 from optik.model import Robot
 from optik.peers._base import Peer, PeerAnswer, PeerUnavailable, random_start
 from optik.peers._chain import TOOL_LINK, urdf_text
@@ -131,6 +132,7 @@ class PinkPeer(Peer):
                         safety_break=False,
                     )
                 except Exception as exc:  # a failed QP ends this attempt, its text kept
+                    reraise_interrupt(exc)  # Ctrl-C is the caller's, not a failure
                     note = f"{type(exc).__name__}: {exc}"[:120]
                     break
                 config.integrate_inplace(v, 1.0)

@@ -22,6 +22,7 @@ import numpy as np
 
 from optik._checks import FloatArray
 from optik._clock import budget_clock
+from optik._interrupts import reraise_interrupt
 from optik.errors import OptikError, SolverError, UnknownSolverError
 from optik.model import Robot
 from optik.programs.diff_qp import DiffIKProgram, QPSolution
@@ -355,6 +356,7 @@ class IKSolver(ABC):
             try:
                 output = self.solve(query, q0, max_iter, deadline)
             except Exception as exc:  # a backend crash becomes a status, with its text
+                reraise_interrupt(exc)  # Ctrl-C is the caller's, not a failure
                 best = SolverOutput(q0, 0, False, f"{type(exc).__name__}: {exc}", failed=True)
                 attempts += 1
                 break

@@ -23,6 +23,7 @@ import casadi
 import numpy as np
 
 from optik._checks import FloatArray
+from optik._interrupts import reraise_interrupt
 from optik.programs.casadi_qp import ConicProgram, build_conic
 from optik.programs.diff_qp import DiffIKProgram, QPSolution
 from optik.solvers._base import StepBackend, register_solver
@@ -221,6 +222,7 @@ def solve_built(conic: ConicProgram) -> QPSolution:
         result = solver(**conic.args)
         stats = solver.stats()
     except Exception as exc:  # keep the plugin's message
+        reraise_interrupt(exc)  # Ctrl-C is the caller's, not a failure
         return QPSolution(None, False, f"{type(exc).__name__}: {exc}", name)
     x = np.asarray(result["x"], dtype=np.float64).ravel() / conic.scale
     status = str(stats.get("return_status", "") or ("success" if stats.get("success") else ""))

@@ -38,6 +38,7 @@ import numpy as np
 from optik import _kernels
 from optik._checks import FloatArray, as_float_array, check_int, finite_array
 from optik._clock import one_time_setup
+from optik._interrupts import reraise_interrupt
 from optik.errors import OptikError
 from optik.model import Robot
 from optik.programs.nlp import NLPProgram, NLPSolution, build_nlp, task_shape
@@ -578,6 +579,7 @@ class CasadiNLPSolver(IKSolver):
         try:
             setup = self._setup(query, budget)
         except Exception as exc:  # report, never raise from a backend run
+            reraise_interrupt(exc)  # Ctrl-C is the caller's, not a failure
             q = np.clip(np.asarray(q0, dtype=np.float64), query.lower, query.upper)
             return SolverOutput(q, 0, False, f"{type(exc).__name__}: {exc}", True)
         backend, params, lbx, ubx, stop, measure = setup

@@ -20,6 +20,7 @@ import qpsolvers.solvers
 import scipy.sparse as spa
 
 from optik._checks import MAX_LENGTH_M, FloatArray
+from optik._interrupts import reraise_interrupt
 from optik._kernels import drives_slide
 from optik._numba import jit
 from optik.limits import Q_CLIP_TOLERANCE
@@ -141,6 +142,7 @@ def solve_program(
             start = None if initvals is None else np.asarray(initvals, dtype=np.float64) * scale
             solution = qpsolvers.solve_problem(problem, backend, initvals=start, **kwargs)
     except Exception as exc:  # a backend may raise anything; keep its text
+        reraise_interrupt(exc)  # Ctrl-C is the caller's, not a failure
         return QPSolution(None, False, f"{type(exc).__name__}: {exc}", name)
     x = solution.x
     if x is not None:

@@ -19,6 +19,7 @@ import scipy.sparse as spa
 from scipy.linalg import cho_factor, cho_solve
 
 from optik._checks import FloatArray
+from optik._interrupts import reraise_interrupt
 from optik._numba import jit
 from optik.programs.step_arrays import (
     ScaledProgram,
@@ -137,6 +138,7 @@ class DirectBackend:
         try:
             return self._solve(qp, warm)
         except Exception as exc:  # a backend may raise anything; keep its text
+            reraise_interrupt(exc)  # Ctrl-C is the caller's, not a failure
             return None, False, f"{type(exc).__name__}: {exc}", -1
 
     def _solve(self, qp: ScaledProgram, warm: bool) -> DirectAnswer:
