@@ -88,3 +88,22 @@ def test_a_wrapped_interrupt_is_found_along_causes_and_contexts() -> None:
         plain = exc
     assert wrapped_interrupt(plain) is None
     reraise_interrupt(plain)  # nothing wrapped: returns
+
+
+def test_the_command_line_exits_130_for_an_interrupt_a_kernel_wrapped(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # What numba hands back when Ctrl-C lands as a kernel boxes its result.
+    def interrupted(*args: object, **kwargs: object) -> None:
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt as interrupt:
+            raise SystemError("returned a result with an exception set") from interrupt
+
+    import optik.cli._solve
+    from optik.cli import main
+
+    monkeypatch.setattr(optik.cli._solve, "solve_ik", interrupted)
+    assert main(["solve", "ur5", "--position", "0.3", "0.1", "0.4"]) == 130
+    err = capsys.readouterr().err
+    assert "optik: interrupted" in err and "internal error" not in err
