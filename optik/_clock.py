@@ -68,6 +68,7 @@ class _OneTimeTimer(event.Listener):
                 elapsed = time.perf_counter() - work.started
                 self._done[thread] = self._done.get(thread, 0.0) + elapsed
                 del self._open[thread]
+                self._forget_ended()  # here, not in seconds(): deadlines read that often
 
     def on_start(self, event: Any) -> None:
         self.enter(True)
@@ -89,9 +90,8 @@ class _OneTimeTimer(event.Listener):
 
     def seconds(self) -> float:
         """The calling thread's finished one-time work so far (s)."""
-        with self._lock:
-            self._forget_ended()
-            return self._done.get(threading.current_thread(), 0.0)
+        # No lock: one dict read is atomic, and only this thread adds to its own entry.
+        return self._done.get(threading.current_thread(), 0.0)
 
     def _forget_ended(self) -> None:
         """Drop the work of threads that have ended (no clock of theirs is read again)."""
