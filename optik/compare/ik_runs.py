@@ -5,7 +5,6 @@ from __future__ import annotations
 from dataclasses import replace
 
 from optik._checks import FloatArray
-from optik._interrupts import reraise_interrupt
 from optik.compare.config import RunConfig, ik_settings
 from optik.compare.results import ResultRow, problem_row
 from optik.ik import solve_ik
@@ -37,7 +36,6 @@ def _ik_row(
             seed=solve_seed,
         )
     except Exception as exc:  # a crash is a row, not the end of the run
-        reraise_interrupt(exc)  # Ctrl-C is the caller's, not a failure
         return replace(base, message=f"{type(exc).__name__}: {exc}")
     return replace(
         base,
